@@ -1,0 +1,54 @@
+//! The engine's error type: every failure says what failed, where and why.
+
+use std::path::PathBuf;
+
+/// Any error the engine reports.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+pub enum Error {
+    /// A file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A file could not be written.
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The output format could not be chosen from the file name.
+    #[error("cannot tell the output format of {}: use one of {expected}", path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+        /// The extensions that are understood.
+        expected: &'static str,
+    },
+    /// Geometry that would put a NaN, an infinity or a bad index into a file.
+    #[error("invalid geometry in {what}: {why}")]
+    InvalidGeometry {
+        /// Which part or stage.
+        what: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// A recipe problem (unknown key, bad value, unknown preset).
+    #[error("recipe: {0}")]
+    #[diagnostic(help("run `sylva presets` for preset names; docs/recipe.md lists every key"))]
+    Recipe(String),
+    /// An L-system parse or evaluation error, with its source excerpt.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Lsystem(#[from] Box<crate::lsystem::LsystemError>),
+    /// An invalid skeleton.
+    #[error("invalid skeleton: {0}")]
+    Skeleton(#[from] crate::skeleton::SkeletonError),
+}
+
+/// The engine's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,33 @@
+//! # sylva — procedural trees and plants
+//!
+//! ```text
+//!  recipe (TOML) ─► generator ─────────► Skeleton ─► mesher ─► Mesh ─► Model ─► export
+//!                   lsystem (parse → derive → turtle)   tube                 glb gltf obj ply
+//!                                                                            preview (PNG)
+//! ```
+//!
+//! The engine crate: pure Rust, no GPU and no CLI dependencies. Every stage is a plain
+//! function from data to data:
+//!
+//! - [`lsystem`]: the cpfg-compatible L-system language (seed 002 §2, ABOP), derivation
+//!   and the 3D turtle that writes a [`Skeleton`];
+//! - [`skeleton`]: the parent-first branching skeleton;
+//! - [`mesh`]: indexed meshes, models and the meshers (`tube`);
+//! - [`export`]: glTF 2.0 (`.glb`, `.gltf`), OBJ + MTL and binary PLY writers;
+//! - [`preview`]: a CPU rasterizer that renders a model to a PNG;
+//! - [`recipe`] and [`presets`]: TOML recipes and the embedded preset library.
+
+pub mod error;
+pub mod export;
+pub mod fsutil;
+pub mod lsystem;
+pub mod mesh;
+pub mod pipeline;
+pub mod presets;
+pub mod preview;
+pub mod recipe;
+pub mod skeleton;
+
+pub use error::{Error, Result};
+pub use mesh::{Material, Mesh, Model, Part};
+pub use skeleton::{Skeleton, NO_PARENT};

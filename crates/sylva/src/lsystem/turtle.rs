@@ -1,0 +1,362 @@
+//! The 3D turtle (ABOP ch. 1.5, seed 002 §4): interprets a module string into a
+//! [`Skeleton`].
+//!
+//! **Conventions** (seed 002 §4 "Decision"). The turtle frame is heading H, left L and
+//! up U with H × L = U, starting at H = +Y, L = +Z, U = +X (right-handed, Y up).
+//! Positive angles rotate right-handed about the named axis, in degrees:
+//!
+//! | module | rotation | effect |
+//! |---|---|---|
+//! | `+(a)` | about U by +a | turn left: H toward L |
+//! | `-(a)` | about U by −a | turn right |
+//! | `&(a)` | about L by +a | pitch down: H toward −U |
+//! | `^(a)` | about L by −a | pitch up |
+//! | `/(a)` | about H by +a | roll right: L toward U |
+//! | `\(a)` | about H by −a | roll left |
+//! | `\|` | about U by 180° | turn around |
+//! | `$` | — | roll so L is horizontal: L = (Y × H)/‖Y × H‖, U = H × L |
+//!
+//! So a tree whose rolls are all 0° or 180° lies in the y–z plane (seed 002 test 11).
+//! `F(l)`/`G(l)` move by l (default: the step) and draw an internode; `f(l)`/`g(l)` move
+//! without drawing. `!(w)` sets the line width, which is a **diameter**: skeleton radii
+//! are width / 2. `!` and `#` without a parameter multiply / divide the width by the
+//! width factor. `[`/`]` push and pop the state; each `[` raises the branch order by
+//! one. `%` skips the rest of the current branch. `;(i)` / `,(i)` set (or step) the
+//! material index. Other modules have no turtle meaning and are ignored, as in cpfg.
+//!
+//! One skeleton node is written per `F` end point; a root node is written where a
+//! drawn axis starts (at the beginning, and after an `f` move).
+
+use super::derive::ModuleString;
+use super::parse::Symbols;
+use super::source::{ErrorKind, LsystemError, Source};
+use crate::skeleton::{Skeleton, NO_PARENT};
+use glam::DVec3;
+
+/// Turtle parameters: what modules without parameters use.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurtleOptions {
+    /// Default turning angle in degrees (`+`, `-`, `&`, `^`, `/`, `\`).
+    pub angle: f64,
+    /// Default step length of `F`, `f`, `G`, `g`.
+    pub step: f64,
+    /// Initial line width (a diameter).
+    pub width: f64,
+    /// Factor applied by a bare `!` (and divided by a bare `#`).
+    pub width_factor: f64,
+}
+
+impl Default for TurtleOptions {
+    fn default() -> Self {
+        TurtleOptions { angle: 45.0, step: 1.0, width: 0.1, width_factor: 0.7 }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Cmd {
+    None,
+    Draw,
+    Move,
+    Turn(f64),
+    Pitch(f64),
+    Roll(f64),
+    TurnAround,
+    RollHorizontal,
+    Push,
+    Pop,
+    Cut,
+    Width,
+    WidthUp,
+    Material(i32),
+}
+
+#[derive(Debug, Clone, Copy)]
+struct State {
+    pos: DVec3,
+    h: DVec3,
+    l: DVec3,
+    u: DVec3,
+    width: f64,
+    node: u32,
+    order: u16,
+    material: u32,
+}
+
+/// Rotates the pair (a, b) by angle (cos c, sin s): a' = a c + b s, b' = −a s + b c.
+#[inline]
+fn rotate(a: &mut DVec3, b: &mut DVec3, c: f64, s: f64) {
+    let na = *a * c + *b * s;
+    let nb = *b * c - *a * s;
+    *a = na;
+    *b = nb;
+}
+
+fn command(name: &str) -> Cmd {
+    match name {
+        "F" | "G" => Cmd::Draw,
+        "f" | "g" => Cmd::Move,
+        "+" => Cmd::Turn(1.0),
+        "-" => Cmd::Turn(-1.0),
+        "&" => Cmd::Pitch(1.0),
+        "^" => Cmd::Pitch(-1.0),
+        "/" => Cmd::Roll(1.0),
+        "\\" => Cmd::Roll(-1.0),
+        "|" => Cmd::TurnAround,
+        "$" => Cmd::RollHorizontal,
+        "[" => Cmd::Push,
+        "]" => Cmd::Pop,
+        "%" => Cmd::Cut,
+        "!" => Cmd::Width,
+        "#" => Cmd::WidthUp,
+        ";" => Cmd::Material(1),
+        "," => Cmd::Material(-1),
+        _ => Cmd::None,
+    }
+}
+
+/// Interprets `string` (whose symbols are named by `symbols`) into a skeleton.
+/// `source` is only used to name the file in error messages.
+pub fn interpret(
+    symbols: &Symbols,
+    string: &ModuleString,
+    opts: &TurtleOptions,
+    source: &Source,
+) -> Result<Skeleton, Box<LsystemError>> {
+    interpret_with(symbols, string, opts, source, &mut |_, _| {})
+}
+
+/// Like [`interpret`], and also calls `on_draw(start, end)` with the exact `f64` end
+/// points of every drawn internode (the skeleton stores `f32`), for measurements that
+/// need double precision.
+pub fn interpret_with(
+    symbols: &Symbols,
+    string: &ModuleString,
+    opts: &TurtleOptions,
+    source: &Source,
+    on_draw: &mut dyn FnMut(DVec3, DVec3),
+) -> Result<Skeleton, Box<LsystemError>> {
+    let fail = |what: String| source.error_nowhere(ErrorKind::NonFinite, &what);
+    for (name, v) in [("angle", opts.angle), ("step", opts.step), ("width", opts.width), ("width factor", opts.width_factor)] {
+        if !v.is_finite() {
+            return Err(fail(format!("turtle {name} is not a finite number")));
+        }
+    }
+    if opts.width < 0.0 {
+        return Err(fail(format!("turtle width {} is negative", opts.width)));
+    }
+    let cmds: Vec<Cmd> = (0..symbols.len()).map(|i| command(symbols.name(i as u16))).collect();
+    let (dsin, dcos) = opts.angle.to_radians().sin_cos();
+    let mut sk = Skeleton::new();
+    let draws = string.syms.iter().filter(|&&s| cmds[s as usize] == Cmd::Draw).count();
+    sk.position.reserve(draws + 1);
+    sk.radius.reserve(draws + 1);
+    sk.parent.reserve(draws + 1);
+    sk.up.reserve(draws + 1);
+    sk.order.reserve(draws + 1);
+    sk.material.reserve(draws + 1);
+    let mut st = State {
+        pos: DVec3::ZERO,
+        h: DVec3::Y,
+        l: DVec3::Z,
+        u: DVec3::X,
+        width: opts.width,
+        node: NO_PARENT,
+        order: 0,
+        material: 0,
+    };
+    let mut stack: Vec<State> = Vec::new();
+    let mut i = 0;
+    let n = string.len();
+    while i < n {
+        let (sym, p) = string.module(i);
+        let arg = p.first().copied();
+        match cmds[sym as usize] {
+            Cmd::None => {}
+            Cmd::Draw => {
+                if st.node == NO_PARENT {
+                    st.node = sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, NO_PARENT, st.u.as_vec3(), st.order);
+                    *sk.material.last_mut().expect("just pushed") = st.material;
+                }
+                let start = st.pos;
+                st.pos += st.h * arg.unwrap_or(opts.step);
+                on_draw(start, st.pos);
+                st.node = sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
+                *sk.material.last_mut().expect("just pushed") = st.material;
+            }
+            Cmd::Move => {
+                st.pos += st.h * arg.unwrap_or(opts.step);
+                st.node = NO_PARENT;
+            }
+            Cmd::Turn(sign) | Cmd::Pitch(sign) | Cmd::Roll(sign) => {
+                let (s, c) = match arg {
+                    Some(a) => a.to_radians().sin_cos(),
+                    None => (dsin, dcos),
+                };
+                let s = s * sign;
+                match cmds[sym as usize] {
+                    Cmd::Turn(_) => rotate(&mut st.h, &mut st.l, c, s),
+                    // Pitch down (+): H toward −U, i.e. U toward H.
+                    Cmd::Pitch(_) => rotate(&mut st.u, &mut st.h, c, s),
+                    _ => rotate(&mut st.l, &mut st.u, c, s),
+                }
+            }
+            Cmd::TurnAround => {
+                st.h = -st.h;
+                st.l = -st.l;
+            }
+            Cmd::RollHorizontal => {
+                let l = DVec3::Y.cross(st.h);
+                if l.length_squared() > 1e-24 {
+                    st.l = l.normalize();
+                    st.h = st.h.normalize();
+                    st.u = st.h.cross(st.l);
+                }
+            }
+            Cmd::Push => {
+                stack.push(st);
+                st.order = st.order.saturating_add(1);
+            }
+            Cmd::Pop => match stack.pop() {
+                Some(s) => st = s,
+                None => {
+                    return Err(source.error_nowhere(
+                        ErrorKind::Syntax,
+                        &format!("module {i} of the derived string is a `]` without a matching `[`"),
+                    ))
+                }
+            },
+            Cmd::Cut => {
+                // Skip to the `]` closing the current branch (or the end of the string).
+                let mut depth = 0usize;
+                let mut j = i + 1;
+                while j < n {
+                    match cmds[string.syms[j] as usize] {
+                        Cmd::Push => depth += 1,
+                        Cmd::Pop if depth == 0 => break,
+                        Cmd::Pop => depth -= 1,
+                        _ => {}
+                    }
+                    j += 1;
+                }
+                i = j;
+                continue;
+            }
+            Cmd::Width => {
+                st.width = arg.unwrap_or(st.width * opts.width_factor);
+                if st.width < 0.0 {
+                    return Err(fail(format!(
+                        "module {i} of the derived string (`!({})`) sets a negative width",
+                        st.width
+                    )));
+                }
+            }
+            Cmd::WidthUp => {
+                st.width = arg.unwrap_or(st.width / opts.width_factor.max(1e-9));
+                if st.width < 0.0 {
+                    return Err(fail(format!("module {i} (`#`) sets a negative width {}", st.width)));
+                }
+            }
+            Cmd::Material(step) => {
+                st.material = match arg {
+                    Some(v) => v.max(0.0) as u32,
+                    None => st.material.saturating_add_signed(step),
+                };
+            }
+        }
+        i += 1;
+    }
+    sk.validate().map_err(|e| fail(format!("the turtle produced an invalid skeleton: {e}")))?;
+    Ok(sk)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lsystem::derive::DeriveOptions;
+    use crate::lsystem::parse::LSystem;
+
+    fn run(axiom: &str) -> Skeleton {
+        let text = format!("Lsystem: 1\nAxiom: {axiom}\nendlsystem\n");
+        let ls = LSystem::parse("t.l", &text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 1000, seed: 0 }).unwrap();
+        interpret(&ls.symbols, &m, &TurtleOptions { angle: 90.0, ..Default::default() }, &ls.source).unwrap()
+    }
+
+    fn close(a: glam::Vec3, b: [f32; 3]) -> bool {
+        a.distance(glam::Vec3::from(b)) < 1e-5
+    }
+
+    #[test]
+    fn heading_and_sign_conventions() {
+        let s = run("F");
+        assert!(close(s.position[1], [0.0, 1.0, 0.0]), "initial heading is +Y");
+        let s = run("+F");
+        assert!(close(s.position[1], [0.0, 0.0, 1.0]), "+ turns H toward L = +Z");
+        let s = run("-F");
+        assert!(close(s.position[1], [0.0, 0.0, -1.0]));
+        let s = run("&F");
+        assert!(close(s.position[1], [-1.0, 0.0, 0.0]), "& pitches H toward -U = -X");
+        let s = run("^F");
+        assert!(close(s.position[1], [1.0, 0.0, 0.0]));
+        let s = run("/+F");
+        assert!(close(s.position[1], [1.0, 0.0, 0.0]), "/ rolls L toward U");
+        let s = run("\\+F");
+        assert!(close(s.position[1], [-1.0, 0.0, 0.0]));
+        let s = run("|F");
+        assert!(close(s.position[1], [0.0, -1.0, 0.0]));
+    }
+
+    #[test]
+    fn branches_and_nodes() {
+        let s = run("F[+F]F");
+        assert_eq!(s.len(), 4);
+        assert_eq!(s.parent, vec![NO_PARENT, 0, 1, 1]);
+        assert_eq!(s.order, vec![0, 0, 1, 0]);
+        let s = run("FfF");
+        assert_eq!(s.parent, vec![NO_PARENT, 0, NO_PARENT, 2]);
+        assert!(close(s.position[3], [0.0, 3.0, 0.0]));
+    }
+
+    #[test]
+    fn width_is_a_diameter() {
+        let s = run("!(0.5)F!F");
+        assert_eq!(s.radius[1], 0.25);
+        assert!((s.radius[2] - 0.175).abs() < 1e-6);
+    }
+
+    #[test]
+    fn cut_skips_rest_of_branch() {
+        let s = run("F[F%FF[F]F]F");
+        assert_eq!(s.stats().segments, 3);
+    }
+
+    #[test]
+    fn roll_horizontal() {
+        let text = "Lsystem: 1\nAxiom: &(30)/(40)$F\nendlsystem\n";
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
+        let s = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap();
+        // After `$`, U is H × L with L horizontal: U's y component is ≥ 0 and L.y = 0.
+        assert!(s.up[1].y >= 0.0);
+        let h = (s.position[1] - s.position[0]).normalize();
+        assert!(h.dot(s.up[1]).abs() < 1e-5);
+    }
+
+    #[test]
+    fn unbalanced_pop_is_an_error() {
+        let text = "Lsystem: 1\nAxiom: F]F\nendlsystem\n";
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
+        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        assert!(e.message.contains("without a matching"));
+    }
+
+    #[test]
+    fn negative_width_is_an_error() {
+        let text = "Lsystem: 1\nAxiom: !(-1)F\nendlsystem\n";
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
+        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        assert!(e.message.contains("negative width"));
+    }
+}

@@ -1,0 +1,406 @@
+//! Recipes: one TOML document naming a generator and its parameters, the mesher and
+//! the output. Every preset is a recipe; every CLI flag maps to a recipe key
+//! (`--set mesh.sides=6`). The key reference is `docs/recipe.md`.
+//!
+//! Unknown keys are errors that name the key with its full path: the recipe is
+//! deserialized, serialized back, and any input key missing from the round trip is
+//! reported.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A whole recipe.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Recipe {
+    /// Name of the recipe (a preset's name).
+    #[serde(default)]
+    pub name: String,
+    /// One-line description.
+    #[serde(default)]
+    pub description: String,
+    /// Seed of every random choice.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// The generator and its parameters.
+    pub generator: Generator,
+    /// The mesher.
+    #[serde(default)]
+    pub mesh: MeshSection,
+    /// Output files.
+    #[serde(default)]
+    pub output: OutputSection,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// The skeleton generator, chosen by `generator.type`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
+pub enum Generator {
+    /// A cpfg-syntax L-system interpreted by the 3D turtle.
+    Lsystem(LsystemGenerator),
+}
+
+/// `generator.type = "lsystem"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LsystemGenerator {
+    /// The `.l` file, relative to the recipe (or to `presets/` for presets).
+    pub file: String,
+    /// Derivation steps; overrides the file's `derivation length`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u32>,
+    /// Default turning angle in degrees.
+    #[serde(default = "default_angle")]
+    pub angle: f64,
+    /// Default step length in metres.
+    #[serde(default = "one")]
+    pub step: f64,
+    /// Initial line width (a diameter) in metres.
+    #[serde(default = "default_width")]
+    pub width: f64,
+    /// Factor of a bare `!` (a bare `#` divides by it).
+    #[serde(default = "default_width_factor")]
+    pub width_factor: f64,
+    /// Module budget: the most modules any derived string may hold.
+    #[serde(default = "default_budget")]
+    pub max_modules: usize,
+    /// Overrides of the file's `#define` constants (name → value).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub define: BTreeMap<String, toml::Value>,
+}
+
+fn default_angle() -> f64 {
+    45.0
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_width() -> f64 {
+    0.1
+}
+fn default_width_factor() -> f64 {
+    0.7
+}
+fn default_budget() -> usize {
+    crate::lsystem::DEFAULT_MODULE_BUDGET
+}
+
+/// `[mesh]`: how the skeleton becomes a surface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeshSection {
+    /// Mesher: `tube` (generalized cylinders).
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Vertices per ring.
+    #[serde(default = "default_sides")]
+    pub sides: u32,
+    /// Branch ends: `round`, `flat` or `open`.
+    #[serde(default = "default_tips")]
+    pub tips: String,
+}
+
+fn default_method() -> String {
+    "tube".into()
+}
+fn default_sides() -> u32 {
+    8
+}
+fn default_tips() -> String {
+    "round".into()
+}
+
+impl Default for MeshSection {
+    fn default() -> Self {
+        MeshSection { method: default_method(), sides: default_sides(), tips: default_tips() }
+    }
+}
+
+/// `[output]`: where the results go.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputSection {
+    /// The model file; its extension picks the format (`.glb`, `.gltf`, `.obj`, `.ply`).
+    #[serde(default = "default_file")]
+    pub file: String,
+    /// A preview PNG, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview: Option<String>,
+    /// Preview width and height in pixels.
+    #[serde(default = "default_preview_size")]
+    pub preview_size: u32,
+}
+
+fn default_file() -> String {
+    "tree.glb".into()
+}
+fn default_preview_size() -> u32 {
+    1024
+}
+
+impl Default for OutputSection {
+    fn default() -> Self {
+        OutputSection { file: default_file(), preview: None, preview_size: default_preview_size() }
+    }
+}
+
+/// Where a recipe came from, which decides how its relative file names resolve.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Origin {
+    /// An embedded preset: files resolve inside `presets/`.
+    Preset(String),
+    /// A file on disk: files resolve relative to this folder.
+    Folder(PathBuf),
+}
+
+/// A recipe together with its origin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loaded {
+    /// The recipe.
+    pub recipe: Recipe,
+    /// Where it came from.
+    pub origin: Origin,
+}
+
+impl Loaded {
+    /// Reads a file the recipe names, from the embedded presets or from disk. Returns
+    /// the display name used in messages and the text.
+    pub fn read(&self, file: &str) -> Result<(String, String)> {
+        match &self.origin {
+            Origin::Preset(name) => match crate::presets::file(file) {
+                Some(text) => Ok((format!("presets/{file}"), text.to_string())),
+                None => Err(Error::Recipe(format!("preset `{name}` names a missing file `{file}`"))),
+            },
+            Origin::Folder(dir) => {
+                let path = dir.join(file);
+                let text = crate::fsutil::read_to_string(&path)?;
+                Ok((path.display().to_string(), text))
+            }
+        }
+    }
+}
+
+/// Parses `key=value` (the CLI's `--set`). The value is read as TOML when it parses
+/// (`3`, `22.5`, `true`, `"x"`, `[1, 2]`), else taken as a bare string.
+pub fn parse_set(kv: &str) -> Result<(String, toml::Value)> {
+    let Some((k, v)) = kv.split_once('=') else {
+        return Err(Error::Recipe(format!("`--set {kv}` is not of the form key=value")));
+    };
+    let key = k.trim();
+    if key.is_empty() || key.split('.').any(|p| p.trim().is_empty()) {
+        return Err(Error::Recipe(format!("`--set {kv}`: bad key `{key}`")));
+    }
+    let value = toml::from_str::<toml::Table>(&format!("v = {}", v.trim()))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(v.trim().to_string()));
+    Ok((key.to_string(), value))
+}
+
+/// Sets a dotted key in a TOML table, creating intermediate tables.
+pub fn set_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
+    let parts: Vec<&str> = key.split('.').map(str::trim).collect();
+    let mut t = table;
+    for (i, p) in parts.iter().enumerate() {
+        if i + 1 == parts.len() {
+            t.insert(p.to_string(), value);
+            return Ok(());
+        }
+        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        t = match entry {
+            toml::Value::Table(t) => t,
+            _ => {
+                return Err(Error::Recipe(format!(
+                    "cannot set `{key}`: `{}` is a value, not a table",
+                    parts[..=i].join(".")
+                )))
+            }
+        };
+    }
+    Ok(())
+}
+
+/// Builds a recipe from a TOML table after applying `sets`, rejecting unknown keys.
+pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Result<Recipe> {
+    for (k, v) in sets {
+        set_key(&mut table, k, v.clone())?;
+    }
+    let recipe: Recipe = serde_path_to_error::deserialize(toml::Value::Table(table.clone())).map_err(
+        |e: serde_path_to_error::Error<toml::de::Error>| {
+            let path = e.path().to_string();
+            let why = e.into_inner().message().trim().to_string();
+            if path == "." {
+                Error::Recipe(why)
+            } else {
+                Error::Recipe(format!("`{path}`: {why}"))
+            }
+        },
+    )?;
+    let back = toml::Value::try_from(&recipe).map_err(|e| Error::Recipe(e.to_string()))?;
+    if let toml::Value::Table(back) = back {
+        let mut unknown = Vec::new();
+        unknown_keys(&table, &back, "", &mut unknown);
+        if let Some(k) = unknown.first() {
+            return Err(Error::Recipe(format!("unknown key `{k}`")));
+        }
+    }
+    recipe.check()?;
+    Ok(recipe)
+}
+
+/// Keys of `input` that do not survive the round trip into `back`.
+fn unknown_keys(input: &toml::Table, back: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+    for (k, v) in input {
+        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        if path == "generator.define" {
+            continue; // free-form: any constant name
+        }
+        match (v, back.get(k)) {
+            (_, None) => out.push(path),
+            (toml::Value::Table(a), Some(toml::Value::Table(b))) => unknown_keys(a, b, &path, out),
+            _ => {}
+        }
+    }
+}
+
+/// Loads the recipe for `what`: an embedded preset name, a `.toml` recipe file, or a
+/// bare model file (`.l`) that gets the default recipe. `sets` are `--set` overrides.
+pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
+    let path = Path::new(what);
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext == "toml" {
+        let text = crate::fsutil::read_to_string(path)?;
+        let table: toml::Table = toml::from_str(&text)
+            .map_err(|e| Error::Recipe(format!("{}: {}", path.display(), e.to_string().trim())))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let recipe = from_table(table, sets).map_err(|e| match e {
+            Error::Recipe(m) => Error::Recipe(format!("{}: {m}", path.display())),
+            e => e,
+        })?;
+        return Ok(Loaded { recipe, origin: Origin::Folder(dir) });
+    }
+    if ext == "l" {
+        let mut table = toml::Table::new();
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        table.insert("name".into(), toml::Value::String(name));
+        let file = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        set_key(&mut table, "generator.type", toml::Value::String("lsystem".into()))?;
+        set_key(&mut table, "generator.file", toml::Value::String(file))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        if !path.exists() {
+            return Err(Error::Read {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Folder(dir) });
+    }
+    if let Some(p) = crate::presets::get(what) {
+        let table: toml::Table =
+            toml::from_str(p.recipe).map_err(|e| Error::Recipe(format!("preset {what}: {e}")))?;
+        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Preset(what.to_string()) });
+    }
+    if path.exists() || what.contains('/') || what.contains('.') {
+        if !path.exists() {
+            return Err(Error::Read {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        return Err(Error::Recipe(format!(
+            "cannot tell what `{what}` is: give a preset name, a .toml recipe or a .l model"
+        )));
+    }
+    Err(Error::Recipe(format!("unknown preset `{what}`")))
+}
+
+impl Recipe {
+    /// Checks value ranges that serde cannot express.
+    pub fn check(&self) -> Result<()> {
+        let bad = |k: &str, why: String| Err(Error::Recipe(format!("`{k}` {why}")));
+        match &self.generator {
+            Generator::Lsystem(g) => {
+                for (k, v) in [
+                    ("generator.angle", g.angle),
+                    ("generator.step", g.step),
+                    ("generator.width", g.width),
+                    ("generator.width_factor", g.width_factor),
+                ] {
+                    if !v.is_finite() {
+                        return bad(k, format!("must be a finite number, got {v}"));
+                    }
+                }
+                if g.width < 0.0 {
+                    return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
+                }
+                if g.max_modules == 0 {
+                    return bad("generator.max_modules", "must be at least 1".into());
+                }
+                for (k, v) in &g.define {
+                    if matches!(v, toml::Value::Table(_) | toml::Value::Array(_)) {
+                        return bad(&format!("generator.define.{k}"), "must be a number or a string".into());
+                    }
+                }
+            }
+        }
+        if !["tube"].contains(&self.mesh.method.as_str()) {
+            return bad("mesh.method", format!("is `{}`; known methods: tube", self.mesh.method));
+        }
+        if !(3..=1024).contains(&self.mesh.sides) {
+            return bad("mesh.sides", format!("must be in 3..=1024, got {}", self.mesh.sides));
+        }
+        if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
+            return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
+        }
+        if !(1..=8192).contains(&self.output.preview_size) {
+            return bad("output.preview_size", format!("must be in 1..=8192, got {}", self.output.preview_size));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
+        kv.iter().map(|s| parse_set(s).unwrap()).collect()
+    }
+
+    #[test]
+    fn every_preset_loads() {
+        for p in crate::presets::all() {
+            let l = load(p.name, &[]).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+            assert_eq!(l.recipe.name, p.name, "recipe name matches the file name");
+        }
+    }
+
+    #[test]
+    fn set_overrides_and_types() {
+        let l = load("lsys-honda-a", &sets(&["generator.angle=22.5", "mesh.sides=6", "seed=7"])).unwrap();
+        let Generator::Lsystem(g) = &l.recipe.generator;
+        assert_eq!(g.angle, 22.5);
+        assert_eq!(l.recipe.mesh.sides, 6);
+        assert_eq!(l.recipe.seed, 7);
+        let l = load("lsys-honda-a", &sets(&["generator.define.R1=0.5"])).unwrap();
+        let Generator::Lsystem(g) = &l.recipe.generator;
+        assert_eq!(g.define.get("R1"), Some(&toml::Value::Float(0.5)));
+    }
+
+    #[test]
+    fn unknown_keys_are_named() {
+        let e = load("lsys-honda-a", &sets(&["generator.angel=3"])).unwrap_err();
+        assert!(e.to_string().contains("unknown key `generator.angel`"), "{e}");
+        let e = load("lsys-honda-a", &sets(&["colour=3"])).unwrap_err();
+        assert!(e.to_string().contains("unknown key `colour`"), "{e}");
+        let e = load("lsys-honda-a", &sets(&["mesh.sides=2"])).unwrap_err();
+        assert!(e.to_string().contains("mesh.sides"), "{e}");
+        let e = load("lsys-honda-a", &sets(&["mesh.sides=many"])).unwrap_err();
+        assert!(e.to_string().contains("sides") || e.to_string().contains("integer"), "{e}");
+        assert!(parse_set("novalue").is_err());
+        assert!(load("no-such-preset", &[]).unwrap_err().to_string().contains("unknown preset"));
+        assert!(load("missing.l", &[]).unwrap_err().to_string().contains("missing.l"));
+    }
+}

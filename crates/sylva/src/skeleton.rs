@@ -1,0 +1,332 @@
+//! The branching skeleton every generator writes and every mesher reads.
+//!
+//! A [`Skeleton`] is a forest of nodes stored **parent-first** (a node's parent always
+//! has a smaller index) as struct-of-arrays. Each node is the end point of one
+//! internode; a root node is the start point of an axis with no parent. Organs (leaves,
+//! flowers, polygons) are a separate list of placed instances.
+//!
+//! Seed 002 §2 (apex pre-order, "every child's base equals its parent's tip") and the
+//! architecture's core types define this shape.
+
+use glam::{DVec3, Vec3};
+
+/// Parent index of a root node.
+pub const NO_PARENT: u32 = u32::MAX;
+
+/// A placed organ (leaf, flower, petal) attached to a skeleton node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Organ {
+    /// What kind of organ this is.
+    pub kind: OrganKind,
+    /// Node the organ hangs on (its petiole base), or [`NO_PARENT`] when free.
+    pub node: u32,
+    /// Base position of the organ.
+    pub position: Vec3,
+    /// Unit direction the organ points along (its midrib).
+    pub heading: Vec3,
+    /// Unit normal of the organ's blade (the turtle's up vector when placed).
+    pub up: Vec3,
+    /// Uniform size: the organ's length along its heading, in metres.
+    pub size: f32,
+    /// Material / colour index from the turtle (`;` and `,`).
+    pub material: u32,
+}
+
+/// The kinds of organ the engine knows how to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OrganKind {
+    /// A leaf blade drawn as a textured quad or a named surface.
+    Leaf,
+    /// A flat polygon traced by the turtle between `{` and `}` (vertices in world space).
+    Polygon(Vec<Vec3>),
+}
+
+/// A forest of branching axes, stored parent-first as struct-of-arrays.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Skeleton {
+    /// Node positions in metres (+Y up).
+    pub position: Vec<Vec3>,
+    /// Branch radius at each node in metres (not the diameter).
+    pub radius: Vec<f32>,
+    /// Parent node index, [`NO_PARENT`] for roots. Always smaller than the node's own index.
+    pub parent: Vec<u32>,
+    /// Orientation reference per node: a unit vector perpendicular (or nearly) to the
+    /// incoming internode, e.g. the turtle's up vector. Meshers use it to start
+    /// rotation-minimizing frames so cross-sections do not twist.
+    pub up: Vec<Vec3>,
+    /// Branch order: 0 for the trunk, +1 for each lateral branching.
+    pub order: Vec<u16>,
+    /// Material / colour index per node (from the turtle's `;`).
+    pub material: Vec<u32>,
+    /// Placed organs.
+    pub organs: Vec<Organ>,
+}
+
+/// A problem found by [`Skeleton::validate`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SkeletonError {
+    /// The struct-of-arrays columns differ in length.
+    #[error("skeleton columns have different lengths (position {positions}, {column} {len})")]
+    ColumnLength {
+        /// Number of positions.
+        positions: usize,
+        /// Name of the mismatching column.
+        column: &'static str,
+        /// Its length.
+        len: usize,
+    },
+    /// A node's parent index is not smaller than its own index.
+    #[error("node {node} has parent {parent}, which does not come before it (parent-first order)")]
+    ParentOrder {
+        /// Offending node.
+        node: usize,
+        /// Its parent.
+        parent: u32,
+    },
+    /// A node carries a NaN or infinite number.
+    #[error("node {node} has a non-finite {field}")]
+    NonFinite {
+        /// Offending node.
+        node: usize,
+        /// Which field.
+        field: &'static str,
+    },
+    /// A node has a negative radius.
+    #[error("node {node} has a negative radius {radius}")]
+    NegativeRadius {
+        /// Offending node.
+        node: usize,
+        /// Its radius.
+        radius: f32,
+    },
+    /// Too many nodes for u32 indices.
+    #[error("skeleton has {0} nodes, more than u32 indices allow")]
+    TooLarge(usize),
+}
+
+/// Summary statistics of a skeleton.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SkeletonStats {
+    /// Number of nodes.
+    pub nodes: usize,
+    /// Number of internodes (nodes with a parent).
+    pub segments: usize,
+    /// Number of roots.
+    pub roots: usize,
+    /// Number of tips (nodes with a parent and no children).
+    pub tips: usize,
+    /// Largest number of internodes from a root to a node.
+    pub depth: usize,
+    /// Largest branch order.
+    pub max_order: u16,
+    /// Sum of internode lengths in metres.
+    pub total_length: f64,
+    /// Number of organs.
+    pub organs: usize,
+    /// Axis-aligned bounds (min, max); zero when empty.
+    pub bounds: (Vec3, Vec3),
+}
+
+impl Skeleton {
+    /// An empty skeleton.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    /// True when the skeleton has no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Appends a node and returns its index. `parent` must be [`NO_PARENT`] or an
+    /// existing node (checked by [`Skeleton::validate`], not here, to keep this cheap).
+    pub fn push(&mut self, position: Vec3, radius: f32, parent: u32, up: Vec3, order: u16) -> u32 {
+        let i = self.position.len() as u32;
+        self.position.push(position);
+        self.radius.push(radius);
+        self.parent.push(parent);
+        self.up.push(up);
+        self.order.push(order);
+        self.material.push(0);
+        i
+    }
+
+    /// Checks the invariants: equal column lengths, parent-first order, finite numbers
+    /// and non-negative radii.
+    pub fn validate(&self) -> Result<(), SkeletonError> {
+        let n = self.position.len();
+        if n >= u32::MAX as usize {
+            return Err(SkeletonError::TooLarge(n));
+        }
+        for (column, len) in [
+            ("radius", self.radius.len()),
+            ("parent", self.parent.len()),
+            ("up", self.up.len()),
+            ("order", self.order.len()),
+            ("material", self.material.len()),
+        ] {
+            if len != n {
+                return Err(SkeletonError::ColumnLength { positions: n, column, len });
+            }
+        }
+        for i in 0..n {
+            let p = self.parent[i];
+            if p != NO_PARENT && p as usize >= i {
+                return Err(SkeletonError::ParentOrder { node: i, parent: p });
+            }
+            if !self.position[i].is_finite() {
+                return Err(SkeletonError::NonFinite { node: i, field: "position" });
+            }
+            if !self.up[i].is_finite() {
+                return Err(SkeletonError::NonFinite { node: i, field: "orientation" });
+            }
+            let r = self.radius[i];
+            if !r.is_finite() {
+                return Err(SkeletonError::NonFinite { node: i, field: "radius" });
+            }
+            if r < 0.0 {
+                return Err(SkeletonError::NegativeRadius { node: i, radius: r });
+            }
+        }
+        for (k, o) in self.organs.iter().enumerate() {
+            let ok = o.position.is_finite()
+                && o.heading.is_finite()
+                && o.up.is_finite()
+                && o.size.is_finite();
+            if !ok {
+                return Err(SkeletonError::NonFinite { node: k, field: "organ" });
+            }
+        }
+        Ok(())
+    }
+
+    /// Children of every node in compressed sparse rows: the children of node `i` are
+    /// `children[offsets[i]..offsets[i + 1]]`, in increasing index order. O(n).
+    pub fn children(&self) -> Children {
+        let n = self.len();
+        let mut offsets = vec![0u32; n + 1];
+        for &p in &self.parent {
+            if p != NO_PARENT {
+                offsets[p as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut children = vec![0u32; offsets[n] as usize];
+        for (i, &p) in self.parent.iter().enumerate() {
+            if p != NO_PARENT {
+                let slot = &mut fill[p as usize];
+                children[*slot as usize] = i as u32;
+                *slot += 1;
+            }
+        }
+        Children { offsets, children }
+    }
+
+    /// Summary statistics in one linear pass (plus the child index).
+    pub fn stats(&self) -> SkeletonStats {
+        let n = self.len();
+        let mut s = SkeletonStats { nodes: n, organs: self.organs.len(), ..Default::default() };
+        if n == 0 {
+            return s;
+        }
+        let mut child_count = vec![0u32; n];
+        let mut depth = vec![0usize; n];
+        let (mut lo, mut hi) = (self.position[0], self.position[0]);
+        for i in 0..n {
+            let p = self.parent[i];
+            lo = lo.min(self.position[i]);
+            hi = hi.max(self.position[i]);
+            s.max_order = s.max_order.max(self.order[i]);
+            if p == NO_PARENT {
+                s.roots += 1;
+                continue;
+            }
+            let p = p as usize;
+            s.segments += 1;
+            child_count[p] += 1;
+            depth[i] = depth[p] + 1;
+            s.depth = s.depth.max(depth[i]);
+            s.total_length += self.position[i].as_dvec3().distance(self.position[p].as_dvec3());
+        }
+        s.tips = (0..n).filter(|&i| self.parent[i] != NO_PARENT && child_count[i] == 0).count();
+        s.bounds = (lo, hi);
+        s
+    }
+
+    /// Length of the internode ending at `node` (0 for roots).
+    pub fn internode_length(&self, node: usize) -> f64 {
+        match self.parent[node] {
+            NO_PARENT => 0.0,
+            p => {
+                let a: DVec3 = self.position[p as usize].as_dvec3();
+                a.distance(self.position[node].as_dvec3())
+            }
+        }
+    }
+}
+
+/// Child lists of a [`Skeleton`] in compressed sparse rows (see [`Skeleton::children`]).
+#[derive(Debug, Clone)]
+pub struct Children {
+    offsets: Vec<u32>,
+    children: Vec<u32>,
+}
+
+impl Children {
+    /// The children of node `i`, in increasing index order.
+    pub fn of(&self, i: usize) -> &[u32] {
+        &self.children[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn y_fork() -> Skeleton {
+        let mut s = Skeleton::new();
+        let r = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
+        let a = s.push(Vec3::Y, 0.1, r, Vec3::X, 0);
+        s.push(Vec3::new(0.0, 2.0, 0.0), 0.05, a, Vec3::X, 0);
+        s.push(Vec3::new(1.0, 1.0, 0.0), 0.05, a, Vec3::X, 1);
+        s
+    }
+
+    #[test]
+    fn stats_of_a_fork() {
+        let s = y_fork();
+        s.validate().unwrap();
+        let st = s.stats();
+        assert_eq!(st.nodes, 4);
+        assert_eq!(st.segments, 3);
+        assert_eq!(st.roots, 1);
+        assert_eq!(st.tips, 2);
+        assert_eq!(st.depth, 2);
+        assert_eq!(st.max_order, 1);
+        assert!((st.total_length - 3.0).abs() < 1e-9);
+        let c = s.children();
+        assert_eq!(c.of(1), &[2, 3]);
+        assert!(c.of(3).is_empty());
+    }
+
+    #[test]
+    fn validate_rejects_bad_nodes() {
+        let mut s = y_fork();
+        s.radius[2] = -1.0;
+        assert!(matches!(s.validate(), Err(SkeletonError::NegativeRadius { node: 2, .. })));
+        let mut s = y_fork();
+        s.position[1].x = f32::NAN;
+        assert!(matches!(s.validate(), Err(SkeletonError::NonFinite { node: 1, .. })));
+        let mut s = y_fork();
+        s.parent[1] = 3;
+        assert!(matches!(s.validate(), Err(SkeletonError::ParentOrder { node: 1, .. })));
+    }
+}

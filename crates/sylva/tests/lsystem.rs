@@ -1,0 +1,199 @@
+//! Acceptance tests of the L-system core against seed 002's properties
+//! (`spec/002-parametric-lsystem-trees.md` §7), run on the embedded presets.
+
+use glam::DVec3;
+use sylva::lsystem::{interpret_with, TurtleOptions};
+use sylva::pipeline::derive_lsystem;
+use sylva::recipe::{self, Generator};
+
+fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
+    kv.iter().map(|s| recipe::parse_set(s).unwrap()).collect()
+}
+
+/// Derives a preset (with overrides) and returns its derived text.
+fn derived_text(preset: &str, kv: &[&str]) -> String {
+    let l = recipe::load(preset, &sets(kv)).unwrap();
+    let Generator::Lsystem(g) = &l.recipe.generator;
+    let d = derive_lsystem(&l, g).unwrap();
+    d.lsystem.format(&d.string)
+}
+
+/// Grows a preset and returns the exact (f64) drawn segments and the skeleton.
+fn segments(preset: &str, kv: &[&str]) -> (Vec<(DVec3, DVec3)>, sylva::Skeleton) {
+    let l = recipe::load(preset, &sets(kv)).unwrap();
+    let Generator::Lsystem(g) = &l.recipe.generator;
+    let d = derive_lsystem(&l, g).unwrap();
+    let shown = d.lsystem.interpretation(&d.string, d.seed, g.max_modules).unwrap();
+    let opts = TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
+    let mut segs = Vec::new();
+    let sk = interpret_with(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source, &mut |a, b| segs.push((a, b)))
+        .unwrap();
+    (segs, sk)
+}
+
+#[test]
+fn binary_tree_strings_match_the_seed() {
+    let expect = ["b[a]a", "bb[b[a]a]b[a]a", "bbbb[bb[b[a]a]b[a]a]bb[b[a]a]b[a]a"];
+    for (n, e) in expect.iter().enumerate() {
+        let text = derived_text("lsys-binary-tree", &[&format!("generator.iterations={}", n + 1)]);
+        assert_eq!(text, *e);
+        assert_eq!(text.len(), [5, 14, 34][n]);
+    }
+    // Property 2 at n = 6: 382 characters, 64 a, 192 b, 63 bracket pairs.
+    let text = derived_text("lsys-binary-tree", &["generator.iterations=6"]);
+    assert_eq!(text.len(), 382);
+    assert_eq!(text.matches('a').count(), 64);
+    assert_eq!(text.matches('b').count(), 192);
+    assert_eq!(text.matches('[').count(), 63);
+}
+
+#[test]
+fn fern_counts() {
+    // Property 3: a = 4^n, b = 3, 18, 84, 360, 1488, lengths 18, 89, 379, 1551, 6263.
+    let b = [3, 18, 84, 360, 1488];
+    let len = [18, 89, 379, 1551, 6263];
+    for n in 1..=5usize {
+        let t = derived_text("lsys-fern", &[&format!("generator.iterations={n}")]);
+        assert_eq!(t.matches('a').count(), 4usize.pow(n as u32), "n = {n}");
+        assert_eq!(t.matches('b').count(), b[n - 1]);
+        assert_eq!(t.len(), len[n - 1]);
+        assert_eq!(t.matches('[').count(), 4usize.pow(n as u32) - 1);
+    }
+}
+
+#[test]
+fn snowflake_is_closed_with_equal_segments() {
+    for n in 0..=5u32 {
+        let (segs, sk) = segments("lsys-snowflake", &[&format!("generator.iterations={n}")]);
+        assert_eq!(segs.len(), 3 * 4usize.pow(n), "3·4ⁿ segments at n = {n}");
+        let len = 3f64.powi(-(n as i32));
+        for (a, b) in &segs {
+            assert!((a.distance(*b) - len).abs() < 1e-12 * len.max(1.0));
+        }
+        let start = segs[0].0;
+        let end = segs.last().unwrap().1;
+        assert!(start.distance(end) <= 1e-9, "closed at n = {n}: gap {}", start.distance(end));
+        // One connected chain.
+        assert_eq!(sk.stats().roots, 1);
+        // Signed area in the y–z plane (property 4): the appendages point outward.
+        let area: f64 = segs.iter().map(|(a, b)| 0.5 * (a.y * b.z - b.y * a.z)).sum::<f64>().abs();
+        let expect = 3f64.sqrt() / 4.0 * (8.0 / 5.0 - 3.0 / 5.0 * (4.0f64 / 9.0).powi(n as i32));
+        assert!((area - expect).abs() < 1e-9, "area {area} vs {expect} at n = {n}");
+    }
+}
+
+/// (tree, L-system rule count, Algorithm 3 count) from spec 002 §3.
+const COUNTS: [(&str, usize, usize); 9] = [
+    ("a", 1023, 1023),
+    ("b", 2223, 3983),
+    ("c", 510, 511),
+    ("d", 1023, 1023),
+    ("e", 2047, 2047),
+    ("f", 5027, 7113),
+    ("g", 1023, 1023),
+    ("h", 919, 1375),
+    ("i", 1586, 2049),
+];
+
+#[test]
+fn honda_segment_counts_both_rules() {
+    for (t, lsys, seed_rule) in COUNTS {
+        let preset = format!("lsys-honda-{t}");
+        let (segs, sk) = segments(&preset, &[]);
+        assert_eq!(segs.len(), lsys, "tree {t}, L-system rule");
+        assert_eq!(sk.stats().segments, lsys);
+        let (segs, _) = segments(&preset, &["generator.file=\"lsystem/honda-seed.l\""]);
+        assert_eq!(segs.len(), seed_rule, "tree {t}, Algorithm 3 rule");
+    }
+}
+
+#[test]
+fn honda_reference_geometry() {
+    // Property 12: Σ length, y max, radial max (L-system rule, start length 1).
+    let refs = [
+        ("a", 124.676582, 3.611832, 2.541307),
+        ("b", 82.362183, 2.714704, 1.865464),
+        ("c", 39.692508, 3.941724, 2.818942),
+        ("d", 89.077091, 5.270347, 2.010388),
+        ("e", 104.374534, 5.048002, 1.752816),
+        ("f", 121.470240, 8.921282, 2.758926),
+        ("g", 181.585271, 4.163022, 2.739482),
+        ("h", 317.352637, 9.158824, 4.086526),
+        ("i", 196.033690, 8.538627, 3.184248),
+    ];
+    for (t, total, ymax, rmax) in refs {
+        let (segs, _) = segments(&format!("lsys-honda-{t}"), &[]);
+        let sum: f64 = segs.iter().map(|(a, b)| a.distance(*b)).sum();
+        let pts = || segs.iter().flat_map(|(a, b)| [*a, *b]);
+        let y = pts().map(|p| p.y).fold(f64::MIN, f64::max);
+        let ymin = pts().map(|p| p.y).fold(f64::MAX, f64::min);
+        let r = pts().map(|p| (p.x * p.x + p.z * p.z).sqrt()).fold(0.0, f64::max);
+        assert!((sum - total).abs() < 1e-5, "tree {t}: Σ length {sum} vs {total}");
+        assert!((y - ymax).abs() < 1e-5, "tree {t}: y max {y} vs {ymax}");
+        assert!((r - rmax).abs() < 1e-5, "tree {t}: radial max {r} vs {rmax}");
+        let expect_ymin = if t == "b" { -0.024148 } else { 0.0 };
+        assert!((ymin - expect_ymin).abs() < 1e-5, "tree {t}: y min {ymin}");
+        // Property 11: trees a–f are planar (x = 0).
+        if "abcdef".contains(t) {
+            assert!(pts().all(|p| p.x.abs() <= 1e-12), "tree {t} is planar");
+        }
+    }
+}
+
+#[test]
+fn honda_a_first_generation() {
+    // Property 10: root (0,0,0)→(0,1,0); tips (0, 1.6143640, ±0.4301823), (0, 1.6307471, ∓0.4416539).
+    let (segs, sk) = segments("lsys-honda-a", &[]);
+    assert_eq!(segs[0], (DVec3::ZERO, DVec3::Y));
+    let tips: Vec<DVec3> = segs.iter().filter(|(a, _)| *a == DVec3::Y).map(|s| s.1).collect();
+    assert_eq!(tips.len(), 2);
+    assert!(tips[0].distance(DVec3::new(0.0, 1.6143640, 0.4301823)) < 1e-6, "{:?}", tips[0]);
+    assert!(tips[1].distance(DVec3::new(0.0, 1.6307471, -0.4416539)) < 1e-6, "{:?}", tips[1]);
+    // Property 7: children start at their parent's tip; parent-first order.
+    for i in 0..sk.len() {
+        let p = sk.parent[i];
+        assert!(p == sylva::NO_PARENT || (p as usize) < i);
+    }
+    // Property 15: widths follow w·q^e (q = 0.5, e = 0.4), radius = width / 2.
+    let w1 = 0.30 * 0.5f64.powf(0.4);
+    assert!((sk.radius[2] as f64 - w1 / 2.0).abs() < 1e-7);
+    assert!((sk.radius[1] as f64 - 0.15).abs() < 1e-7);
+}
+
+#[test]
+fn honda_scale_invariance() {
+    // Property 14: start length 100 with min×100 gives the same counts and geometry ×100.
+    let (small, _) = segments("lsys-honda-b", &[]);
+    let (big, _) = segments("lsys-honda-b", &["generator.define.S0=100", "generator.define.MIN=1.7"]);
+    assert_eq!(big.len(), small.len());
+    for ((a, b), (c, d)) in small.iter().zip(&big) {
+        assert!((*a * 100.0).distance(*c) < 1e-9 && (*b * 100.0).distance(*d) < 1e-9);
+    }
+}
+
+#[test]
+fn sign_flips_keep_reference_values() {
+    // Property 13: flipping the signs of + and / leaves Σ length, y max and radial max alone.
+    let measure = |text: &str| {
+        let ls = sylva::lsystem::LSystem::parse("g.l", text, &[]).unwrap();
+        let m = ls.derive(&sylva::lsystem::DeriveOptions { steps: 10, budget: 1 << 20, seed: 1 }).unwrap();
+        let mut v = Vec::new();
+        interpret_with(&ls.symbols, &m, &TurtleOptions::default(), &ls.source, &mut |a, b| v.push((a, b))).unwrap();
+        let sum: f64 = v.iter().map(|(a, b)| a.distance(*b)).sum();
+        let y = v.iter().map(|s| s.1.y).fold(f64::MIN, f64::max);
+        let r = v.iter().map(|s| (s.1.x * s.1.x + s.1.z * s.1.z).sqrt()).fold(0.0, f64::max);
+        (sum, y, r)
+    };
+    let base = "Lsystem: 1\nAxiom: A(1)\nA(s) --> F(s)[+(30)/(137)A(s*0.8)][-(30)/(137)A(s*0.8)]\nendlsystem\n";
+    let flipped = base.replace("+(30)", "+(-30)").replace("-(30)", "-(-30)").replace("/(137)", "\\(137)");
+    let (a, b) = (measure(base), measure(&flipped));
+    assert!((a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9 && (a.2 - b.2).abs() < 1e-9);
+    assert!((a.0 - 181.585271).abs() < 1e-5, "tree g total length {}", a.0);
+}
+
+#[test]
+fn stochastic_preset_depends_on_seed_only() {
+    let a = derived_text("lsys-abop-stochastic", &["seed=1"]);
+    assert_eq!(a, derived_text("lsys-abop-stochastic", &["seed=1"]));
+    assert_ne!(a, derived_text("lsys-abop-stochastic", &["seed=2"]));
+}
