@@ -43,6 +43,9 @@ struct GrowArgs {
     /// Do not write a preview.
     #[arg(long, conflicts_with = "preview")]
     no_preview: bool,
+    /// Preview width and height in pixels (recipe key `output.preview_size`).
+    #[arg(long, value_name = "PIXELS")]
+    preview_size: Option<u32>,
     /// Derivation steps (recipe key `generator.iterations`).
     #[arg(short = 'n', long)]
     iterations: Option<u32>,
@@ -76,6 +79,10 @@ enum LsysCommand {
 }
 
 fn main() -> ExitCode {
+    // Long messages stay on one line so they can be searched and copied whole.
+    let _ = miette::set_hook(Box::new(|_| {
+        Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
+    }));
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Grow(args) => grow(args),
@@ -124,7 +131,10 @@ fn overrides(
 
 fn grow(args: GrowArgs) -> Result<()> {
     let what = args.what.clone().unwrap_or_else(|| sylva::presets::DEFAULT_PRESET.to_string());
-    let sets = overrides(&args.sets, args.iterations, args.seed, args.output.as_deref())?;
+    let mut sets = overrides(&args.sets, args.iterations, args.seed, args.output.as_deref())?;
+    if let Some(px) = args.preview_size {
+        sets.push(("output.preview_size".into(), toml::Value::Integer(px.into())));
+    }
     let loaded = recipe::load(&what, &sets)?;
     let out = PathBuf::from(&loaded.recipe.output.file);
     // Fail on a bad extension before doing any work.

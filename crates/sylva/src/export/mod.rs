@@ -1,1 +1,395 @@
-//! placeholder
+//! Model exporters: glTF 2.0 (binary `.glb` and self-contained `.gltf`), Wavefront OBJ +
+//! MTL and binary little-endian PLY.
+//!
+//! [`write()`] picks the format from the file extension ([`Format::from_path`]), checks
+//! every part's mesh ([`crate::Mesh::validate`]) so that no NaN or bad index reaches a
+//! file, and writes through [`crate::fsutil::write_atomic`], so a failure never leaves a
+//! half-written file. Each format also has a pure in-memory writer for tests and
+//! benchmarks: [`gltf::to_glb`], [`gltf::to_gltf_json`], [`obj::write_obj`],
+//! [`obj::write_mtl`] and [`ply::write_ply`].
+//!
+//! glTF and PLY store one set of attributes per vertex, while a [`Mesh`] keeps UVs and
+//! normals face-varying (one index per face corner). [`unify`] turns the corners into
+//! output vertices: one per distinct (position, uv, normal) index tuple, in order of
+//! first use, so UV seams split vertices and shared corners stay shared. OBJ stores
+//! face-varying data natively and needs no unification.
+//!
+//! Output is deterministic: the same model gives byte-identical files.
+
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+
+use crate::error::{Error, Result};
+use crate::fsutil::write_atomic;
+use crate::mesh::{Mesh, Model};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+/// The extensions [`Format::from_path`] understands, for error messages.
+pub const EXTENSIONS: &str = ".glb, .gltf, .obj, .ply";
+
+/// The generator string written into every file: `sylva <version>`.
+pub const GENERATOR: &str = concat!("sylva ", env!("CARGO_PKG_VERSION"));
+
+/// An output file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Binary glTF 2.0: one `.glb` file holding the JSON and the binary buffer.
+    Glb,
+    /// glTF 2.0 JSON with the buffer embedded as a base64 data URI (one `.gltf` file).
+    Gltf,
+    /// Wavefront OBJ with a sibling `.mtl` material library.
+    Obj,
+    /// Binary little-endian PLY.
+    Ply,
+}
+
+impl Format {
+    /// Chooses the format from the extension of `path` (case-insensitive).
+    ///
+    /// Anything other than `.glb`, `.gltf`, `.obj` or `.ply` is
+    /// [`Error::UnknownFormat`].
+    pub fn from_path(path: &Path) -> Result<Format> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        match ext.to_ascii_lowercase().as_str() {
+            "glb" => Ok(Format::Glb),
+            "gltf" => Ok(Format::Gltf),
+            "obj" => Ok(Format::Obj),
+            "ply" => Ok(Format::Ply),
+            _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: EXTENSIONS }),
+        }
+    }
+
+    /// The usual file extension, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Glb => "glb",
+            Format::Gltf => "gltf",
+            Format::Obj => "obj",
+            Format::Ply => "ply",
+        }
+    }
+}
+
+/// Writes `model` to `path` in the format given by its extension.
+///
+/// Every part's mesh is validated first (indices in range, finite numbers); a problem is
+/// [`Error::InvalidGeometry`] naming the part, and nothing is written; so is a model
+/// without a single triangle. `.obj` also writes the material library next to it
+/// (`name.mtl`). Files are written atomically: on any error no partial file is left.
+pub fn write(model: &Model, path: &Path) -> Result<()> {
+    let format = Format::from_path(path)?;
+    validate_model(model)?;
+    match format {
+        Format::Glb => {
+            let bytes = gltf::glb_unchecked(model)?;
+            write_atomic(path, |w| w.write_all(&bytes))
+        }
+        Format::Gltf => {
+            let json = gltf::gltf_json_unchecked(model)?;
+            write_atomic(path, |w| w.write_all(json.as_bytes()))
+        }
+        Format::Obj => {
+            let mtl_path = path.with_extension("mtl");
+            let mtl_name = mtl_path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "materials.mtl".to_owned());
+            write_atomic(&mtl_path, |w| obj::write_mtl_unchecked(model, w))?;
+            let written = write_atomic(path, |w| obj::write_obj_unchecked(model, w, &mtl_name));
+            if written.is_err() {
+                // Leave neither file: the library is useless without its OBJ.
+                let _ = std::fs::remove_file(&mtl_path);
+            }
+            written
+        }
+        Format::Ply => write_atomic(path, |w| ply::write_ply_unchecked(model, w)),
+    }
+}
+
+/// Checks every part's mesh with [`Mesh::validate`] and every material number for
+/// finiteness, and that the model has at least one triangle; the first problem is
+/// [`Error::InvalidGeometry`] naming the part (or the model).
+pub fn validate_model(model: &Model) -> Result<()> {
+    for part in &model.parts {
+        let bad =
+            |why: String| Error::InvalidGeometry { what: format!("part '{}'", part.name), why };
+        part.mesh.validate().map_err(bad)?;
+        let m = &part.material;
+        if !(m.base_color.iter().all(|c| c.is_finite())
+            && m.metallic.is_finite()
+            && m.roughness.is_finite())
+        {
+            return Err(bad(format!("material '{}' has a non-finite value", m.name)));
+        }
+    }
+    if model.parts.iter().all(|p| p.mesh.face_count() == 0) {
+        return Err(Error::InvalidGeometry {
+            what: "model".into(),
+            why: "no triangles to export (every part is empty)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// [`validate_model`] for the `std::io::Write` based writers: the error becomes an
+/// `InvalidData` I/O error.
+fn validate_io(model: &Model) -> std::io::Result<()> {
+    validate_model(model)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()))
+}
+
+/// Marks a missing face-varying index in a [`VertexKey`].
+pub const NONE: u32 = u32::MAX;
+
+/// What makes an output vertex: a position index and the corner's UV and normal
+/// indices ([`NONE`] when the mesh lacks that channel).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct VertexKey {
+    /// Index into [`Mesh::positions`].
+    pub position: u32,
+    /// Index into the UV channel's values, or [`NONE`].
+    pub uv: u32,
+    /// Index into the normal channel's values, or [`NONE`].
+    pub normal: u32,
+}
+
+/// A mesh's face corners unified into output vertices (see the [module docs](self)).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Unified {
+    /// The distinct corner tuples, in order of first use; output vertex `i` is
+    /// `vertices[i]`.
+    pub vertices: Vec<VertexKey>,
+    /// The output vertex of every face corner, parallel to [`Mesh::face_indices`].
+    pub corner_vertex: Vec<u32>,
+}
+
+/// Unifies the face-varying channels of `mesh` into per-vertex attributes: one output
+/// vertex per distinct (position, uv, normal) index tuple, numbered in order of first
+/// use by the face corners. Positions no face uses get no vertex.
+///
+/// Runs in time linear in the corner count (times the number of distinct tuples sharing
+/// one position, which is small: the corners of a seam), with no hashing. The mesh must
+/// be valid ([`Mesh::validate`]); out-of-range indices are treated as missing rather
+/// than causing a panic.
+pub fn unify(mesh: &Mesh) -> Unified {
+    let corners = mesh.face_indices.len();
+    let uv_idx = mesh.uvs.as_ref().map(|c| c.indices.as_slice()).filter(|i| i.len() == corners);
+    let n_idx = mesh.normals.as_ref().map(|c| c.indices.as_slice()).filter(|i| i.len() == corners);
+    // head[p]: first output vertex at position p; next[v]: the next one at the same
+    // position (a singly linked list per position, usually of length 1).
+    let mut head = vec![NONE; mesh.positions.len()];
+    let mut next: Vec<u32> = Vec::with_capacity(mesh.positions.len());
+    let mut vertices: Vec<VertexKey> = Vec::with_capacity(mesh.positions.len());
+    let mut corner_vertex = Vec::with_capacity(corners);
+    for (c, &p) in mesh.face_indices.iter().enumerate() {
+        let key = VertexKey {
+            position: p,
+            uv: uv_idx.map_or(NONE, |i| i[c]),
+            normal: n_idx.map_or(NONE, |i| i[c]),
+        };
+        let Some(slot) = head.get_mut(p as usize) else {
+            // Out-of-range position: only possible for an unvalidated mesh.
+            corner_vertex.push(0);
+            continue;
+        };
+        let mut v = *slot;
+        let mut last = NONE;
+        while v != NONE && vertices[v as usize] != key {
+            last = v;
+            v = next[v as usize];
+        }
+        if v == NONE {
+            v = vertices.len() as u32;
+            vertices.push(key);
+            next.push(NONE);
+            if last == NONE {
+                *slot = v;
+            } else {
+                next[last as usize] = v;
+            }
+        }
+        corner_vertex.push(v);
+    }
+    Unified { vertices, corner_vertex }
+}
+
+/// Smooth, area-weighted unit normals per position of `mesh`: the normalized sum of the
+/// vector areas of the faces around each position.
+/// Positions with no well-defined normal (unused, or only degenerate faces) get +Y.
+pub fn smooth_normals(mesh: &Mesh) -> Vec<Vec3> {
+    let mut acc = vec![Vec3::ZERO; mesh.positions.len()];
+    let pos = |i: u32| mesh.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+    for w in mesh.face_offsets.windows(2) {
+        let Some(face) = mesh.face_indices.get(w[0] as usize..w[1] as usize) else {
+            continue;
+        };
+        // The fan's cross products sum to the polygon's vector area (times two): exact
+        // for planar polygons, a fair average for bent ones. Relative to the first
+        // corner, so that geometry far from the origin keeps its precision.
+        let Some((&first, rest)) = face.split_first() else {
+            continue;
+        };
+        let p0 = pos(first);
+        let mut n = Vec3::ZERO;
+        for pair in rest.windows(2) {
+            n += (pos(pair[0]) - p0).cross(pos(pair[1]) - p0);
+        }
+        for &i in face {
+            if let Some(a) = acc.get_mut(i as usize) {
+                *a += n;
+            }
+        }
+    }
+    for a in &mut acc {
+        *a = a.normalize_or(Vec3::Y);
+    }
+    acc
+}
+
+/// The per-vertex attributes of one part, ready for glTF or PLY: unified vertices and
+/// the sources their normals and UVs come from.
+pub(crate) struct VertexData<'a> {
+    /// The mesh.
+    pub mesh: &'a Mesh,
+    /// Its unified vertices.
+    pub unified: Unified,
+    /// Smooth normals per position when the mesh has no normal channel.
+    pub computed_normals: Option<Vec<Vec3>>,
+}
+
+impl<'a> VertexData<'a> {
+    /// Unifies `mesh` and computes normals if it has none.
+    pub fn new(mesh: &'a Mesh) -> Self {
+        let unified = unify(mesh);
+        let computed_normals =
+            if mesh.normals.is_some() { None } else { Some(smooth_normals(mesh)) };
+        VertexData { mesh, unified, computed_normals }
+    }
+
+    /// Whether the mesh has UVs.
+    pub fn has_uvs(&self) -> bool {
+        self.mesh.uvs.is_some()
+    }
+
+    /// Position of output vertex `k`.
+    #[inline]
+    pub fn position(&self, k: &VertexKey) -> Vec3 {
+        self.mesh.positions.get(k.position as usize).copied().unwrap_or(Vec3::ZERO)
+    }
+
+    /// Unit normal of output vertex `k` (+Y when the given normal is zero).
+    #[inline]
+    pub fn normal(&self, k: &VertexKey) -> Vec3 {
+        match (&self.computed_normals, &self.mesh.normals) {
+            (Some(n), _) => n.get(k.position as usize).copied().unwrap_or(Vec3::Y),
+            (None, Some(ch)) => {
+                ch.values.get(k.normal as usize).copied().unwrap_or(Vec3::Y).normalize_or(Vec3::Y)
+            }
+            (None, None) => Vec3::Y,
+        }
+    }
+
+    /// UV of output vertex `k` (zero when the mesh has none).
+    #[inline]
+    pub fn uv(&self, k: &VertexKey) -> Vec2 {
+        self.mesh
+            .uvs
+            .as_ref()
+            .and_then(|ch| ch.values.get(k.uv as usize))
+            .copied()
+            .unwrap_or(Vec2::ZERO)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::FaceVarying;
+
+    /// Two quads sharing the edge 1–2, with a UV seam along it: the shared positions
+    /// 1 and 2 get different UVs in the two faces.
+    fn seam_mesh(seam: bool) -> Mesh {
+        let mut m = Mesh::new();
+        m.positions = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::Y,
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+        ];
+        m.push_face(&[0, 1, 2, 3]);
+        m.push_face(&[1, 4, 5, 2]);
+        let uv_indices =
+            if seam { vec![0, 1, 2, 3, 4, 5, 6, 7] } else { vec![0, 1, 2, 3, 1, 4, 5, 2] };
+        m.uvs = Some(FaceVarying { values: vec![Vec2::ZERO; 8], indices: uv_indices });
+        m
+    }
+
+    #[test]
+    fn shared_corners_merge() {
+        let u = unify(&seam_mesh(false));
+        assert_eq!(u.vertices.len(), 6);
+        assert_eq!(u.corner_vertex, vec![0, 1, 2, 3, 1, 4, 5, 2]);
+    }
+
+    #[test]
+    fn seam_corners_split() {
+        let u = unify(&seam_mesh(true));
+        assert_eq!(u.vertices.len(), 8);
+        assert_eq!(u.corner_vertex, (0..8).collect::<Vec<_>>());
+        // The two vertices at position 1 differ only in their UV index.
+        assert_eq!(u.vertices[1], VertexKey { position: 1, uv: 1, normal: NONE });
+        assert_eq!(u.vertices[4], VertexKey { position: 1, uv: 4, normal: NONE });
+    }
+
+    #[test]
+    fn normal_channel_splits_too() {
+        let mut m = seam_mesh(false);
+        m.normals = Some(FaceVarying {
+            values: vec![Vec3::Z, Vec3::X],
+            indices: vec![0, 0, 0, 0, 1, 1, 1, 1],
+        });
+        let u = unify(&m);
+        // Positions 1 and 2 have one UV but two normals.
+        assert_eq!(u.vertices.len(), 8);
+        assert_eq!(u.corner_vertex, vec![0, 1, 2, 3, 4, 5, 6, 7]);
+        assert_eq!(u.vertices[7], VertexKey { position: 2, uv: 2, normal: 1 });
+    }
+
+    #[test]
+    fn no_channels_follows_positions_and_drops_unused() {
+        let mut m = Mesh::new();
+        m.positions = vec![Vec3::X, Vec3::ZERO, Vec3::Y, Vec3::Z];
+        m.push_face(&[1, 0, 2]);
+        let u = unify(&m);
+        assert_eq!(u.vertices.iter().map(|k| k.position).collect::<Vec<_>>(), vec![1, 0, 2]);
+        assert_eq!(u.corner_vertex, vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn smooth_normals_of_a_quad_face_up() {
+        let mut m = Mesh::new();
+        m.positions =
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::NEG_Z, Vec3::Y * 5.0];
+        m.push_face(&[0, 1, 2, 3]);
+        let n = smooth_normals(&m);
+        for v in &n[..4] {
+            assert!((*v - Vec3::Y).length() < 1e-6, "{v}");
+        }
+        assert_eq!(n[4], Vec3::Y); // unused
+    }
+
+    #[test]
+    fn format_from_path() {
+        assert_eq!(Format::from_path(Path::new("a/b.GLB")).unwrap(), Format::Glb);
+        assert_eq!(Format::from_path(Path::new("t.gltf")).unwrap(), Format::Gltf);
+        assert_eq!(Format::from_path(Path::new("t.Obj")).unwrap(), Format::Obj);
+        assert_eq!(Format::from_path(Path::new("t.ply")).unwrap(), Format::Ply);
+        let e = Format::from_path(Path::new("t.xyz")).unwrap_err().to_string();
+        assert!(e.contains("t.xyz") && e.contains(".glb, .gltf, .obj, .ply"), "{e}");
+        assert!(Format::from_path(Path::new("noext")).is_err());
+    }
+}

@@ -1,0 +1,201 @@
+//! End-to-end tests of the `sylva` binary: the README's commands, every preset, bad
+//! input, determinism. Every glTF written here goes through the Khronos validator.
+
+#[path = "../../sylva/tests/common/gltf_validator.rs"]
+mod gltf_validator;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+struct Run {
+    code: i32,
+    stdout: String,
+    stderr: String,
+}
+
+fn sylva(args: &[&str], cwd: &Path) -> Run {
+    let out = Command::new(env!("CARGO_BIN_EXE_sylva"))
+        .args(args)
+        .current_dir(cwd)
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("the sylva binary runs");
+    Run {
+        code: out.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sylva-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn presets() -> Vec<String> {
+    let r = sylva(&["presets"], Path::new("."));
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    r.stdout.lines().map(|l| l.split_whitespace().next().unwrap().to_string()).collect()
+}
+
+#[test]
+fn default_grow_writes_glb_and_png() {
+    let d = tempdir("default");
+    let r = sylva(&["grow"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("triangles"), "prints a summary: {}", r.stdout);
+    let glb = d.join("tree.glb");
+    let png = d.join("tree.png");
+    assert!(glb.exists() && png.exists());
+    let img = image_size(&png);
+    assert_eq!(img, (1024, 1024));
+    gltf_validator::assert_valid_gltf(&[glb.as_path()]);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+fn image_size(p: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(p).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    let w = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+    let h = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+    (w, h)
+}
+
+#[test]
+fn presets_list_every_preset_name_first() {
+    let names = presets();
+    assert!(names.len() >= 18, "{names:?}");
+    for t in "abcdefghi".chars() {
+        assert!(names.contains(&format!("lsys-honda-{t}")));
+    }
+    for n in ["lsys-binary-tree", "lsys-fern", "lsys-snowflake", "lsys-ternary-tree"] {
+        assert!(names.contains(&n.to_string()));
+    }
+}
+
+#[test]
+fn every_preset_grows_and_validates() {
+    let d = tempdir("presets");
+    let mut files = Vec::new();
+    for name in presets() {
+        let out = d.join(format!("{name}.glb"));
+        let r = sylva(&["grow", &name, "-o", out.to_str().unwrap(), "--preview-size=64", "--quiet"], &d);
+        assert_eq!(r.code, 0, "{name}: {}", r.stderr);
+        assert!(out.exists(), "{name} wrote its file");
+        assert!(out.with_extension("png").exists());
+        files.push(out);
+    }
+    let refs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+    gltf_validator::assert_valid_gltf(&refs);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn readme_commands() {
+    let d = tempdir("readme");
+    let r = sylva(&["grow", "lsys-honda-d", "-o", "d.obj", "--preview", "d.png"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(d.join("d.obj").exists() && d.join("d.mtl").exists() && d.join("d.png").exists());
+    std::fs::write(d.join("my.l"), "Lsystem: 1\nderivation length: 3\nAxiom: F\nF --> F[+F]F[-F]F\nendlsystem\n")
+        .unwrap();
+    let r = sylva(&["grow", "my.l", "-n", "4", "-o", "my.glb", "--set", "generator.angle=22.5"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("derived 4 steps"), "{}", r.stdout);
+    gltf_validator::assert_valid_gltf(&[d.join("my.glb").as_path()]);
+    let r = sylva(&["lsys", "derive", "my.l", "-n", "1"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout.trim(), "F[+F]F[-F]F");
+    let r = sylva(&["lsys", "derive", "lsys-binary-tree", "-n", "2"], &d);
+    assert_eq!(r.stdout.trim(), "bb[b[a]a]b[a]a");
+    let r = sylva(&["grow", "lsys-fern", "-o", "fern.gltf", "--no-preview"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(!d.join("fern.png").exists());
+    let r = sylva(&["grow", "lsys-fern", "-o", "fern.ply", "--no-preview"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    gltf_validator::assert_valid_gltf(&[d.join("fern.gltf").as_path()]);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn same_seed_same_bytes_other_seed_other_tree() {
+    let d = tempdir("determinism");
+    let grow = |seed: &str, out: &str| {
+        let r = sylva(&["grow", "lsys-abop-stochastic", "--seed", seed, "-o", out, "--no-preview"], &d);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        std::fs::read(d.join(out)).unwrap()
+    };
+    let a = grow("3", "a.glb");
+    let b = grow("3", "b.glb");
+    let c = grow("4", "c.glb");
+    assert_eq!(a, b, "same recipe and seed give byte-identical files");
+    assert_ne!(a, c, "another seed grows another plant");
+    for ext in ["obj", "ply"] {
+        let x = grow("3", &format!("x.{ext}"));
+        let y = grow("3", &format!("y.{ext}"));
+        assert_eq!(x.len(), y.len());
+        if ext == "ply" {
+            assert_eq!(x, y);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Runs a failing command and checks the exit code, the message and that nothing panicked.
+fn fails(d: &Path, args: &[&str], expect: &str) {
+    let r = sylva(args, d);
+    assert_ne!(r.code, 0, "{args:?} should fail");
+    assert!(!r.stderr.contains("panicked"), "{args:?} panicked: {}", r.stderr);
+    assert!(r.stderr.contains(expect), "{args:?}: expected `{expect}` in:\n{}", r.stderr);
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let d = tempdir("bad");
+    let write = |name: &str, body: &str| {
+        std::fs::write(d.join(name), format!("Lsystem: 1\nderivation length: 3\n{body}\nendlsystem\n")).unwrap();
+        name.to_string()
+    };
+    let syntax = write("syntax.l", "Axiom: F\nF F+F");
+    fails(&d, &["grow", &syntax], "syntax.l:4:1: expected a production");
+    let arity = write("arity.l", "Axiom: F(1,2)");
+    fails(&d, &["grow", &arity], "arity.l:3:8: turtle module `F` takes at most 1 parameter(s), got 2");
+    let runaway = write("runaway.l", "Axiom: F\nF --> FFFFFFFFFFFFFFFFFFFF");
+    fails(&d, &["grow", &runaway, "-n", "40"], "exceeds the module budget");
+    fails(&d, &["grow", &runaway, "-n", "3", "--set", "generator.max_modules=100"], "more than 100 modules");
+    let nan = write("nan.l", "Axiom: A(1)\nA(x) --> !(sqrt(x-2))F");
+    fails(&d, &["grow", &nan], "nan.l:4:12: the result is not a finite number in a parameter of module `!`");
+    let div = write("div.l", "Axiom: A(1)\nA(x) --> F(x/(x-1))");
+    fails(&d, &["grow", &div], "division by zero");
+    let undefined = write("undef.l", "Axiom: A(1)\nA(x) --> F(y)");
+    fails(&d, &["grow", &undefined], "undefined parameter `y`");
+    let paren = write("paren.l", "Axiom: F(1");
+    fails(&d, &["grow", &paren], "unclosed `(`");
+    let pop = write("pop.l", "Axiom: F]F");
+    fails(&d, &["grow", &pop], "without a matching `[`");
+    let include = "include.l";
+    std::fs::write(d.join(include), "#include \"x.h\"\nLsystem: 1\nAxiom: F\nendlsystem\n").unwrap();
+    fails(&d, &["grow", include], "unsupported: preprocessor directive `#include`");
+    let func = write("func.l", "Axiom: F(sin(1,2))");
+    fails(&d, &["grow", &func], "function `sin` takes 1 argument(s), got 2");
+    fails(&d, &["grow", "missing.l"], "cannot read missing.l");
+    fails(&d, &["grow", "lsys-fern", "--set", "generator.angel=3"], "unknown key `generator.angel`");
+    fails(&d, &["grow", "lsys-fern", "--set", "mesh.sides=many"], "mesh.sides");
+    fails(&d, &["grow", "lsys-fern", "--set", "generator.width=-1"], "generator.width");
+    fails(&d, &["grow", "lsys-fern", "--set", "nonsense"], "not of the form key=value");
+    fails(&d, &["grow", "no-such-preset"], "unknown preset `no-such-preset`");
+    fails(&d, &["grow", "lsys-fern", "-o", "tree.xyz"], "cannot tell the output format");
+    fails(&d, &["grow", "lsys-fern", "-o", "/nonexistent-dir/t.glb", "--no-preview"], "cannot write /nonexistent-dir/t.glb");
+    let empty = write("empty.l", "Axiom: fff");
+    fails(&d, &["grow", &empty], "drew nothing");
+    // No output or temporary file is left behind by any failure.
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".l"))
+        .collect();
+    assert!(leftovers.is_empty(), "left behind: {leftovers:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}

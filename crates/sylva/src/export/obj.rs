@@ -1,0 +1,256 @@
+//! Wavefront OBJ + MTL writer.
+//!
+//! The `.obj` file names its material library (`mtllib`), then for every part with
+//! faces writes a group (`g <part>`), its material (`usemtl`), all its positions (`v`),
+//! UVs (`vt`) and normals (`vn`), and its faces as polygons, not triangulated
+//! (`f v/vt/vn`, 1-based, with the missing parts omitted: `v//vn`, `v/vt`, `v`). OBJ
+//! stores face-varying attributes natively, so UV seams need no vertex splitting.
+//!
+//! The `.mtl` file has one `newmtl` per distinct material with `Kd` (base colour), `Ka`,
+//! `Ks`, `Ns` (from roughness), `d` (alpha), `illum 2`, and the common PBR extension
+//! keys `Pr` (roughness) and `Pm` (metallic). Names are made safe for the line-based
+//! formats (whitespace becomes `_`); two different materials with one name get
+//! distinct names (`leaf`, `leaf_2`).
+//!
+//! Numbers use Rust's shortest round-trip formatting of `f32`.
+
+use super::{validate_io, GENERATOR};
+use crate::mesh::{Material, Model};
+use std::io::Write;
+
+/// Flush the line buffer to the output when it grows past this.
+const CHUNK: usize = 1 << 16;
+
+/// Writes the OBJ text of `model` to `obj`, referring to the material library
+/// `mtl_name` (a file name relative to the `.obj`, such as `tree.mtl`).
+///
+/// The model is validated first ([`super::validate_model`]); invalid geometry or a
+/// model without triangles is an `InvalidData` I/O error.
+/// Parts without faces are left out.
+pub fn write_obj(model: &Model, obj: &mut dyn Write, mtl_name: &str) -> std::io::Result<()> {
+    validate_io(model)?;
+    write_obj_unchecked(model, obj, mtl_name)
+}
+
+/// Writes the MTL material library of `model` (the materials [`write_obj`] uses).
+///
+/// The model is validated first, like [`write_obj`].
+pub fn write_mtl(model: &Model, mtl: &mut dyn Write) -> std::io::Result<()> {
+    validate_io(model)?;
+    write_mtl_unchecked(model, mtl)
+}
+
+/// [`write_obj`] for a model already validated.
+pub(crate) fn write_obj_unchecked(
+    model: &Model,
+    out: &mut dyn Write,
+    mtl_name: &str,
+) -> std::io::Result<()> {
+    let (part_material, materials) = material_table(model);
+    let mut buf: Vec<u8> = Vec::with_capacity(CHUNK + 1024);
+    writeln!(buf, "# {GENERATOR}")?;
+    writeln!(buf, "mtllib {mtl_name}")?;
+    // Running 1-based offsets of the global v / vt / vn lists.
+    let (mut v_base, mut vt_base, mut vn_base) = (1usize, 1usize, 1usize);
+    for (part, mat) in model.parts.iter().zip(&part_material) {
+        let Some(mat) = *mat else { continue };
+        let mesh = &part.mesh;
+        writeln!(buf, "g {}", safe_name(&part.name))?;
+        writeln!(buf, "usemtl {}", materials[mat].0)?;
+        for p in &mesh.positions {
+            writeln!(buf, "v {} {} {}", p.x, p.y, p.z)?;
+            flush_if_full(&mut buf, out)?;
+        }
+        if let Some(uvs) = &mesh.uvs {
+            for t in &uvs.values {
+                writeln!(buf, "vt {} {}", t.x, t.y)?;
+                flush_if_full(&mut buf, out)?;
+            }
+        }
+        if let Some(normals) = &mesh.normals {
+            for n in &normals.values {
+                writeln!(buf, "vn {} {} {}", n.x, n.y, n.z)?;
+                flush_if_full(&mut buf, out)?;
+            }
+        }
+        let uv_idx = mesh.uvs.as_ref().map(|c| c.indices.as_slice());
+        let n_idx = mesh.normals.as_ref().map(|c| c.indices.as_slice());
+        for w in mesh.face_offsets.windows(2) {
+            buf.push(b'f');
+            for c in w[0] as usize..w[1] as usize {
+                let v = mesh.face_indices.get(c).copied().unwrap_or(0) as usize + v_base;
+                let vt = uv_idx.and_then(|i| i.get(c)).map(|&i| i as usize + vt_base);
+                let vn = n_idx.and_then(|i| i.get(c)).map(|&i| i as usize + vn_base);
+                buf.push(b' ');
+                push_uint(&mut buf, v);
+                match (vt, vn) {
+                    (Some(vt), Some(vn)) => {
+                        buf.push(b'/');
+                        push_uint(&mut buf, vt);
+                        buf.push(b'/');
+                        push_uint(&mut buf, vn);
+                    }
+                    (None, Some(vn)) => {
+                        buf.extend_from_slice(b"//");
+                        push_uint(&mut buf, vn);
+                    }
+                    (Some(vt), None) => {
+                        buf.push(b'/');
+                        push_uint(&mut buf, vt);
+                    }
+                    (None, None) => {}
+                }
+            }
+            buf.push(b'\n');
+            flush_if_full(&mut buf, out)?;
+        }
+        v_base += mesh.positions.len();
+        vt_base += mesh.uvs.as_ref().map_or(0, |c| c.values.len());
+        vn_base += mesh.normals.as_ref().map_or(0, |c| c.values.len());
+    }
+    out.write_all(&buf)?;
+    out.flush()
+}
+
+/// [`write_mtl`] for a model already validated.
+pub(crate) fn write_mtl_unchecked(model: &Model, out: &mut dyn Write) -> std::io::Result<()> {
+    let (_, materials) = material_table(model);
+    let mut buf: Vec<u8> = Vec::with_capacity(4096);
+    writeln!(buf, "# {GENERATOR}")?;
+    for (name, m) in &materials {
+        let [r, g, b, a] = m.base_color;
+        // Dielectrics reflect ~4 % white; metals reflect their base colour.
+        let spec = |c: f32| 0.04 + (c - 0.04) * m.metallic;
+        let roughness = m.roughness.clamp(0.0, 1.0);
+        let shininess = (1.0 - roughness) * (1.0 - roughness) * 1000.0;
+        writeln!(buf)?;
+        writeln!(buf, "newmtl {name}")?;
+        writeln!(buf, "Kd {r} {g} {b}")?;
+        writeln!(buf, "Ka {r} {g} {b}")?;
+        writeln!(buf, "Ks {} {} {}", spec(r), spec(g), spec(b))?;
+        writeln!(buf, "Ns {shininess}")?;
+        writeln!(buf, "d {a}")?;
+        writeln!(buf, "illum 2")?;
+        writeln!(buf, "Pr {}", m.roughness)?;
+        writeln!(buf, "Pm {}", m.metallic)?;
+    }
+    out.write_all(&buf)?;
+    out.flush()
+}
+
+/// Appends the decimal digits of `n` (faster than `write!` for the many face indices).
+#[inline]
+fn push_uint(buf: &mut Vec<u8>, mut n: usize) {
+    let mut digits = [0u8; 20];
+    let mut i = digits.len();
+    loop {
+        i -= 1;
+        digits[i] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    buf.extend_from_slice(&digits[i..]);
+}
+
+/// Hands the buffered lines to `out` once there are enough of them.
+#[inline]
+fn flush_if_full(buf: &mut Vec<u8>, out: &mut dyn Write) -> std::io::Result<()> {
+    if buf.len() >= CHUNK {
+        out.write_all(buf)?;
+        buf.clear();
+    }
+    Ok(())
+}
+
+/// `name` with whitespace and control characters replaced by `_` (OBJ and MTL are
+/// whitespace-separated); `unnamed` when empty.
+fn safe_name(name: &str) -> String {
+    if name.is_empty() {
+        return "unnamed".to_owned();
+    }
+    name.chars().map(|c| if c.is_whitespace() || c.is_control() { '_' } else { c }).collect()
+}
+
+/// The materials used by the parts with faces, each under a unique safe name, and for
+/// every part the index of its material in that list (`None` for parts left out).
+fn material_table(model: &Model) -> (Vec<Option<usize>>, Vec<(String, &Material)>) {
+    let mut materials: Vec<(String, &Material)> = Vec::new();
+    let mut part_material = Vec::with_capacity(model.parts.len());
+    for part in &model.parts {
+        if part.mesh.face_count() == 0 {
+            part_material.push(None);
+            continue;
+        }
+        let m = &part.material;
+        if let Some(i) = materials.iter().position(|(_, known)| *known == m) {
+            part_material.push(Some(i));
+            continue;
+        }
+        let base = safe_name(&m.name);
+        let mut name = base.clone();
+        let mut n = 2;
+        while materials.iter().any(|(taken, _)| *taken == name) {
+            name = format!("{base}_{n}");
+            n += 1;
+        }
+        part_material.push(Some(materials.len()));
+        materials.push((name, m));
+    }
+    (part_material, materials)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{Mesh, Part};
+    use glam::Vec3;
+
+    fn tri_part(name: &str, material: Material) -> Part {
+        let mut mesh = Mesh::new();
+        mesh.positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        mesh.push_face(&[0, 1, 2]);
+        Part { name: name.into(), mesh, material }
+    }
+
+    #[test]
+    fn faces_without_channels_and_offsets() {
+        let model = Model {
+            parts: vec![tri_part("a b", Material::bark()), tri_part("c", Material::bark())],
+        };
+        let mut out = Vec::new();
+        write_obj(&model, &mut out, "t.mtl").unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.contains("mtllib t.mtl\ng a_b\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+        );
+        assert!(text.ends_with("g c\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 4 5 6\n"), "{text}");
+    }
+
+    #[test]
+    fn push_uint_writes_decimal() {
+        let mut b = Vec::new();
+        for n in [0, 7, 10, 99, 100, 12345, usize::MAX] {
+            b.clear();
+            push_uint(&mut b, n);
+            assert_eq!(String::from_utf8(b.clone()).unwrap(), n.to_string());
+        }
+    }
+
+    #[test]
+    fn clashing_material_names_are_made_unique() {
+        let mut other = Material::bark();
+        other.roughness = 0.1;
+        let model = Model {
+            parts: vec![
+                tri_part("a", Material::bark()),
+                tri_part("b", other),
+                tri_part("c", Material::bark()),
+            ],
+        };
+        let (per_part, mats) = material_table(&model);
+        assert_eq!(per_part, vec![Some(0), Some(1), Some(0)]);
+        assert_eq!(mats.iter().map(|m| m.0.as_str()).collect::<Vec<_>>(), vec!["bark", "bark_2"]);
+    }
+}

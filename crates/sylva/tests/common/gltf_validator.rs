@@ -1,0 +1,54 @@
+//! Test helper: runs the Khronos glTF-Validator (`tools/gltf-validator/validate.mjs`,
+//! npm package `gltf-validator`) on files and fails the test on any error or warning.
+//!
+//! Other crates' tests can include it directly:
+//! `#[path = "../../sylva/tests/common/gltf_validator.rs"] mod gltf_validator;`
+//!
+//! When `node` or the npm package is missing, the check is skipped with a loud message,
+//! unless `SYLVA_REQUIRE_GLTF_VALIDATOR=1` is set (as CI does), which makes it a failure.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The folder holding `validate.mjs` and `package.json`.
+pub fn validator_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/gltf-validator")
+}
+
+/// Whether a missing validator must fail the test (`SYLVA_REQUIRE_GLTF_VALIDATOR=1`).
+fn required() -> bool {
+    std::env::var("SYLVA_REQUIRE_GLTF_VALIDATOR").is_ok_and(|v| v == "1")
+}
+
+/// Validates every glTF / GLB file in `paths` with the Khronos validator and panics,
+/// printing the report, if any has an error or a warning (infos and hints pass).
+pub fn assert_valid_gltf(paths: &[&Path]) {
+    let dir = validator_dir();
+    let script = dir.join("validate.mjs");
+    let node_ok = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
+    let package_ok = dir.join("node_modules/gltf-validator").is_dir();
+    if !(node_ok && package_ok && script.is_file()) {
+        let what =
+            if !node_ok { "`node` is not on PATH" } else { "the npm package is not installed" };
+        let message =
+            format!("SKIPPED glTF validation ({what}): run `npm ci --prefix tools/gltf-validator`");
+        if required() {
+            panic!("{message} (SYLVA_REQUIRE_GLTF_VALIDATOR=1 makes this an error)");
+        }
+        eprintln!("\n**********\n*** {message}\n**********\n");
+        return;
+    }
+    let output = Command::new("node")
+        .arg(&script)
+        .args(paths)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run node {}: {e}", script.display()));
+    let report = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(output.status.success(), "glTF validation failed:\n{report}");
+    println!("{report}");
+}
