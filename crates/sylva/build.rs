@@ -27,7 +27,9 @@ fn main() {
     for (_, p) in &files {
         println!("cargo:rerun-if-changed={}", p.display());
     }
-    let mut code = String::from("/// Every file of `presets/`: (relative path, contents).\npub static FILES: &[(&str, &str)] = &[\n");
+    let mut code = String::from(
+        "/// Every file of `presets/`: (relative path, contents).\npub static FILES: &[(&str, &str)] = &[\n",
+    );
     for (rel, p) in &files {
         let _ = writeln!(code, "    ({rel:?}, include_str!({:?})),", p.display().to_string());
     }

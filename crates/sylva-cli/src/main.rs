@@ -3,6 +3,8 @@
 //! A thin layer over `sylva::recipe` and `sylva::pipeline`: it parses flags into recipe
 //! keys, runs the pipeline, writes the outputs and reports errors with `miette`.
 
+#![warn(missing_docs)]
+
 use clap::{Parser, Subcommand};
 use miette::{IntoDiagnostic, Result};
 use std::path::{Path, PathBuf};
@@ -80,9 +82,8 @@ enum LsysCommand {
 
 fn main() -> ExitCode {
     // Long messages stay on one line so they can be searched and copied whole.
-    let _ = miette::set_hook(Box::new(|_| {
-        Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())
-    }));
+    let _ =
+        miette::set_hook(Box::new(|_| Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())));
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Grow(args) => grow(args),
@@ -120,7 +121,8 @@ fn overrides(
         v.push(("generator.iterations".into(), toml::Value::Integer(n.into())));
     }
     if let Some(s) = seed {
-        let s = i64::try_from(s).map_err(|_| miette::miette!("--seed {s} is too large (max {})", i64::MAX))?;
+        let s =
+            i64::try_from(s).map_err(|_| miette::miette!("--seed {s} is too large (max {})", i64::MAX))?;
         v.push(("seed".into(), toml::Value::Integer(s)));
     }
     if let Some(o) = output {

@@ -8,10 +8,7 @@ use std::path::{Path, PathBuf};
 /// Writes the file at `path` through `fill`, atomically: the bytes go to a temporary
 /// file in the same folder, which is renamed over `path` only when `fill` succeeded and
 /// the data reached the disk. On any error the temporary file is removed.
-pub fn write_atomic(
-    path: &Path,
-    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
-) -> Result<()> {
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
     let werr = |source| Error::Write { path: path.to_path_buf(), source };
     let tmp = temp_sibling(path);
     let result = (|| {

@@ -17,6 +17,8 @@
 //! - [`preview`]: a CPU rasterizer that renders a model to a PNG;
 //! - [`recipe`] and [`presets`]: TOML recipes and the embedded preset library.
 
+#![warn(missing_docs)]
+
 pub mod error;
 pub mod export;
 pub mod fsutil;

@@ -91,7 +91,8 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Skeleton> {
             report.modules = d.string.len();
             let t = Instant::now();
             let shown = d.lsystem.interpretation(&d.string, d.seed, g.max_modules)?;
-            let opts = TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
+            let opts =
+                TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
             let sk = lsystem::interpret(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source)?;
             report.interpret_time = t.elapsed();
             Ok(sk)
@@ -110,7 +111,8 @@ pub fn mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result
     let tube = tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
     report.mesh_time = t.elapsed();
     report.axes = tube.axes;
-    let model = Model { parts: vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }] };
+    let model =
+        Model { parts: vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }] };
     report.triangles = model.triangle_count();
     report.vertices = model.vertex_count();
     Ok(model)

@@ -393,14 +393,7 @@ struct ScreenVertex {
 }
 
 /// Rasterizes one triangle given in screen space with per-corner normals.
-fn draw_triangle(
-    t: &mut Target,
-    sh: &Shader,
-    s: [ScreenVertex; 3],
-    n: [Vec3; 3],
-    face_n: Vec3,
-    base: Vec3,
-) {
+fn draw_triangle(t: &mut Target, sh: &Shader, s: [ScreenVertex; 3], n: [Vec3; 3], face_n: Vec3, base: Vec3) {
     let mut p = s.map(|v| (v.x, v.y));
     let (mut s, mut n) = (s, n);
     let mut area = edge(p[0], p[1], p[2].0, p[2].1);
@@ -429,8 +422,7 @@ fn draw_triangle(
     // below 1; a twig seen from afar) is dilated by half a sample on every side so it
     // shows as a hairline instead of vanishing.
     let area_f = area as f64;
-    let thin =
-        area_f * area_f < len2.iter().cloned().fold(0.0, f64::max) * (SUBPIXEL * SUBPIXEL) as f64;
+    let thin = area_f * area_f < len2.iter().cloned().fold(0.0, f64::max) * (SUBPIXEL * SUBPIXEL) as f64;
     let bias: [i64; 3] = if thin {
         len2.map(|l| (l.sqrt() * (SUBPIXEL / 2) as f64) as i64)
     } else {
@@ -595,12 +587,7 @@ mod tests {
     }
 
     /// Number of pixels that differ from the background.
-    fn model_pixels(
-        img: &Image,
-        bg: &Image,
-        xs: std::ops::Range<u32>,
-        ys: std::ops::Range<u32>,
-    ) -> usize {
+    fn model_pixels(img: &Image, bg: &Image, xs: std::ops::Range<u32>, ys: std::ops::Range<u32>) -> usize {
         ys.flat_map(|y| xs.clone().map(move |x| (x, y)))
             .filter(|&(x, y)| img.pixel(x, y) != bg.pixel(x, y))
             .count()
@@ -769,11 +756,7 @@ mod tests {
         let opts = PreviewOptions::default();
         let t0 = std::time::Instant::now();
         let img = render(&model, &opts).unwrap();
-        println!(
-            "{} triangles at 1024²: {:.1} ms",
-            model.triangle_count(),
-            t0.elapsed().as_secs_f64() * 1e3
-        );
+        println!("{} triangles at 1024²: {:.1} ms", model.triangle_count(), t0.elapsed().as_secs_f64() * 1e3);
         write_png(&img, &std::env::temp_dir().join("sylva-preview-big.png")).unwrap();
     }
 }

@@ -355,7 +355,10 @@ impl Recipe {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
         }
         if !(1..=8192).contains(&self.output.preview_size) {
-            return bad("output.preview_size", format!("must be in 1..=8192, got {}", self.output.preview_size));
+            return bad(
+                "output.preview_size",
+                format!("must be in 1..=8192, got {}", self.output.preview_size),
+            );
         }
         Ok(())
     }

@@ -194,10 +194,8 @@ impl Skeleton {
             }
         }
         for (k, o) in self.organs.iter().enumerate() {
-            let ok = o.position.is_finite()
-                && o.heading.is_finite()
-                && o.up.is_finite()
-                && o.size.is_finite();
+            let ok =
+                o.position.is_finite() && o.heading.is_finite() && o.up.is_finite() && o.size.is_finite();
             if !ok {
                 return Err(SkeletonError::NonFinite { node: k, field: "organ" });
             }

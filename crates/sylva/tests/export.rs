@@ -89,8 +89,7 @@ fn blade() -> Mesh {
     m.push_face(&[0, 2, 1]);
     m.push_face(&[1, 2, 4, 3]);
     m.push_face(&[3, 4, 6, 7, 5]);
-    let uv: Vec<Vec2> =
-        m.positions.iter().map(|p| Vec2::new(p.x + 0.5, (p.y - 2.0) / 0.6)).collect();
+    let uv: Vec<Vec2> = m.positions.iter().map(|p| Vec2::new(p.x + 0.5, (p.y - 2.0) / 0.6)).collect();
     m.uvs = Some(FaceVarying { indices: m.face_indices.clone(), values: uv });
     m.validate().unwrap();
     m
@@ -131,8 +130,7 @@ fn model() -> Model {
 fn grid(side: u32) -> Mesh {
     let mut m = Mesh::new();
     let n = side + 1;
-    m.positions =
-        (0..n * n).map(|i| Vec3::new((i % n) as f32, 0.0, -((i / n) as f32)) * 0.01).collect();
+    m.positions = (0..n * n).map(|i| Vec3::new((i % n) as f32, 0.0, -((i / n) as f32)) * 0.01).collect();
     for j in 0..side {
         for i in 0..side {
             let a = j * n + i;
@@ -297,8 +295,7 @@ fn obj_reads_back_with_tobj() {
     assert!(text.contains("f 9/19 11/21 10/20\n"), "{text}"); // blade: v/vt
     assert!(text.contains("f 17//7 18//7 19//7 20//7\n"), "{text}"); // stem: v//vn
 
-    let options =
-        tobj::LoadOptions { single_index: false, triangulate: false, ..Default::default() };
+    let options = tobj::LoadOptions { single_index: false, triangulate: false, ..Default::default() };
     let (models, materials) = tobj::load_obj(&path, &options).unwrap();
     let materials = materials.unwrap();
     let expected: Vec<&Part> = model.parts.iter().filter(|p| p.mesh.face_count() > 0).collect();
@@ -308,14 +305,10 @@ fn obj_reads_back_with_tobj() {
         let mesh = &m.mesh;
         assert_eq!(mesh.positions.len() / 3, p.mesh.vertex_count(), "{}", p.name);
         assert_eq!(mesh.indices.len(), p.mesh.face_indices.len(), "{}", p.name);
-        let faces = if mesh.face_arities.is_empty() {
-            mesh.indices.len() / 3
-        } else {
-            mesh.face_arities.len()
-        };
+        let faces =
+            if mesh.face_arities.is_empty() { mesh.indices.len() / 3 } else { mesh.face_arities.len() };
         assert_eq!(faces, p.mesh.face_count(), "{}", p.name);
-        let arities: Vec<u32> =
-            (0..p.mesh.face_count()).map(|f| p.mesh.face(f).len() as u32).collect();
+        let arities: Vec<u32> = (0..p.mesh.face_count()).map(|f| p.mesh.face(f).len() as u32).collect();
         if !mesh.face_arities.is_empty() {
             assert_eq!(mesh.face_arities, arities);
         }

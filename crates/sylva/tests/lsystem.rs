@@ -26,8 +26,9 @@ fn segments(preset: &str, kv: &[&str]) -> (Vec<(DVec3, DVec3)>, sylva::Skeleton)
     let shown = d.lsystem.interpretation(&d.string, d.seed, g.max_modules).unwrap();
     let opts = TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
     let mut segs = Vec::new();
-    let sk = interpret_with(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source, &mut |a, b| segs.push((a, b)))
-        .unwrap();
+    let sk =
+        interpret_with(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source, &mut |a, b| segs.push((a, b)))
+            .unwrap();
     (segs, sk)
 }
 
@@ -178,13 +179,15 @@ fn sign_flips_keep_reference_values() {
         let ls = sylva::lsystem::LSystem::parse("g.l", text, &[]).unwrap();
         let m = ls.derive(&sylva::lsystem::DeriveOptions { steps: 10, budget: 1 << 20, seed: 1 }).unwrap();
         let mut v = Vec::new();
-        interpret_with(&ls.symbols, &m, &TurtleOptions::default(), &ls.source, &mut |a, b| v.push((a, b))).unwrap();
+        interpret_with(&ls.symbols, &m, &TurtleOptions::default(), &ls.source, &mut |a, b| v.push((a, b)))
+            .unwrap();
         let sum: f64 = v.iter().map(|(a, b)| a.distance(*b)).sum();
         let y = v.iter().map(|s| s.1.y).fold(f64::MIN, f64::max);
         let r = v.iter().map(|s| (s.1.x * s.1.x + s.1.z * s.1.z).sqrt()).fold(0.0, f64::max);
         (sum, y, r)
     };
-    let base = "Lsystem: 1\nAxiom: A(1)\nA(s) --> F(s)[+(30)/(137)A(s*0.8)][-(30)/(137)A(s*0.8)]\nendlsystem\n";
+    let base =
+        "Lsystem: 1\nAxiom: A(1)\nA(s) --> F(s)[+(30)/(137)A(s*0.8)][-(30)/(137)A(s*0.8)]\nendlsystem\n";
     let flipped = base.replace("+(30)", "+(-30)").replace("-(30)", "-(-30)").replace("/(137)", "\\(137)");
     let (a, b) = (measure(base), measure(&flipped));
     assert!((a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9 && (a.2 - b.2).abs() < 1e-9);

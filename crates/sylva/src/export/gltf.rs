@@ -155,16 +155,14 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
 
         // POSITION, with its bounds.
         let start = bin.len();
-        let (mut lo, mut hi) =
-            (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+        let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
         for k in verts {
             let p = data.position(k);
             lo = lo.min(p);
             hi = hi.max(p);
             put_f32s(&mut bin, p.to_array());
         }
-        let view =
-            push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
+        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
         let bounds = |v: glam::Vec3| Some(json::Value::from(v.to_array().to_vec()));
         let acc = push_accessor(
             &mut root,
@@ -182,8 +180,7 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
         for k in verts {
             put_f32s(&mut bin, data.normal(k).to_array());
         }
-        let view =
-            push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
+        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
         let acc = push_accessor(
             &mut root,
             view,
@@ -202,8 +199,7 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
                 let uv = data.uv(k);
                 put_f32s(&mut bin, [uv.x, 1.0 - uv.y]);
             }
-            let view =
-                push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
+            let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
             let acc = push_accessor(
                 &mut root,
                 view,
@@ -233,13 +229,7 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
             }
         }
         let index_count = (bin.len() - start) / 4;
-        let view = push_view(
-            &mut root,
-            buffer,
-            start,
-            bin.len(),
-            json::buffer::Target::ElementArrayBuffer,
-        );
+        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ElementArrayBuffer);
         let indices = push_accessor(
             &mut root,
             view,

@@ -113,13 +113,10 @@ pub fn write(model: &Model, path: &Path) -> Result<()> {
 /// [`Error::InvalidGeometry`] naming the part (or the model).
 pub fn validate_model(model: &Model) -> Result<()> {
     for part in &model.parts {
-        let bad =
-            |why: String| Error::InvalidGeometry { what: format!("part '{}'", part.name), why };
+        let bad = |why: String| Error::InvalidGeometry { what: format!("part '{}'", part.name), why };
         part.mesh.validate().map_err(bad)?;
         let m = &part.material;
-        if !(m.base_color.iter().all(|c| c.is_finite())
-            && m.metallic.is_finite()
-            && m.roughness.is_finite())
+        if !(m.base_color.iter().all(|c| c.is_finite()) && m.metallic.is_finite() && m.roughness.is_finite())
         {
             return Err(bad(format!("material '{}' has a non-finite value", m.name)));
         }
@@ -136,8 +133,7 @@ pub fn validate_model(model: &Model) -> Result<()> {
 /// [`validate_model`] for the `std::io::Write` based writers: the error becomes an
 /// `InvalidData` I/O error.
 fn validate_io(model: &Model) -> std::io::Result<()> {
-    validate_model(model)
-        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()))
+    validate_model(model).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()))
 }
 
 /// Marks a missing face-varying index in a [`VertexKey`].
@@ -263,8 +259,7 @@ impl<'a> VertexData<'a> {
     /// Unifies `mesh` and computes normals if it has none.
     pub fn new(mesh: &'a Mesh) -> Self {
         let unified = unify(mesh);
-        let computed_normals =
-            if mesh.normals.is_some() { None } else { Some(smooth_normals(mesh)) };
+        let computed_normals = if mesh.normals.is_some() { None } else { Some(smooth_normals(mesh)) };
         VertexData { mesh, unified, computed_normals }
     }
 
@@ -294,12 +289,7 @@ impl<'a> VertexData<'a> {
     /// UV of output vertex `k` (zero when the mesh has none).
     #[inline]
     pub fn uv(&self, k: &VertexKey) -> Vec2 {
-        self.mesh
-            .uvs
-            .as_ref()
-            .and_then(|ch| ch.values.get(k.uv as usize))
-            .copied()
-            .unwrap_or(Vec2::ZERO)
+        self.mesh.uvs.as_ref().and_then(|ch| ch.values.get(k.uv as usize)).copied().unwrap_or(Vec2::ZERO)
     }
 }
 
@@ -322,8 +312,7 @@ mod tests {
         ];
         m.push_face(&[0, 1, 2, 3]);
         m.push_face(&[1, 4, 5, 2]);
-        let uv_indices =
-            if seam { vec![0, 1, 2, 3, 4, 5, 6, 7] } else { vec![0, 1, 2, 3, 1, 4, 5, 2] };
+        let uv_indices = if seam { vec![0, 1, 2, 3, 4, 5, 6, 7] } else { vec![0, 1, 2, 3, 1, 4, 5, 2] };
         m.uvs = Some(FaceVarying { values: vec![Vec2::ZERO; 8], indices: uv_indices });
         m
     }
@@ -348,10 +337,8 @@ mod tests {
     #[test]
     fn normal_channel_splits_too() {
         let mut m = seam_mesh(false);
-        m.normals = Some(FaceVarying {
-            values: vec![Vec3::Z, Vec3::X],
-            indices: vec![0, 0, 0, 0, 1, 1, 1, 1],
-        });
+        m.normals =
+            Some(FaceVarying { values: vec![Vec3::Z, Vec3::X], indices: vec![0, 0, 0, 0, 1, 1, 1, 1] });
         let u = unify(&m);
         // Positions 1 and 2 have one UV but two normals.
         assert_eq!(u.vertices.len(), 8);
@@ -372,8 +359,7 @@ mod tests {
     #[test]
     fn smooth_normals_of_a_quad_face_up() {
         let mut m = Mesh::new();
-        m.positions =
-            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::NEG_Z, Vec3::Y * 5.0];
+        m.positions = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::NEG_Z, Vec3::Y * 5.0];
         m.push_face(&[0, 1, 2, 3]);
         let n = smooth_normals(&m);
         for v in &n[..4] {

@@ -41,11 +41,7 @@ pub fn write_mtl(model: &Model, mtl: &mut dyn Write) -> std::io::Result<()> {
 }
 
 /// [`write_obj`] for a model already validated.
-pub(crate) fn write_obj_unchecked(
-    model: &Model,
-    out: &mut dyn Write,
-    mtl_name: &str,
-) -> std::io::Result<()> {
+pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: &str) -> std::io::Result<()> {
     let (part_material, materials) = material_table(model);
     let mut buf: Vec<u8> = Vec::with_capacity(CHUNK + 1024);
     writeln!(buf, "# {GENERATOR}")?;
@@ -216,15 +212,11 @@ mod tests {
 
     #[test]
     fn faces_without_channels_and_offsets() {
-        let model = Model {
-            parts: vec![tri_part("a b", Material::bark()), tri_part("c", Material::bark())],
-        };
+        let model = Model { parts: vec![tri_part("a b", Material::bark()), tri_part("c", Material::bark())] };
         let mut out = Vec::new();
         write_obj(&model, &mut out, "t.mtl").unwrap();
         let text = String::from_utf8(out).unwrap();
-        assert!(
-            text.contains("mtllib t.mtl\ng a_b\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-        );
+        assert!(text.contains("mtllib t.mtl\ng a_b\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
         assert!(text.ends_with("g c\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 4 5 6\n"), "{text}");
     }
 

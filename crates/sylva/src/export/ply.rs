@@ -44,9 +44,7 @@ pub(crate) fn write_ply_unchecked(model: &Model, out: &mut dyn Write) -> std::io
         .collect();
     let face_counts: Vec<usize> = parts
         .iter()
-        .map(|(_, d)| {
-            d.mesh.face_offsets.windows(2).map(|w| faces_for((w[1] - w[0]) as usize)).sum()
-        })
+        .map(|(_, d)| d.mesh.face_offsets.windows(2).map(|w| faces_for((w[1] - w[0]) as usize)).sum())
         .collect();
     let vertex_total: usize = parts.iter().map(|(_, d)| d.unified.vertices.len()).sum();
     let face_total: usize = face_counts.iter().sum();
@@ -63,12 +61,8 @@ pub(crate) fn write_ply_unchecked(model: &Model, out: &mut dyn Write) -> std::io
     let (mut v0, mut f0) = (0usize, 0usize);
     for ((name, d), &faces) in parts.iter().zip(&face_counts) {
         let nv = d.unified.vertices.len();
-        let _ = writeln!(
-            header,
-            "comment part {name:?} vertices {v0}..{} faces {f0}..{}",
-            v0 + nv,
-            f0 + faces
-        );
+        let _ =
+            writeln!(header, "comment part {name:?} vertices {v0}..{} faces {f0}..{}", v0 + nv, f0 + faces);
         v0 += nv;
         f0 += faces;
     }
@@ -149,8 +143,7 @@ mod tests {
             .collect();
         mesh.push_face(&(0..n).collect::<Vec<_>>());
         mesh.push_face(&[0, 1, 2, 3]);
-        let model =
-            Model { parts: vec![Part { name: "disc".into(), mesh, material: Material::leaf() }] };
+        let model = Model { parts: vec![Part { name: "disc".into(), mesh, material: Material::leaf() }] };
         let mut out = Vec::new();
         write_ply(&model, &mut out).unwrap();
         let end = out.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;

@@ -137,11 +137,8 @@ impl LSystem {
         for i in 0..cur.len() {
             let (sym, params) = cur.module(i);
             let prods = &self.by_symbol[sym as usize];
-            let chosen = if prods.is_empty() {
-                None
-            } else {
-                self.choose(&self.productions, prods, params, ev, i)?
-            };
+            let chosen =
+                if prods.is_empty() { None } else { self.choose(&self.productions, prods, params, ev, i)? };
             match chosen {
                 None => out.push(sym, params),
                 Some(p) => self.emit(p, params, out, ev, &mut args)?,
@@ -158,9 +155,7 @@ impl LSystem {
         let longest: Vec<usize> = self
             .by_symbol
             .iter()
-            .map(|ps| {
-                ps.iter().map(|&k| self.productions[k as usize].succ.len()).max().unwrap_or(1)
-            })
+            .map(|ps| ps.iter().map(|&k| self.productions[k as usize].succ.len()).max().unwrap_or(1))
             .collect();
         cur.syms.iter().map(|&s| longest[s as usize]).sum()
     }
@@ -189,14 +184,22 @@ impl LSystem {
     }
 
     #[inline]
-    fn matches(&self, p: &Production, params: &[f64], ev: &mut Evaluator, i: usize) -> Result<bool, Box<LsystemError>> {
+    fn matches(
+        &self,
+        p: &Production,
+        params: &[f64],
+        ev: &mut Evaluator,
+        i: usize,
+    ) -> Result<bool, Box<LsystemError>> {
         if p.params.len() != params.len() {
             return Ok(false);
         }
         match &p.cond {
             None => Ok(true),
             Some(c) => {
-                let v = ev.eval(c, params).map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params, i))))?;
+                let v = ev
+                    .eval(c, params)
+                    .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params, i))))?;
                 Ok(v != 0.0)
             }
         }
@@ -220,7 +223,9 @@ impl LSystem {
                 continue;
             }
             let Some(pe) = &p.prob else { continue };
-            let w = ev.eval(pe, params).map_err(|e| self.eval_error(e, "evaluating the probability", Some((p, params, i))))?;
+            let w = ev
+                .eval(pe, params)
+                .map_err(|e| self.eval_error(e, "evaluating the probability", Some((p, params, i))))?;
             if w < 0.0 {
                 return Err(self.source.error(
                     ErrorKind::NonFinite,
@@ -273,7 +278,13 @@ impl LSystem {
         Ok(())
     }
 
-    fn successor_error(&self, e: EvalError, p: &Production, m: &ModuleTemplate, params: &[f64]) -> Box<LsystemError> {
+    fn successor_error(
+        &self,
+        e: EvalError,
+        p: &Production,
+        m: &ModuleTemplate,
+        params: &[f64],
+    ) -> Box<LsystemError> {
         let module = self.symbols.name(m.sym);
         let what = match e.kind {
             ErrorKind::DivisionByZero => "division by zero",
@@ -292,7 +303,12 @@ impl LSystem {
         )
     }
 
-    fn eval_error(&self, e: EvalError, doing: &str, prod: Option<(&Production, &[f64], usize)>) -> Box<LsystemError> {
+    fn eval_error(
+        &self,
+        e: EvalError,
+        doing: &str,
+        prod: Option<(&Production, &[f64], usize)>,
+    ) -> Box<LsystemError> {
         let what = match e.kind {
             ErrorKind::DivisionByZero => "division by zero",
             _ => "the result is not a finite number",

@@ -356,12 +356,7 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64) -> f64 {
 
 /// Compiles the expression text `src.text[start..end]`, resolving identifiers against
 /// `params` (formal parameter names, loaded by position).
-pub fn compile(
-    src: &Source,
-    start: usize,
-    end: usize,
-    params: &[String],
-) -> Result<Expr, Box<LsystemError>> {
+pub fn compile(src: &Source, start: usize, end: usize, params: &[String]) -> Result<Expr, Box<LsystemError>> {
     let mut p = Parser { src, s: src.text.as_bytes(), pos: start, end, params, ops: Vec::new() };
     p.skip_ws();
     if p.pos >= end {
@@ -385,10 +380,7 @@ pub fn compile(
 
 /// Replaces an expression without parameters or random calls by its value.
 fn fold_constants(e: &mut Expr) {
-    let pure = e
-        .ops
-        .iter()
-        .all(|op| !matches!(op, Op::Load(_) | Op::Call(Func::Ran) | Op::Call(Func::Nran)));
+    let pure = e.ops.iter().all(|op| !matches!(op, Op::Load(_) | Op::Call(Func::Ran) | Op::Call(Func::Nran)));
     if pure && e.ops.len() > 1 {
         if let Ok(v) = Evaluator::new(0).eval(e, &[]) {
             e.ops = vec![Op::Const(v)];
@@ -596,7 +588,9 @@ impl Parser<'_> {
             return self.number();
         }
         if c.is_ascii_alphabetic() || c == b'_' {
-            while self.pos < self.end && (self.s[self.pos].is_ascii_alphanumeric() || self.s[self.pos] == b'_') {
+            while self.pos < self.end
+                && (self.s[self.pos].is_ascii_alphanumeric() || self.s[self.pos] == b'_')
+            {
                 self.pos += 1;
             }
             let name = std::str::from_utf8(&self.s[start..self.pos]).unwrap_or("");

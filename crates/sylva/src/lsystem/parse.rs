@@ -282,9 +282,7 @@ impl LSystem {
                 ("end", "`End:` blocks"),
             ] {
                 let kl = k.to_ascii_lowercase();
-                if lower.starts_with(&kl)
-                    && (lower.len() == kl.len() || keyword(&kl).is_some())
-                {
+                if lower.starts_with(&kl) && (lower.len() == kl.len() || keyword(&kl).is_some()) {
                     return Err(self.source.error(
                         ErrorKind::Unsupported,
                         at,
@@ -321,7 +319,8 @@ impl LSystem {
     /// Parses a production on `text[start..end]`.
     fn production(&mut self, start: usize, end: usize) -> PResult<Production> {
         let text = &self.source.text[start..end];
-        let Some((arrow, alen)) = text.find("-->").map(|a| (a, 3)).or_else(|| text.find("->").map(|a| (a, 2)))
+        let Some((arrow, alen)) =
+            text.find("-->").map(|a| (a, 3)).or_else(|| text.find("->").map(|a| (a, 2)))
         else {
             return Err(self.source.error(
                 ErrorKind::Syntax,
@@ -454,7 +453,13 @@ impl LSystem {
             let mut args = Vec::new();
             if i < end && s[i] == b'(' {
                 let close = matching_paren(&s, i, end).ok_or_else(|| {
-                    self.source.error(ErrorKind::Syntax, i, 1, &format!("unclosed `(` after module `{name}`"), "opened here")
+                    self.source.error(
+                        ErrorKind::Syntax,
+                        i,
+                        1,
+                        &format!("unclosed `(` after module `{name}`"),
+                        "opened here",
+                    )
                 })?;
                 for (a, b) in split_args(&s, i + 1, close) {
                     args.push(compile(&self.source, a, b, params)?);
@@ -491,8 +496,8 @@ fn skip_ws(s: &[u8], mut i: usize, end: usize) -> usize {
 
 /// Two-letter `@` modules of cpfg (`@Ts`, `@Gs`, …); other `@X` are one letter.
 const AT_TWO_LETTER: &[&str] = &[
-    "Ts", "Tf", "Ti", "Td", "Tx", "Gs", "Gc", "Ge", "Gr", "Gt", "Di", "Dd", "Ds", "Dt", "Pa", "Pc", "Pd", "Pt",
-    "Pm", "Ms", "Mb",
+    "Ts", "Tf", "Ti", "Td", "Tx", "Gs", "Gc", "Ge", "Gr", "Gt", "Di", "Dd", "Ds", "Dt", "Pa", "Pc", "Pd",
+    "Pt", "Pm", "Ms", "Mb",
 ];
 
 /// Reads one module name starting at byte `i`: a single character, `@X`/`@Xy`, `?X`
@@ -504,7 +509,7 @@ fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
     match c {
         '@' if j < end && s[j].is_ascii_alphabetic() => {
             j += 1;
-            if j + 1 <= end && j < s.len() {
+            if j < end && j < s.len() {
                 let two = &text[j - 1..(j + 1).min(text.len())];
                 if AT_TWO_LETTER.contains(&two) {
                     j += 1;

@@ -300,7 +300,8 @@ impl Source {
         label: &str,
     ) -> Box<LsystemError> {
         let (line, col) = self.line_col(orig);
-        let len = len.min(self.original.len().saturating_sub(orig)).max(usize::from(orig < self.original.len()));
+        let len =
+            len.min(self.original.len().saturating_sub(orig)).max(usize::from(orig < self.original.len()));
         Box::new(LsystemError {
             kind,
             message: format!("{}:{line}:{col}: {what}", self.name),
@@ -334,7 +335,13 @@ fn strip_comments(s: &str) -> String {
             out.extend_from_slice(b"  ");
             i += 2;
             while i < b.len() && !(b[i] == b'*' && i + 1 < b.len() && b[i + 1] == b'/') {
-                out.push(if b[i] == b'\n' { b'\n' } else if b[i] < 0x80 { b' ' } else { b[i] });
+                out.push(if b[i] == b'\n' {
+                    b'\n'
+                } else if b[i] < 0x80 {
+                    b' '
+                } else {
+                    b[i]
+                });
                 i += 1;
             }
             if i < b.len() {

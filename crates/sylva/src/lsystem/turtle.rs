@@ -136,7 +136,12 @@ pub fn interpret_with(
     on_draw: &mut dyn FnMut(DVec3, DVec3),
 ) -> Result<Skeleton, Box<LsystemError>> {
     let fail = |what: String| source.error_nowhere(ErrorKind::NonFinite, &what);
-    for (name, v) in [("angle", opts.angle), ("step", opts.step), ("width", opts.width), ("width factor", opts.width_factor)] {
+    for (name, v) in [
+        ("angle", opts.angle),
+        ("step", opts.step),
+        ("width", opts.width),
+        ("width factor", opts.width_factor),
+    ] {
         if !v.is_finite() {
             return Err(fail(format!("turtle {name} is not a finite number")));
         }
@@ -174,13 +179,20 @@ pub fn interpret_with(
             Cmd::None => {}
             Cmd::Draw => {
                 if st.node == NO_PARENT {
-                    st.node = sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, NO_PARENT, st.u.as_vec3(), st.order);
+                    st.node = sk.push(
+                        st.pos.as_vec3(),
+                        (st.width * 0.5) as f32,
+                        NO_PARENT,
+                        st.u.as_vec3(),
+                        st.order,
+                    );
                     *sk.material.last_mut().expect("just pushed") = st.material;
                 }
                 let start = st.pos;
                 st.pos += st.h * arg.unwrap_or(opts.step);
                 on_draw(start, st.pos);
-                st.node = sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
+                st.node =
+                    sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
                 *sk.material.last_mut().expect("just pushed") = st.material;
             }
             Cmd::Move => {

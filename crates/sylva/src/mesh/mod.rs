@@ -123,9 +123,7 @@ impl Mesh {
         }
         merge(&mut self.uvs, &other.uvs, was_empty);
         merge(&mut self.normals, &other.normals, was_empty);
-        self.creases.extend(
-            other.creases.iter().map(|c| Crease { a: c.a + base, b: c.b + base, ..*c }),
-        );
+        self.creases.extend(other.creases.iter().map(|c| Crease { a: c.a + base, b: c.b + base, ..*c }));
     }
 
     /// Checks that indices are in range, faces have ≥ 3 corners, face-varying channels
@@ -250,10 +248,7 @@ impl Model {
 
     /// Bounds over all parts.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.parts
-            .iter()
-            .filter_map(|p| p.mesh.bounds())
-            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+        self.parts.iter().filter_map(|p| p.mesh.bounds()).reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 }
 

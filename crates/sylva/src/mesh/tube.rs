@@ -554,28 +554,13 @@ impl Emitter {
 
     fn mark(&self, point: bool) -> RingRef {
         let n = self.normal_values.len() as u32;
-        RingRef {
-            v: self.positions.len() as u32,
-            uv: self.uv_values.len() as u32,
-            n,
-            n_back: n,
-            point,
-        }
+        RingRef { v: self.positions.len() as u32, uv: self.uv_values.len() as u32, n, n_back: n, point }
     }
 
     /// A ring of `sides` vertices `centre + cos·p + sin·q` with normals
     /// `cos·nn + sin·nb + nt` and UVs `(j / sides, v)` over `sides + 1` columns.
     #[allow(clippy::too_many_arguments)]
-    fn ring(
-        &mut self,
-        centre: Vec3,
-        p: Vec3,
-        q: Vec3,
-        nn: Vec3,
-        nb: Vec3,
-        nt: Vec3,
-        v: f32,
-    ) -> RingRef {
+    fn ring(&mut self, centre: Vec3, p: Vec3, q: Vec3, nn: Vec3, nb: Vec3, nt: Vec3, v: f32) -> RingRef {
         let r = self.mark(false);
         for cs in &self.cs {
             self.positions.push(centre + p * cs.x + q * cs.y);
@@ -636,15 +621,7 @@ impl Emitter {
 
     /// A flat fan over ring `r` to a new centre vertex; `tip` faces +t, else −t.
     /// UVs: the disk mapped at the side's texel scale around (0.5, v).
-    fn flat_cap(
-        &mut self,
-        r: RingRef,
-        centre: Vec3,
-        f: &Frame,
-        radius: f32,
-        texel: f32,
-        tip: bool,
-    ) {
+    fn flat_cap(&mut self, r: RingRef, centre: Vec3, f: &Frame, radius: f32, texel: f32, tip: bool) {
         let c = self.positions.len() as u32;
         self.positions.push(centre);
         let ni = self.normal_values.len() as u32;
@@ -668,15 +645,7 @@ impl Emitter {
     }
 
     /// A hemisphere of the tip radius over the last ring `r`, ending in an apex.
-    fn round_cap(
-        &mut self,
-        r: RingRef,
-        centre: Vec3,
-        f: &Frame,
-        radius: f32,
-        texel: f32,
-        rings: u32,
-    ) {
+    fn round_cap(&mut self, r: RingRef, centre: Vec3, f: &Frame, radius: f32, texel: f32, rings: u32) {
         let mut prev = r;
         for m in 1..=rings {
             let phi = FRAC_PI_2 * m as f32 / (rings + 1) as f32;
@@ -703,14 +672,7 @@ impl Emitter {
     }
 
     /// Everything of one axis: rings, bands and caps.
-    fn axis(
-        &mut self,
-        st: &[Station],
-        frames: &[Frame],
-        texel: f32,
-        opts: &TubeOptions,
-        rings: u32,
-    ) {
+    fn axis(&mut self, st: &[Station], frames: &[Frame], texel: f32, opts: &TubeOptions, rings: u32) {
         let mut prev: Option<RingRef> = None;
         for (k, (s, f)) in st.iter().zip(frames).enumerate() {
             let r = if s.is_point() {
@@ -896,8 +858,8 @@ pub(crate) mod tests {
                 continue; // a flat cap
             }
             let us: Vec<f32> = m.corners(f).map(|c| uv.values[uv.indices[c] as usize].x).collect();
-            let spread = us.iter().cloned().fold(f32::MIN, f32::max)
-                - us.iter().cloned().fold(f32::MAX, f32::min);
+            let spread =
+                us.iter().cloned().fold(f32::MIN, f32::max) - us.iter().cloned().fold(f32::MAX, f32::min);
             assert!(spread <= 1.0 / 8.0 + 1e-6, "face {f} wraps around the seam: {us:?}");
             for c in m.corners(f) {
                 let p = m.positions[m.face_indices[c] as usize];
@@ -954,11 +916,8 @@ pub(crate) mod tests {
     #[test]
     fn bends_and_u_turns_stay_finite() {
         let bend = chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)], &[0.1], &[Vec3::Z]);
-        let uturn = chain(
-            &[Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 2.0, 0.0), Vec3::Y, Vec3::ZERO],
-            &[0.1],
-            &[Vec3::X],
-        );
+        let uturn =
+            chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 2.0, 0.0), Vec3::Y, Vec3::ZERO], &[0.1], &[Vec3::X]);
         let hairpin = chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(0.3, 0.0, 0.0)], &[0.1], &[Vec3::Z]);
         for s in [bend, uturn, hairpin] {
             for tips in [TipStyle::Round, TipStyle::Flat, TipStyle::Open] {

@@ -29,10 +29,8 @@ pub fn assert_valid_gltf(paths: &[&Path]) {
     let node_ok = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
     let package_ok = dir.join("node_modules/gltf-validator").is_dir();
     if !(node_ok && package_ok && script.is_file()) {
-        let what =
-            if !node_ok { "`node` is not on PATH" } else { "the npm package is not installed" };
-        let message =
-            format!("SKIPPED glTF validation ({what}): run `npm ci --prefix tools/gltf-validator`");
+        let what = if !node_ok { "`node` is not on PATH" } else { "the npm package is not installed" };
+        let message = format!("SKIPPED glTF validation ({what}): run `npm ci --prefix tools/gltf-validator`");
         if required() {
             panic!("{message} (SYLVA_REQUIRE_GLTF_VALIDATOR=1 makes this an error)");
         }
@@ -44,11 +42,8 @@ pub fn assert_valid_gltf(paths: &[&Path]) {
         .args(paths)
         .output()
         .unwrap_or_else(|e| panic!("cannot run node {}: {e}", script.display()));
-    let report = format!(
-        "{}{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let report =
+        format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
     assert!(output.status.success(), "glTF validation failed:\n{report}");
     println!("{report}");
 }
