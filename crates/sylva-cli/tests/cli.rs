@@ -179,7 +179,9 @@ fn bad_input_gives_clear_errors() {
     fails(&d, &["grow", &pop], "without a matching `[`");
     let include = "include.l";
     std::fs::write(d.join(include), "#include \"x.h\"\nLsystem: 1\nAxiom: F\nendlsystem\n").unwrap();
-    fails(&d, &["grow", include], "unsupported: preprocessor directive `#include`");
+    fails(&d, &["grow", include], "include.l:1:1: cannot include `x.h`: no such file next to the model");
+    std::fs::write(d.join("warn.l"), "#warning hi\nLsystem: 1\nAxiom: F\nendlsystem\n").unwrap();
+    fails(&d, &["grow", "warn.l"], "warn.l:1:1: unsupported: preprocessor directive `#warning`");
     let func = write("func.l", "Axiom: F(sin(1,2))");
     fails(&d, &["grow", &func], "function `sin` takes 1 argument(s), got 2");
     fails(&d, &["grow", "missing.l"], "cannot read missing.l");

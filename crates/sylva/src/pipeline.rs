@@ -55,6 +55,8 @@ pub struct Derived {
     pub steps: u32,
     /// The seed used.
     pub seed: u64,
+    /// The evaluator after the derivation (globals, generator), for the homomorphism.
+    pub evaluator: lsystem::expr::Evaluator,
 }
 
 /// Parses and derives the L-system of `g` (part of [`grow`], exposed for `sylva lsys derive`).
@@ -71,12 +73,19 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
             (k.clone(), s)
         })
         .collect();
-    let ls = LSystem::parse(&name, &text, &defines)?;
+    // `#include "x"` reads x next to the model (inside presets/ for presets).
+    let dir = std::path::Path::new(&g.file).parent().map(|p| p.to_path_buf()).unwrap_or_default();
+    let resolve = |inc: &str| -> Option<(String, String)> {
+        let rel = dir.join(inc);
+        loaded.read(&rel.to_string_lossy()).ok()
+    };
+    let ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
     let steps = g.iterations.unwrap_or(ls.derivation_length);
     // The file's `seed:` and the recipe's seed both matter (documented in docs/recipe.md).
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
-    let string = ls.derive(&DeriveOptions { steps, budget: g.max_modules, seed })?;
-    Ok(Derived { lsystem: ls, string, steps, seed })
+    let (string, evaluator) =
+        ls.derive_full(&DeriveOptions { steps, budget: g.max_modules, seed }, Vec::new())?;
+    Ok(Derived { lsystem: ls, string, steps, seed, evaluator })
 }
 
 /// Runs the recipe's generator and returns its skeleton (with the report's generator
@@ -85,12 +94,12 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Skeleton> {
     match &loaded.recipe.generator {
         Generator::Lsystem(g) => {
             let t = Instant::now();
-            let d = derive_lsystem(loaded, g)?;
+            let mut d = derive_lsystem(loaded, g)?;
             report.derive_time = t.elapsed();
             report.steps = d.steps;
             report.modules = d.string.len();
             let t = Instant::now();
-            let shown = d.lsystem.interpretation(&d.string, d.seed, g.max_modules)?;
+            let shown = d.lsystem.interpretation(&d.string, &mut d.evaluator, g.max_modules)?;
             let opts =
                 TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
             let sk = lsystem::interpret(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source)?;

@@ -22,8 +22,8 @@ fn derived_text(preset: &str, kv: &[&str]) -> String {
 fn segments(preset: &str, kv: &[&str]) -> (Vec<(DVec3, DVec3)>, sylva::Skeleton) {
     let l = recipe::load(preset, &sets(kv)).unwrap();
     let Generator::Lsystem(g) = &l.recipe.generator;
-    let d = derive_lsystem(&l, g).unwrap();
-    let shown = d.lsystem.interpretation(&d.string, d.seed, g.max_modules).unwrap();
+    let mut d = derive_lsystem(&l, g).unwrap();
+    let shown = d.lsystem.interpretation(&d.string, &mut d.evaluator, g.max_modules).unwrap();
     let opts = TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
     let mut segs = Vec::new();
     let sk =

@@ -10,9 +10,19 @@
 //! A module budget is enforced while writing each step, so an exploding grammar stops
 //! with a clear message instead of running out of memory.
 
-use super::expr::{EvalError, Evaluator};
-use super::parse::{LSystem, ModuleTemplate, Production};
+use super::expr::{EvalError, Evaluator, Expr, Function};
+use super::parse::{ContextItem, LSystem, ModuleTemplate, Production, RuleSet};
 use super::source::{ErrorKind, LsystemError};
+
+/// The words for an evaluation error kind.
+fn error_words(kind: ErrorKind) -> &'static str {
+    match kind {
+        ErrorKind::DivisionByZero => "division by zero",
+        ErrorKind::OutOfRange => "an array index or loop count out of range",
+        ErrorKind::UndefinedName => "a function that the model does not define",
+        _ => "the result is not a finite number",
+    }
+}
 
 /// Default limit on the number of modules in a derived string.
 pub const DEFAULT_MODULE_BUDGET: usize = 50_000_000;
@@ -82,35 +92,110 @@ pub struct DeriveOptions {
     pub seed: u64,
 }
 
+/// Where a production is being matched: the whole current string, the module's index
+/// and the bracket partners (for contexts). `None` for decomposition and homomorphism.
+type Site<'a> = Option<(&'a ModuleString, usize, &'a [u32])>;
+
+/// Partner index of every bracket in `m` (`u32::MAX` for other modules); an unmatched
+/// `[` points past the end, an unmatched `]` to 0.
+fn bracket_partners(m: &ModuleString, open: Option<u16>, close: Option<u16>) -> Vec<u32> {
+    let mut out = vec![u32::MAX; m.len()];
+    let mut stack = Vec::new();
+    for (i, &s) in m.syms.iter().enumerate() {
+        if Some(s) == open {
+            stack.push(i);
+        } else if Some(s) == close {
+            match stack.pop() {
+                Some(o) => {
+                    out[o] = i as u32;
+                    out[i] = o as u32;
+                }
+                None => out[i] = 0,
+            }
+        }
+    }
+    for o in stack {
+        out[o] = m.len() as u32;
+    }
+    out
+}
+
 impl LSystem {
-    /// The axiom as a module string (its expressions evaluated).
+    /// An evaluator for a derivation: globals initialised, the `define:` and `Start:`
+    /// blocks run, `functions` available to `func(id, x)`.
+    pub fn evaluator(&self, seed: u64, functions: Vec<Function>) -> Result<Evaluator, Box<LsystemError>> {
+        let mut ev = Evaluator::new(seed);
+        ev.globals = self.globals.init.clone();
+        ev.functions = functions;
+        for (block, what) in [(&self.define_block, "the define: block"), (&self.start, "the Start: block")] {
+            self.run_block(block, &mut ev, what)?;
+        }
+        Ok(ev)
+    }
+
+    fn run_block(
+        &self,
+        block: &Option<Expr>,
+        ev: &mut Evaluator,
+        what: &str,
+    ) -> Result<(), Box<LsystemError>> {
+        if let Some(b) = block {
+            ev.exec(b, &mut []).map_err(|e| self.eval_error(e, &format!("running {what}"), None))?;
+        }
+        Ok(())
+    }
+
+    /// The axiom as a module string (its expressions evaluated, decomposition applied).
     pub fn axiom_string(&self, ev: &mut Evaluator) -> Result<ModuleString, Box<LsystemError>> {
         let mut out = ModuleString::new();
         let mut buf = Vec::new();
+        let mut scratch = Vec::new();
         for m in &self.axiom {
             buf.clear();
             for a in &m.args {
                 let v = ev.eval(a, &[]).map_err(|e| self.eval_error(e, "evaluating the axiom", None))?;
                 buf.push(v);
             }
-            out.push(m.sym, &buf);
+            self.expand(&self.decomposition, "decomposition", m.sym, &buf, 0, &mut out, ev, &mut scratch)?;
         }
         Ok(out)
     }
 
     /// Derives `opts.steps` steps from the axiom.
     pub fn derive(&self, opts: &DeriveOptions) -> Result<ModuleString, Box<LsystemError>> {
-        let mut ev = Evaluator::new(opts.seed);
+        self.derive_with(opts, Vec::new())
+    }
+
+    /// Derives with the model's functions (`func(id, x)`) available.
+    pub fn derive_with(
+        &self,
+        opts: &DeriveOptions,
+        functions: Vec<Function>,
+    ) -> Result<ModuleString, Box<LsystemError>> {
+        self.derive_full(opts, functions).map(|(m, _)| m)
+    }
+
+    /// Derives and also returns the evaluator (global variables as the derivation left
+    /// them, the generator's state), which the homomorphism then uses.
+    pub fn derive_full(
+        &self,
+        opts: &DeriveOptions,
+        functions: Vec<Function>,
+    ) -> Result<(ModuleString, Evaluator), Box<LsystemError>> {
+        let mut ev = self.evaluator(opts.seed, functions)?;
         let mut cur = self.axiom_string(&mut ev)?;
         if cur.len() > opts.budget {
             return Err(self.budget_error(0, opts, cur.len()));
         }
         let mut next = ModuleString::new();
         for step in 1..=opts.steps {
+            self.run_block(&self.start_each, &mut ev, "the StartEach: block")?;
             self.step(&cur, &mut next, &mut ev, opts, step)?;
             std::mem::swap(&mut cur, &mut next);
+            self.run_block(&self.end_each, &mut ev, "the EndEach: block")?;
         }
-        Ok(cur)
+        self.run_block(&self.end, &mut ev, "the End: block")?;
+        Ok((cur, ev))
     }
 
     /// One parallel rewriting step from `cur` into `out` (cleared first).
@@ -133,15 +218,55 @@ impl LSystem {
         out.pofs.reserve(estimate);
         let ratio = if cur.is_empty() { 1 } else { cur.params.len().div_ceil(cur.len()).max(1) };
         out.params.reserve(estimate.saturating_mul(ratio).min(opts.budget.saturating_mul(4)));
+        let brackets = if self.has_context {
+            bracket_partners(cur, self.symbols.get("["), self.symbols.get("]"))
+        } else {
+            Vec::new()
+        };
+        let decompose = !self.decomposition.productions.is_empty();
         let mut args: Vec<f64> = Vec::with_capacity(16);
+        let mut buf: Vec<f64> = Vec::with_capacity(32);
+        let mut tmp = ModuleString::new();
+        let mut scratch = Vec::new();
         for i in 0..cur.len() {
             let (sym, params) = cur.module(i);
             let prods = &self.by_symbol[sym as usize];
-            let chosen =
-                if prods.is_empty() { None } else { self.choose(&self.productions, prods, params, ev, i)? };
+            let chosen = if prods.is_empty() {
+                None
+            } else {
+                self.select(&self.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
+            };
             match chosen {
+                None if decompose => {
+                    self.expand(&self.decomposition, "decomposition", sym, params, 0, out, ev, &mut scratch)?
+                }
                 None => out.push(sym, params),
-                Some(p) => self.emit(p, params, out, ev, &mut args)?,
+                Some((k, uses_buf)) => {
+                    let p = &self.productions[k];
+                    let locals = if uses_buf { &buf[..] } else { params };
+                    if decompose {
+                        tmp.syms.clear();
+                        tmp.params.clear();
+                        tmp.pofs.clear();
+                        tmp.pofs.push(0);
+                        self.emit(p, locals, &mut tmp, ev, &mut args)?;
+                        for j in 0..tmp.len() {
+                            let (s2, p2) = tmp.module(j);
+                            self.expand(
+                                &self.decomposition,
+                                "decomposition",
+                                s2,
+                                p2,
+                                1,
+                                out,
+                                ev,
+                                &mut scratch,
+                            )?;
+                        }
+                    } else {
+                        self.emit(p, locals, out, ev, &mut args)?;
+                    }
+                }
             }
             if out.syms.len() > opts.budget {
                 return Err(self.budget_error(step, opts, out.syms.len()));
@@ -150,7 +275,7 @@ impl LSystem {
         Ok(())
     }
 
-    /// Upper bound of the next string's length.
+    /// Upper bound of the next string's length (before decomposition).
     fn growth_bound(&self, cur: &ModuleString) -> usize {
         let longest: Vec<usize> = self
             .by_symbol
@@ -160,102 +285,258 @@ impl LSystem {
         cur.syms.iter().map(|&s| longest[s as usize]).sum()
     }
 
-    /// The production to apply to a module, if any.
-    #[inline]
-    fn choose<'a>(
+    /// The production of `list` to apply to a module, if any: its index and whether its
+    /// locals are in `buf` (true) or are the module's parameters in place (false).
+    fn select(
         &self,
-        list: &'a [Production],
+        list: &[Production],
         prods: &[u32],
         params: &[f64],
+        site: Site,
         ev: &mut Evaluator,
-        i: usize,
-    ) -> Result<Option<&'a Production>, Box<LsystemError>> {
+        buf: &mut Vec<f64>,
+    ) -> Result<Option<(usize, bool)>, Box<LsystemError>> {
         for (n, &k) in prods.iter().enumerate() {
             let p = &list[k as usize];
-            if !self.matches(p, params, ev, i)? {
-                continue;
-            }
+            let Some(uses_buf) = self.try_match(p, params, site, ev, buf)? else { continue };
             if p.prob.is_none() {
-                return Ok(Some(p));
+                return Ok(Some((k as usize, uses_buf)));
             }
-            return self.choose_stochastic(list, &prods[n..], params, ev, i);
+            // Stochastic: weigh every matching stochastic production of this module.
+            let mut cands: Vec<(usize, f64)> = Vec::new();
+            let mut total = 0.0;
+            for (m, &k2) in prods.iter().enumerate().skip(n) {
+                let q = &list[k2 as usize];
+                if m > n && self.try_match(q, params, site, ev, buf)?.is_none() {
+                    continue;
+                }
+                let Some(pe) = &q.prob else { continue };
+                let locals: &[f64] = if q.needs_buffer() { buf } else { params };
+                let w = ev
+                    .eval(pe, locals)
+                    .map_err(|e| self.eval_error(e, "evaluating the probability", Some((q, params))))?;
+                if w < 0.0 {
+                    return Err(self.source.error(
+                        ErrorKind::NonFinite,
+                        pe.at as usize,
+                        pe.len as usize,
+                        &format!("production probability is negative ({w})"),
+                        "negative probability",
+                    ));
+                }
+                total += w;
+                cands.push((k2 as usize, w));
+            }
+            if total <= 0.0 {
+                return Ok(None);
+            }
+            let mut x = ev.uniform() * total;
+            let mut pick = cands[cands.len() - 1].0;
+            for &(k2, w) in &cands {
+                if x < w {
+                    pick = k2;
+                    break;
+                }
+                x -= w;
+            }
+            let q = &list[pick];
+            // Re-bind the chosen production's locals (its statements run again).
+            let uses_buf = self.try_match(q, params, site, ev, buf)?.unwrap_or(false);
+            return Ok(Some((pick, uses_buf)));
         }
         Ok(None)
     }
 
+    /// Tests one production; `Some(uses_buf)` when it applies.
     #[inline]
-    fn matches(
+    fn try_match(
         &self,
         p: &Production,
         params: &[f64],
+        site: Site,
         ev: &mut Evaluator,
-        i: usize,
-    ) -> Result<bool, Box<LsystemError>> {
-        if p.params.len() != params.len() {
-            return Ok(false);
-        }
-        match &p.cond {
-            None => Ok(true),
-            Some(c) => {
-                let v = ev
-                    .eval(c, params)
-                    .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params, i))))?;
-                Ok(v != 0.0)
-            }
-        }
-    }
-
-    /// Chooses among the matching stochastic productions of `prods` by their weights.
-    fn choose_stochastic<'a>(
-        &self,
-        list: &'a [Production],
-        prods: &[u32],
-        params: &[f64],
-        ev: &mut Evaluator,
-        i: usize,
-    ) -> Result<Option<&'a Production>, Box<LsystemError>> {
-        let mut cands: Vec<(&Production, f64)> = Vec::new();
-        let mut total = 0.0;
-        for (n, &k) in prods.iter().enumerate() {
-            let p = &list[k as usize];
-            // The first candidate is known to match; re-test the rest.
-            if n > 0 && !self.matches(p, params, ev, i)? {
-                continue;
-            }
-            let Some(pe) = &p.prob else { continue };
-            let w = ev
-                .eval(pe, params)
-                .map_err(|e| self.eval_error(e, "evaluating the probability", Some((p, params, i))))?;
-            if w < 0.0 {
-                return Err(self.source.error(
-                    ErrorKind::NonFinite,
-                    pe.at as usize,
-                    pe.len as usize,
-                    &format!("production probability is negative ({w})"),
-                    "negative probability",
-                ));
-            }
-            total += w;
-            cands.push((p, w));
-        }
-        if total <= 0.0 {
+        buf: &mut Vec<f64>,
+    ) -> Result<Option<bool>, Box<LsystemError>> {
+        if p.arity != params.len() {
             return Ok(None);
         }
-        let mut x = ev.uniform() * total;
-        for &(p, w) in &cands {
-            if x < w {
-                return Ok(Some(p));
+        if !p.needs_buffer() {
+            if let Some(c) = &p.cond {
+                let v = ev
+                    .eval(c, params)
+                    .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params))))?;
+                if v == 0.0 {
+                    return Ok(None);
+                }
             }
-            x -= w;
+            return Ok(Some(false));
         }
-        Ok(cands.last().map(|c| c.0))
+        buf.clear();
+        buf.extend_from_slice(params);
+        if !p.left.is_empty() || !p.right.is_empty() {
+            let Some((cur, i, brackets)) = site else { return Ok(None) };
+            if !p.left.is_empty() && !self.match_left(&p.left, i, cur, brackets, buf) {
+                return Ok(None);
+            }
+            if !p.right.is_empty() && !self.match_right(&p.right, 0, i + 1, cur, brackets, buf) {
+                return Ok(None);
+            }
+        }
+        if let Some(pre) = &p.pre {
+            ev.exec(pre, buf).map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
+        }
+        if let Some(c) = &p.cond {
+            let v = ev
+                .eval(c, buf)
+                .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params))))?;
+            if v == 0.0 {
+                return Ok(None);
+            }
+        }
+        if let Some(post) = &p.post {
+            ev.exec(post, buf)
+                .map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
+        }
+        Ok(Some(true))
     }
 
+    /// Left context (ABOP §1.8): scanning left, `[` steps out of the branch, a complete
+    /// branch `[...]` is skipped, ignored modules are skipped. Binds parameters in
+    /// string order.
+    fn match_left(
+        &self,
+        left: &[(u16, usize)],
+        i: usize,
+        cur: &ModuleString,
+        brackets: &[u32],
+        buf: &mut Vec<f64>,
+    ) -> bool {
+        let open = self.symbols.get("[");
+        let close = self.symbols.get("]");
+        let mut pos = i as isize - 1;
+        let mut found = [0usize; 16];
+        if left.len() > found.len() {
+            return false;
+        }
+        for (k, &(sym, ar)) in left.iter().enumerate().rev() {
+            loop {
+                if pos < 0 {
+                    return false;
+                }
+                let s = cur.syms[pos as usize];
+                if Some(s) == open {
+                    pos -= 1;
+                } else if Some(s) == close {
+                    pos = brackets[pos as usize] as isize - 1;
+                } else if self.context_skip.get(s as usize).copied().unwrap_or(false) {
+                    pos -= 1;
+                } else {
+                    break;
+                }
+            }
+            let (s, p) = cur.module(pos as usize);
+            if s != sym || p.len() != ar {
+                return false;
+            }
+            found[k] = pos as usize;
+            pos -= 1;
+        }
+        for &f in &found[..left.len()] {
+            buf.extend_from_slice(cur.module(f).1);
+        }
+        true
+    }
+
+    /// Right context (ABOP §1.8): scanning right, branches not named by the context are
+    /// skipped, the end of the current branch stops the match; a `[` in the context
+    /// descends into a following branch (any sibling may match) and a `]` in the context
+    /// continues after the end of the current branch.
+    fn match_right(
+        &self,
+        ctx: &[ContextItem],
+        k: usize,
+        pos: usize,
+        cur: &ModuleString,
+        brackets: &[u32],
+        buf: &mut Vec<f64>,
+    ) -> bool {
+        if k == ctx.len() {
+            return true;
+        }
+        let open = self.symbols.get("[");
+        let close = self.symbols.get("]");
+        let n = cur.len();
+        let skip = |s: u16| self.context_skip.get(s as usize).copied().unwrap_or(false);
+        match ctx[k] {
+            ContextItem::Open => {
+                let mut p = pos;
+                loop {
+                    while p < n && skip(cur.syms[p]) {
+                        p += 1;
+                    }
+                    if p >= n || Some(cur.syms[p]) != open {
+                        return false;
+                    }
+                    let mark = buf.len();
+                    if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf) {
+                        return true;
+                    }
+                    buf.truncate(mark);
+                    p = brackets[p] as usize + 1;
+                }
+            }
+            ContextItem::Close => {
+                let mut p = pos;
+                while p < n {
+                    let s = cur.syms[p];
+                    if Some(s) == open {
+                        p = brackets[p] as usize + 1;
+                    } else if Some(s) == close {
+                        return self.match_right(ctx, k + 1, p + 1, cur, brackets, buf);
+                    } else {
+                        p += 1;
+                    }
+                }
+                false
+            }
+            ContextItem::Module(sym, ar) => {
+                let mut p = pos;
+                loop {
+                    if p >= n {
+                        return false;
+                    }
+                    let s = cur.syms[p];
+                    if Some(s) == open {
+                        p = brackets[p] as usize + 1;
+                    } else if Some(s) == close {
+                        return false;
+                    } else if skip(s) {
+                        p += 1;
+                    } else {
+                        break;
+                    }
+                }
+                let (s, params) = cur.module(p);
+                if s != sym || params.len() != ar {
+                    return false;
+                }
+                let mark = buf.len();
+                buf.extend_from_slice(params);
+                if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf) {
+                    return true;
+                }
+                buf.truncate(mark);
+                false
+            }
+        }
+    }
+
+    /// Writes the successor of `p` with the given locals.
     #[inline]
     fn emit(
         &self,
         p: &Production,
-        params: &[f64],
+        locals: &[f64],
         out: &mut ModuleString,
         ev: &mut Evaluator,
         args: &mut Vec<f64>,
@@ -268,12 +549,70 @@ impl LSystem {
             }
             args.clear();
             for a in &m.args {
-                match ev.eval(a, params) {
+                match ev.eval(a, locals) {
                     Ok(v) => args.push(v),
-                    Err(e) => return Err(self.successor_error(e, p, m, params)),
+                    Err(e) => {
+                        return Err(self.successor_error(e, p, m, &locals[..p.arity.min(locals.len())]))
+                    }
                 }
             }
             out.push(m.sym, args);
+        }
+        Ok(())
+    }
+
+    /// Writes a module rewritten by `rules` recursively (decomposition, homomorphism);
+    /// `depth` is the module's depth (0 for a module of the derived string).
+    #[allow(clippy::too_many_arguments)]
+    fn expand(
+        &self,
+        rules: &RuleSet,
+        what: &str,
+        sym: u16,
+        params: &[f64],
+        depth: u32,
+        out: &mut ModuleString,
+        ev: &mut Evaluator,
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), Box<LsystemError>> {
+        let prods = match rules.by_symbol.get(sym as usize) {
+            Some(p) if !p.is_empty() => p,
+            _ => {
+                out.push(sym, params);
+                return Ok(());
+            }
+        };
+        let mut buf = Vec::new();
+        let Some((k, uses_buf)) = self.select(&rules.productions, prods, params, None, ev, &mut buf)? else {
+            out.push(sym, params);
+            return Ok(());
+        };
+        if depth >= rules.max_depth {
+            if rules.depth_explicit {
+                let p = &rules.productions[k];
+                return Err(self.source.error(
+                    ErrorKind::OutOfRange,
+                    p.at as usize,
+                    p.len as usize,
+                    &format!(
+                        "module {} still has a {what} production at the maximum depth {} (line {})",
+                        self.format_module(sym, params),
+                        rules.max_depth,
+                        p.line
+                    ),
+                    "applies past the maximum depth",
+                ));
+            }
+            out.push(sym, params);
+            return Ok(());
+        }
+        let p = &rules.productions[k];
+        let locals: Vec<f64> = if uses_buf { buf } else { params.to_vec() };
+        let mut tmp = ModuleString::new();
+        self.emit(p, &locals, &mut tmp, ev, scratch)?;
+        for j in 0..tmp.len() {
+            let (s2, p2) = tmp.module(j);
+            self.expand(rules, what, s2, p2, depth + 1, out, ev, scratch)?;
         }
         Ok(())
     }
@@ -286,10 +625,7 @@ impl LSystem {
         params: &[f64],
     ) -> Box<LsystemError> {
         let module = self.symbols.name(m.sym);
-        let what = match e.kind {
-            ErrorKind::DivisionByZero => "division by zero",
-            _ => "the result is not a finite number",
-        };
+        let what = error_words(e.kind);
         self.source.error(
             e.kind,
             e.at as usize,
@@ -307,31 +643,28 @@ impl LSystem {
         &self,
         e: EvalError,
         doing: &str,
-        prod: Option<(&Production, &[f64], usize)>,
+        prod: Option<(&Production, &[f64])>,
     ) -> Box<LsystemError> {
-        let what = match e.kind {
-            ErrorKind::DivisionByZero => "division by zero",
-            _ => "the result is not a finite number",
-        };
+        let what = error_words(e.kind);
         let context = match prod {
-            Some((p, params, _)) => {
-                format!(" of the production of line {} for {}", p.line, self.format_module(p.pred, params))
-            }
+            Some((p, params)) => format!(
+                " of the production of line {} for {}",
+                p.line,
+                self.format_module(p.pred, &params[..p.arity.min(params.len())])
+            ),
             None => String::new(),
         };
         self.source.error(e.kind, e.at as usize, 1, &format!("{what} while {doing}{context}"), what)
     }
 
     fn budget_error(&self, step: u32, opts: &DeriveOptions, len: usize) -> Box<LsystemError> {
-        let e = self
-            .source
-            .error_nowhere(
-                ErrorKind::Budget,
-                &format!(
-                    "derivation step {step} of {} exceeds the module budget: more than {} modules (reached {len})",
-                    opts.steps, opts.budget
-                ),
-            );
+        let e = self.source.error_nowhere(
+            ErrorKind::Budget,
+            &format!(
+                "derivation step {step} of {} exceeds the module budget: more than {} modules (reached {len})",
+                opts.steps, opts.budget
+            ),
+        );
         e.with_help("derive fewer steps (-n) or raise the limit with --set generator.max_modules=N")
     }
 
@@ -341,18 +674,17 @@ impl LSystem {
     pub fn interpretation<'m>(
         &self,
         m: &'m ModuleString,
-        seed: u64,
+        ev: &mut Evaluator,
         budget: usize,
     ) -> Result<std::borrow::Cow<'m, ModuleString>, Box<LsystemError>> {
-        if self.homomorphism.is_empty() {
+        if self.homomorphism.productions.is_empty() {
             return Ok(std::borrow::Cow::Borrowed(m));
         }
-        let mut ev = Evaluator::new(seed ^ 0x9e37_79b9_7f4a_7c15);
         let mut out = ModuleString::with_capacity(m.len(), m.params.len());
-        let mut args = Vec::new();
+        let mut scratch = Vec::new();
         for i in 0..m.len() {
             let (sym, params) = m.module(i);
-            self.expand(sym, params, 0, &mut out, &mut ev, &mut args, i)?;
+            self.expand(&self.homomorphism, "homomorphism", sym, params, 0, &mut out, ev, &mut scratch)?;
             if out.len() > budget {
                 let e = self.source.error_nowhere(
                     ErrorKind::Budget,
@@ -362,39 +694,6 @@ impl LSystem {
             }
         }
         Ok(std::borrow::Cow::Owned(out))
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn expand(
-        &self,
-        sym: u16,
-        params: &[f64],
-        depth: u32,
-        out: &mut ModuleString,
-        ev: &mut Evaluator,
-        args: &mut Vec<f64>,
-        i: usize,
-    ) -> Result<(), Box<LsystemError>> {
-        let prods = &self.homomorphism_by_symbol[sym as usize];
-        let chosen = if depth >= self.homomorphism_depth || prods.is_empty() {
-            None
-        } else {
-            self.choose(&self.homomorphism, prods, params, ev, i)?
-        };
-        let Some(p) = chosen else {
-            out.push(sym, params);
-            return Ok(());
-        };
-        if depth + 1 >= self.homomorphism_depth {
-            return self.emit(p, params, out, ev, args);
-        }
-        let mut tmp = ModuleString::new();
-        self.emit(p, params, &mut tmp, ev, args)?;
-        for k in 0..tmp.len() {
-            let (s2, p2) = tmp.module(k);
-            self.expand(s2, p2, depth + 1, out, ev, args, i)?;
-        }
-        Ok(())
     }
 
     /// One module as text: `A(1,0.5)`.
@@ -505,11 +804,42 @@ mod tests {
         let t = "Lsystem: 1\nAxiom: a\na --> b[a]a\nb --> bb\nhomomorphism\na --> F(0.5)\nb --> F(1)\nendlsystem\n";
         let (ls, m) = derive(t, 1);
         assert_eq!(ls.format(&m), "b[a]a");
-        let i = ls.interpretation(&m, 1, 100).unwrap();
+        let i = ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap();
         assert_eq!(ls.format(&i), "F(1)[F(0.5)]F(0.5)");
-        let t = "Lsystem: 1\nAxiom: a\nhomomorphism\nmaximum depth: 3\na --> aa\nendlsystem\n";
+        // Depth 3: a -> bb -> cccc -> FFFF.
+        let t =
+            "Lsystem: 1\nAxiom: a\nhomomorphism\nmaximum depth: 3\na --> bb\nb --> cc\nc --> F\nendlsystem\n";
         let (ls, m) = derive(t, 0);
-        assert_eq!(ls.interpretation(&m, 1, 100).unwrap().len(), 8);
+        assert_eq!(ls.format(&ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap()), "FFFF");
+        // Depth 2 is too shallow: an error naming the module.
+        let (ls, m) = derive(&t.replace("depth: 3", "depth: 2"), 0);
+        let e = ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap_err();
+        assert!(
+            e.message.contains("module c still has a homomorphism production at the maximum depth 2"),
+            "{}",
+            e.message
+        );
+        // Without `maximum depth:` the homomorphism is a single substitution.
+        let t = "Lsystem: 1\nAxiom: a\nhomomorphism\na --> aa\nendlsystem\n";
+        let (ls, m) = derive(t, 0);
+        assert_eq!(ls.format(&ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap()), "aa");
+    }
+
+    #[test]
+    fn decomposition_depth_three() {
+        // Decomposition runs on the axiom and after every step, recursively.
+        let t = "Lsystem: 1\nAxiom: A\nA --> B\ndecomposition\nmaximum depth: 3\nA --> X[Y]\nB --> CC\nC --> DE\nD --> G\nendlsystem\n";
+        let (ls, m) = derive(t, 0);
+        assert_eq!(ls.format(&m), "X[Y]");
+        let (ls, m) = derive(t, 1);
+        assert_eq!(ls.format(&m), "X[Y]");
+        let t2 = t.replace("Axiom: A", "Axiom: B");
+        let (ls, m) = derive(&t2, 0);
+        assert_eq!(ls.format(&m), "GEGE");
+        let t3 = t2.replace("depth: 3", "depth: 2");
+        let ls = LSystem::parse("t.l", &t3, &[]).unwrap();
+        let e = ls.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap_err();
+        assert!(e.message.contains("module D still has a decomposition production"), "{}", e.message);
     }
 
     #[test]

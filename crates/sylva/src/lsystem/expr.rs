@@ -5,12 +5,87 @@
 //! Functions as in cpfg: trigonometry in **degrees** (`sin cos tan` take degrees,
 //! `asin acos atan atan2` return degrees), `sqrt exp log log10 pow floor ceil trunc abs
 //! fabs sign min max`, and the random functions `ran(x)` (uniform in [0, x)) and
-//! `nran(mean, sd)` (normal), drawn from the derivation's seeded generator.
+//! `nran(mean, sd)` (normal), `bran(a, b)` (beta), `biran(n, p)` (binomial), `srand(s)`,
+//! drawn from the derivation's seeded generator, `func(id, x)` (cpfg function files)
+//! and `printf(...)` (accepted, prints nothing).
+//!
+//! Statements (cpfg's `{ ... }` blocks) compile to the same bytecode: assignments to
+//! parameters or global variables (`x = e;`, `a[i][j] = e;`, `+= -= *= /=`),
+//! `if (c) s else s`, `while (c) s`, `do s while (c);`, expression statements and
+//! `array name[n][m] = { ... };` declarations (collected beforehand by the parser).
 //! Seed 002 §2.4 (parametric productions) and ABOP ch. 1.10 define the use.
 
 use super::source::{ErrorKind, LsystemError, Source};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// A global variable or array of the L-system (`Define:` arrays, variables assigned in
+/// statement blocks).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Global {
+    /// First slot in the global table.
+    pub index: u32,
+    /// Array dimensions (empty for a scalar).
+    pub dims: Vec<u32>,
+}
+
+/// The global variables of an L-system: names, slots and initial values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Globals {
+    /// Name → slot(s).
+    pub names: HashMap<String, Global>,
+    /// Initial values of every slot.
+    pub init: Vec<f64>,
+}
+
+impl Globals {
+    /// Declares a scalar (no-op if it exists) and returns it.
+    pub fn scalar(&mut self, name: &str) -> &Global {
+        let n = self.init.len() as u32;
+        self.names.entry(name.to_string()).or_insert_with(|| Global { index: n, dims: Vec::new() });
+        if self.names[name].index == n && self.names[name].dims.is_empty() && self.init.len() as u32 == n {
+            self.init.push(0.0);
+        }
+        &self.names[name]
+    }
+
+    /// Declares an array with the given dimensions and initial values (zero-padded).
+    pub fn array(&mut self, name: &str, dims: Vec<u32>, values: &[f64]) -> Result<(), String> {
+        let len: u64 = dims.iter().map(|&d| d as u64).product();
+        if len == 0 || len > 1 << 24 {
+            return Err(format!("array `{name}` has {len} elements (allowed 1..16777216)"));
+        }
+        if values.len() as u64 > len {
+            return Err(format!("array `{name}` has {len} elements but {} initial values", values.len()));
+        }
+        let index = self.init.len() as u32;
+        self.init.extend_from_slice(values);
+        self.init.resize(index as usize + len as usize, 0.0);
+        self.names.insert(name.to_string(), Global { index, dims });
+        Ok(())
+    }
+}
+
+/// What names an expression can see.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Scope<'a> {
+    /// Formal parameter names, loaded by position.
+    pub locals: &'a [String],
+    /// Global variables, if the L-system has any.
+    pub globals: Option<&'a Globals>,
+}
+
+impl<'a> Scope<'a> {
+    /// A scope of formal parameters and globals.
+    pub fn new(locals: &'a [String], globals: &'a Globals) -> Self {
+        Scope { locals, globals: Some(globals) }
+    }
+}
+
+/// A function of one variable from a cpfg function file, for `func(id, x)`.
+pub type Function = Arc<dyn Fn(f64) -> f64 + Send + Sync>;
 
 /// Built-in functions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,6 +132,14 @@ pub enum Func {
     Ran,
     /// Normal random number with mean and standard deviation.
     Nran,
+    /// Beta-distributed random number in [0, 1] with shape parameters a, b.
+    Bran,
+    /// Binomial random number: successes in n trials of probability p.
+    Biran,
+    /// Reseed the generator; returns 0.
+    Srand,
+    /// `func(id, x)`: function `id` (1-based) of the model's function files at x.
+    UserFunc,
 }
 
 impl Func {
@@ -84,6 +167,10 @@ impl Func {
             "max" => (Max, 2),
             "ran" => (Ran, 1),
             "nran" => (Nran, 2),
+            "bran" => (Bran, 2),
+            "biran" => (Biran, 2),
+            "srand" => (Srand, 1),
+            "func" => (UserFunc, 2),
             _ => return None,
         })
     }
@@ -134,9 +221,79 @@ pub enum Op {
     Jump(u32),
     /// Replace the top by 0 or 1.
     ToBool,
-    /// Call a function (its arguments are on the stack).
-    Call(Func),
+    /// Call a function (its arguments are on the stack); payload: source offset.
+    Call(Func, u32),
+    /// Push global slot k.
+    LoadGlobal(u32),
+    /// Pop into global slot k.
+    StoreGlobal(u32),
+    /// Pop into local (parameter) slot k.
+    StoreLocal(u16),
+    /// Pop an index i; push global slot base + i (bounds-checked against len).
+    LoadGlobalAt {
+        /// First slot of the array.
+        base: u32,
+        /// Number of elements.
+        len: u32,
+        /// Source offset, for the error.
+        at: u32,
+    },
+    /// Pop a value, then an index i; store into global slot base + i.
+    StoreGlobalAt {
+        /// First slot of the array.
+        base: u32,
+        /// Number of elements.
+        len: u32,
+        /// Source offset, for the error.
+        at: u32,
+    },
+    /// Discard the top of the stack.
+    Pop,
+    /// Count a loop iteration; error past the limit (payload: source offset).
+    LoopGuard(u32),
+    /// Duplicate the top of the stack.
+    Dup,
+    /// Swap the two top values.
+    Swap,
 }
+
+/// Where an assignment stores.
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    Local(u16),
+    Global(u32),
+    GlobalAt { base: u32, len: u32, at: u32 },
+}
+
+/// Access to the local slots during evaluation: read-only for plain expressions,
+/// writable for statement blocks.
+trait Slots {
+    fn get(&self, k: usize) -> f64;
+    fn set(&mut self, k: usize, v: f64);
+}
+
+impl Slots for &[f64] {
+    #[inline]
+    fn get(&self, k: usize) -> f64 {
+        self[k]
+    }
+    #[inline]
+    fn set(&mut self, _: usize, _: f64) {}
+}
+
+impl Slots for &mut [f64] {
+    #[inline]
+    fn get(&self, k: usize) -> f64 {
+        self[k]
+    }
+    #[inline]
+    fn set(&mut self, k: usize, v: f64) {
+        self[k] = v;
+    }
+}
+
+/// Most iterations one statement block's loops may run.
+pub const LOOP_LIMIT: u64 = 10_000_000;
 
 /// A compiled expression with its place in the source.
 #[derive(Debug, Clone, PartialEq)]
@@ -158,18 +315,45 @@ pub struct EvalError {
     pub at: u32,
 }
 
-/// The mutable state of evaluation: the operand stack and the seeded generator.
-#[derive(Debug, Clone)]
+/// The mutable state of evaluation: the operand stack, the seeded generator, the
+/// global variables and the function table.
+#[derive(Clone)]
 pub struct Evaluator {
     stack: Vec<f64>,
     /// The generator behind `ran`, `nran` and stochastic productions.
     pub rng: Pcg64,
+    /// Current values of the global variables.
+    pub globals: Vec<f64>,
+    /// Functions for `func(id, x)`, id 1-based.
+    pub functions: Vec<Function>,
+    loops: u64,
+}
+
+impl std::fmt::Debug for Evaluator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Evaluator")
+            .field("globals", &self.globals)
+            .field("functions", &self.functions.len())
+            .finish()
+    }
 }
 
 impl Evaluator {
     /// An evaluator whose random draws come from `seed`.
     pub fn new(seed: u64) -> Self {
-        Evaluator { stack: Vec::with_capacity(64), rng: Pcg64::seed_from_u64(seed) }
+        Evaluator {
+            stack: Vec::with_capacity(64),
+            rng: Pcg64::seed_from_u64(seed),
+            globals: Vec::new(),
+            functions: Vec::new(),
+            loops: 0,
+        }
+    }
+
+    /// Runs a statement block, which may assign to `locals` and to globals.
+    pub fn exec(&mut self, e: &Expr, locals: &mut [f64]) -> Result<(), EvalError> {
+        self.loops = 0;
+        self.run(e, locals).map(|_| ())
     }
 
     /// A uniform number in [0, 1).
@@ -186,6 +370,7 @@ impl Evaluator {
             [Op::Load(k)] => locals[*k as usize],
             _ => self.run(e, locals)?,
         };
+        let _ = &self.loops;
         if v.is_finite() {
             Ok(v)
         } else {
@@ -193,9 +378,10 @@ impl Evaluator {
         }
     }
 
-    fn run(&mut self, e: &Expr, locals: &[f64]) -> Result<f64, EvalError> {
+    fn run<S: Slots>(&mut self, e: &Expr, mut locals: S) -> Result<f64, EvalError> {
         let st = &mut self.stack;
         st.clear();
+        let globals = &mut self.globals;
         let ops = &e.ops;
         let mut pc = 0usize;
         macro_rules! bin {
@@ -209,7 +395,7 @@ impl Evaluator {
         while pc < ops.len() {
             match ops[pc] {
                 Op::Const(c) => st.push(c),
-                Op::Load(k) => st.push(locals[k as usize]),
+                Op::Load(k) => st.push(locals.get(k as usize)),
                 Op::Neg => {
                     if let Some(a) = st.last_mut() {
                         *a = -*a
@@ -273,9 +459,57 @@ impl Evaluator {
                     pc = t as usize;
                     continue;
                 }
-                Op::Call(f) => {
-                    let v = call(f, st, &mut self.rng);
+                Op::Call(f, at) => {
+                    let v = call(f, st, &mut self.rng, &self.functions)
+                        .ok_or(EvalError { kind: ErrorKind::UndefinedName, at })?;
                     st.push(v);
+                }
+                Op::LoadGlobal(k) => st.push(globals.get(k as usize).copied().unwrap_or(0.0)),
+                Op::StoreGlobal(k) => {
+                    let v = st.pop().unwrap_or(0.0);
+                    if let Some(g) = globals.get_mut(k as usize) {
+                        *g = v;
+                    }
+                }
+                Op::StoreLocal(k) => {
+                    let v = st.pop().unwrap_or(0.0);
+                    locals.set(k as usize, v);
+                }
+                Op::LoadGlobalAt { base, len, at } => {
+                    let i = st.pop().unwrap_or(0.0).floor();
+                    if !(0.0..len as f64).contains(&i) {
+                        return Err(EvalError { kind: ErrorKind::OutOfRange, at });
+                    }
+                    st.push(globals.get(base as usize + i as usize).copied().unwrap_or(0.0));
+                }
+                Op::StoreGlobalAt { base, len, at } => {
+                    let v = st.pop().unwrap_or(0.0);
+                    let i = st.pop().unwrap_or(0.0).floor();
+                    if !(0.0..len as f64).contains(&i) {
+                        return Err(EvalError { kind: ErrorKind::OutOfRange, at });
+                    }
+                    if let Some(g) = globals.get_mut(base as usize + i as usize) {
+                        *g = v;
+                    }
+                }
+                Op::Pop => {
+                    st.pop();
+                }
+                Op::Dup => {
+                    let v = st.last().copied().unwrap_or(0.0);
+                    st.push(v);
+                }
+                Op::Swap => {
+                    let n = st.len();
+                    if n >= 2 {
+                        st.swap(n - 1, n - 2);
+                    }
+                }
+                Op::LoopGuard(at) => {
+                    self.loops += 1;
+                    if self.loops > LOOP_LIMIT {
+                        return Err(EvalError { kind: ErrorKind::OutOfRange, at });
+                    }
                 }
             }
             pc += 1;
@@ -295,11 +529,41 @@ fn pow(a: f64, b: f64) -> f64 {
     }
 }
 
-fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64) -> f64 {
+/// A standard normal draw (Box–Muller; 1 − u keeps the logarithm's argument in (0, 1]).
+fn normal(rng: &mut Pcg64) -> f64 {
+    let u1 = 1.0 - rng.random::<f64>();
+    let u2 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A Gamma(k, 1) draw (Marsaglia–Tsang), k > 0.
+fn gamma(k: f64, rng: &mut Pcg64) -> f64 {
+    if k < 1.0 {
+        let u = 1.0 - rng.random::<f64>();
+        return gamma(k + 1.0, rng) * u.powf(1.0 / k);
+    }
+    let d = k - 1.0 / 3.0;
+    let c = 1.0 / (9.0 * d).sqrt();
+    for _ in 0..1000 {
+        let x = normal(rng);
+        let v = (1.0 + c * x).powi(3);
+        if v <= 0.0 {
+            continue;
+        }
+        let u = 1.0 - rng.random::<f64>();
+        if u.ln() < 0.5 * x * x + d - d * v + d * v.ln() {
+            return d * v;
+        }
+    }
+    d
+}
+
+/// Calls a built-in; `None` when `func` names a function the model does not have.
+fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, functions: &[Function]) -> Option<f64> {
     use Func::*;
     let mut pop = || st.pop().unwrap_or(0.0);
     let d = std::f64::consts::PI / 180.0;
-    match f {
+    Some(match f {
         Sin => (pop() * d).sin(),
         Cos => (pop() * d).cos(),
         Tan => (pop() * d).tan(),
@@ -346,41 +610,175 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64) -> f64 {
         Nran => {
             let sd = pop();
             let mean = pop();
-            // Box–Muller; 1 − u keeps the logarithm's argument in (0, 1].
-            let u1 = 1.0 - rng.random::<f64>();
-            let u2 = rng.random::<f64>();
-            mean + sd * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+            mean + sd * normal(rng)
         }
-    }
+        Bran => {
+            let b = pop();
+            let a = pop();
+            if !(a > 0.0 && b > 0.0) {
+                return Some(f64::NAN);
+            }
+            let x = gamma(a, rng);
+            let y = gamma(b, rng);
+            x / (x + y)
+        }
+        Biran => {
+            let p = pop();
+            let n = pop().clamp(0.0, 1e6) as u64;
+            (0..n).filter(|_| rng.random::<f64>() < p).count() as f64
+        }
+        Srand => {
+            let s = pop();
+            *rng = Pcg64::seed_from_u64(s as i64 as u64);
+            0.0
+        }
+        UserFunc => {
+            let x = pop();
+            let id = pop();
+            let k = id as i64 - 1;
+            if k < 0 || k as usize >= functions.len() {
+                return None;
+            }
+            (functions[k as usize])(x)
+        }
+    })
 }
 
 /// Compiles the expression text `src.text[start..end]`, resolving identifiers against
-/// `params` (formal parameter names, loaded by position).
-pub fn compile(src: &Source, start: usize, end: usize, params: &[String]) -> Result<Expr, Box<LsystemError>> {
-    let mut p = Parser { src, s: src.text.as_bytes(), pos: start, end, params, ops: Vec::new() };
+/// `scope` (formal parameters by position, then globals).
+pub fn compile(src: &Source, start: usize, end: usize, scope: &Scope) -> Result<Expr, Box<LsystemError>> {
+    let mut p = Parser::new(src, start, end, scope);
     p.skip_ws();
     if p.pos >= end {
         return Err(src.error(ErrorKind::Syntax, start, 1, "empty expression", "expected a value"));
     }
     p.ternary()?;
-    p.skip_ws();
-    if p.pos < end {
-        return Err(src.error(
-            ErrorKind::Syntax,
-            p.pos,
-            1,
-            &format!("unexpected `{}` in expression", p.s[p.pos] as char),
-            "unexpected",
-        ));
-    }
+    p.expect_end()?;
     let mut e = Expr { ops: p.ops, at: start as u32, len: (end - start) as u32 };
     fold_constants(&mut e);
     Ok(e)
 }
 
-/// Replaces an expression without parameters or random calls by its value.
+/// An array declaration's dimension texts and initial value texts.
+pub type ArrayDecl = (Vec<String>, Vec<String>);
+
+/// Compiles a statement block `{ ... }` (braces included) on `src.text[start..end]`.
+pub fn compile_block(
+    src: &Source,
+    start: usize,
+    end: usize,
+    scope: &Scope,
+) -> Result<Expr, Box<LsystemError>> {
+    let mut p = Parser::new(src, start, end, scope);
+    p.statement()?;
+    p.expect_end()?;
+    Ok(Expr { ops: p.ops, at: start as u32, len: (end - start) as u32 })
+}
+
+/// Assignment targets and array declarations in a statement block's text, in order:
+/// (name, `Some(dims, values)` for arrays). Used by the parser to declare globals
+/// before compiling. `params` are excluded (assigning to them stays local).
+pub fn declared_names(text: &str, params: &[String]) -> Vec<(String, Option<ArrayDecl>)> {
+    let b: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    let ident_at = |i: usize| i < b.len() && (b[i].is_ascii_alphabetic() || b[i] == '_');
+    while i < b.len() {
+        if b[i] == '"' {
+            i += 1;
+            while i < b.len() && b[i] != '"' {
+                i += 1;
+            }
+            i += 1;
+            continue;
+        }
+        if !ident_at(i) || (i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == '_' || b[i - 1] == '.'))
+        {
+            i += 1;
+            continue;
+        }
+        let st = i;
+        while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
+            i += 1;
+        }
+        let name: String = b[st..i].iter().collect();
+        let skip_ws = |mut j: usize| {
+            while j < b.len() && b[j].is_whitespace() {
+                j += 1;
+            }
+            j
+        };
+        if name == "array" {
+            let j = skip_ws(i);
+            let ns = j;
+            let mut k = j;
+            while k < b.len() && (b[k].is_ascii_alphanumeric() || b[k] == '_') {
+                k += 1;
+            }
+            let aname: String = b[ns..k].iter().collect();
+            let mut dims = Vec::new();
+            let mut k2 = skip_ws(k);
+            while k2 < b.len() && b[k2] == '[' {
+                let close = (k2..b.len()).find(|&q| b[q] == ']').unwrap_or(b.len());
+                dims.push(b[k2 + 1..close.min(b.len())].iter().collect::<String>());
+                k2 = skip_ws(close + 1);
+            }
+            let mut values = Vec::new();
+            if k2 < b.len() && b[k2] == '=' {
+                let open = (k2..b.len()).find(|&q| b[q] == '{');
+                if let Some(open) = open {
+                    let close = (open..b.len()).find(|&q| b[q] == '}').unwrap_or(b.len());
+                    let body: String = b[open + 1..close.min(b.len())].iter().collect();
+                    values =
+                        body.split(',').map(|v| v.trim().to_string()).filter(|v| !v.is_empty()).collect();
+                    k2 = close + 1;
+                }
+            }
+            out.push((aname, Some((dims, values))));
+            i = k2;
+            continue;
+        }
+        // name, optional [..] indices, then `=` (not `==`) or an op-assign.
+        let mut j = skip_ws(i);
+        while j < b.len() && b[j] == '[' {
+            let mut depth = 0;
+            while j < b.len() {
+                if b[j] == '[' {
+                    depth += 1;
+                } else if b[j] == ']' {
+                    depth -= 1;
+                    if depth == 0 {
+                        break;
+                    }
+                }
+                j += 1;
+            }
+            j = skip_ws(j + 1);
+        }
+        let assign = j < b.len()
+            && ((b[j] == '=' && b.get(j + 1) != Some(&'='))
+                || (matches!(b[j], '+' | '-' | '*' | '/') && b.get(j + 1) == Some(&'=')));
+        if assign && !params.contains(&name) && !out.iter().any(|(n, _)| *n == name) {
+            out.push((name, None));
+        }
+    }
+    out
+}
+
+/// Replaces an expression without parameters, globals or random calls by its value.
 fn fold_constants(e: &mut Expr) {
-    let pure = e.ops.iter().all(|op| !matches!(op, Op::Load(_) | Op::Call(Func::Ran) | Op::Call(Func::Nran)));
+    let pure = e.ops.iter().all(|op| {
+        !matches!(
+            op,
+            Op::Load(_)
+                | Op::LoadGlobal(_)
+                | Op::LoadGlobalAt { .. }
+                | Op::Call(
+                    Func::Ran | Func::Nran | Func::Bran | Func::Biran | Func::Srand | Func::UserFunc,
+                    _
+                )
+        )
+    });
     if pure && e.ops.len() > 1 {
         if let Ok(v) = Evaluator::new(0).eval(e, &[]) {
             e.ops = vec![Op::Const(v)];
@@ -393,13 +791,266 @@ struct Parser<'a> {
     s: &'a [u8],
     pos: usize,
     end: usize,
-    params: &'a [String],
+    scope: &'a Scope<'a>,
     ops: Vec<Op>,
 }
 
 type PResult = Result<(), Box<LsystemError>>;
 
-impl Parser<'_> {
+impl<'a> Parser<'a> {
+    fn new(src: &'a Source, start: usize, end: usize, scope: &'a Scope<'a>) -> Self {
+        Parser { src, s: src.text.as_bytes(), pos: start, end, scope, ops: Vec::new() }
+    }
+
+    fn expect_end(&mut self) -> PResult {
+        self.skip_ws();
+        if self.pos < self.end {
+            return Err(self.src.error(
+                ErrorKind::Syntax,
+                self.pos,
+                1,
+                &format!("unexpected `{}`", self.s[self.pos] as char),
+                "unexpected",
+            ));
+        }
+        Ok(())
+    }
+
+    fn ident(&mut self) -> Option<(usize, &'a str)> {
+        self.skip_ws();
+        let start = self.pos;
+        if start < self.end && (self.s[start].is_ascii_alphabetic() || self.s[start] == b'_') {
+            let mut p = start;
+            while p < self.end && (self.s[p].is_ascii_alphanumeric() || self.s[p] == b'_') {
+                p += 1;
+            }
+            self.pos = p;
+            let s: &'a [u8] = self.s;
+            return Some((start, std::str::from_utf8(&s[start..p]).unwrap_or("")));
+        }
+        None
+    }
+
+    fn expect(&mut self, tok: &str, what: &str) -> PResult {
+        if self.eat(tok) {
+            Ok(())
+        } else {
+            Err(self.err(
+                self.pos.min(self.end.saturating_sub(1)),
+                &format!("expected `{tok}` {what}"),
+                "here",
+            ))
+        }
+    }
+
+    fn peek_word(&mut self, w: &str) -> bool {
+        self.skip_ws();
+        let b = w.as_bytes();
+        self.s[self.pos..self.end].starts_with(b)
+            && self.s.get(self.pos + b.len()).is_none_or(|c| !(c.is_ascii_alphanumeric() || *c == b'_'))
+    }
+
+    /// Resolves an assignable name; for arrays, parses the indices and leaves the flat
+    /// index on the stack. `None` when the name is not assignable (a function call).
+    fn lvalue(&mut self, name: &str, at: usize) -> Result<Option<Target>, Box<LsystemError>> {
+        if let Some(k) = self.scope.locals.iter().position(|p| p == name) {
+            return Ok(Some(Target::Local(k as u16)));
+        }
+        let Some(g) = self.scope.globals.and_then(|g| g.names.get(name)).cloned() else {
+            return Ok(None);
+        };
+        if g.dims.is_empty() {
+            return Ok(Some(Target::Global(g.index)));
+        }
+        self.indices(name, &g.dims, at)?;
+        let len = g.dims.iter().product();
+        Ok(Some(Target::GlobalAt { base: g.index, len, at: at as u32 }))
+    }
+
+    /// Parses `[i][j]…` for an array of `dims` and pushes the flat index.
+    fn indices(&mut self, name: &str, dims: &[u32], at: usize) -> PResult {
+        for (k, _) in dims.iter().enumerate() {
+            if !self.eat("[") {
+                return Err(self.src.error(
+                    ErrorKind::Syntax,
+                    at,
+                    name.len(),
+                    &format!("array `{name}` needs {} index(es)", dims.len()),
+                    "array",
+                ));
+            }
+            self.ternary()?;
+            self.expect("]", "closing the array index")?;
+            self.ops.push(Op::Call(Func::Floor, at as u32));
+            let _ = k;
+        }
+        // Combine: the indices i0..in are on the stack; fold them left to right.
+        if dims.len() > 1 {
+            // Re-emit as: ((i0 * d1 + i1) * d2 + i2) ...; done with a small shuffle:
+            // the stack holds [i0, i1, ..., in]; fold from the top using Horner with
+            // precomputed strides instead.
+            let n = dims.len();
+            let mut strides = vec![1u32; n];
+            for k in (0..n - 1).rev() {
+                strides[k] = strides[k + 1] * dims[k + 1];
+            }
+            // Stack: [i0, i1, ..., i_{n-1}] → multiply each by its stride and add.
+            // Emit: for k from n-1 down to 1: (top * stride_k) then add to the one below
+            // after scaling it... Simpler: Horner from the top requires reordering, so we
+            // scale as we go: top = i_{n-1} * s_{n-1}; then Add with i_{n-2} scaled…
+            self.ops.push(Op::Const(strides[n - 1] as f64));
+            self.ops.push(Op::Mul);
+            for k in (0..n - 1).rev() {
+                // stack: [..., i_k, partial]; compute i_k * s_k + partial.
+                self.ops.push(Op::Swap);
+                self.ops.push(Op::Const(strides[k] as f64));
+                self.ops.push(Op::Mul);
+                self.ops.push(Op::Add);
+            }
+        }
+        Ok(())
+    }
+
+    fn load_target(&mut self, t: &Target) {
+        match *t {
+            Target::Local(k) => self.ops.push(Op::Load(k)),
+            Target::Global(i) => self.ops.push(Op::LoadGlobal(i)),
+            Target::GlobalAt { base, len, at } => {
+                self.ops.push(Op::Dup);
+                self.ops.push(Op::LoadGlobalAt { base, len, at });
+            }
+        }
+    }
+
+    fn store_target(&mut self, t: Target) {
+        self.ops.push(match t {
+            Target::Local(k) => Op::StoreLocal(k),
+            Target::Global(i) => Op::StoreGlobal(i),
+            Target::GlobalAt { base, len, at } => Op::StoreGlobalAt { base, len, at },
+        });
+    }
+
+    /// One statement (or a `{ }` block of them).
+    fn statement(&mut self) -> PResult {
+        self.skip_ws();
+        if self.eat("{") {
+            loop {
+                self.skip_ws();
+                if self.pos >= self.end {
+                    return Err(self.err(
+                        self.end.saturating_sub(1),
+                        "unclosed `{` in statement block",
+                        "here",
+                    ));
+                }
+                if self.eat("}") {
+                    return Ok(());
+                }
+                self.statement()?;
+            }
+        }
+        if self.eat(";") {
+            return Ok(());
+        }
+        let save = self.pos;
+        let Some((at, word)) = self.ident() else {
+            self.ternary()?;
+            self.ops.push(Op::Pop);
+            return self.expect(";", "after the statement");
+        };
+        match word {
+            "if" => {
+                self.expect("(", "after `if`")?;
+                self.ternary()?;
+                self.expect(")", "closing the `if` condition")?;
+                let jf = self.ops.len();
+                self.ops.push(Op::JumpIfFalse(0));
+                self.statement()?;
+                if self.peek_word("else") {
+                    self.ident();
+                    let j = self.ops.len();
+                    self.ops.push(Op::Jump(0));
+                    self.ops[jf] = Op::JumpIfFalse(self.ops.len() as u32);
+                    self.statement()?;
+                    self.ops[j] = Op::Jump(self.ops.len() as u32);
+                } else {
+                    self.ops[jf] = Op::JumpIfFalse(self.ops.len() as u32);
+                }
+                Ok(())
+            }
+            "while" => {
+                let top = self.ops.len();
+                self.expect("(", "after `while`")?;
+                self.ternary()?;
+                self.expect(")", "closing the `while` condition")?;
+                let jf = self.ops.len();
+                self.ops.push(Op::JumpIfFalse(0));
+                self.ops.push(Op::LoopGuard(at as u32));
+                self.statement()?;
+                self.ops.push(Op::Jump(top as u32));
+                self.ops[jf] = Op::JumpIfFalse(self.ops.len() as u32);
+                Ok(())
+            }
+            "do" => {
+                let top = self.ops.len();
+                self.ops.push(Op::LoopGuard(at as u32));
+                self.statement()?;
+                if !self.peek_word("while") {
+                    return Err(self.err(self.pos, "expected `while` after a `do` block", "here"));
+                }
+                self.ident();
+                self.expect("(", "after `while`")?;
+                self.ternary()?;
+                self.expect(")", "closing the `while` condition")?;
+                self.ops.push(Op::Not);
+                self.ops.push(Op::JumpIfFalse(top as u32));
+                self.expect(";", "after `do ... while (...)`")
+            }
+            "array" => {
+                // Declared (and initialised) by the parser beforehand; skip to `;`.
+                while self.pos < self.end && self.s[self.pos] != b';' {
+                    self.pos += 1;
+                }
+                self.expect(";", "after the array declaration")
+            }
+            _ => {
+                // Assignment or expression statement.
+                let name = word.to_string();
+                let mark = self.ops.len();
+                let target = self.lvalue(&name, at)?;
+                self.skip_ws();
+                let op =
+                    [("+=", Op::Add), ("-=", Op::Sub), ("*=", Op::Mul), ("/=", Op::Div(self.pos as u32))]
+                        .into_iter()
+                        .find(|(t, _)| self.s[self.pos..self.end].starts_with(t.as_bytes()));
+                let plain = self.pos < self.end
+                    && self.s[self.pos] == b'='
+                    && self.s.get(self.pos + 1) != Some(&b'=');
+                match (target, op, plain) {
+                    (Some(t), Some((tok, op)), _) => {
+                        self.pos += tok.len();
+                        self.load_target(&t);
+                        self.ternary()?;
+                        self.ops.push(op);
+                        self.store_target(t);
+                    }
+                    (Some(t), None, true) => {
+                        self.pos += 1;
+                        self.ternary()?;
+                        self.store_target(t);
+                    }
+                    _ => {
+                        self.pos = save;
+                        self.ops.truncate(mark);
+                        self.ternary()?;
+                        self.ops.push(Op::Pop);
+                    }
+                }
+                self.expect(";", "after the statement")
+            }
+        }
+    }
+
     fn skip_ws(&mut self) {
         while self.pos < self.end && (self.s[self.pos] as char).is_ascii_whitespace() {
             self.pos += 1;
@@ -593,23 +1244,47 @@ impl Parser<'_> {
             {
                 self.pos += 1;
             }
-            let name = std::str::from_utf8(&self.s[start..self.pos]).unwrap_or("");
+            let s: &'a [u8] = self.s;
+            let name = std::str::from_utf8(&s[start..self.pos]).unwrap_or("");
             if self.peek() == Some(b'(') {
                 return self.call(name, start);
             }
-            if let Some(k) = self.params.iter().position(|p| p == name) {
+            if let Some(k) = self.scope.locals.iter().position(|p| p == name) {
                 self.ops.push(Op::Load(k as u16));
                 return Ok(());
             }
-            let what = if self.params.is_empty() {
-                format!("undefined name `{name}`: not a constant (#define) here")
+            if let Some(g) = self.scope.globals.and_then(|g| g.names.get(name)).cloned() {
+                if g.dims.is_empty() {
+                    self.ops.push(Op::LoadGlobal(g.index));
+                } else {
+                    self.indices(name, &g.dims, start)?;
+                    let len = g.dims.iter().product();
+                    self.ops.push(Op::LoadGlobalAt { base: g.index, len, at: start as u32 });
+                }
+                return Ok(());
+            }
+            let what = if self.scope.locals.is_empty() {
+                format!("undefined name `{name}`: not a parameter, variable or constant (#define) here")
             } else {
                 format!(
                     "undefined parameter `{name}`: the predecessor's parameters are {}",
-                    self.params.join(", ")
+                    self.scope.locals.join(", ")
                 )
             };
             return Err(self.src.error(ErrorKind::UndefinedName, start, name.len(), &what, "undefined"));
+        }
+        if c == b'"' {
+            // A string literal (printf's format): skipped, worth 0.
+            self.pos += 1;
+            while self.pos < self.end && self.s[self.pos] != b'"' {
+                self.pos += 1;
+            }
+            if self.pos >= self.end {
+                return Err(self.err(start, "unclosed string literal", "opened here"));
+            }
+            self.pos += 1;
+            self.ops.push(Op::Const(0.0));
+            return Ok(());
         }
         Err(self.err(start, &format!("unexpected `{}` in expression", c as char), "expected a value"))
     }
@@ -651,6 +1326,41 @@ impl Parser<'_> {
     }
 
     fn call(&mut self, name: &str, start: usize) -> PResult {
+        if name == "printf" || name == "fprintf" {
+            // Accepted for compatibility; prints nothing, evaluates to 0.
+            self.pos += 1;
+            let mut n = 0;
+            if !self.eat(")") {
+                loop {
+                    self.ternary()?;
+                    n += 1;
+                    if self.eat(",") {
+                        continue;
+                    }
+                    self.expect(")", &format!("closing `{name}(`"))?;
+                    break;
+                }
+            }
+            for _ in 0..n {
+                self.ops.push(Op::Pop);
+            }
+            self.ops.push(Op::Const(0.0));
+            return Ok(());
+        }
+        const CPFG_ONLY: &[&str] = &[
+            "curveX", "curveY", "curveZ", "curveGAL", "curve", "tfunc", "inblob", "fopen", "fclose",
+            "fscanf", "fflush", "vvXmin", "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale",
+            "stop",
+        ];
+        if CPFG_ONLY.contains(&name) {
+            return Err(self.src.error(
+                ErrorKind::Unsupported,
+                start,
+                name.len(),
+                &format!("unsupported: cpfg function `{name}`"),
+                "not supported",
+            ));
+        }
         let Some((f, arity)) = Func::lookup(name) else {
             return Err(self.src.error(
                 ErrorKind::UndefinedName,
@@ -684,7 +1394,7 @@ impl Parser<'_> {
                 "wrong number of arguments",
             ));
         }
-        self.ops.push(Op::Call(f));
+        self.ops.push(Op::Call(f, start as u32));
         Ok(())
     }
 }
@@ -695,7 +1405,9 @@ mod tests {
 
     fn ev(text: &str) -> f64 {
         let src = Source::new("t.l", text, &[]).unwrap();
-        let e = compile(&src, 0, src.text.trim_end().len(), &["x".into(), "y".into()]).unwrap();
+        let names = ["x".to_string(), "y".to_string()];
+        let e =
+            compile(&src, 0, src.text.trim_end().len(), &Scope { locals: &names, globals: None }).unwrap();
         Evaluator::new(1).eval(&e, &[2.0, 3.0]).unwrap()
     }
 
@@ -729,24 +1441,85 @@ mod tests {
     #[test]
     fn errors_are_located() {
         let src = Source::new("t.l", "x / (y - 3)", &[]).unwrap();
-        let e = compile(&src, 0, src.text.len(), &["x".into(), "y".into()]).unwrap();
+        let xy = ["x".to_string(), "y".to_string()];
+        let e = compile(&src, 0, src.text.len(), &Scope { locals: &xy, globals: None }).unwrap();
         let err = Evaluator::new(1).eval(&e, &[1.0, 3.0]).unwrap_err();
         assert_eq!(err.kind, ErrorKind::DivisionByZero);
         assert_eq!(err.at, 2);
         let src = Source::new("t.l", "q + 1", &[]).unwrap();
-        let err = compile(&src, 0, src.text.len(), &["x".into()]).unwrap_err();
+        let x = ["x".to_string()];
+        let err = compile(&src, 0, src.text.len(), &Scope { locals: &x, globals: None }).unwrap_err();
         assert_eq!(err.kind, ErrorKind::UndefinedName);
         let src = Source::new("t.l", "sin(1, 2)", &[]).unwrap();
-        assert_eq!(compile(&src, 0, src.text.len(), &[]).unwrap_err().kind, ErrorKind::Arity);
+        assert_eq!(compile(&src, 0, src.text.len(), &Scope::default()).unwrap_err().kind, ErrorKind::Arity);
         let src = Source::new("t.l", "sqrt(x - 5)", &[]).unwrap();
-        let e = compile(&src, 0, src.text.len(), &["x".into()]).unwrap();
+        let e = compile(&src, 0, src.text.len(), &Scope { locals: &x, globals: None }).unwrap();
         assert_eq!(Evaluator::new(1).eval(&e, &[1.0]).unwrap_err().kind, ErrorKind::NonFinite);
     }
 
     #[test]
     fn constants_fold() {
         let src = Source::new("t.l", "2 * 3 + sin(90)", &[]).unwrap();
-        let e = compile(&src, 0, src.text.len(), &[]).unwrap();
+        let e = compile(&src, 0, src.text.len(), &Scope::default()).unwrap();
         assert_eq!(e.ops, vec![Op::Const(7.0)]);
+    }
+
+    #[test]
+    fn statements_globals_and_arrays() {
+        let text = "{ array a[2][3] = {1,2,3,4,5,6}; n = 0; i = 0; while (i < 3) { n += a[1][i]; i = i + 1; } \
+                    if (n == 15) { x = 1; } else x = 2; do { i -= 1; } while (i > 0); a[0][2] = 9; srand(3); printf(\"%d\", n); }";
+        let src = Source::new("t.l", text, &[]).unwrap();
+        let mut g = Globals::default();
+        for (name, arr) in declared_names(&src.text, &[]) {
+            match arr {
+                Some((dims, vals)) => {
+                    let dims = dims.iter().map(|d| d.trim().parse().unwrap()).collect();
+                    let vals: Vec<f64> = vals.iter().map(|v| v.parse().unwrap()).collect();
+                    g.array(&name, dims, &vals).unwrap();
+                }
+                None => {
+                    g.scalar(&name);
+                }
+            }
+        }
+        let e = compile_block(&src, 0, src.text.trim_end().len(), &Scope::new(&[], &g)).unwrap();
+        let mut ev = Evaluator::new(1);
+        ev.globals = g.init.clone();
+        ev.exec(&e, &mut []).unwrap();
+        let get = |n: &str| ev.globals[g.names[n].index as usize];
+        assert_eq!(get("n"), 15.0);
+        assert_eq!(get("x"), 1.0);
+        assert_eq!(get("i"), 0.0);
+        assert_eq!(ev.globals[g.names["a"].index as usize + 2], 9.0);
+        // Out-of-range index and runaway loops are errors, not panics or hangs.
+        let src = Source::new("t.l", "{ a[5][0] = 1; }", &[]).unwrap();
+        let e = compile_block(&src, 0, src.text.len(), &Scope::new(&[], &g)).unwrap();
+        assert_eq!(ev.exec(&e, &mut []).unwrap_err().kind, ErrorKind::OutOfRange);
+        let src = Source::new("t.l", "{ while (1) { n = n + 1; } }", &[]).unwrap();
+        let e = compile_block(&src, 0, src.text.len(), &Scope::new(&[], &g)).unwrap();
+        assert_eq!(ev.exec(&e, &mut []).unwrap_err().kind, ErrorKind::OutOfRange);
+    }
+
+    #[test]
+    fn parameters_can_be_assigned_in_blocks() {
+        let src = Source::new("t.l", "{ t = t - 1; }", &[]).unwrap();
+        let t = ["t".to_string()];
+        let e = compile_block(&src, 0, src.text.len(), &Scope { locals: &t, globals: None }).unwrap();
+        let mut locals = [5.0];
+        Evaluator::new(1).exec(&e, &mut locals).unwrap();
+        assert_eq!(locals[0], 4.0);
+    }
+
+    #[test]
+    fn random_distributions() {
+        let mut ev = Evaluator::new(7);
+        let src = Source::new("t.l", "bran(2, 5)", &[]).unwrap();
+        let e = compile(&src, 0, src.text.len(), &Scope::default()).unwrap();
+        let mean: f64 = (0..4000).map(|_| ev.eval(&e, &[]).unwrap()).sum::<f64>() / 4000.0;
+        assert!((mean - 2.0 / 7.0).abs() < 0.02, "beta(2,5) mean {mean}");
+        let src = Source::new("t.l", "biran(20, 0.25)", &[]).unwrap();
+        let e = compile(&src, 0, src.text.len(), &Scope::default()).unwrap();
+        let mean: f64 = (0..4000).map(|_| ev.eval(&e, &[]).unwrap()).sum::<f64>() / 4000.0;
+        assert!((mean - 5.0).abs() < 0.2, "binomial mean {mean}");
     }
 }

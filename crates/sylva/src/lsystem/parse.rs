@@ -4,20 +4,30 @@
 //! ```text
 //! #define NAME value
 //! Lsystem: 1
-//! seed: 2454                      (optional)
+//! seed: 2454                        (optional)
 //! derivation length: 10
+//! ignore: +-F                       (or consider: ...; context matching only)
+//! define: { array len[2] = {1, 0.85}; }
+//! Start: { n = 0; }   StartEach: { }   EndEach: { n = n + 1; }   End: { }
 //! Axiom: A(1, 0.3)
-//! A(s,w) : s >= MIN --> !(w)F(s)[+(A1)/(P1)A(s*R1, w*Q^E)][+(A2)/(P2)A(s*R2, w*(1-Q)^E)]
-//! F --> F[+F]F : 0.33             (stochastic: probability after the successor)
+//! A(s,w) : s >= MIN --> !(w)F(s)[+(A1)A(s*R1, w*Q^E)][+(A2)A(s*R2, w*(1-Q)^E)]
+//! b < a > c : {x = 1;} t > 0 {y = 2;} --> a     (contexts and statement blocks)
+//! F --> F[+F]F : 0.33               (stochastic: probability after the successor)
+//! decomposition                     (applied after every step)
+//! maximum depth: 5
+//! homomorphism                      (applied for interpretation only)
 //! endlsystem
 //! ```
 //!
-//! Keywords are case-insensitive, as in cpfg. `*` as a condition means "none"; `*` as a
-//! successor is the empty string. Seed 002 §2 gives the grammars this must read; ABOP
-//! ch. 1 and the cpfg manual give the syntax.
+//! Keywords are case-insensitive, as in cpfg. A production may continue on the
+//! following lines until a blank line, a keyword or the next production. `*` as a
+//! condition means "none"; `*` as a successor is the empty string. Variables assigned in
+//! statement blocks are global, as in cpfg; assignments to a production's parameters are
+//! local to that application. Seed 002 §2 gives the grammars this must read; ABOP ch. 1
+//! and the cpfg manual give the syntax.
 
-use super::expr::{compile, Expr};
-use super::source::{ErrorKind, LsystemError, Source};
+use super::expr::{compile, compile_block, declared_names, Evaluator, Expr, Globals, Scope};
+use super::source::{ErrorKind, IncludeResolver, LsystemError, Source};
 use std::collections::HashMap;
 
 type PResult<T> = Result<T, Box<LsystemError>>;
@@ -73,25 +83,67 @@ pub struct ModuleTemplate {
     pub at: u32,
 }
 
-/// A compiled production `pred : cond --> succ : prob`.
+/// One element of a right context: a module (symbol, parameter count) or a bracket.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContextItem {
+    /// A module with this many parameters, bound to consecutive local slots.
+    Module(u16, usize),
+    /// `[`: the context continues inside a branch.
+    Open,
+    /// `]`: the context continues after the end of the current branch.
+    Close,
+}
+
+/// A compiled production `lc < pred > rc : {pre} cond {post} --> succ : prob`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Production {
     /// Strict predecessor symbol.
     pub pred: u16,
-    /// Formal parameter names of the predecessor.
+    /// Number of parameters of the predecessor (its first local slots).
+    pub arity: usize,
+    /// All local names: predecessor parameters, then left- and right-context parameters.
     pub params: Vec<String>,
+    /// Left context modules in string order (symbol, parameter count).
+    pub left: Vec<(u16, usize)>,
+    /// Right context in string order.
+    pub right: Vec<ContextItem>,
+    /// Statements run before the condition.
+    pub pre: Option<Expr>,
     /// Condition, if any.
     pub cond: Option<Expr>,
+    /// Statements run after a true condition.
+    pub post: Option<Expr>,
     /// Successor modules.
     pub succ: Vec<ModuleTemplate>,
     /// Probability weight for stochastic productions.
     pub prob: Option<Expr>,
     /// Offset of the production's first character in the preprocessed source.
     pub at: u32,
-    /// Length of the production's line.
+    /// Length of the production's text.
     pub len: u32,
-    /// 1-based line of the production in the original file.
+    /// 1-based line of the production in its file.
     pub line: usize,
+}
+
+impl Production {
+    /// True when the production needs a locals buffer (contexts or statements) instead
+    /// of reading the module's parameters in place.
+    pub fn needs_buffer(&self) -> bool {
+        !self.left.is_empty() || !self.right.is_empty() || self.pre.is_some() || self.post.is_some()
+    }
+}
+
+/// Productions of one section, indexed by predecessor symbol.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RuleSet {
+    /// Productions in file order.
+    pub productions: Vec<Production>,
+    /// For each symbol id, the indices of its productions in file order.
+    pub by_symbol: Vec<Vec<u32>>,
+    /// Recursion depth (`maximum depth:`, default 1).
+    pub max_depth: u32,
+    /// True when the file gave `maximum depth:`; then exceeding it is an error.
+    pub depth_explicit: bool,
 }
 
 /// A parsed and compiled L-system.
@@ -101,22 +153,36 @@ pub struct LSystem {
     pub source: Source,
     /// Interned module names.
     pub symbols: Symbols,
+    /// Global variables and arrays.
+    pub globals: Globals,
     /// The axiom.
     pub axiom: Vec<ModuleTemplate>,
-    /// Productions in file order.
+    /// Productions in file order (kept as a field for direct access).
     pub productions: Vec<Production>,
     /// For each symbol id, the indices of its productions in file order.
     pub by_symbol: Vec<Vec<u32>>,
+    /// Decomposition productions, applied after every derivation step.
+    pub decomposition: RuleSet,
+    /// Homomorphism productions, applied for interpretation only.
+    pub homomorphism: RuleSet,
+    /// Per symbol: skipped during context matching (`ignore:` / `consider:`).
+    pub context_skip: Vec<bool>,
+    /// True when some production has a context.
+    pub has_context: bool,
     /// Derivation length from the file (`derivation length:`), 0 when absent.
     pub derivation_length: u32,
     /// Seed from the file (`seed:`), if given.
     pub seed: Option<u64>,
-    /// Homomorphism productions (applied for interpretation only), in file order.
-    pub homomorphism: Vec<Production>,
-    /// For each symbol id, the indices of its homomorphism productions.
-    pub homomorphism_by_symbol: Vec<Vec<u32>>,
-    /// Recursion depth of the homomorphism (`maximum depth:`, default 1).
-    pub homomorphism_depth: u32,
+    /// `define:` block (array declarations and assignments), run first.
+    pub define_block: Option<Expr>,
+    /// `Start:` block, run before the derivation.
+    pub start: Option<Expr>,
+    /// `StartEach:` block, run before every step.
+    pub start_each: Option<Expr>,
+    /// `EndEach:` block, run after every step.
+    pub end_each: Option<Expr>,
+    /// `End:` block, run after the derivation.
+    pub end: Option<Expr>,
 }
 
 /// Modules that have a fixed maximum number of parameters in the turtle.
@@ -128,77 +194,388 @@ fn turtle_max_arity(name: &str) -> Option<usize> {
     })
 }
 
+/// Which section productions go to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Section {
+    Productions,
+    Decomposition,
+    Homomorphism,
+}
+
+/// One logical item of the file: a keyword line, a block or a production.
+#[derive(Debug, Clone)]
+enum Item {
+    Keyword { kw: Kw, value: usize, end: usize, at: usize },
+    Block { kw: Kw, start: usize, end: usize, at: usize },
+    Production { start: usize, end: usize },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kw {
+    Lsystem,
+    Seed,
+    DerivationLength,
+    Axiom,
+    Ignore,
+    Consider,
+    EndLsystem,
+    Homomorphism,
+    Decomposition,
+    MaximumDepth,
+    Define,
+    Start,
+    StartEach,
+    EndEach,
+    End,
+    Warnings,
+}
+
+/// Keywords in matching order (longer names first where one is a prefix of another).
+const KEYWORDS: &[(&str, Kw, bool)] = &[
+    ("lsystem", Kw::Lsystem, true),
+    ("seed", Kw::Seed, true),
+    ("derivation length", Kw::DerivationLength, true),
+    ("axiom", Kw::Axiom, true),
+    ("ignore", Kw::Ignore, true),
+    ("consider", Kw::Consider, true),
+    ("endlsystem", Kw::EndLsystem, false),
+    ("homomorphism", Kw::Homomorphism, false),
+    ("decomposition", Kw::Decomposition, false),
+    ("maximum depth", Kw::MaximumDepth, true),
+    ("define", Kw::Define, true),
+    ("starteach", Kw::StartEach, true),
+    ("start", Kw::Start, true),
+    ("endeach", Kw::EndEach, true),
+    ("end", Kw::End, true),
+    ("warnings", Kw::Warnings, false),
+];
+
+/// Recognises a keyword at the start of `line` (already trimmed). Returns the keyword
+/// and the byte offset (within `line`) where its value starts.
+fn keyword(line: &str) -> Option<(Kw, usize)> {
+    let lower = line.to_ascii_lowercase();
+    for &(name, kw, colon) in KEYWORDS {
+        let Some(rest) = lower.strip_prefix(name) else { continue };
+        let trimmed = rest.trim_start();
+        if colon {
+            if let Some(v) = trimmed.strip_prefix(':') {
+                return Some((kw, line.len() - v.len()));
+            }
+        } else if trimmed.is_empty() || trimmed.starts_with(':') {
+            return Some((kw, line.len()));
+        } else if kw == Kw::Homomorphism || kw == Kw::Decomposition {
+            // `homomorphism warnings` / trailing words are tolerated.
+            if trimmed.chars().all(|c| c.is_ascii_alphabetic() || c.is_whitespace()) {
+                return Some((kw, line.len()));
+            }
+        }
+    }
+    None
+}
+
+/// Finds the production arrow outside parentheses: `-->`, else `->`.
+fn arrow(text: &str) -> Option<(usize, usize)> {
+    top_level_find_str(text, "-->").map(|a| (a, 3)).or_else(|| top_level_find_str(text, "->").map(|a| (a, 2)))
+}
+
 impl LSystem {
     /// Parses an L-system file. `name` is used in messages; `defines` override the
     /// file's `#define` values.
     pub fn parse(name: &str, text: &str, defines: &[(String, String)]) -> PResult<LSystem> {
-        let source = Source::new(name, text, defines)?;
+        Self::parse_with(name, text, defines, &|_| None)
+    }
+
+    /// Like [`LSystem::parse`], resolving `#include` through `resolve`.
+    pub fn parse_with(
+        name: &str,
+        text: &str,
+        defines: &[(String, String)],
+        resolve: IncludeResolver,
+    ) -> PResult<LSystem> {
+        let source = Source::with_includes(name, text, defines, resolve)?;
         let mut ls = LSystem {
             source,
             symbols: Symbols::default(),
+            globals: Globals::default(),
             axiom: Vec::new(),
             productions: Vec::new(),
             by_symbol: Vec::new(),
+            decomposition: RuleSet { max_depth: 1, ..Default::default() },
+            homomorphism: RuleSet { max_depth: 1, ..Default::default() },
+            context_skip: Vec::new(),
+            has_context: false,
             derivation_length: 0,
             seed: None,
-            homomorphism: Vec::new(),
-            homomorphism_by_symbol: Vec::new(),
-            homomorphism_depth: 1,
+            define_block: None,
+            start: None,
+            start_each: None,
+            end_each: None,
+            end: None,
         };
-        ls.parse_lines()?;
-        let index = |prods: &[Production], n: usize| {
+        let items = ls.items()?;
+        ls.declare_globals(&items)?;
+        ls.compile_items(&items)?;
+        let n = ls.symbols.len();
+        let index = |prods: &[Production]| {
             let mut by = vec![Vec::new(); n];
             for (k, p) in prods.iter().enumerate() {
                 by[p.pred as usize].push(k as u32);
             }
             by
         };
-        ls.by_symbol = index(&ls.productions, ls.symbols.len());
-        ls.homomorphism_by_symbol = index(&ls.homomorphism, ls.symbols.len());
+        ls.by_symbol = index(&ls.productions);
+        ls.decomposition.by_symbol = index(&ls.decomposition.productions);
+        ls.homomorphism.by_symbol = index(&ls.homomorphism.productions);
+        ls.context_skip.resize(n, false);
+        ls.has_context = ls.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
         Ok(ls)
     }
 
-    fn parse_lines(&mut self) -> PResult<()> {
+    /// Groups the preprocessed text into keyword lines, blocks and productions.
+    fn items(&self) -> PResult<Vec<Item>> {
+        let text = &self.source.text;
+        let mut lines: Vec<(usize, usize)> = Vec::new(); // (start, end) of trimmed content
+        let mut off = 0;
+        for raw in text.split_inclusive('\n') {
+            let t = raw.trim_end();
+            let lead = t.len() - t.trim_start().len();
+            lines.push((off + lead, off + t.len()));
+            off += raw.len();
+        }
+        let mut items = Vec::new();
+        let mut i = 0;
+        while i < lines.len() {
+            let (s, e) = lines[i];
+            if s >= e {
+                i += 1;
+                continue;
+            }
+            let line = &text[s..e];
+            if let Some((kw, v)) = keyword(line) {
+                let value = s + v;
+                if matches!(kw, Kw::Define | Kw::Start | Kw::StartEach | Kw::EndEach | Kw::End) {
+                    // A block: from the value to where its braces balance.
+                    let (bend, next) = self.block_extent(value, &lines, i)?;
+                    items.push(Item::Block { kw, start: value, end: bend, at: s });
+                    i = next;
+                    continue;
+                }
+                i += 1;
+                items.push(Item::Keyword { kw, value, end: e, at: s });
+                continue;
+            }
+            if arrow(line).is_some() {
+                let mut end = e;
+                i += 1;
+                while i < lines.len() && self.is_continuation(lines[i]) {
+                    end = lines[i].1;
+                    i += 1;
+                }
+                items.push(Item::Production { start: s, end });
+                continue;
+            }
+            return Err(self.source.error(
+                ErrorKind::Syntax,
+                s,
+                e - s,
+                "expected a production `predecessor --> successor` or a keyword",
+                "not a production",
+            ));
+        }
+        Ok(items)
+    }
+
+    /// True when a line continues the previous production.
+    fn is_continuation(&self, (s, e): (usize, usize)) -> bool {
+        if s >= e {
+            return false;
+        }
+        let line = &self.source.text[s..e];
+        keyword(line).is_none() && arrow(line).is_none()
+    }
+
+    /// End offset of a `{ ... }` block starting at `value`, and the index of the line
+    /// after it.
+    fn block_extent(&self, value: usize, lines: &[(usize, usize)], i: usize) -> PResult<(usize, usize)> {
+        let text = self.source.text.as_bytes();
+        let mut depth = 0i32;
+        let mut seen = false;
+        let mut k = value;
+        let last = lines.last().map(|l| l.1).unwrap_or(text.len());
+        while k < text.len().min(last.max(value)) {
+            match text[k] {
+                b'{' => {
+                    depth += 1;
+                    seen = true;
+                }
+                b'}' => {
+                    depth -= 1;
+                    if depth == 0 && seen {
+                        let next =
+                            lines.iter().position(|&(_, e)| e > k).map(|p| p + 1).unwrap_or(lines.len());
+                        // Anything after the block on its line is a syntax error.
+                        let line_end = lines[next - 1].1;
+                        let rest = self.source.text[k + 1..line_end].trim();
+                        if !rest.is_empty() {
+                            return Err(self.source.error(
+                                ErrorKind::Syntax,
+                                k + 1,
+                                1,
+                                "unexpected text after a statement block",
+                                "here",
+                            ));
+                        }
+                        return Ok((k + 1, next));
+                    }
+                }
+                b'"' => {
+                    k += 1;
+                    while k < text.len() && text[k] != b'"' {
+                        k += 1;
+                    }
+                }
+                _ => {}
+            }
+            k += 1;
+        }
+        let _ = i;
+        if !seen {
+            return Err(self.source.error(ErrorKind::Syntax, value, 1, "expected a `{ ... }` block", "here"));
+        }
+        Err(self.source.error(ErrorKind::Syntax, value, 1, "unclosed `{` in statement block", "opened here"))
+    }
+
+    /// Declares every global: arrays of `define:` and names assigned in any block.
+    fn declare_globals(&mut self, items: &[Item]) -> PResult<()> {
+        let mut blocks: Vec<(usize, usize, Vec<String>)> = Vec::new();
+        for it in items {
+            match *it {
+                Item::Block { start, end, .. } => blocks.push((start, end, Vec::new())),
+                Item::Production { start, end } => {
+                    let (lhs_end, _) = match arrow(&self.source.text[start..end]) {
+                        Some((a, _)) => (start + a, 0),
+                        None => continue,
+                    };
+                    let lhs = &self.source.text[start..lhs_end];
+                    if lhs.contains('{') {
+                        let params = self.lhs_param_names(start, lhs_end);
+                        blocks.push((start, lhs_end, params));
+                    }
+                }
+                _ => {}
+            }
+        }
+        for (start, end, params) in blocks {
+            let text = self.source.text[start..end].to_string();
+            for (name, arr) in declared_names(&text, &params) {
+                match arr {
+                    None => {
+                        self.globals.scalar(&name);
+                    }
+                    Some((dims, values)) => {
+                        let at = start + text.find(&name).unwrap_or(0);
+                        let consts = |v: &[String], what: &str| -> PResult<Vec<f64>> {
+                            v.iter()
+                                .map(|t| {
+                                    let tmp = Source::new(&self.source.name, t, &[])?;
+                                    let e = compile(&tmp, 0, tmp.text.len(), &Scope::default()).map_err(
+                                        |_| {
+                                            self.source.error(
+                                                ErrorKind::Syntax,
+                                                at,
+                                                name.len(),
+                                                &format!("array `{name}`: {what} `{t}` is not a constant"),
+                                                "array",
+                                            )
+                                        },
+                                    )?;
+                                    Evaluator::new(0).eval(&e, &[]).map_err(|_| {
+                                        self.source.error(
+                                            ErrorKind::NonFinite,
+                                            at,
+                                            name.len(),
+                                            &format!("array `{name}`: bad {what} `{t}`"),
+                                            "array",
+                                        )
+                                    })
+                                })
+                                .collect()
+                        };
+                        let dims: Vec<u32> = consts(&dims, "dimension")?
+                            .into_iter()
+                            .map(|d| if (1.0..=1e7).contains(&d) { d as u32 } else { 0 })
+                            .collect();
+                        let values = consts(&values, "initial value")?;
+                        self.globals.array(&name, dims, &values).map_err(|why| {
+                            self.source.error(ErrorKind::OutOfRange, at, name.len(), &why, "array")
+                        })?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Parameter names of a production's predecessor and contexts (for excluding them
+    /// from globals).
+    fn lhs_param_names(&self, start: usize, lhs_end: usize) -> Vec<String> {
+        let lhs = &self.source.text[start..lhs_end];
+        let pred_part = match top_level_find(lhs, b':') {
+            Some(c) => &lhs[..c],
+            None => lhs,
+        };
+        let mut names = Vec::new();
+        let b = pred_part.as_bytes();
+        let mut depth = 0;
+        let mut cur = String::new();
+        for &c in b {
+            match c {
+                b'(' => {
+                    depth += 1;
+                    cur.clear();
+                }
+                b')' | b',' if depth > 0 => {
+                    if !cur.trim().is_empty() {
+                        names.push(cur.trim().to_string());
+                    }
+                    cur.clear();
+                    if c == b')' {
+                        depth -= 1;
+                    }
+                }
+                _ if depth > 0 => cur.push(c as char),
+                _ => {}
+            }
+        }
+        names
+    }
+
+    fn compile_items(&mut self, items: &[Item]) -> PResult<()> {
         #[derive(PartialEq)]
         enum State {
             Before,
             Inside,
             After,
         }
-        let text = self.source.text.clone();
         let mut state = State::Before;
+        let mut section = Section::Productions;
         let mut seen_axiom = false;
-        let mut in_homomorphism = false;
-        let mut offset = 0usize;
-        for raw in text.split_inclusive('\n') {
-            let line_start = offset;
-            offset += raw.len();
-            let line = raw.trim_end();
-            let lead = line.len() - line.trim_start().len();
-            let line = line.trim_start();
-            if line.is_empty() {
-                continue;
-            }
-            let at = line_start + lead;
-            let lower = line.to_ascii_lowercase();
-            let keyword = |k: &str| -> Option<usize> {
-                // `keyword:` with optional spaces before the colon; returns the value offset.
-                let rest = lower.strip_prefix(k)?;
-                let trimmed = rest.trim_start();
-                let colon = trimmed.strip_prefix(':')?;
-                Some(at + line.len() - colon.len())
+        let mut ignore: Option<(Vec<String>, bool, usize)> = None;
+        for it in items {
+            let (at, kw) = match *it {
+                Item::Keyword { at, kw, .. } | Item::Block { at, kw, .. } => (at, Some(kw)),
+                Item::Production { start, .. } => (start, None),
             };
-            if let Some(v) = keyword("lsystem") {
-                if state == State::Inside {
+            if kw == Some(Kw::Lsystem) {
+                if state != State::Before {
                     return Err(self.source.error(
                         ErrorKind::Unsupported,
                         at,
-                        line.len(),
+                        8,
                         "unsupported: a second `Lsystem:` block (sub-L-systems)",
                         "second L-system",
                     ));
                 }
-                let _ = v;
                 state = State::Inside;
                 continue;
             }
@@ -208,95 +585,96 @@ impl LSystem {
                 } else {
                     "text after `endlsystem`"
                 };
-                return Err(self.source.error(ErrorKind::Syntax, at, line.len(), what, "here"));
+                return Err(self.source.error(ErrorKind::Syntax, at, 1, what, "here"));
             }
-            if lower.starts_with("endlsystem") {
-                state = State::After;
-                continue;
-            }
-            if let Some(v) = keyword("derivation length") {
-                let n = self.constant(v, line_start + raw.trim_end().len(), "derivation length")?;
-                if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
-                    return Err(self.source.error(
-                        ErrorKind::Syntax,
-                        v,
-                        line.len(),
-                        &format!("derivation length must be a whole number 0..1000000, got {n}"),
-                        "bad derivation length",
-                    ));
+            match it {
+                Item::Production { start, end } => {
+                    let p = self.production(*start, *end, section)?;
+                    match section {
+                        Section::Productions => self.productions.push(p),
+                        Section::Decomposition => self.decomposition.productions.push(p),
+                        Section::Homomorphism => self.homomorphism.productions.push(p),
+                    }
                 }
-                self.derivation_length = n as u32;
-                continue;
-            }
-            if let Some(v) = keyword("seed") {
-                let n = self.constant(v, line_start + raw.trim_end().len(), "seed")?;
-                self.seed = Some(n.abs() as u64);
-                continue;
-            }
-            if let Some(v) = keyword("axiom") {
-                let end = line_start + raw.trim_end().len();
-                self.axiom = self.module_string(v, end, &[])?;
-                seen_axiom = true;
-                continue;
-            }
-            if lower.starts_with("homomorphism")
-                && lower["homomorphism".len()..].trim_start_matches(':').trim().is_empty()
-            {
-                in_homomorphism = true;
-                continue;
-            }
-            if let Some(v) = keyword("maximum depth") {
-                if !in_homomorphism {
-                    return Err(self.source.error(
-                        ErrorKind::Syntax,
-                        at,
-                        line.len(),
-                        "`maximum depth:` belongs to a homomorphism or decomposition section",
-                        "here",
-                    ));
+                Item::Block { kw, start, end, .. } => {
+                    let scope = Scope::new(&[], &self.globals);
+                    let e = compile_block(&self.source, *start, *end, &scope)?;
+                    let slot = match kw {
+                        Kw::Define => &mut self.define_block,
+                        Kw::Start => &mut self.start,
+                        Kw::StartEach => &mut self.start_each,
+                        Kw::EndEach => &mut self.end_each,
+                        _ => &mut self.end,
+                    };
+                    *slot = Some(e);
                 }
-                let n = self.constant(v, line_start + raw.trim_end().len(), "maximum depth")?;
-                if !(1.0..=1000.0).contains(&n) {
-                    return Err(self.source.error(
-                        ErrorKind::Syntax,
-                        v,
-                        line.len(),
-                        &format!("maximum depth must be 1..1000, got {n}"),
-                        "bad depth",
-                    ));
+                Item::Keyword { kw, value, end, at } => {
+                    let (value, end, at) = (*value, *end, *at);
+                    match kw {
+                        Kw::EndLsystem => state = State::After,
+                        Kw::DerivationLength => {
+                            let n = self.constant(value, end, "derivation length")?;
+                            if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
+                                return Err(self.source.error(
+                                    ErrorKind::Syntax,
+                                    value,
+                                    end - value,
+                                    &format!("derivation length must be a whole number 0..1000000, got {n}"),
+                                    "bad derivation length",
+                                ));
+                            }
+                            self.derivation_length = n as u32;
+                        }
+                        Kw::Seed => {
+                            let n = self.constant(value, end, "seed")?;
+                            self.seed = Some(n.abs() as u64);
+                        }
+                        Kw::Axiom => {
+                            self.axiom = self.module_string(value, end, &[])?;
+                            seen_axiom = true;
+                        }
+                        Kw::Ignore | Kw::Consider => {
+                            let names = self.symbol_list(value, end)?;
+                            ignore = Some((names, *kw == Kw::Ignore, at));
+                        }
+                        Kw::Homomorphism => section = Section::Homomorphism,
+                        Kw::Decomposition => section = Section::Decomposition,
+                        Kw::MaximumDepth => {
+                            let rules =
+                                match section {
+                                    Section::Homomorphism => &self.homomorphism,
+                                    Section::Decomposition => &self.decomposition,
+                                    Section::Productions => return Err(self.source.error(
+                                        ErrorKind::Syntax,
+                                        at,
+                                        end - at,
+                                        "`maximum depth:` belongs to a homomorphism or decomposition section",
+                                        "here",
+                                    )),
+                                };
+                            let _ = rules;
+                            let n = self.constant(value, end, "maximum depth")?;
+                            if !(1.0..=10000.0).contains(&n) {
+                                return Err(self.source.error(
+                                    ErrorKind::Syntax,
+                                    value,
+                                    end - value,
+                                    &format!("maximum depth must be 1..10000, got {n}"),
+                                    "bad depth",
+                                ));
+                            }
+                            let rules = if section == Section::Homomorphism {
+                                &mut self.homomorphism
+                            } else {
+                                &mut self.decomposition
+                            };
+                            rules.max_depth = n as u32;
+                            rules.depth_explicit = true;
+                        }
+                        Kw::Warnings => {}
+                        Kw::Lsystem | Kw::Define | Kw::Start | Kw::StartEach | Kw::EndEach | Kw::End => {}
+                    }
                 }
-                self.homomorphism_depth = n as u32;
-                continue;
-            }
-            if keyword("ignore").is_some() || keyword("consider").is_some() {
-                // Only context-sensitive productions read these lists, and those are
-                // rejected below; accepting the line keeps context-free models loading.
-                continue;
-            }
-            for (k, what) in [
-                ("decomposition", "decomposition sections"),
-                ("define", "`Define:` blocks"),
-                ("startEach", "`StartEach:` blocks"),
-                ("endEach", "`EndEach:` blocks"),
-                ("start", "`Start:` blocks"),
-                ("end", "`End:` blocks"),
-            ] {
-                let kl = k.to_ascii_lowercase();
-                if lower.starts_with(&kl) && (lower.len() == kl.len() || keyword(&kl).is_some()) {
-                    return Err(self.source.error(
-                        ErrorKind::Unsupported,
-                        at,
-                        k.len(),
-                        &format!("unsupported: {what}"),
-                        "not supported yet",
-                    ));
-                }
-            }
-            let p = self.production(at, line_start + raw.trim_end().len())?;
-            if in_homomorphism {
-                self.homomorphism.push(p);
-            } else {
-                self.productions.push(p);
             }
         }
         if state == State::Before {
@@ -305,86 +683,251 @@ impl LSystem {
         if !seen_axiom {
             return Err(self.source.error_nowhere(ErrorKind::Syntax, "the L-system has no `Axiom:`"));
         }
+        if let Some((names, is_ignore, _)) = ignore {
+            let n = self.symbols.len();
+            let listed: Vec<bool> =
+                (0..n).map(|i| names.iter().any(|s| s == self.symbols.name(i as u16))).collect();
+            self.context_skip = (0..n)
+                .map(|i| {
+                    let name = self.symbols.name(i as u16);
+                    if name == "[" || name == "]" {
+                        false
+                    } else if is_ignore {
+                        listed[i]
+                    } else {
+                        !listed[i]
+                    }
+                })
+                .collect();
+        }
         Ok(())
     }
 
+    /// Symbols listed after `ignore:` / `consider:` (module names, no parameters).
+    fn symbol_list(&mut self, start: usize, end: usize) -> PResult<Vec<String>> {
+        let text = self.source.text.clone();
+        let mut out = Vec::new();
+        let mut i = skip_ws(text.as_bytes(), start, end);
+        while i < end {
+            let (name, next) = symbol_at(&text, i, end);
+            self.check_symbol(&name, i)?;
+            self.intern(&name, i)?;
+            out.push(name);
+            i = skip_ws(text.as_bytes(), next, end);
+        }
+        Ok(out)
+    }
+
     fn constant(&self, start: usize, end: usize, what: &str) -> PResult<f64> {
-        let e = compile(&self.source, start, end, &[])?;
-        let mut ev = super::expr::Evaluator::new(0);
+        let e = compile(&self.source, start, end, &Scope::default())?;
+        let mut ev = Evaluator::new(0);
         ev.eval(&e, &[]).map_err(|_| {
             self.source.error(ErrorKind::NonFinite, start, end - start, &format!("bad {what}"), "here")
         })
     }
 
     /// Parses a production on `text[start..end]`.
-    fn production(&mut self, start: usize, end: usize) -> PResult<Production> {
-        let text = &self.source.text[start..end];
-        let Some((arrow, alen)) =
-            text.find("-->").map(|a| (a, 3)).or_else(|| text.find("->").map(|a| (a, 2)))
-        else {
-            return Err(self.source.error(
-                ErrorKind::Syntax,
-                start,
-                end - start,
-                "expected a production `predecessor --> successor`",
-                "no `-->` on this line",
-            ));
+    fn production(&mut self, start: usize, end: usize, section: Section) -> PResult<Production> {
+        let text = self.source.text.clone();
+        let Some((arrow_at, alen)) = arrow(&text[start..end]) else {
+            return Err(self.source.error(ErrorKind::Syntax, start, end - start, "expected `-->`", "here"));
         };
-        let lhs_end = start + arrow;
+        let lhs_end = start + arrow_at;
         let rhs_start = lhs_end + alen;
         // Left-hand side: `pred` or `pred : cond`.
-        let (pred_end, cond) = match top_level_find(&self.source.text[start..lhs_end], b':') {
+        let (pred_end, cond_range) = match top_level_find(&text[start..lhs_end], b':') {
             Some(c) => (start + c, Some((start + c + 1, lhs_end))),
             None => (lhs_end, None),
         };
-        let pred_text = &self.source.text[start..pred_end];
-        if top_level_find(pred_text, b'<').is_some() || top_level_find(pred_text, b'>').is_some() {
+        // Contexts: `lc < pred > rc`.
+        let pred_text = &text[start..pred_end];
+        let (lc, strict, rc) = {
+            let lt = top_level_find(pred_text, b'<');
+            let after = lt.map(|l| l + 1).unwrap_or(0);
+            let gt = top_level_find(&pred_text[after..], b'>').map(|g| g + after);
+            let lc = lt.map(|l| (start, start + l));
+            let s0 = start + after;
+            let s1 = gt.map(|g| start + g).unwrap_or(pred_end);
+            let rc = gt.map(|g| (start + g + 1, pred_end));
+            (lc, (s0, s1), rc)
+        };
+        if section != Section::Productions && (lc.is_some() || rc.is_some()) {
             return Err(self.source.error(
                 ErrorKind::Unsupported,
                 start,
                 pred_end - start,
-                "unsupported: context-sensitive productions (`<`, `>`)",
+                "unsupported: context in decomposition or homomorphism productions",
                 "context",
             ));
         }
-        let (pred, params) = self.predecessor(start, pred_end)?;
-        let cond = match cond {
-            Some((a, b)) if self.source.text[a..b].trim() != "*" => {
-                Some(compile(&self.source, a, b, &params)?)
+        let (pred, mut params) = self.predecessor(strict.0, strict.1)?;
+        let arity = params.len();
+        let mut left = Vec::new();
+        if let Some((a, b)) = lc {
+            for (sym, names, at) in self.context_modules(a, b, false)? {
+                match sym {
+                    Some(sym) => {
+                        left.push((sym, names.len()));
+                        self.add_params(&mut params, names, at)?;
+                    }
+                    None => {
+                        return Err(self.source.error(
+                            ErrorKind::Unsupported,
+                            at,
+                            1,
+                            "unsupported: brackets in a left context",
+                            "bracket",
+                        ))
+                    }
+                }
             }
-            _ => None,
-        };
+        }
+        let mut right = Vec::new();
+        if let Some((a, b)) = rc {
+            for (sym, names, at) in self.context_modules(a, b, true)? {
+                match sym {
+                    Some(sym) => {
+                        right.push(ContextItem::Module(sym, names.len()));
+                        self.add_params(&mut params, names, at)?;
+                    }
+                    None if text.as_bytes()[at] == b'[' => right.push(ContextItem::Open),
+                    None => right.push(ContextItem::Close),
+                }
+            }
+        }
+        let scope_globals = self.globals.clone();
+        let scope = Scope::new(&params, &scope_globals);
+        // Condition part: `{pre} cond {post}`.
+        let (mut pre, mut cond, mut post) = (None, None, None);
+        if let Some((a, b)) = cond_range {
+            let bytes = text.as_bytes();
+            let mut i = skip_ws(bytes, a, b);
+            if i < b && bytes[i] == b'{' {
+                let close = matching(bytes, i, b, b'{', b'}').ok_or_else(|| {
+                    self.source.error(ErrorKind::Syntax, i, 1, "unclosed `{` in the condition", "opened here")
+                })?;
+                pre = Some(compile_block(&self.source, i, close + 1, &scope)?);
+                i = close + 1;
+            }
+            let cond_end = top_level_find(&text[i..b], b'{').map(|k| i + k).unwrap_or(b);
+            let ctext = text[i..cond_end].trim();
+            if !ctext.is_empty() && ctext != "*" {
+                cond = Some(compile(&self.source, i, cond_end, &scope)?);
+            }
+            if cond_end < b {
+                let close = matching(bytes, cond_end, b, b'{', b'}').ok_or_else(|| {
+                    self.source.error(
+                        ErrorKind::Syntax,
+                        cond_end,
+                        1,
+                        "unclosed `{` after the condition",
+                        "here",
+                    )
+                })?;
+                post = Some(compile_block(&self.source, cond_end, close + 1, &scope)?);
+                let rest = skip_ws(bytes, close + 1, b);
+                if rest < b {
+                    return Err(self.source.error(
+                        ErrorKind::Syntax,
+                        rest,
+                        b - rest,
+                        "unexpected text after the statement block",
+                        "here",
+                    ));
+                }
+            }
+        }
         // Right-hand side: `succ` or `succ : prob`.
-        let (succ_end, prob) = match top_level_find(&self.source.text[rhs_start..end], b':') {
-            Some(c) => (rhs_start + c, Some(compile(&self.source, rhs_start + c + 1, end, &params)?)),
+        let (succ_end, prob) = match top_level_find(&text[rhs_start..end], b':') {
+            Some(c) => (rhs_start + c, Some(compile(&self.source, rhs_start + c + 1, end, &scope)?)),
             None => (end, None),
         };
-        let succ = if self.source.text[rhs_start..succ_end].trim() == "*" {
+        let succ = if text[rhs_start..succ_end].trim() == "*" {
             Vec::new()
         } else {
             self.module_string(rhs_start, succ_end, &params)?
         };
-        let orig = self.source.original_offset(start);
-        let line = self.source.line_col(orig).0;
-        Ok(Production { pred, params, cond, succ, prob, at: start as u32, len: (end - start) as u32, line })
+        let line = self.source.line_of(start);
+        Ok(Production {
+            pred,
+            arity,
+            params,
+            left,
+            right,
+            pre,
+            cond,
+            post,
+            succ,
+            prob,
+            at: start as u32,
+            len: (end - start) as u32,
+            line,
+        })
     }
 
-    fn predecessor(&mut self, start: usize, end: usize) -> PResult<(u16, Vec<String>)> {
+    fn add_params(&self, params: &mut Vec<String>, names: Vec<String>, at: usize) -> PResult<()> {
+        for n in names {
+            if params.contains(&n) {
+                return Err(self.source.error(
+                    ErrorKind::Syntax,
+                    at,
+                    1,
+                    &format!("parameter `{n}` appears twice in the production"),
+                    "duplicate",
+                ));
+            }
+            params.push(n);
+        }
+        Ok(())
+    }
+
+    /// Modules of a context with formal parameters: (symbol or None for a bracket,
+    /// parameter names, offset).
+    #[allow(clippy::type_complexity)]
+    fn context_modules(
+        &mut self,
+        start: usize,
+        end: usize,
+        brackets: bool,
+    ) -> PResult<Vec<(Option<u16>, Vec<String>, usize)>> {
         let text = self.source.text.clone();
         let s = text.as_bytes();
+        let mut out = Vec::new();
         let mut i = skip_ws(s, start, end);
         if i >= end {
-            return Err(self.source.error(ErrorKind::Syntax, start, 1, "missing predecessor", "here"));
+            return Err(self.source.error(ErrorKind::Syntax, start, 1, "empty context", "here"));
         }
-        let (name, next) = symbol_at(&text, i, end);
+        while i < end {
+            if brackets && (s[i] == b'[' || s[i] == b']') {
+                out.push((None, Vec::new(), i));
+                i = skip_ws(s, i + 1, end);
+                continue;
+            }
+            let (m, names, next) = self.formal_module(&text, i, end)?;
+            out.push((Some(m), names, i));
+            i = skip_ws(s, next, end);
+        }
+        Ok(out)
+    }
+
+    /// A module with formal parameter names at `i`: (symbol, names, end offset).
+    fn formal_module(&mut self, text: &str, i: usize, end: usize) -> PResult<(u16, Vec<String>, usize)> {
+        let s = text.as_bytes();
+        let (name, mut next) = symbol_at(text, i, end);
+        self.check_symbol(&name, i)?;
         let sym = self.intern(&name, i)?;
-        i = next;
         let mut params = Vec::new();
-        if i < end && s[i] == b'(' {
-            let close = matching_paren(s, i, end).ok_or_else(|| {
-                self.source.error(ErrorKind::Syntax, i, 1, "unclosed `(` in predecessor", "opened here")
+        if next < end && s[next] == b'(' {
+            let close = matching(s, next, end, b'(', b')').ok_or_else(|| {
+                self.source.error(
+                    ErrorKind::Syntax,
+                    next,
+                    1,
+                    "unclosed `(` in a production's left side",
+                    "here",
+                )
             })?;
-            for (a, b) in split_args(s, i + 1, close) {
+            for (a, b) in split_args(s, next + 1, close) {
                 let p = text[a..b].trim();
                 let valid = !p.is_empty()
                     && p.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'_')
@@ -393,8 +936,8 @@ impl LSystem {
                     return Err(self.source.error(
                         ErrorKind::Syntax,
                         a,
-                        b - a,
-                        &format!("predecessor parameter `{p}` must be a name"),
+                        (b - a).max(1),
+                        &format!("parameter `{p}` of module `{name}` must be a name"),
                         "formal parameters are names",
                     ));
                 }
@@ -409,9 +952,20 @@ impl LSystem {
                 }
                 params.push(p.to_string());
             }
-            i = close + 1;
+            next = close + 1;
         }
-        let rest = skip_ws(s, i, end);
+        Ok((sym, params, next))
+    }
+
+    fn predecessor(&mut self, start: usize, end: usize) -> PResult<(u16, Vec<String>)> {
+        let text = self.source.text.clone();
+        let s = text.as_bytes();
+        let i = skip_ws(s, start, end);
+        if i >= end {
+            return Err(self.source.error(ErrorKind::Syntax, start, 1, "missing predecessor", "here"));
+        }
+        let (sym, params, next) = self.formal_module(&text, i, end)?;
+        let rest = skip_ws(s, next, end);
         if rest < end {
             return Err(self.source.error(
                 ErrorKind::Syntax,
@@ -430,11 +984,33 @@ impl LSystem {
         })
     }
 
+    /// Rejects module names of cpfg features sylva does not implement.
+    fn check_symbol(&self, name: &str, at: usize) -> PResult<()> {
+        let unsupported = match name {
+            "?E" => Some("environmental program communication module `?E`"),
+            "?P" | "?H" | "?U" | "?L" => Some("turtle query modules (`?P`, `?H`, `?U`, `?L`)"),
+            _ => None,
+        };
+        match unsupported {
+            Some(what) => Err(self.source.error(
+                ErrorKind::Unsupported,
+                at,
+                name.len(),
+                &format!("unsupported: {what}"),
+                "not supported",
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Parses a module string (axiom or successor) on `text[start..end]`.
     fn module_string(&mut self, start: usize, end: usize, params: &[String]) -> PResult<Vec<ModuleTemplate>> {
         let mut out = Vec::new();
-        let s = self.source.text.as_bytes().to_vec();
-        let mut i = skip_ws(&s, start, end);
+        let text = self.source.text.clone();
+        let s = text.as_bytes();
+        let globals = self.globals.clone();
+        let scope = Scope::new(params, &globals);
+        let mut i = skip_ws(s, start, end);
         while i < end {
             let c = s[i];
             if c == b'(' || c == b')' {
@@ -446,13 +1022,14 @@ impl LSystem {
                     "unexpected",
                 ));
             }
-            let (name, next) = symbol_at(&self.source.text, i, end);
+            let (name, next) = symbol_at(&text, i, end);
+            self.check_symbol(&name, i)?;
             let sym = self.intern(&name, i)?;
             let at = i;
             i = next;
             let mut args = Vec::new();
             if i < end && s[i] == b'(' {
-                let close = matching_paren(&s, i, end).ok_or_else(|| {
+                let close = matching(s, i, end, b'(', b')').ok_or_else(|| {
                     self.source.error(
                         ErrorKind::Syntax,
                         i,
@@ -461,8 +1038,8 @@ impl LSystem {
                         "opened here",
                     )
                 })?;
-                for (a, b) in split_args(&s, i + 1, close) {
-                    args.push(compile(&self.source, a, b, params)?);
+                for (a, b) in split_args(s, i + 1, close) {
+                    args.push(compile(&self.source, a, b, &scope)?);
                 }
                 i = close + 1;
             }
@@ -481,7 +1058,7 @@ impl LSystem {
                 }
             }
             out.push(ModuleTemplate { sym, args, at: at as u32 });
-            i = skip_ws(&s, i, end);
+            i = skip_ws(s, i, end);
         }
         Ok(out)
     }
@@ -502,7 +1079,7 @@ const AT_TWO_LETTER: &[&str] = &[
 
 /// Reads one module name starting at byte `i`: a single character, `@X`/`@Xy`, `?X`
 /// (cpfg query and communication modules) or `~x` (named surface).
-fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
+pub fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
     let s = text.as_bytes();
     let c = text[i..].chars().next().unwrap_or(' ');
     let mut j = i + c.len_utf8();
@@ -523,20 +1100,26 @@ fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
     (text[i..j].to_string(), j)
 }
 
-/// Index of the `)` matching the `(` at `open`, within `end`.
-fn matching_paren(s: &[u8], open: usize, end: usize) -> Option<usize> {
+/// Index of the `close` matching the `open` at `at`, within `end`.
+fn matching(s: &[u8], at: usize, end: usize, open: u8, close: u8) -> Option<usize> {
     let mut depth = 0usize;
-    for (k, &c) in s.iter().enumerate().take(end).skip(open) {
-        match c {
-            b'(' => depth += 1,
-            b')' => {
-                depth -= 1;
-                if depth == 0 {
-                    return Some(k);
-                }
+    let mut k = at;
+    while k < end.min(s.len()) {
+        let c = s[k];
+        if c == b'"' {
+            k += 1;
+            while k < end && s[k] != b'"' {
+                k += 1;
             }
-            _ => {}
+        } else if c == open {
+            depth += 1;
+        } else if c == close {
+            depth = depth.saturating_sub(1);
+            if depth == 0 {
+                return Some(k);
+            }
         }
+        k += 1;
     }
     None
 }
@@ -548,8 +1131,8 @@ fn split_args(s: &[u8], start: usize, end: usize) -> Vec<(usize, usize)> {
     let mut a = start;
     for (k, &c) in s.iter().enumerate().take(end).skip(start) {
         match c {
-            b'(' => depth += 1,
-            b')' => depth -= 1,
+            b'(' | b'[' => depth += 1,
+            b')' | b']' => depth -= 1,
             b',' if depth == 0 => {
                 out.push((a, k));
                 a = k + 1;
@@ -561,16 +1144,37 @@ fn split_args(s: &[u8], start: usize, end: usize) -> Vec<(usize, usize)> {
     out
 }
 
-/// Offset of the first `c` outside parentheses.
+/// Offset of the first `c` outside parentheses and braces.
 fn top_level_find(text: &str, c: u8) -> Option<usize> {
     let mut depth = 0i32;
+    let mut braces = 0i32;
     for (k, &b) in text.as_bytes().iter().enumerate() {
         match b {
             b'(' => depth += 1,
             b')' => depth -= 1,
-            _ if b == c && depth == 0 => return Some(k),
+            b'{' if c != b'{' => braces += 1,
+            b'}' if c != b'{' => braces -= 1,
+            _ if b == c && depth == 0 && braces == 0 => return Some(k),
             _ => {}
         }
+    }
+    None
+}
+
+/// Offset of the first `pat` outside parentheses and braces.
+fn top_level_find_str(text: &str, pat: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    let p = pat.as_bytes();
+    let mut depth = 0i32;
+    let mut k = 0;
+    while k + p.len() <= b.len() {
+        match b[k] {
+            b'(' | b'{' => depth += 1,
+            b')' | b'}' => depth -= 1,
+            _ if depth <= 0 && &b[k..k + p.len()] == p => return Some(k),
+            _ => {}
+        }
+        k += 1;
     }
     None
 }
@@ -597,10 +1201,13 @@ mod tests {
 
     #[test]
     fn special_symbols() {
-        let text = "Lsystem: 1\nAxiom: @Ts(1)@O?E(1)~lF\nendlsystem\n";
+        let text = "Lsystem: 1\nAxiom: @Ts(1)@O~lF\nendlsystem\n";
         let ls = LSystem::parse("s.l", text, &[]).unwrap();
         let names: Vec<&str> = ls.axiom.iter().map(|m| ls.symbols.name(m.sym)).collect();
-        assert_eq!(names, vec!["@Ts", "@O", "?E", "~l", "F"]);
+        assert_eq!(names, vec!["@Ts", "@O", "~l", "F"]);
+        let e = LSystem::parse("s.l", "Lsystem: 1\nAxiom: F?E(1)\nendlsystem\n", &[]).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Unsupported);
+        assert!(e.message.contains("s.l:2:9: unsupported: environmental"), "{}", e.message);
     }
 
     #[test]
@@ -610,6 +1217,26 @@ mod tests {
         assert_eq!(ls.seed, Some(5));
         assert!(ls.productions[0].prob.is_some());
         assert!(ls.productions[1].succ.is_empty());
+    }
+
+    #[test]
+    fn multi_line_productions_contexts_and_blocks() {
+        let text = "Lsystem: 1\nignore: +-\nStart: {n = 0;\n  m = 1;}\nAxiom: A(1)\n\
+                    B(x) < A(t) > [C(y)]D : {t = t + 1;} t > 0 {k = t;} -->\n   A(t)\n   B(k)\n\n\
+                    A --> B\nendlsystem\n";
+        let ls = LSystem::parse("c.l", text, &[]).unwrap();
+        assert_eq!(ls.productions.len(), 2);
+        let p = &ls.productions[0];
+        assert_eq!(p.params, vec!["t", "x", "y"]);
+        assert_eq!(p.left.len(), 1);
+        assert_eq!(p.right.len(), 4);
+        assert!(p.pre.is_some() && p.cond.is_some() && p.post.is_some());
+        assert_eq!(p.succ.len(), 2);
+        assert!(ls.globals.names.contains_key("k") && ls.globals.names.contains_key("n"));
+        assert!(!ls.globals.names.contains_key("t"));
+        assert!(ls.start.is_some());
+        let plus = ls.symbols.get("+").unwrap() as usize;
+        assert!(ls.context_skip[plus]);
     }
 
     #[test]
@@ -628,5 +1255,7 @@ mod tests {
         assert!(e.message.contains("Lsystem:"));
         let e = LSystem::parse("e.l", "Lsystem: 1\nA --> B\n", &[]).unwrap_err();
         assert!(e.message.contains("no `Axiom:`"));
+        let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: A\nLsystem: 2\n", &[]).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Unsupported);
     }
 }
