@@ -32,6 +32,8 @@ pub struct Report {
     pub interpret_time: Duration,
     /// Time spent meshing.
     pub mesh_time: Duration,
+    /// Surfaces (`~x`) the model places but no `.s` file provides.
+    pub missing_surfaces: Vec<String>,
 }
 
 /// The products of a run.
@@ -100,8 +102,13 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Skeleton> {
             report.modules = d.string.len();
             let t = Instant::now();
             let shown = d.lsystem.interpretation(&d.string, &mut d.evaluator, g.max_modules)?;
-            let opts =
-                TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
+            let opts = TurtleOptions {
+                angle: g.angle,
+                step: g.step,
+                width: g.width,
+                width_factor: g.width_factor,
+                ..Default::default()
+            };
             let sk = lsystem::interpret(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source)?;
             report.interpret_time = t.elapsed();
             Ok(sk)
@@ -120,8 +127,15 @@ pub fn mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result
     let tube = tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
     report.mesh_time = t.elapsed();
     report.axes = tube.axes;
-    let model =
-        Model { parts: vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }] };
+    let mut parts = vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }];
+    if !skeleton.organs.is_empty() {
+        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, &std::collections::HashMap::new());
+        report.missing_surfaces = missing;
+        if leaves.face_count() > 0 {
+            parts.push(Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() });
+        }
+    }
+    let model = Model { parts };
     report.triangles = model.triangle_count();
     report.vertices = model.vertex_count();
     Ok(model)

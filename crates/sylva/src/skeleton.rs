@@ -35,10 +35,16 @@ pub struct Organ {
 /// The kinds of organ the engine knows how to draw.
 #[derive(Debug, Clone, PartialEq)]
 pub enum OrganKind {
-    /// A leaf blade drawn as a textured quad or a named surface.
+    /// A leaf blade drawn as a textured quad of length `size` (width `size / 2`).
     Leaf,
     /// A flat polygon traced by the turtle between `{` and `}` (vertices in world space).
     Polygon(Vec<Vec3>),
+    /// A named surface (cpfg `~x`, a `.s` Bézier surface), scaled by `size`.
+    Surface(String),
+    /// A sphere of radius `size` (cpfg `@O`).
+    Sphere,
+    /// A disc of radius `size` facing along the heading (cpfg `@o`, `@c`).
+    Disc,
 }
 
 /// A forest of branching axes, stored parent-first as struct-of-arrays.

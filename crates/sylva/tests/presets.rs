@@ -43,8 +43,13 @@ fn every_preset_meshes_closed_and_round_trips_through_obj() {
         let positions: usize = models.iter().map(|m| m.mesh.positions.len() / 3).sum();
         let faces: usize =
             models.iter().map(|m| m.mesh.face_arities.len().max(m.mesh.indices.len() / 3)).sum();
-        assert_eq!(positions, bark.vertex_count(), "{}: OBJ vertex count", p.name);
-        assert_eq!(faces, bark.face_count(), "{}: OBJ face count", p.name);
+        let vertices: usize = grown.model.parts.iter().map(|p| p.mesh.vertex_count()).sum();
+        let mesh_faces: usize = grown.model.parts.iter().map(|p| p.mesh.face_count()).sum();
+        assert_eq!(positions, vertices, "{}: OBJ vertex count", p.name);
+        assert_eq!(faces, mesh_faces, "{}: OBJ face count", p.name);
+        for part in &grown.model.parts[1..] {
+            part.mesh.validate().unwrap();
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -26,15 +26,44 @@
 //!
 //! One skeleton node is written per `F` end point; a root node is written where a
 //! drawn axis starts (at the beginning, and after an `f` move).
+//!
+//! **Tropism** (ABOP §2.2, cpfg view files): after every drawn `F` the heading turns
+//! toward each tropism vector T about H × T by α = e·‖H × T‖ (e the elasticity; T
+//! normalised), never past T. With an angle A (`tropism: T: … A: …`, plagiotropism)
+//! the heading turns toward the cone at angle A around T instead. `@Ts(i, e)` sets the
+//! elasticity of tropism i (1-based); `_(e)` sets the elasticity of every tropism and a
+//! bare `_` adds the elasticity increment.
+//!
+//! **More cpfg modules**: `@M(x,y,z)` moves to a point without drawing; `@R(hx,hy,hz
+//! [,ux,uy,uz])` sets the heading (and up); `@v` rolls like `$`; `{` … `}` trace a
+//! polygon whose vertices are the start point and every `f`/`F` end point (and `.`),
+//! placed as an organ and not as branches; `~x(s)` places the named surface x scaled
+//! by s; `@O(r)` a sphere, `@o(r)` / `@c(r)` a disc. `@Gs`, `@Gc`, `@Ge`
+//! (generalized-cylinder markers) need no action: every axis is already one smooth
+//! tube.
 
 use super::derive::ModuleString;
 use super::parse::Symbols;
 use super::source::{ErrorKind, LsystemError, Source};
-use crate::skeleton::{Skeleton, NO_PARENT};
+use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
 use glam::DVec3;
 
-/// Turtle parameters: what modules without parameters use.
+/// A tropism: a direction the branches bend toward (ABOP §2.2).
 #[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tropism {
+    /// Direction T (normalised when used).
+    pub direction: [f64; 3],
+    /// Initial elasticity e (0 = no bending).
+    pub elasticity: f64,
+    /// Cone angle A in degrees for plagiotropism; `None` bends straight toward T.
+    pub angle: Option<f64>,
+}
+
+/// Most tropisms a turtle carries.
+pub const MAX_TROPISMS: usize = 8;
+
+/// Turtle parameters: what modules without parameters use.
+#[derive(Debug, Clone, PartialEq)]
 pub struct TurtleOptions {
     /// Default turning angle in degrees (`+`, `-`, `&`, `^`, `/`, `\`).
     pub angle: f64,
@@ -42,13 +71,27 @@ pub struct TurtleOptions {
     pub step: f64,
     /// Initial line width (a diameter).
     pub width: f64,
-    /// Factor applied by a bare `!` (and divided by a bare `#`).
+    /// Factor applied by a bare `!` (and divided by a bare `#`), when no increment is set.
     pub width_factor: f64,
+    /// Additive width change of a bare `!` / `#` (cpfg `line width increment`), if set.
+    pub width_increment: Option<f64>,
+    /// Tropisms, at most [`MAX_TROPISMS`].
+    pub tropisms: Vec<Tropism>,
+    /// Elasticity change of a bare `_`.
+    pub elasticity_increment: f64,
 }
 
 impl Default for TurtleOptions {
     fn default() -> Self {
-        TurtleOptions { angle: 45.0, step: 1.0, width: 0.1, width_factor: 0.7 }
+        TurtleOptions {
+            angle: 45.0,
+            step: 1.0,
+            width: 0.1,
+            width_factor: 0.7,
+            width_increment: None,
+            tropisms: Vec::new(),
+            elasticity_increment: 0.0,
+        }
     }
 }
 
@@ -68,6 +111,16 @@ enum Cmd {
     Width,
     WidthUp,
     Material(i32),
+    Elasticity,
+    SetElasticity,
+    MoveTo,
+    SetHeading,
+    PolygonStart,
+    PolygonEnd,
+    Vertex,
+    Surface,
+    Sphere,
+    Disc,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -80,6 +133,46 @@ struct State {
     node: u32,
     order: u16,
     material: u32,
+    elasticity: [f64; MAX_TROPISMS],
+}
+
+/// True for the moves that record a polygon vertex (`F`, `f`; not `G`, `g`).
+fn sym_is_recording(name: &str) -> bool {
+    name == "F" || name == "f"
+}
+
+/// Bends the heading toward every tropism (ABOP §2.2: α = e·‖H × T‖ about H × T),
+/// never past the target direction; then rebuilds an orthonormal frame.
+fn apply_tropisms(st: &mut State, tropisms: &[(DVec3, Option<f64>)]) {
+    for (k, &(t, cone)) in tropisms.iter().enumerate() {
+        let e = st.elasticity[k];
+        if e == 0.0 || t == DVec3::ZERO {
+            continue;
+        }
+        let axis = st.h.cross(t);
+        let sin = axis.length();
+        if sin < 1e-12 {
+            continue;
+        }
+        let theta = st.h.dot(t).clamp(-1.0, 1.0).acos();
+        // Plagiotropism: the target is the cone at angle A around T.
+        let (gap, strength) = match cone {
+            None => (theta, sin),
+            Some(a) => (theta - a, (theta - a).sin()),
+        };
+        let mut alpha = e * strength;
+        // Never turn past the target direction.
+        if gap >= 0.0 {
+            alpha = alpha.clamp(0.0, gap);
+        } else {
+            alpha = alpha.clamp(gap, 0.0);
+        }
+        let q = glam::DQuat::from_axis_angle(axis / sin, alpha);
+        st.h = (q * st.h).normalize();
+        st.l = q * st.l;
+        st.u = st.h.cross(st.l).normalize();
+        st.l = st.u.cross(st.h).normalize();
+    }
 }
 
 /// Rotates the pair (a, b) by angle (cos c, sin s): a' = a c + b s, b' = −a s + b c.
@@ -110,6 +203,17 @@ fn command(name: &str) -> Cmd {
         "#" => Cmd::WidthUp,
         ";" => Cmd::Material(1),
         "," => Cmd::Material(-1),
+        "_" => Cmd::Elasticity,
+        "@Ts" => Cmd::SetElasticity,
+        "@M" => Cmd::MoveTo,
+        "@R" => Cmd::SetHeading,
+        "@v" => Cmd::RollHorizontal,
+        "{" => Cmd::PolygonStart,
+        "}" => Cmd::PolygonEnd,
+        "." => Cmd::Vertex,
+        "@O" => Cmd::Sphere,
+        "@o" | "@c" => Cmd::Disc,
+        n if n.starts_with('~') => Cmd::Surface,
         _ => Cmd::None,
     }
 }
@@ -168,8 +272,19 @@ pub fn interpret_with(
         node: NO_PARENT,
         order: 0,
         material: 0,
+        elasticity: [0.0; MAX_TROPISMS],
     };
+    for (k, t) in opts.tropisms.iter().enumerate() {
+        st.elasticity[k] = t.elasticity;
+    }
+    let tropisms: Vec<(DVec3, Option<f64>)> = opts
+        .tropisms
+        .iter()
+        .map(|t| (DVec3::from_array(t.direction).normalize_or_zero(), t.angle.map(f64::to_radians)))
+        .collect();
     let mut stack: Vec<State> = Vec::new();
+    // Open polygons (a stack: `{` inside `{`), each a list of vertices.
+    let mut polygons: Vec<Vec<DVec3>> = Vec::new();
     let mut i = 0;
     let n = string.len();
     while i < n {
@@ -177,6 +292,13 @@ pub fn interpret_with(
         let arg = p.first().copied();
         match cmds[sym as usize] {
             Cmd::None => {}
+            Cmd::Draw | Cmd::Move if !polygons.is_empty() => {
+                // Inside a polygon, moves trace its outline instead of branches.
+                st.pos += st.h * arg.unwrap_or(opts.step);
+                if sym_is_recording(symbols.name(sym)) {
+                    polygons.last_mut().expect("non-empty").push(st.pos);
+                }
+            }
             Cmd::Draw => {
                 if st.node == NO_PARENT {
                     st.node = sk.push(
@@ -194,6 +316,9 @@ pub fn interpret_with(
                 st.node =
                     sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
                 *sk.material.last_mut().expect("just pushed") = st.material;
+                if !tropisms.is_empty() {
+                    apply_tropisms(&mut st, &tropisms);
+                }
             }
             Cmd::Move => {
                 st.pos += st.h * arg.unwrap_or(opts.step);
@@ -254,7 +379,10 @@ pub fn interpret_with(
                 continue;
             }
             Cmd::Width => {
-                st.width = arg.unwrap_or(st.width * opts.width_factor);
+                st.width = arg.unwrap_or(match opts.width_increment {
+                    Some(d) => (st.width - d).max(0.0),
+                    None => st.width * opts.width_factor,
+                });
                 if st.width < 0.0 {
                     return Err(fail(format!(
                         "module {i} of the derived string (`!({})`) sets a negative width",
@@ -263,7 +391,10 @@ pub fn interpret_with(
                 }
             }
             Cmd::WidthUp => {
-                st.width = arg.unwrap_or(st.width / opts.width_factor.max(1e-9));
+                st.width = arg.unwrap_or(match opts.width_increment {
+                    Some(d) => st.width + d,
+                    None => st.width / opts.width_factor.max(1e-9),
+                });
                 if st.width < 0.0 {
                     return Err(fail(format!("module {i} (`#`) sets a negative width {}", st.width)));
                 }
@@ -273,6 +404,94 @@ pub fn interpret_with(
                     Some(v) => v.max(0.0) as u32,
                     None => st.material.saturating_add_signed(step),
                 };
+            }
+            Cmd::Elasticity => {
+                for k in 0..tropisms.len() {
+                    st.elasticity[k] = arg.unwrap_or(st.elasticity[k] + opts.elasticity_increment);
+                }
+            }
+            Cmd::SetElasticity => {
+                // @Ts(i, e): tropism i (1-based); @Ts(e) sets the first.
+                let (k, e) = match p {
+                    [i, e, ..] => (*i as i64 - 1, *e),
+                    [e] => (0, *e),
+                    [] => (0, 0.0),
+                };
+                if k >= 0 && (k as usize) < tropisms.len() {
+                    st.elasticity[k as usize] = e;
+                }
+            }
+            Cmd::MoveTo => {
+                if let [x, y, z, ..] = p {
+                    st.pos = DVec3::new(*x, *y, *z);
+                    st.node = NO_PARENT;
+                }
+            }
+            Cmd::SetHeading => {
+                if let [hx, hy, hz, rest @ ..] = p {
+                    let h = DVec3::new(*hx, *hy, *hz).normalize_or_zero();
+                    if h != DVec3::ZERO {
+                        let up = match rest {
+                            [ux, uy, uz, ..] => DVec3::new(*ux, *uy, *uz),
+                            _ => st.u,
+                        };
+                        let mut u = (up - h * up.dot(h)).normalize_or_zero();
+                        if u == DVec3::ZERO {
+                            u = h.any_orthonormal_vector();
+                        }
+                        st.h = h;
+                        st.u = u;
+                        st.l = u.cross(h);
+                    }
+                }
+            }
+            Cmd::PolygonStart => polygons.push(vec![st.pos]),
+            Cmd::Vertex => {
+                if let Some(poly) = polygons.last_mut() {
+                    if poly.last().is_none_or(|v| v.distance(st.pos) > 1e-12) {
+                        poly.push(st.pos);
+                    }
+                }
+            }
+            Cmd::PolygonEnd => {
+                if let Some(mut poly) = polygons.pop() {
+                    if poly.len() > 3 && poly[0].distance(*poly.last().expect("non-empty")) < 1e-9 {
+                        poly.pop();
+                    }
+                    if poly.len() >= 3 {
+                        sk.organs.push(Organ {
+                            kind: OrganKind::Polygon(poly.iter().map(|v| v.as_vec3()).collect()),
+                            node: st.node,
+                            position: poly[0].as_vec3(),
+                            heading: st.h.as_vec3(),
+                            up: st.u.as_vec3(),
+                            size: 1.0,
+                            material: st.material,
+                        });
+                    }
+                }
+            }
+            Cmd::Surface | Cmd::Sphere | Cmd::Disc => {
+                let name = symbols.name(sym);
+                let (kind, size) = match cmds[sym as usize] {
+                    Cmd::Surface => (OrganKind::Surface(name[1..].to_string()), arg.unwrap_or(1.0)),
+                    Cmd::Sphere => (OrganKind::Sphere, arg.unwrap_or(st.width) * 0.5),
+                    _ => (OrganKind::Disc, arg.unwrap_or(st.width) * 0.5),
+                };
+                if !size.is_finite() || size < 0.0 {
+                    return Err(fail(format!(
+                        "module {i} (`{name}`) has a negative or non-finite size {size}"
+                    )));
+                }
+                sk.organs.push(Organ {
+                    kind,
+                    node: st.node,
+                    position: st.pos.as_vec3(),
+                    heading: st.h.as_vec3(),
+                    up: st.u.as_vec3(),
+                    size: size as f32,
+                    material: st.material,
+                });
             }
         }
         i += 1;
@@ -292,6 +511,13 @@ mod tests {
         let ls = LSystem::parse("t.l", &text, &[]).unwrap();
         let m = ls.derive(&DeriveOptions { steps: 0, budget: 1000, seed: 0 }).unwrap();
         interpret(&ls.symbols, &m, &TurtleOptions { angle: 90.0, ..Default::default() }, &ls.source).unwrap()
+    }
+
+    fn run_with(axiom: &str, opts: &TurtleOptions) -> Skeleton {
+        let text = format!("Lsystem: 1\nAxiom: {axiom}\nendlsystem\n");
+        let ls = LSystem::parse("t.l", &text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10_000, seed: 0 }).unwrap();
+        interpret(&ls.symbols, &m, opts, &ls.source).unwrap()
     }
 
     fn close(a: glam::Vec3, b: [f32; 3]) -> bool {
@@ -352,6 +578,54 @@ mod tests {
         assert!(s.up[1].y >= 0.0);
         let h = (s.position[1] - s.position[0]).normalize();
         assert!(h.dot(s.up[1]).abs() < 1e-5);
+    }
+
+    #[test]
+    fn tropism_bends_monotonically_and_never_past() {
+        let down = Tropism { direction: [0.0, -1.0, 0.0], elasticity: 0.3, angle: None };
+        let opts = TurtleOptions { tropisms: vec![down], ..Default::default() };
+        // A horizontal branch: turn the heading to +Z, then 60 segments.
+        let axiom = format!("+(90){}", "F".repeat(60));
+        let s = run_with(&axiom, &opts);
+        let mut last = -2.0f32;
+        for i in 2..s.len() {
+            let d = (s.position[i] - s.position[i - 1]).normalize();
+            let toward = -d.y; // cos of the angle to T = -Y
+            assert!(toward >= last - 1e-6, "monotone toward T at segment {i}");
+            assert!(toward <= 1.0 + 1e-6);
+            last = toward;
+        }
+        assert!(last > 0.95, "ends nearly aligned with T: {last}");
+        // Zero elasticity leaves it straight.
+        let flat =
+            TurtleOptions { tropisms: vec![Tropism { elasticity: 0.0, ..down }], ..Default::default() };
+        let s = run_with(&axiom, &flat);
+        assert!(s.position.iter().all(|p| p.y.abs() < 1e-6));
+        // `@Ts(1, 0)` switches it off mid-branch; `_(e)` sets it.
+        let s = run_with(&format!("+(90)@Ts(1,0){}", "F".repeat(10)), &opts);
+        assert!(s.position.iter().all(|p| p.y.abs() < 1e-6));
+        let s = run_with(&format!("+(90)@Ts(1,0)_(0.5){}", "F".repeat(10)), &opts);
+        assert!(s.position.last().unwrap().y < -1.0);
+    }
+
+    #[test]
+    fn organs_polygons_and_moves() {
+        let s = run("F[{.-f+f+f-|-f+f+f}]@O(0.4)~l(2)@M(5,0,0)F");
+        assert_eq!(s.organs.len(), 3);
+        match &s.organs[0].kind {
+            OrganKind::Polygon(v) => assert_eq!(v.len(), 6, "{v:?}"),
+            k => panic!("{k:?}"),
+        }
+        assert_eq!(s.organs[1].kind, OrganKind::Sphere);
+        assert!((s.organs[1].size - 0.2).abs() < 1e-6);
+        assert_eq!(s.organs[2].kind, OrganKind::Surface("l".into()));
+        assert_eq!(s.organs[2].size, 2.0);
+        // The polygon did not draw branches; @M started a new root at (5,0,0).
+        assert_eq!(s.stats().segments, 2);
+        assert!(close(s.position[2], [5.0, 0.0, 0.0]));
+        assert!(close(s.position[3], [5.0, 1.0, 0.0]));
+        let s = run("@R(1,0,0)F");
+        assert!(close(s.position[1], [1.0, 0.0, 0.0]));
     }
 
     #[test]

@@ -1,0 +1,223 @@
+//! Meshes for the organs placed on a skeleton: polygons traced by the turtle (`{ . }`,
+//! ABOP §1.6 leaves), named surfaces (cpfg `~x` with `.s` files), spheres (`@O`),
+//! discs (`@o`, `@c`) and simple leaf quads. All organs go into one mesh with
+//! face-varying UVs and normals; the exporter puts it in the `leaves` part with a
+//! double-sided material.
+//!
+//! Organ frame: heading H (`Organ::heading`), up U (`Organ::up`) and X = H × U. A named
+//! surface's local coordinates (x, y, z) map to `position + size·(x·X + y·H + z·U)`.
+
+use crate::mesh::{FaceVarying, Mesh};
+use crate::skeleton::{Organ, OrganKind, Skeleton};
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+
+/// Builds one mesh for every organ of `skeleton`. `surfaces` maps a surface name (the
+/// `x` of `~x`) to its mesh in the organ frame; organs naming a missing surface are
+/// returned by name in the second value (the caller reports them) and skipped.
+pub fn organ_mesh(skeleton: &Skeleton, surfaces: &HashMap<String, Mesh>) -> (Mesh, Vec<String>) {
+    let mut out = Mesh::new();
+    out.uvs = Some(FaceVarying::default());
+    out.normals = Some(FaceVarying::default());
+    let mut missing: Vec<String> = Vec::new();
+    for o in &skeleton.organs {
+        let h = o.heading.normalize_or_zero();
+        let mut u = (o.up - h * o.up.dot(h)).normalize_or_zero();
+        if h == Vec3::ZERO {
+            continue;
+        }
+        if u == Vec3::ZERO {
+            u = h.any_orthonormal_vector();
+        }
+        let x = h.cross(u);
+        match &o.kind {
+            OrganKind::Polygon(v) => polygon(&mut out, v),
+            OrganKind::Leaf => {
+                let w = o.size * 0.25;
+                let p = o.position;
+                let quad = [p - x * w, p + x * w, p + x * w + h * o.size, p - x * w + h * o.size];
+                let uv = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+                push_face(&mut out, &quad, &uv, &[u; 4]);
+            }
+            OrganKind::Disc => disc(&mut out, o, h, u),
+            OrganKind::Sphere => sphere(&mut out, o.position, o.size),
+            OrganKind::Surface(name) => match surfaces.get(name) {
+                Some(m) => place(&mut out, m, o, x, h, u),
+                None => {
+                    if !missing.contains(name) {
+                        missing.push(name.clone());
+                    }
+                }
+            },
+        }
+    }
+    (out, missing)
+}
+
+/// Appends one face with its own corner UVs and normals.
+fn push_face(out: &mut Mesh, pos: &[Vec3], uv: &[Vec2], n: &[Vec3]) {
+    let base = out.positions.len() as u32;
+    out.positions.extend_from_slice(pos);
+    let idx: Vec<u32> = (0..pos.len() as u32).map(|k| base + k).collect();
+    out.push_face(&idx);
+    if let Some(ch) = out.uvs.as_mut() {
+        let b = ch.values.len() as u32;
+        ch.values.extend_from_slice(uv);
+        ch.indices.extend((0..uv.len() as u32).map(|k| b + k));
+    }
+    if let Some(ch) = out.normals.as_mut() {
+        let b = ch.values.len() as u32;
+        ch.values.extend_from_slice(n);
+        ch.indices.extend((0..n.len() as u32).map(|k| b + k));
+    }
+}
+
+/// A planar polygon, fan-triangulated from its first vertex, UVs from its bounding box
+/// in its own plane, normal by Newell's method.
+fn polygon(out: &mut Mesh, v: &[Vec3]) {
+    if v.len() < 3 || v.iter().any(|p| !p.is_finite()) {
+        return;
+    }
+    let mut n = Vec3::ZERO;
+    for k in 0..v.len() {
+        let (a, b) = (v[k], v[(k + 1) % v.len()]);
+        n += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    let n = n.normalize_or_zero();
+    if n == Vec3::ZERO {
+        return; // degenerate (collinear) outline
+    }
+    let e1 = (v[1] - v[0]).normalize_or_zero();
+    let e1 = if e1 == Vec3::ZERO { n.any_orthonormal_vector() } else { e1 };
+    let e2 = n.cross(e1);
+    let flat: Vec<Vec2> = v.iter().map(|p| Vec2::new((*p - v[0]).dot(e1), (*p - v[0]).dot(e2))).collect();
+    let lo = flat.iter().fold(Vec2::splat(f32::MAX), |a, b| a.min(*b));
+    let hi = flat.iter().fold(Vec2::splat(f32::MIN), |a, b| a.max(*b));
+    let span = (hi - lo).max(Vec2::splat(1e-9));
+    for k in 1..v.len() - 1 {
+        let tri = [v[0], v[k], v[k + 1]];
+        let uv = [(flat[0] - lo) / span, (flat[k] - lo) / span, (flat[k + 1] - lo) / span];
+        push_face(out, &tri, &uv, &[n; 3]);
+    }
+}
+
+/// A disc of radius `size` perpendicular to the heading.
+fn disc(out: &mut Mesh, o: &Organ, h: Vec3, u: Vec3) {
+    const SEG: usize = 12;
+    let x = h.cross(u);
+    for k in 0..SEG {
+        let a0 = k as f32 / SEG as f32 * std::f32::consts::TAU;
+        let a1 = (k + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
+        let p = |a: f32| o.position + (x * a.cos() + u * a.sin()) * o.size;
+        let t = |a: f32| Vec2::new(0.5 + 0.5 * a.cos(), 0.5 + 0.5 * a.sin());
+        push_face(out, &[o.position, p(a0), p(a1)], &[Vec2::splat(0.5), t(a0), t(a1)], &[h; 3]);
+    }
+}
+
+/// A UV sphere of radius `r`.
+fn sphere(out: &mut Mesh, c: Vec3, r: f32) {
+    const LON: usize = 12;
+    const LAT: usize = 6;
+    let point = |i: usize, j: usize| {
+        let th = i as f32 / LAT as f32 * std::f32::consts::PI;
+        let ph = j as f32 / LON as f32 * std::f32::consts::TAU;
+        Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
+    };
+    for i in 0..LAT {
+        for j in 0..LON {
+            let n = [point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1)];
+            let uv = [
+                Vec2::new(j as f32 / LON as f32, i as f32 / LAT as f32),
+                Vec2::new(j as f32 / LON as f32, (i + 1) as f32 / LAT as f32),
+                Vec2::new((j + 1) as f32 / LON as f32, (i + 1) as f32 / LAT as f32),
+                Vec2::new((j + 1) as f32 / LON as f32, i as f32 / LAT as f32),
+            ];
+            // Two triangles; the pole rows have one degenerate edge, dropped here.
+            let p = n.map(|d| c + d * r);
+            let tris: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
+            for t in tris {
+                if (i == 0 && t == [0, 2, 3]) || (i == LAT - 1 && t == [0, 1, 2]) {
+                    continue;
+                }
+                push_face(
+                    out,
+                    &[p[t[0]], p[t[1]], p[t[2]]],
+                    &[uv[t[0]], uv[t[1]], uv[t[2]]],
+                    &[n[t[0]], n[t[1]], n[t[2]]],
+                );
+            }
+        }
+    }
+}
+
+/// Places a surface mesh in the organ's frame.
+fn place(out: &mut Mesh, m: &Mesh, o: &Organ, x: Vec3, h: Vec3, u: Vec3) {
+    let map = |p: Vec3| o.position + (x * p.x + h * p.y + u * p.z) * o.size;
+    let mut placed = m.clone();
+    for p in &mut placed.positions {
+        *p = map(*p);
+    }
+    if let Some(n) = placed.normals.as_mut() {
+        for v in &mut n.values {
+            *v = (x * v.x + h * v.y + u * v.z).normalize_or_zero();
+        }
+    }
+    if placed.uvs.is_none() {
+        placed.uvs =
+            Some(FaceVarying { values: vec![Vec2::ZERO], indices: vec![0; placed.face_indices.len()] });
+    }
+    if placed.normals.is_none() {
+        placed.normals = Some(FaceVarying { values: vec![u], indices: vec![0; placed.face_indices.len()] });
+    }
+    placed.creases.clear();
+    out.append(&placed);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn organ(kind: OrganKind, size: f32) -> Organ {
+        Organ { kind, node: 0, position: Vec3::ZERO, heading: Vec3::Y, up: Vec3::Z, size, material: 0 }
+    }
+
+    #[test]
+    fn every_kind_meshes_validly() {
+        let mut sk = Skeleton::new();
+        let hex = vec![
+            Vec3::ZERO,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::new(0.0, 3.0, 0.0),
+            Vec3::new(-1.0, 2.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ];
+        sk.organs = vec![
+            organ(OrganKind::Polygon(hex), 1.0),
+            organ(OrganKind::Leaf, 1.0),
+            organ(OrganKind::Disc, 0.5),
+            organ(OrganKind::Sphere, 0.5),
+            organ(OrganKind::Surface("l".into()), 2.0),
+            organ(OrganKind::Surface("missing".into()), 2.0),
+        ];
+        let mut leaf = Mesh::new();
+        leaf.positions = vec![Vec3::ZERO, Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        leaf.push_face(&[0, 1, 2]);
+        let surfaces = HashMap::from([("l".to_string(), leaf)]);
+        let (m, missing) = organ_mesh(&sk, &surfaces);
+        m.validate().unwrap();
+        assert_eq!(missing, vec!["missing".to_string()]);
+        // 4 polygon triangles + 1 quad + 12 disc + sphere + 1 surface triangle.
+        assert!(m.face_count() > 4 + 1 + 12 + 1);
+        // The surface is scaled by 2 and its local y runs along the heading (+Y).
+        assert!(m.positions.iter().any(|p| p.distance(Vec3::new(0.0, 2.0, 0.0)) < 1e-6));
+    }
+
+    #[test]
+    fn degenerate_polygons_are_skipped() {
+        let mut sk = Skeleton::new();
+        sk.organs = vec![organ(OrganKind::Polygon(vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0]), 1.0)];
+        let (m, _) = organ_mesh(&sk, &HashMap::new());
+        assert_eq!(m.face_count(), 0);
+    }
+}
