@@ -34,9 +34,11 @@ enum Command {
 
 #[derive(clap::Args, Debug)]
 struct GrowArgs {
-    /// Preset name, recipe file (.toml) or L-system file (.l). Default: the default preset.
+    /// Preset name, recipe file (.toml), L-system file (.l), or a skeleton file (.lst,
+    /// CPFG string .str, sylva .skel.json). Default: the default preset.
     what: Option<String>,
-    /// Output file; the extension picks the format (.glb, .gltf, .obj, .ply). Recipe key `output.file`.
+    /// Output file; the extension picks the format (.glb, .gltf, .obj, .ply; .lst or
+    /// .skel.json for the skeleton). Recipe key `output.file`.
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Write a preview PNG here. Default: next to the output, with a .png extension.
@@ -139,8 +141,13 @@ fn grow(args: GrowArgs) -> Result<()> {
     }
     let loaded = recipe::load(&what, &sets)?;
     let out = PathBuf::from(&loaded.recipe.output.file);
-    // Fail on a bad extension before doing any work.
-    sylva::export::Format::from_path(&out)?;
+    // `.lst` and `.json` outputs are skeletons; anything else must be a mesh format.
+    let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let skeleton_out = ext == "lst" || ext == "json";
+    if !skeleton_out {
+        // Fail on a bad extension before doing any work.
+        sylva::export::Format::from_path(&out)?;
+    }
     let preview = if args.no_preview {
         None
     } else if let Some(p) = args.preview {
@@ -151,7 +158,17 @@ fn grow(args: GrowArgs) -> Result<()> {
         Some(out.with_extension("png"))
     };
     let grown = sylva::pipeline::grow(&loaded)?;
-    sylva::export::write(&grown.model, &out)?;
+    for w in &grown.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !grown.report.missing_surfaces.is_empty() {
+        eprintln!("warning: no surface file for {}", grown.report.missing_surfaces.join(", "));
+    }
+    if skeleton_out {
+        sylva::export::skeleton::write(&grown.skeleton, &out)?;
+    } else {
+        sylva::export::write(&grown.model, &out)?;
+    }
     if let Some(p) = &preview {
         let size = loaded.recipe.output.preview_size;
         let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
@@ -192,7 +209,11 @@ fn grow(args: GrowArgs) -> Result<()> {
 fn derive(what: &str, iterations: Option<u32>, seed: Option<u64>, sets: &[String]) -> Result<()> {
     let sets = overrides(sets, iterations, seed, None)?;
     let loaded = recipe::load(what, &sets)?;
-    let Generator::Lsystem(g) = &loaded.recipe.generator;
+    let Generator::Lsystem(g) = &loaded.recipe.generator else {
+        return Err(miette::miette!(
+            "`{what}` is not an L-system: `lsys derive` needs a .l file or an L-system recipe"
+        ));
+    };
     let d = sylva::pipeline::derive_lsystem(&loaded, g)?;
     let text = d.lsystem.format(&d.string);
     use std::io::Write;

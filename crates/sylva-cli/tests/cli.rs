@@ -122,6 +122,40 @@ fn readme_commands() {
 }
 
 #[test]
+fn skeleton_files_round_trip_through_the_cli() {
+    let d = tempdir("skeleton");
+    let run = |args: &[&str]| {
+        let r = sylva(args, &d);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+    };
+    run(&["grow", "lsys-honda-g", "-o", "direct.skel.json", "--no-preview"]);
+    run(&["grow", "lsys-honda-g", "-o", "tree.lst", "--no-preview"]);
+    run(&["grow", "tree.lst", "-o", "via-lst.skel.json", "--no-preview"]);
+    run(&["grow", "direct.skel.json", "-o", "again.skel.json", "--no-preview"]);
+    let load =
+        |n: &str| sylva::export::skeleton::from_json(&std::fs::read_to_string(d.join(n)).unwrap()).unwrap();
+    let (a, b, c) = (load("direct.skel.json"), load("via-lst.skel.json"), load("again.skel.json"));
+    assert_eq!(a, c, "JSON round trip is exact");
+    assert_eq!(a.parent, b.parent);
+    for (p, q) in a.position.iter().zip(&b.position) {
+        assert!(p.distance(*q) <= 1e-5 * (1.0 + p.length()), "{p} vs {q}");
+    }
+    for (r, s) in a.radius.iter().zip(&b.radius) {
+        assert!((r - s).abs() <= 1e-6 * (1.0 + r.abs()));
+    }
+    // A CPFG turtle string grows through the turtle.
+    std::fs::write(d.join("plant.str"), "F(1)[+(30)F(0.5)][-(30)F(0.5)]F(1)").unwrap();
+    let r = sylva(&["grow", "plant.str", "-o", "plant.glb", "--no-preview"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("4 segments"), "{}", r.stdout);
+    gltf_validator::assert_valid_gltf(&[d.join("plant.glb").as_path()]);
+    // A malformed LST names the line.
+    std::fs::write(d.join("bad.lst"), "LST 0.1\nSB()\nCylinder(1, 2)\n").unwrap();
+    fails(&d, &["grow", "bad.lst", "--no-preview"], "bad.lst:3:");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
 fn same_seed_same_bytes_other_seed_other_tree() {
     let d = tempdir("determinism");
     let grow = |seed: &str, out: &str| {
@@ -160,10 +194,13 @@ fn bad_input_gives_clear_errors() {
             .unwrap();
         name.to_string()
     };
-    let syntax = write("syntax.l", "Axiom: F\nF F+F");
-    fails(&d, &["grow", &syntax], "syntax.l:4:1: expected a production");
-    let arity = write("arity.l", "Axiom: F(1,2)");
-    fails(&d, &["grow", &arity], "arity.l:3:8: turtle module `F` takes at most 1 parameter(s), got 2");
+    std::fs::write(d.join("syntax.l"), "Lsystem: 1\nderivation length: 3\nF F+F\nAxiom: F\nendlsystem\n")
+        .unwrap();
+    fails(&d, &["grow", "syntax.l"], "syntax.l:3:1: expected a production");
+    let arity = write("arity.l", "Axiom: F[(1)]");
+    fails(&d, &["grow", &arity], "arity.l:3:9: turtle module `[` takes no parameters, got 1");
+    std::fs::write(d.join("macro.l"), "#define W(a,b) a\nLsystem: 1\nAxiom: F(W(1))\nendlsystem\n").unwrap();
+    fails(&d, &["grow", "macro.l"], "macro.l:3:10: macro `W` takes 2 argument(s), got 1");
     let runaway = write("runaway.l", "Axiom: F\nF --> FFFFFFFFFFFFFFFFFFFF");
     fails(&d, &["grow", &runaway, "-n", "40"], "exceeds the module budget");
     fails(&d, &["grow", &runaway, "-n", "3", "--set", "generator.max_modules=100"], "more than 100 modules");
@@ -190,7 +227,7 @@ fn bad_input_gives_clear_errors() {
     fails(&d, &["grow", "lsys-fern", "--set", "generator.width=-1"], "generator.width");
     fails(&d, &["grow", "lsys-fern", "--set", "nonsense"], "not of the form key=value");
     fails(&d, &["grow", "no-such-preset"], "unknown preset `no-such-preset`");
-    fails(&d, &["grow", "lsys-fern", "-o", "tree.xyz"], "cannot tell the output format");
+    fails(&d, &["grow", "lsys-fern", "-o", "tree.xyz"], "cannot tell the format of tree.xyz");
     fails(
         &d,
         &["grow", "lsys-fern", "-o", "/nonexistent-dir/t.glb", "--no-preview"],

@@ -22,7 +22,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// The output format could not be chosen from the file name.
-    #[error("cannot tell the output format of {}: use one of {expected}", path.display())]
+    #[error("cannot tell the format of {} from its extension: use one of {expected}", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,

@@ -22,12 +22,14 @@
 pub mod error;
 pub mod export;
 pub mod fsutil;
+pub mod import;
 pub mod lsystem;
 pub mod mesh;
 pub mod pipeline;
 pub mod presets;
 pub mod preview;
 pub mod recipe;
+pub mod refine;
 pub mod skeleton;
 
 pub use error::{Error, Result};

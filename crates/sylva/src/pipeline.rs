@@ -4,11 +4,16 @@
 //! [`Loaded::read`]; writing outputs is the caller's (the CLI's) job.
 
 use crate::error::{Error, Result};
+use crate::lsystem::files::view::{LineStyle, MovementKind};
+use crate::lsystem::files::{load_folder, ModelFolder};
+use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
 use crate::mesh::tube::{tube_mesh, TipStyle, TubeOptions};
+use crate::mesh::Mesh;
 use crate::mesh::{Material, Model, Part};
-use crate::recipe::{Generator, Loaded, LsystemGenerator, Recipe};
+use crate::recipe::{Generator, Loaded, LsystemGenerator, Origin, Recipe};
 use crate::skeleton::{Skeleton, SkeletonStats};
+use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 /// What a run built, with timings.
@@ -34,6 +39,8 @@ pub struct Report {
     pub mesh_time: Duration,
     /// Surfaces (`~x`) the model places but no `.s` file provides.
     pub missing_surfaces: Vec<String>,
+    /// Problems that did not stop the run (printed by the CLI).
+    pub warnings: Vec<String>,
 }
 
 /// The products of a run.
@@ -59,9 +66,15 @@ pub struct Derived {
     pub seed: u64,
     /// The evaluator after the derivation (globals, generator), for the homomorphism.
     pub evaluator: lsystem::expr::Evaluator,
+    /// The cpfg model folder's files, when they were read.
+    pub folder: Option<ModelFolder>,
+    /// Problems that did not stop the run.
+    pub warnings: Vec<String>,
 }
 
 /// Parses and derives the L-system of `g` (part of [`grow`], exposed for `sylva lsys derive`).
+/// For a model file on disk with `generator.view = "auto"`, the cpfg model folder's
+/// files (view, functions, surfaces) are read too.
 pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> {
     let (name, text) = loaded.read(&g.file)?;
     let defines: Vec<(String, String)> = g
@@ -82,17 +95,83 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         loaded.read(&rel.to_string_lossy()).ok()
     };
     let ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
+    // The model folder's files are optional: a broken one is a warning, not an error.
+    let mut warnings = Vec::new();
+    let folder = match (&loaded.origin, g.view.as_str()) {
+        (Origin::Folder(d), "auto") => match load_folder(&d.join(&g.file)) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                warnings.push(format!("the model folder's view/function/surface files were not used: {e}"));
+                None
+            }
+        },
+        _ => None,
+    };
+    let functions: Vec<lsystem::expr::Function> = folder
+        .iter()
+        .flat_map(|f| f.functions.iter())
+        .map(|(_, f)| {
+            let f = f.clone();
+            std::sync::Arc::new(move |x: f64| f.eval(x)) as lsystem::expr::Function
+        })
+        .collect();
     let steps = g.iterations.unwrap_or(ls.derivation_length);
     // The file's `seed:` and the recipe's seed both matter (documented in docs/recipe.md).
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
     let (string, evaluator) =
-        ls.derive_full(&DeriveOptions { steps, budget: g.max_modules, seed }, Vec::new())?;
-    Ok(Derived { lsystem: ls, string, steps, seed, evaluator })
+        ls.derive_full(&DeriveOptions { steps, budget: g.max_modules, seed }, functions)?;
+    Ok(Derived { lsystem: ls, string, steps, seed, evaluator, folder, warnings })
+}
+
+/// Turtle options from the recipe, with the model folder's view file filling in every
+/// `generator` key the recipe did not set explicitly.
+pub fn turtle_options(g: &LsystemGenerator, folder: Option<&ModelFolder>) -> TurtleOptions {
+    let mut opts = TurtleOptions {
+        angle: g.angle,
+        step: g.step,
+        width: g.width,
+        width_factor: g.width_factor,
+        ..Default::default()
+    };
+    let Some(view) = folder.and_then(|f| f.view.as_ref()) else { return opts };
+    let set = |k: &str| g.explicit.iter().any(|e| e == k);
+    if !set("angle") {
+        opts.angle = view.angle_increment;
+    }
+    if !set("width") {
+        opts.width = view.initial_line_width;
+    }
+    if !set("width_factor") && view.width_increment != 0.0 {
+        opts.width_increment = Some(view.width_increment);
+    }
+    for t in &view.tropisms {
+        if t.kind != MovementKind::Tropism || opts.tropisms.len() >= lsystem::turtle::MAX_TROPISMS {
+            continue;
+        }
+        opts.tropisms.push(Tropism {
+            direction: t.direction,
+            elasticity: t.elasticity * t.intensity.clamp(-1.0, 1.0),
+            angle: (t.angle != 0.0).then_some(t.angle),
+        });
+    }
+    if let Some(old) = &view.old_tropism {
+        opts.tropisms.push(Tropism { direction: old.direction, elasticity: old.elasticity, angle: None });
+        opts.elasticity_increment = old.elasticity_increment;
+    }
+    opts
+}
+
+/// A generated skeleton and the named surfaces its organs may use.
+pub struct Generated {
+    /// The skeleton.
+    pub skeleton: Skeleton,
+    /// Surface meshes by name (`~x` → "x"), in the organ frame.
+    pub surfaces: HashMap<String, Mesh>,
 }
 
 /// Runs the recipe's generator and returns its skeleton (with the report's generator
 /// fields filled in).
-pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Skeleton> {
+pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
     match &loaded.recipe.generator {
         Generator::Lsystem(g) => {
             let t = Instant::now();
@@ -100,24 +179,71 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Skeleton> {
             report.derive_time = t.elapsed();
             report.steps = d.steps;
             report.modules = d.string.len();
+            report.warnings.append(&mut d.warnings);
             let t = Instant::now();
             let shown = d.lsystem.interpretation(&d.string, &mut d.evaluator, g.max_modules)?;
-            let opts = TurtleOptions {
-                angle: g.angle,
-                step: g.step,
-                width: g.width,
-                width_factor: g.width_factor,
-                ..Default::default()
-            };
-            let sk = lsystem::interpret(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source)?;
+            let opts = turtle_options(g, d.folder.as_ref());
+            let mut sk = lsystem::interpret(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source)?;
+            let pixel = d
+                .folder
+                .as_ref()
+                .and_then(|f| f.view.as_ref())
+                .is_some_and(|v| v.line_style == LineStyle::Pixel);
+            if pixel && !g.explicit.iter().any(|k| k == "width") {
+                // cpfg's pixel lines: widths are screen pixels; map one pixel to 1/500
+                // of the model's size (a 500-pixel window), documented in docs/recipe.md.
+                let st = sk.stats();
+                let diag = (st.bounds.1 - st.bounds.0).length().max(1e-6);
+                for r in &mut sk.radius {
+                    *r *= diag / 500.0;
+                }
+            }
             report.interpret_time = t.elapsed();
-            Ok(sk)
+            let mut surfaces = HashMap::new();
+            if let Some(f) = &d.folder {
+                for (name, s) in &f.surfaces {
+                    surfaces.insert(name.clone(), s.tessellate(4));
+                }
+            }
+            Ok(Generated { skeleton: sk, surfaces })
+        }
+        Generator::Import(g) => {
+            let t = Instant::now();
+            let path = match &loaded.origin {
+                Origin::Folder(d) => d.join(&g.file),
+                Origin::Preset(_) => std::path::PathBuf::from(&g.file),
+            };
+            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            let sk = if ext == "str" {
+                let (name, text) = loaded.read(&g.file)?;
+                let (symbols, string) = crate::import::cpfg_str::parse(&name, &text)?;
+                report.modules = string.len();
+                let opts =
+                    TurtleOptions { angle: g.angle, step: g.step, width: g.width, ..Default::default() };
+                let source = lsystem::source::Source::new(&name, "", &[])?;
+                lsystem::interpret(&symbols, &string, &opts, &source)?
+            } else {
+                let gap = match g.gap.as_str() {
+                    "strict" => crate::import::lst::GapPolicy::Strict,
+                    "new-root" => crate::import::lst::GapPolicy::NewRoot,
+                    _ => crate::import::lst::GapPolicy::Bridge,
+                };
+                let opts = crate::import::lst::LstOptions { gap, ..Default::default() };
+                crate::import::load_skeleton_with(&path, &opts)?
+            };
+            report.interpret_time = t.elapsed();
+            Ok(Generated { skeleton: sk, surfaces: HashMap::new() })
         }
     }
 }
 
 /// Meshes a skeleton as the recipe's `[mesh]` section says.
-pub fn mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Model> {
+pub fn mesh(
+    recipe: &Recipe,
+    skeleton: &Skeleton,
+    surfaces: &HashMap<String, Mesh>,
+    report: &mut Report,
+) -> Result<Model> {
     let t = Instant::now();
     let tips = match recipe.mesh.tips.as_str() {
         "flat" => TipStyle::Flat,
@@ -129,7 +255,7 @@ pub fn mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result
     report.axes = tube.axes;
     let mut parts = vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }];
     if !skeleton.organs.is_empty() {
-        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, &std::collections::HashMap::new());
+        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
         report.missing_surfaces = missing;
         if leaves.face_count() > 0 {
             parts.push(Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() });
@@ -144,14 +270,14 @@ pub fn mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
-    let skeleton = skeleton(loaded, &mut report)?;
+    let Generated { skeleton, surfaces } = skeleton(loaded, &mut report)?;
     report.skeleton = skeleton.stats();
-    if report.skeleton.segments == 0 {
+    if report.skeleton.segments == 0 && skeleton.organs.is_empty() {
         return Err(Error::InvalidGeometry {
             what: format!("recipe `{}`", loaded.recipe.name),
-            why: "the generator drew nothing (no `F` in the interpreted string)".into(),
+            why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
     }
-    let model = mesh(&loaded.recipe, &skeleton, &mut report)?;
+    let model = mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?;
     Ok(Grown { skeleton, model, report })
 }

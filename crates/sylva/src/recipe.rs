@@ -43,6 +43,32 @@ fn default_seed() -> u64 {
 pub enum Generator {
     /// A cpfg-syntax L-system interpreted by the 3D turtle.
     Lsystem(LsystemGenerator),
+    /// A skeleton read from a file: LST (seed 000), a CPFG turtle string `.str` (seed
+    /// 001, interpreted by the turtle) or a sylva JSON skeleton.
+    Import(ImportGenerator),
+}
+
+/// `generator.type = "import"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImportGenerator {
+    /// The `.lst`, `.str` or `.json` file, relative to the recipe.
+    pub file: String,
+    /// LST gaps between a cylinder and the current node: `bridge`, `strict` or `new-root`.
+    #[serde(default = "default_gap")]
+    pub gap: String,
+    /// Turtle angle for `.str` files, degrees.
+    #[serde(default = "default_angle")]
+    pub angle: f64,
+    /// Turtle step for `.str` files.
+    #[serde(default = "one")]
+    pub step: f64,
+    /// Initial line width (a diameter) for `.str` files.
+    #[serde(default = "default_width")]
+    pub width: f64,
+}
+
+fn default_gap() -> String {
+    "bridge".into()
 }
 
 /// `generator.type = "lsystem"`.
@@ -71,6 +97,18 @@ pub struct LsystemGenerator {
     /// Overrides of the file's `#define` constants (name → value).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub define: BTreeMap<String, toml::Value>,
+    /// cpfg model folder files (view `.v`, functions, surfaces): `auto` reads them from
+    /// the L-system's folder (files on disk only), `none` ignores them.
+    #[serde(default = "default_view")]
+    pub view: String,
+    /// The `generator` keys the recipe (or `--set`) gave explicitly; a view file's
+    /// settings apply only to the others.
+    #[serde(skip)]
+    pub explicit: Vec<String>,
+}
+
+fn default_view() -> String {
+    "auto".into()
 }
 
 fn default_angle() -> f64 {
@@ -238,6 +276,12 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
             }
         },
     )?;
+    let mut recipe = recipe;
+    if let (Generator::Lsystem(g), Some(toml::Value::Table(gt))) =
+        (&mut recipe.generator, table.get("generator"))
+    {
+        g.explicit = gt.keys().cloned().collect();
+    }
     let back = toml::Value::try_from(&recipe).map_err(|e| Error::Recipe(e.to_string()))?;
     if let toml::Value::Table(back) = back {
         let mut unknown = Vec::new();
@@ -280,6 +324,22 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
             e => e,
         })?;
         return Ok(Loaded { recipe, origin: Origin::Folder(dir) });
+    }
+    if ["lst", "str", "json"].contains(&ext.as_str()) {
+        if !path.exists() {
+            return Err(Error::Read {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let mut table = toml::Table::new();
+        let stem = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = stem.split('.').next().unwrap_or("").to_string();
+        table.insert("name".into(), toml::Value::String(name));
+        set_key(&mut table, "generator.type", toml::Value::String("import".into()))?;
+        set_key(&mut table, "generator.file", toml::Value::String(stem))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Folder(dir) });
     }
     if ext == "l" {
         let mut table = toml::Table::new();
@@ -335,6 +395,9 @@ impl Recipe {
                 if g.width < 0.0 {
                     return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
                 }
+                if !["auto", "none"].contains(&g.view.as_str()) {
+                    return bad("generator.view", format!("is `{}`; use auto or none", g.view));
+                }
                 if g.max_modules == 0 {
                     return bad("generator.max_modules", "must be at least 1".into());
                 }
@@ -342,6 +405,21 @@ impl Recipe {
                     if matches!(v, toml::Value::Table(_) | toml::Value::Array(_)) {
                         return bad(&format!("generator.define.{k}"), "must be a number or a string".into());
                     }
+                }
+            }
+            Generator::Import(g) => {
+                if !["bridge", "strict", "new-root"].contains(&g.gap.as_str()) {
+                    return bad("generator.gap", format!("is `{}`; use bridge, strict or new-root", g.gap));
+                }
+                for (k, v) in
+                    [("generator.angle", g.angle), ("generator.step", g.step), ("generator.width", g.width)]
+                {
+                    if !v.is_finite() {
+                        return bad(k, format!("must be a finite number, got {v}"));
+                    }
+                }
+                if g.width < 0.0 {
+                    return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
                 }
             }
         }
@@ -383,12 +461,12 @@ mod tests {
     #[test]
     fn set_overrides_and_types() {
         let l = load("lsys-honda-a", &sets(&["generator.angle=22.5", "mesh.sides=6", "seed=7"])).unwrap();
-        let Generator::Lsystem(g) = &l.recipe.generator;
+        let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
         assert_eq!(g.angle, 22.5);
         assert_eq!(l.recipe.mesh.sides, 6);
         assert_eq!(l.recipe.seed, 7);
         let l = load("lsys-honda-a", &sets(&["generator.define.R1=0.5"])).unwrap();
-        let Generator::Lsystem(g) = &l.recipe.generator;
+        let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
         assert_eq!(g.define.get("R1"), Some(&toml::Value::Float(0.5)));
     }
 

@@ -13,7 +13,7 @@ fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
 /// Derives a preset (with overrides) and returns its derived text.
 fn derived_text(preset: &str, kv: &[&str]) -> String {
     let l = recipe::load(preset, &sets(kv)).unwrap();
-    let Generator::Lsystem(g) = &l.recipe.generator;
+    let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
     let d = derive_lsystem(&l, g).unwrap();
     d.lsystem.format(&d.string)
 }
@@ -21,10 +21,16 @@ fn derived_text(preset: &str, kv: &[&str]) -> String {
 /// Grows a preset and returns the exact (f64) drawn segments and the skeleton.
 fn segments(preset: &str, kv: &[&str]) -> (Vec<(DVec3, DVec3)>, sylva::Skeleton) {
     let l = recipe::load(preset, &sets(kv)).unwrap();
-    let Generator::Lsystem(g) = &l.recipe.generator;
+    let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
     let mut d = derive_lsystem(&l, g).unwrap();
     let shown = d.lsystem.interpretation(&d.string, &mut d.evaluator, g.max_modules).unwrap();
-    let opts = TurtleOptions { angle: g.angle, step: g.step, width: g.width, width_factor: g.width_factor };
+    let opts = TurtleOptions {
+        angle: g.angle,
+        step: g.step,
+        width: g.width,
+        width_factor: g.width_factor,
+        ..Default::default()
+    };
     let mut segs = Vec::new();
     let sk =
         interpret_with(&d.lsystem.symbols, &shown, &opts, &d.lsystem.source, &mut |a, b| segs.push((a, b)))

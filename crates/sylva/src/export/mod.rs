@@ -19,6 +19,7 @@
 pub mod gltf;
 pub mod obj;
 pub mod ply;
+pub mod skeleton;
 
 use crate::error::{Error, Result};
 use crate::fsutil::write_atomic;

@@ -228,7 +228,10 @@ impl LSystem {
         let mut buf: Vec<f64> = Vec::with_capacity(32);
         let mut tmp = ModuleString::new();
         let mut scratch = Vec::new();
-        for i in 0..cur.len() {
+        let mut next = 0;
+        while next < cur.len() {
+            let i = next;
+            next += 1;
             let (sym, params) = cur.module(i);
             let prods = &self.by_symbol[sym as usize];
             let chosen = if prods.is_empty() {
@@ -243,6 +246,8 @@ impl LSystem {
                 None => out.push(sym, params),
                 Some((k, uses_buf)) => {
                     let p = &self.productions[k];
+                    // A multi-module predecessor consumes its following modules too.
+                    next = i + 1 + p.rest.len();
                     let locals = if uses_buf { &buf[..] } else { params };
                     if decompose {
                         tmp.syms.clear();
@@ -257,7 +262,7 @@ impl LSystem {
                                 "decomposition",
                                 s2,
                                 p2,
-                                1,
+                                0,
                                 out,
                                 ev,
                                 &mut scratch,
@@ -373,12 +378,24 @@ impl LSystem {
         }
         buf.clear();
         buf.extend_from_slice(params);
-        if !p.left.is_empty() || !p.right.is_empty() {
+        if !p.left.is_empty() || !p.right.is_empty() || !p.rest.is_empty() {
             let Some((cur, i, brackets)) = site else { return Ok(None) };
+            for (k, &(sym, ar)) in p.rest.iter().enumerate() {
+                let j = i + 1 + k;
+                if j >= cur.len() {
+                    return Ok(None);
+                }
+                let (s, q) = cur.module(j);
+                if s != sym || q.len() != ar {
+                    return Ok(None);
+                }
+                buf.extend_from_slice(q);
+            }
             if !p.left.is_empty() && !self.match_left(&p.left, i, cur, brackets, buf) {
                 return Ok(None);
             }
-            if !p.right.is_empty() && !self.match_right(&p.right, 0, i + 1, cur, brackets, buf) {
+            let after = i + 1 + p.rest.len();
+            if !p.right.is_empty() && !self.match_right(&p.right, 0, after, cur, brackets, buf) {
                 return Ok(None);
             }
         }
@@ -840,6 +857,13 @@ mod tests {
         let ls = LSystem::parse("t.l", &t3, &[]).unwrap();
         let e = ls.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap_err();
         assert!(e.message.contains("module D still has a decomposition production"), "{}", e.message);
+    }
+
+    #[test]
+    fn multi_module_predecessors() {
+        let t = "Lsystem: 1\nAxiom: A(1)B(2)A(3)C\nA(x)B(y) --> D(x+y)\nendlsystem\n";
+        let (ls, m) = derive(t, 1);
+        assert_eq!(ls.format(&m), "D(3)A(3)C");
     }
 
     #[test]

@@ -11,6 +11,7 @@
 
 pub mod derive;
 pub mod expr;
+pub mod files;
 pub mod parse;
 pub mod source;
 pub mod turtle;

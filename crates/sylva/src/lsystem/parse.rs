@@ -101,6 +101,9 @@ pub struct Production {
     pub pred: u16,
     /// Number of parameters of the predecessor (its first local slots).
     pub arity: usize,
+    /// Further modules of a multi-module predecessor (symbol, parameter count), which
+    /// must follow the first one immediately; their parameters follow its own.
+    pub rest: Vec<(u16, usize)>,
     /// All local names: predecessor parameters, then left- and right-context parameters.
     pub params: Vec<String>,
     /// Left context modules in string order (symbol, parameter count).
@@ -129,7 +132,11 @@ impl Production {
     /// True when the production needs a locals buffer (contexts or statements) instead
     /// of reading the module's parameters in place.
     pub fn needs_buffer(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty() || self.pre.is_some() || self.post.is_some()
+        !self.left.is_empty()
+            || !self.right.is_empty()
+            || !self.rest.is_empty()
+            || self.pre.is_some()
+            || self.post.is_some()
     }
 }
 
@@ -273,6 +280,21 @@ fn keyword(line: &str) -> Option<(Kw, usize)> {
     None
 }
 
+/// `{` minus `}` outside string literals.
+fn brace_depth(text: &str) -> i32 {
+    let mut d = 0;
+    let mut in_str = false;
+    for c in text.bytes() {
+        match c {
+            b'"' => in_str = !in_str,
+            b'{' if !in_str => d += 1,
+            b'}' if !in_str => d -= 1,
+            _ => {}
+        }
+    }
+    d
+}
+
 /// Finds the production arrow outside parentheses: `-->`, else `->`.
 fn arrow(text: &str) -> Option<(usize, usize)> {
     top_level_find_str(text, "-->").map(|a| (a, 3)).or_else(|| top_level_find_str(text, "->").map(|a| (a, 2)))
@@ -360,14 +382,54 @@ impl LSystem {
                     i = next;
                     continue;
                 }
-                i += 1;
-                items.push(Item::Keyword { kw, value, end: e, at: s });
-                continue;
-            }
-            if arrow(line).is_some() {
                 let mut end = e;
                 i += 1;
-                while i < lines.len() && self.is_continuation(lines[i]) {
+                if kw == Kw::Axiom {
+                    // The axiom may continue on the following lines.
+                    while i < lines.len() && self.is_continuation(&lines, i) {
+                        end = lines[i].1;
+                        i += 1;
+                    }
+                }
+                items.push(Item::Keyword { kw, value, end, at: s });
+                continue;
+            }
+            if line.to_ascii_lowercase().replace(['-', ' '], "").starts_with("ringlsystem") {
+                return Err(self.source.error(
+                    ErrorKind::Unsupported,
+                    s,
+                    e - s,
+                    "unsupported: ring L-systems (a circular string)",
+                    "not supported",
+                ));
+            }
+            // A production: its left side may span lines while a statement block is
+            // open; the successor continues on the following lines.
+            let mut end = e;
+            let mut j = i + 1;
+            loop {
+                let open = brace_depth(&text[s..end]) > 0;
+                if (arrow(&text[s..end]).is_some() && !open) || j >= lines.len() {
+                    break;
+                }
+                let (ls, le) = lines[j];
+                if ls >= le {
+                    // Blank (or comment-only) lines may sit inside a statement block.
+                    if open {
+                        j += 1;
+                        continue;
+                    }
+                    break;
+                }
+                if !open && keyword(&text[ls..le]).is_some() {
+                    break;
+                }
+                end = le;
+                j += 1;
+            }
+            if arrow(&text[s..end]).is_some() {
+                i = j;
+                while i < lines.len() && self.is_continuation(&lines, i) {
                     end = lines[i].1;
                     i += 1;
                 }
@@ -385,13 +447,41 @@ impl LSystem {
         Ok(items)
     }
 
-    /// True when a line continues the previous production.
-    fn is_continuation(&self, (s, e): (usize, usize)) -> bool {
+    /// True when line `i` continues the previous production (or axiom): it is not
+    /// blank, not a keyword, has no arrow, and is not the left side of a production
+    /// whose arrow starts a following line.
+    fn is_continuation(&self, lines: &[(usize, usize)], i: usize) -> bool {
+        let (s, e) = lines[i];
         if s >= e {
             return false;
         }
-        let line = &self.source.text[s..e];
-        keyword(line).is_none() && arrow(line).is_none()
+        let text = &self.source.text;
+        let line = &text[s..e];
+        if keyword(line).is_some() || arrow(line).is_some() {
+            return false;
+        }
+        // Look ahead: an LHS whose `-->` starts a later line, possibly after statement
+        // blocks on lines of their own.
+        let mut depth = brace_depth(line);
+        for &(ls, le) in &lines[i + 1..] {
+            if ls >= le {
+                if depth > 0 {
+                    continue;
+                }
+                return true;
+            }
+            let l = &text[ls..le];
+            if depth <= 0 {
+                if l.starts_with("-->") || l.starts_with("->") {
+                    return false;
+                }
+                if !l.starts_with('{') {
+                    return true;
+                }
+            }
+            depth += brace_depth(l);
+        }
+        true
     }
 
     /// End offset of a `{ ... }` block starting at `value`, and the index of the line
@@ -760,8 +850,16 @@ impl LSystem {
                 "context",
             ));
         }
-        let (pred, mut params) = self.predecessor(strict.0, strict.1)?;
-        let arity = params.len();
+        let (pred, rest, mut params, arity) = self.predecessor(strict.0, strict.1)?;
+        if section != Section::Productions && !rest.is_empty() {
+            return Err(self.source.error(
+                ErrorKind::Unsupported,
+                start,
+                pred_end - start,
+                "unsupported: a predecessor of several modules in decomposition or homomorphism productions",
+                "several modules",
+            ));
+        }
         let mut left = Vec::new();
         if let Some((a, b)) = lc {
             for (sym, names, at) in self.context_modules(a, b, false)? {
@@ -786,6 +884,9 @@ impl LSystem {
         if let Some((a, b)) = rc {
             for (sym, names, at) in self.context_modules(a, b, true)? {
                 match sym {
+                    // cpfg's `=` in a right context (`[B(x)=]`): the rest of the branch
+                    // does not matter; the following `]` already skips it.
+                    Some(sym) if self.symbols.name(sym) == "=" && names.is_empty() => {}
                     Some(sym) => {
                         right.push(ContextItem::Module(sym, names.len()));
                         self.add_params(&mut params, names, at)?;
@@ -851,6 +952,7 @@ impl LSystem {
         Ok(Production {
             pred,
             arity,
+            rest,
             params,
             left,
             right,
@@ -957,25 +1059,32 @@ impl LSystem {
         Ok((sym, params, next))
     }
 
-    fn predecessor(&mut self, start: usize, end: usize) -> PResult<(u16, Vec<String>)> {
+    /// The strict predecessor: one module, or several consecutive modules (cpfg).
+    /// Returns the first symbol, the other modules, all parameter names and the first
+    /// module's parameter count.
+    #[allow(clippy::type_complexity)]
+    fn predecessor(
+        &mut self,
+        start: usize,
+        end: usize,
+    ) -> PResult<(u16, Vec<(u16, usize)>, Vec<String>, usize)> {
         let text = self.source.text.clone();
         let s = text.as_bytes();
-        let i = skip_ws(s, start, end);
+        let mut i = skip_ws(s, start, end);
         if i >= end {
             return Err(self.source.error(ErrorKind::Syntax, start, 1, "missing predecessor", "here"));
         }
-        let (sym, params, next) = self.formal_module(&text, i, end)?;
-        let rest = skip_ws(s, next, end);
-        if rest < end {
-            return Err(self.source.error(
-                ErrorKind::Syntax,
-                rest,
-                end - rest,
-                "a predecessor is a single module (use `<` and `>` for context)",
-                "extra modules",
-            ));
+        let (sym, mut params, next) = self.formal_module(&text, i, end)?;
+        let arity = params.len();
+        let mut rest = Vec::new();
+        i = skip_ws(s, next, end);
+        while i < end {
+            let (m, names, next) = self.formal_module(&text, i, end)?;
+            rest.push((m, names.len()));
+            self.add_params(&mut params, names, i)?;
+            i = skip_ws(s, next, end);
         }
-        Ok((sym, params))
+        Ok((sym, rest, params, arity))
     }
 
     fn intern(&mut self, name: &str, at: usize) -> PResult<u16> {
@@ -1044,15 +1153,14 @@ impl LSystem {
                 i = close + 1;
             }
             if let Some(max) = turtle_max_arity(&name) {
-                if args.len() > max {
+                // cpfg ignores extra parameters of `F`, `+`, … (models carry data in
+                // them); only parameter-less modules given parameters are rejected.
+                if max == 0 && !args.is_empty() {
                     return Err(self.source.error(
                         ErrorKind::Arity,
                         at,
                         i - at,
-                        &format!(
-                            "turtle module `{name}` takes at most {max} parameter(s), got {}",
-                            args.len()
-                        ),
+                        &format!("turtle module `{name}` takes no parameters, got {}", args.len()),
                         "too many parameters",
                     ));
                 }
@@ -1086,7 +1194,7 @@ pub fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
     match c {
         '@' if j < end && s[j].is_ascii_alphabetic() => {
             j += 1;
-            if j < end && j < s.len() {
+            if j < end && j < s.len() && s[j].is_ascii_alphabetic() {
                 let two = &text[j - 1..(j + 1).min(text.len())];
                 if AT_TWO_LETTER.contains(&two) {
                     j += 1;
@@ -1241,15 +1349,17 @@ mod tests {
 
     #[test]
     fn errors() {
-        let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: F(1,2)\nendlsystem\n", &[]).unwrap_err();
+        let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: F]($)\nendlsystem\n", &[]).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Syntax);
+        let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: F[(2)\nendlsystem\n", &[]).unwrap_err();
         assert_eq!(e.kind, ErrorKind::Arity);
-        assert!(e.message.starts_with("e.l:2:8:"), "{}", e.message);
+        assert!(e.message.starts_with("e.l:2:9:"), "{}", e.message);
         let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: A(1\nendlsystem\n", &[]).unwrap_err();
         assert_eq!(e.kind, ErrorKind::Syntax);
         let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: A\nA(x) --> B(y)\n", &[]).unwrap_err();
         assert_eq!(e.kind, ErrorKind::UndefinedName);
         assert!(e.message.starts_with("e.l:3:12:"), "{}", e.message);
-        let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: A\nA B\n", &[]).unwrap_err();
+        let e = LSystem::parse("e.l", "Lsystem: 1\nignore: +\nA B\nAxiom: A\n", &[]).unwrap_err();
         assert!(e.message.contains("expected a production"));
         let e = LSystem::parse("e.l", "Axiom: A\n", &[]).unwrap_err();
         assert!(e.message.contains("Lsystem:"));

@@ -38,9 +38,10 @@
 //! [,ux,uy,uz])` sets the heading (and up); `@v` rolls like `$`; `{` … `}` trace a
 //! polygon whose vertices are the start point and every `f`/`F` end point (and `.`),
 //! placed as an organ and not as branches; `~x(s)` places the named surface x scaled
-//! by s; `@O(r)` a sphere, `@o(r)` / `@c(r)` a disc. `@Gs`, `@Gc`, `@Ge`
-//! (generalized-cylinder markers) need no action: every axis is already one smooth
-//! tube.
+//! by s; `@O(r)` a sphere, `@o(r)` / `@c(r)` a disc. Every axis is already one smooth
+//! tube; the generalized-cylinder markers also trace one: `@Gs` starts a generalized cylinder at the turtle's
+//! position, `@Gc` adds a node there and `@Ge` adds the last one, so models that move
+//! with `f` between control points (cpfg's contour-swept stems) still get an axis.
 
 use super::derive::ModuleString;
 use super::parse::Symbols;
@@ -121,6 +122,9 @@ enum Cmd {
     Surface,
     Sphere,
     Disc,
+    CylinderStart,
+    CylinderPoint,
+    CylinderEnd,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -134,6 +138,8 @@ struct State {
     order: u16,
     material: u32,
     elasticity: [f64; MAX_TROPISMS],
+    /// Last node of the open generalized cylinder (`@Gs` … `@Ge`), if any.
+    gc: u32,
 }
 
 /// True for the moves that record a polygon vertex (`F`, `f`; not `G`, `g`).
@@ -213,6 +219,9 @@ fn command(name: &str) -> Cmd {
         "." => Cmd::Vertex,
         "@O" => Cmd::Sphere,
         "@o" | "@c" => Cmd::Disc,
+        "@Gs" => Cmd::CylinderStart,
+        "@Gc" => Cmd::CylinderPoint,
+        "@Ge" => Cmd::CylinderEnd,
         n if n.starts_with('~') => Cmd::Surface,
         _ => Cmd::None,
     }
@@ -273,6 +282,7 @@ pub fn interpret_with(
         order: 0,
         material: 0,
         elasticity: [0.0; MAX_TROPISMS],
+        gc: NO_PARENT,
     };
     for (k, t) in opts.tropisms.iter().enumerate() {
         st.elasticity[k] = t.elasticity;
@@ -442,6 +452,23 @@ pub fn interpret_with(
                         st.h = h;
                         st.u = u;
                         st.l = u.cross(h);
+                    }
+                }
+            }
+            Cmd::CylinderStart => {
+                st.gc =
+                    sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, NO_PARENT, st.u.as_vec3(), st.order);
+                *sk.material.last_mut().expect("just pushed") = st.material;
+            }
+            Cmd::CylinderPoint | Cmd::CylinderEnd => {
+                if st.gc != NO_PARENT {
+                    let prev = sk.position[st.gc as usize].as_dvec3();
+                    on_draw(prev, st.pos);
+                    st.gc =
+                        sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.gc, st.u.as_vec3(), st.order);
+                    *sk.material.last_mut().expect("just pushed") = st.material;
+                    if matches!(cmds[sym as usize], Cmd::CylinderEnd) {
+                        st.gc = NO_PARENT;
                     }
                 }
             }

@@ -1,0 +1,527 @@
+//! Skeleton files: LST (seed 000 §4.1.5, Table 4.2) and sylva's JSON skeleton.
+//!
+//! - [`to_lst`] writes an LST file that [`crate::import::lst::parse`] reads back to the
+//!   same skeleton (positions and radii within 1e-6 relative, same parents). It replays
+//!   the reader's turtle while writing, so rounding never accumulates along a branch.
+//! - [`to_json`] / [`from_json`] are an exact round trip of every field, organs
+//!   included (`docs/formats.md` documents the format).
+//! - [`write()`] chooses the format from the file extension and writes atomically.
+//!
+//! What LST cannot hold: materials, organs and the exact `up` reference (an imported
+//! node's `up` is the written frame's X axis: the original `up` made perpendicular to
+//! the internode). Branch order comes back as the `SB()` nesting depth. Nodes are
+//! written depth first (children in index order, each child's subtree before the next
+//! child), which is the order every sylva generator produces; a skeleton in another
+//! parent-first order reads back with its nodes renumbered into that order. Roots
+//! without children are not written (an LST cylinder always has two ends). A forest
+//! (several roots) is written root after root and must be read with
+//! [`GapPolicy::NewRoot`](crate::import::lst::GapPolicy::NewRoot); two roots at the same
+//! place read back as one.
+
+use crate::error::{Error, Result};
+use crate::fsutil::write_atomic;
+use crate::import::lst::{perpendicular, Turtle};
+use crate::import::{located, nowhere};
+use crate::lsystem::source::ErrorKind;
+use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
+use glam::{DMat3, DQuat, DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The `format` tag of a JSON skeleton.
+pub const JSON_FORMAT: &str = "sylva-skeleton";
+
+/// The JSON skeleton version this sylva writes and reads.
+pub const JSON_VERSION: u32 = 1;
+
+/// The extensions [`write()`] understands, for error messages.
+pub const EXTENSIONS: &str = ".lst, .json (.skel.json)";
+
+/// Writes `skeleton` to `path` as LST (`.lst`) or JSON (`.json`, conventionally
+/// `.skel.json`), atomically. The skeleton is validated first ([`Error::Skeleton`]);
+/// any other extension is [`Error::UnknownFormat`].
+pub fn write(skeleton: &Skeleton, path: &Path) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let text = match ext.as_str() {
+        "lst" => {
+            skeleton.validate()?;
+            to_lst(skeleton)
+        }
+        "json" => {
+            skeleton.validate()?;
+            to_json(skeleton)
+        }
+        _ => return Err(Error::UnknownFormat { path: path.to_path_buf(), expected: EXTENSIONS }),
+    };
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
+// ---------------------------------------------------------------------------------
+// LST
+
+/// The skeleton as an LST file (see the [module docs](self) for what LST keeps).
+///
+/// Each internode is one line, `RotRel3f(angle, x, y, z) Cylinder(r0, r1, length)
+/// MovRel3f(0, length, 0)` (the rotation is left out when the direction does not
+/// change), with r0 the parent node's radius; a child that is not its parent's last,
+/// or whose order differs from its parent's, is wrapped in `SB()` … `EB()`. A root is
+/// reached with `MovRel3f(x, y, z)` from the origin. Numbers are printed so that they
+/// read back exactly (Rust's shortest round-trip form).
+///
+/// The skeleton should be valid ([`Skeleton::validate`]); nodes whose parent does not
+/// come before them are treated as roots, and nothing panics on invalid input.
+pub fn to_lst(skeleton: &Skeleton) -> String {
+    let sk = skeleton;
+    let n = [sk.position.len(), sk.radius.len(), sk.parent.len(), sk.up.len(), sk.order.len()]
+        .into_iter()
+        .min()
+        .unwrap_or(0);
+    // Child lists (CSR) over valid parent links only.
+    let parent_of = |i: usize| {
+        let p = sk.parent[i];
+        if p != NO_PARENT && (p as usize) < i {
+            Some(p as usize)
+        } else {
+            None
+        }
+    };
+    let mut offsets = vec![0usize; n + 1];
+    for i in 0..n {
+        if let Some(p) = parent_of(i) {
+            offsets[p + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut kids = vec![0u32; offsets[n]];
+    for i in 0..n {
+        if let Some(p) = parent_of(i) {
+            kids[fill[p]] = i as u32;
+            fill[p] += 1;
+        }
+    }
+    let children = |i: usize| &kids[offsets[i]..offsets[i + 1]];
+
+    let mut w =
+        LstWriter { out: String::with_capacity(64 * n + 16), t: Turtle::START, saved: Vec::new(), sk };
+    w.out.push_str("LST 0.1\n");
+    let roots: Vec<usize> = (0..n).filter(|&i| parent_of(i).is_none() && !children(i).is_empty()).collect();
+    let mut tasks: Vec<Task> = Vec::new();
+    for (ri, &r) in roots.iter().enumerate() {
+        let last_root = ri + 1 == roots.len();
+        let ch = children(r);
+        for (j, &c) in ch.iter().enumerate() {
+            let c = c as usize;
+            let wrap = !(last_root && j + 1 == ch.len()) || sk.order[c] != sk.order[r];
+            if wrap {
+                w.push();
+            }
+            // The state is the start state here: at the origin, unrotated.
+            w.move_to_root(sk.position[r]);
+            w.internode(r, c);
+            push_children(&mut tasks, children(c), c, sk);
+            while let Some(task) = tasks.pop() {
+                match task {
+                    Task::Enter { node, wrap } => {
+                        if wrap {
+                            w.push();
+                            tasks.push(Task::Exit);
+                        }
+                        let node = node as usize;
+                        w.internode(sk.parent[node] as usize, node);
+                        push_children(&mut tasks, children(node), node, sk);
+                    }
+                    Task::Exit => w.pop(),
+                }
+            }
+            if wrap {
+                w.pop();
+            }
+        }
+    }
+    w.out
+}
+
+/// Work items of the depth-first walk in [`to_lst`] (an explicit stack: trees can be
+/// deeper than the call stack).
+enum Task {
+    /// Write the internode ending at `node` (inside `SB()`…`EB()` when `wrap`), then
+    /// its subtree.
+    Enter { node: u32, wrap: bool },
+    /// Close a branch with `EB()`.
+    Exit,
+}
+
+/// Pushes the children of `node` so that the first child is taken first. Every child
+/// but the last, and any child whose order differs from `node`'s, is wrapped.
+fn push_children(tasks: &mut Vec<Task>, kids: &[u32], node: usize, sk: &Skeleton) {
+    for (j, &c) in kids.iter().enumerate().rev() {
+        let wrap = j + 1 != kids.len() || sk.order[c as usize] != sk.order[node];
+        tasks.push(Task::Enter { node: c, wrap });
+    }
+}
+
+/// Writes LST text while replaying the reader's turtle bit for bit.
+struct LstWriter<'a> {
+    out: String,
+    t: Turtle,
+    saved: Vec<Turtle>,
+    sk: &'a Skeleton,
+}
+
+impl LstWriter<'_> {
+    fn push(&mut self) {
+        self.out.push_str("SB()\n");
+        self.saved.push(self.t);
+    }
+
+    fn pop(&mut self) {
+        self.out.push_str("EB()\n");
+        if let Some(t) = self.saved.pop() {
+            self.t = t;
+        }
+    }
+
+    /// Moves from the start state to a root's position.
+    fn move_to_root(&mut self, p: Vec3) {
+        if p == Vec3::ZERO {
+            return;
+        }
+        let (x, y, z) = (num32(p.x), num32(p.y), num32(p.z));
+        let _ = writeln!(self.out, "MovRel3f({}, {}, {})", x.0, y.0, z.0);
+        self.t.mov(x.1, y.1, z.1);
+    }
+
+    /// Writes the internode from node `from` (where the turtle stands) to node `to`.
+    fn internode(&mut self, from: usize, to: usize) {
+        let sk = self.sk;
+        // Aim from where the reader's turtle really is, so errors never accumulate.
+        let d = sk.position[to].as_dvec3() - self.t.p;
+        let len = d.length();
+        let len = if len.is_finite() { len } else { 0.0 };
+        if len > 0.0 {
+            let h = d / len;
+            let u = perpendicular(h, [sk.up[to].as_dvec3(), self.t.r.x_axis, self.t.r.z_axis]);
+            let target = DMat3::from_cols(u, h, u.cross(h));
+            let q = DQuat::from_mat3(&(self.t.r.transpose() * target)).normalize();
+            let q = if q.w < 0.0 { -q } else { q };
+            let v = DVec3::new(q.x, q.y, q.z);
+            let s = v.length();
+            if s > 0.0 && s.is_finite() {
+                let angle = 2.0 * s.atan2(q.w);
+                let axis = v / s;
+                let _ = write!(self.out, "RotRel3f({angle}, {}, {}, {}) ", axis.x, axis.y, axis.z);
+                let _ = self.t.rot(angle, axis.x, axis.y, axis.z);
+            }
+        }
+        let (r0, r1) = (num32(sk.radius[from]).0, num32(sk.radius[to]).0);
+        let _ = write!(self.out, "Cylinder({r0}, {r1}, {len})");
+        self.t.current = to as u32;
+        if len > 0.0 {
+            let _ = write!(self.out, " MovRel3f(0, {len}, 0)");
+            self.t.mov(0.0, len, 0.0);
+        }
+        self.out.push('\n');
+    }
+}
+
+/// An `f32` in its shortest round-trip form, and the `f64` a reader parses from it.
+fn num32(v: f32) -> (String, f64) {
+    let s = format!("{v}");
+    let back = s.parse::<f64>().unwrap_or(f64::from(v));
+    (s, back)
+}
+
+// ---------------------------------------------------------------------------------
+// JSON
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JsonDoc {
+    format: String,
+    version: u32,
+    nodes: Vec<JsonNode>,
+    #[serde(default)]
+    organs: Vec<JsonOrgan>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JsonNode {
+    position: [f32; 3],
+    radius: f32,
+    parent: Option<u32>,
+    #[serde(default)]
+    up: Option<[f32; 3]>,
+    #[serde(default)]
+    order: u16,
+    #[serde(default)]
+    material: u32,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JsonOrgan {
+    kind: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    vertices: Option<Vec<[f32; 3]>>,
+    node: Option<u32>,
+    position: [f32; 3],
+    heading: [f32; 3],
+    up: [f32; 3],
+    size: f32,
+    #[serde(default)]
+    material: u32,
+}
+
+/// The skeleton as a JSON document (`docs/formats.md`): one node, and one organ, per
+/// line, every field written, numbers in their shortest exact form, so [`from_json`]
+/// gives back an identical skeleton. Deterministic.
+pub fn to_json(skeleton: &Skeleton) -> String {
+    let sk = skeleton;
+    let n = sk.position.len();
+    let mut out = String::with_capacity(128 * n + 64);
+    let _ = writeln!(out, "{{\"format\": {:?}, \"version\": {},", JSON_FORMAT, JSON_VERSION);
+    out.push_str("\"nodes\": [");
+    for i in 0..n {
+        let node = JsonNode {
+            position: sk.position[i].to_array(),
+            radius: sk.radius.get(i).copied().unwrap_or(0.0),
+            parent: sk.parent.get(i).copied().filter(|&p| p != NO_PARENT),
+            up: Some(sk.up.get(i).copied().unwrap_or(Vec3::X).to_array()),
+            order: sk.order.get(i).copied().unwrap_or(0),
+            material: sk.material.get(i).copied().unwrap_or(0),
+        };
+        out.push_str(if i == 0 { "\n  " } else { ",\n  " });
+        out.push_str(&serde_json::to_string(&node).unwrap_or_default());
+    }
+    out.push_str(if n == 0 { "],\n" } else { "\n],\n" });
+    out.push_str("\"organs\": [");
+    for (k, o) in sk.organs.iter().enumerate() {
+        out.push_str(if k == 0 { "\n  " } else { ",\n  " });
+        out.push_str(&serde_json::to_string(&organ_to_json(o)).unwrap_or_default());
+    }
+    out.push_str(if sk.organs.is_empty() { "]}\n" } else { "\n]}\n" });
+    out
+}
+
+fn organ_to_json(o: &Organ) -> JsonOrgan {
+    let (kind, name, vertices) = match &o.kind {
+        OrganKind::Leaf => ("leaf", None, None),
+        OrganKind::Polygon(v) => ("polygon", None, Some(v.iter().map(|p| p.to_array()).collect())),
+        OrganKind::Surface(s) => ("surface", Some(s.clone()), None),
+        OrganKind::Sphere => ("sphere", None, None),
+        OrganKind::Disc => ("disc", None, None),
+    };
+    JsonOrgan {
+        kind: kind.to_string(),
+        name,
+        vertices,
+        node: (o.node != NO_PARENT).then_some(o.node),
+        position: o.position.to_array(),
+        heading: o.heading.to_array(),
+        up: o.up.to_array(),
+        size: o.size,
+        material: o.material,
+    }
+}
+
+/// Reads a JSON skeleton written by [`to_json`] (or by hand: `up`, `order`, `material`
+/// and `organs` may be left out). Syntax and type errors are located
+/// (`<json>:line:column: what`); a skeleton that breaks an invariant is
+/// [`Error::Skeleton`].
+pub fn from_json(text: &str) -> Result<Skeleton> {
+    from_json_named("<json>", text)
+}
+
+/// [`from_json`] with a file name for the messages.
+pub fn from_json_named(name: &str, text: &str) -> Result<Skeleton> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let doc: JsonDoc = match serde_path_to_error::deserialize(&mut de) {
+        Ok(doc) => match de.end() {
+            Ok(()) => doc,
+            Err(e) => return Err(json_error(name, text, "", &e)),
+        },
+        Err(e) => return Err(json_error(name, text, &e.path().to_string(), e.inner())),
+    };
+    let bad = |what: String| -> Error { nowhere(name, text, ErrorKind::Syntax, &what).into() };
+    if doc.format != JSON_FORMAT {
+        return Err(bad(format!(
+            "not a sylva skeleton: format is {:?}, expected {JSON_FORMAT:?}",
+            doc.format
+        )));
+    }
+    if doc.version != JSON_VERSION {
+        return Err(bad(format!(
+            "unsupported skeleton version {}: this sylva reads version {JSON_VERSION}",
+            doc.version
+        )));
+    }
+    let mut sk = Skeleton::new();
+    for (i, node) in doc.nodes.iter().enumerate() {
+        let parent = match node.parent {
+            Some(NO_PARENT) => {
+                return Err(bad(format!("nodes[{i}].parent: {NO_PARENT} is not a node index")))
+            }
+            Some(p) => p,
+            None => NO_PARENT,
+        };
+        let position = Vec3::from_array(node.position);
+        let up = match node.up {
+            Some(u) => Vec3::from_array(u),
+            None => default_up(&sk, position, parent),
+        };
+        sk.push(position, node.radius, parent, up, node.order);
+        if let Some(m) = sk.material.last_mut() {
+            *m = node.material;
+        }
+    }
+    for (k, o) in doc.organs.into_iter().enumerate() {
+        let kind = match (o.kind.as_str(), o.name, o.vertices) {
+            ("leaf", None, None) => OrganKind::Leaf,
+            ("sphere", None, None) => OrganKind::Sphere,
+            ("disc", None, None) => OrganKind::Disc,
+            ("polygon", None, Some(v)) => OrganKind::Polygon(v.into_iter().map(Vec3::from_array).collect()),
+            ("surface", Some(s), None) => OrganKind::Surface(s),
+            (kind @ ("leaf" | "sphere" | "disc"), ..) => {
+                return Err(bad(format!("organs[{k}]: a {kind} has no `name` or `vertices`")))
+            }
+            ("polygon", ..) => {
+                return Err(bad(format!("organs[{k}]: a polygon needs `vertices` (and no `name`)")))
+            }
+            ("surface", ..) => {
+                return Err(bad(format!("organs[{k}]: a surface needs a `name` (and no `vertices`)")))
+            }
+            (other, ..) => {
+                return Err(bad(format!(
+                    "organs[{k}].kind: unknown organ kind {other:?} (leaf, polygon, surface, sphere, disc)"
+                )))
+            }
+        };
+        let node = match o.node {
+            Some(NO_PARENT) => return Err(bad(format!("organs[{k}].node: {NO_PARENT} is not a node index"))),
+            Some(i) if i as usize >= sk.len() => {
+                return Err(bad(format!(
+                    "organs[{k}].node: {i} is not a node index (there are {})",
+                    sk.len()
+                )))
+            }
+            Some(i) => i,
+            None => NO_PARENT,
+        };
+        sk.organs.push(Organ {
+            kind,
+            node,
+            position: Vec3::from_array(o.position),
+            heading: Vec3::from_array(o.heading),
+            up: Vec3::from_array(o.up),
+            size: o.size,
+            material: o.material,
+        });
+    }
+    sk.validate()?;
+    Ok(sk)
+}
+
+/// A located error from serde_json's line and column, prefixed with the field path.
+fn json_error(name: &str, text: &str, path: &str, e: &serde_json::Error) -> Error {
+    let at = offset_of(text, e.line(), e.column());
+    let full = e.to_string();
+    let msg = full.rsplit_once(" at line ").map_or(full.as_str(), |(m, _)| m);
+    let what = if path.is_empty() || path == "." { msg.to_string() } else { format!("{path}: {msg}") };
+    located(name, text, ErrorKind::Syntax, at, 1, &what, "here").into()
+}
+
+/// An `up` for a node that gives none: perpendicular to its internode.
+fn default_up(sk: &Skeleton, position: Vec3, parent: u32) -> Vec3 {
+    let dir = match sk.position.get(parent as usize) {
+        Some(&p) => (position - p).as_dvec3().normalize_or(DVec3::Y),
+        None => DVec3::Y,
+    };
+    perpendicular(dir, [DVec3::X, DVec3::Z, DVec3::Y]).as_vec3()
+}
+
+/// Byte offset of serde_json's 1-based line and column.
+fn offset_of(text: &str, line: usize, column: usize) -> usize {
+    let mut off = 0;
+    for (k, l) in text.split_inclusive('\n').enumerate() {
+        if k + 1 == line {
+            return off + column.saturating_sub(1).min(l.len());
+        }
+        off += l.len();
+    }
+    text.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::lst::{self, LstOptions};
+
+    fn fork() -> Skeleton {
+        let mut s = Skeleton::new();
+        let r = s.push(Vec3::ZERO, 0.3, NO_PARENT, Vec3::X, 0);
+        let a = s.push(Vec3::new(0.0, 1.0, 0.0), 0.2, r, Vec3::X, 0);
+        s.push(Vec3::new(0.7, 1.6, 0.1), 0.1, a, Vec3::Z, 1);
+        s.push(Vec3::new(0.0, 2.0, 0.0), 0.15, a, Vec3::X, 0);
+        s
+    }
+
+    #[test]
+    fn lst_of_a_fork_reads_back() {
+        let s = fork();
+        let text = to_lst(&s);
+        assert!(
+            text.starts_with("LST 0.1\nCylinder(0.3, 0.2, 1) MovRel3f(0, 1, 0)\nSB()\nRotRel3f("),
+            "{text}"
+        );
+        let back = lst::parse("t.lst", &text, &LstOptions::default()).unwrap();
+        assert_eq!(back.parent, s.parent);
+        assert_eq!(back.radius, s.radius);
+        assert_eq!(back.order, s.order);
+        for i in 0..s.len() {
+            assert!((back.position[i] - s.position[i]).length() < 1e-6, "{i}: {text}");
+        }
+        // The up reference comes back made perpendicular to its internode.
+        let h = (s.position[2] - s.position[1]).normalize();
+        let want = (Vec3::Z - h * h.dot(Vec3::Z)).normalize();
+        assert!((back.up[2] - want).length() < 1e-6, "{} {want}", back.up[2]);
+        assert!((back.up[3] - Vec3::X).length() < 1e-6);
+    }
+
+    #[test]
+    fn json_is_exact() {
+        let mut s = fork();
+        s.material[2] = 7;
+        s.position[1].x = -0.0;
+        s.organs.push(Organ {
+            kind: OrganKind::Polygon(vec![Vec3::ZERO, Vec3::X, Vec3::new(0.1, 1e-30, 3e38)]),
+            node: 2,
+            position: Vec3::new(0.1, 0.2, 0.3),
+            heading: Vec3::Y,
+            up: Vec3::Z,
+            size: 0.05,
+            material: 3,
+        });
+        s.organs.push(Organ {
+            kind: OrganKind::Surface("l".into()),
+            node: NO_PARENT,
+            position: Vec3::ONE,
+            heading: Vec3::X,
+            up: Vec3::Y,
+            size: 1.0,
+            material: 0,
+        });
+        let text = to_json(&s);
+        let back = from_json(&text).unwrap();
+        assert_eq!(back, s);
+        assert!(back.position[1].x.is_sign_negative());
+        assert_eq!(to_json(&back), text);
+        assert_eq!(from_json(&to_json(&Skeleton::new())).unwrap(), Skeleton::new());
+    }
+}

@@ -1,0 +1,199 @@
+//! Skeleton and module-string import: LST skeletons and CPFG turtle strings.
+//!
+//! ```text
+//!  .lst text ──► lst::parse ──────────────► Skeleton          (seed 000 §4.1.5–4.1.6)
+//!  .skel.json ─► export::skeleton::from_json ► Skeleton       (sylva's own format)
+//!  .str text ──► cpfg_str::parse ─► (Symbols, ModuleString) ─► lsystem::interpret ─► Skeleton
+//!                                                              (seed 001 §4.3, §A.4)
+//! ```
+//!
+//! - [`lst`]: the LST skeleton format of seed 000 (Table 4.2: `SB`, `EB`, `MovRel3f`,
+//!   `RotRel3f`, `Cylinder`), with every convention the seed leaves open stated in the
+//!   module docs and in `docs/formats.md`;
+//! - [`cpfg_str`]: cpfg's text string files (`.str`), a derived module string written
+//!   out as text, read with the module-name rules of the L-system parser;
+//! - [`load_skeleton`]: reads a skeleton file, choosing the format from its extension.
+//!
+//! Parse errors are [`LsystemError`]s: `file:line:column: what`, with a caret excerpt.
+//! Nothing here panics or allocates more than a constant factor of its input.
+
+pub mod cpfg_str;
+pub mod lst;
+
+use crate::error::{Error, Result};
+use crate::lsystem::source::{ErrorKind, LsystemError};
+use crate::skeleton::Skeleton;
+use miette::{NamedSource, SourceSpan};
+use std::path::Path;
+use std::sync::Arc;
+
+/// The skeleton file extensions [`load_skeleton`] understands, for error messages.
+pub const SKELETON_EXTENSIONS: &str = ".lst, .skel.json (any .json)";
+
+/// Reads a skeleton file, choosing the format from the extension (case-insensitive):
+/// `.lst` is an LST file read with the default [`lst::LstOptions`] (lenient gap policy),
+/// `.json` (conventionally `.skel.json`) is sylva's JSON skeleton
+/// ([`crate::export::skeleton::from_json`]). Anything else is [`Error::UnknownFormat`].
+///
+/// Errors name the file: LST and JSON syntax errors carry `file:line:column` and an
+/// excerpt; a skeleton that breaks an invariant is [`Error::Skeleton`].
+pub fn load_skeleton(path: &Path) -> Result<Skeleton> {
+    load_skeleton_with(path, &lst::LstOptions::default())
+}
+
+/// Like [`load_skeleton`], with explicit options for `.lst` files.
+pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleton> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let name = path.display().to_string();
+    match ext.as_str() {
+        "lst" => {
+            let text = crate::fsutil::read_to_string(path)?;
+            Ok(lst::parse(&name, &text, opts)?)
+        }
+        "json" => {
+            let text = crate::fsutil::read_to_string(path)?;
+            crate::export::skeleton::from_json_named(&name, &text)
+        }
+        _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS }),
+    }
+}
+
+/// A located error in `text` (the original file) at byte offset `at`, `len` bytes long:
+/// `name:line:column: what` with a caret excerpt, exactly as the L-system parser's
+/// errors ([`Source::error_at`](crate::lsystem::source::Source::error_at)).
+///
+/// The error is built directly rather than through a `Source`, which would run the
+/// cpfg preprocessor over the text (LST and `.str` files are not C: a `.str` line may
+/// start with the module `#`). It is built only on the error path, so a successful
+/// parse never copies its input.
+pub(crate) fn located(
+    name: &str,
+    text: &str,
+    kind: ErrorKind,
+    at: usize,
+    len: usize,
+    what: &str,
+    label: &str,
+) -> Box<LsystemError> {
+    let mut at = at.min(text.len());
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    let len = len.max(1).min(text.len() - at).max(usize::from(at < text.len()));
+    Box::new(LsystemError {
+        kind,
+        message: format!("{name}:{line}:{col}: {what}"),
+        source_code: NamedSource::new(name, Arc::<str>::from(text)),
+        span: Some(SourceSpan::new(at.into(), len)),
+        label: label.to_string(),
+        help: None,
+    })
+}
+
+/// An error with no place in the file: `name: what`.
+pub(crate) fn nowhere(name: &str, text: &str, kind: ErrorKind, what: &str) -> Box<LsystemError> {
+    Box::new(LsystemError {
+        kind,
+        message: format!("{name}: {what}"),
+        source_code: NamedSource::new(name, Arc::<str>::from(text)),
+        span: None,
+        label: String::new(),
+        help: None,
+    })
+}
+
+/// Why a token is not a usable number.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum NumberError {
+    /// Not a decimal number at all.
+    Syntax,
+    /// `nan`, `inf`, or a literal too large for `f64`.
+    NonFinite,
+}
+
+/// Parses a decimal literal: `[+-]` digits with an optional fraction and exponent
+/// (`1`, `-0.5`, `.5`, `5.`, `1e+06`, `2.5E-3`). `nan`/`inf` and overflowing literals
+/// are [`NumberError::NonFinite`]; anything else that is not such a literal is
+/// [`NumberError::Syntax`].
+pub(crate) fn parse_number(tok: &str) -> std::result::Result<f64, NumberError> {
+    let b = tok.as_bytes();
+    let mut i = 0;
+    if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+        i += 1;
+    }
+    let unsigned = &tok[i..];
+    if ["nan", "inf", "infinity"].iter().any(|w| unsigned.eq_ignore_ascii_case(w)) {
+        return Err(NumberError::NonFinite);
+    }
+    let int_start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        digits += i - frac_start;
+    }
+    if digits == 0 {
+        return Err(NumberError::Syntax);
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        i += 1;
+        if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+            i += 1;
+        }
+        let exp_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        if i == exp_start {
+            return Err(NumberError::Syntax);
+        }
+    }
+    if i != b.len() {
+        return Err(NumberError::Syntax);
+    }
+    match tok.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(NumberError::NonFinite),
+        Err(_) => Err(NumberError::Syntax),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers() {
+        for (t, v) in [("1", 1.0), ("-0.5", -0.5), (".5", 0.5), ("5.", 5.0), ("1e+06", 1e6), ("+2E-3", 2e-3)]
+        {
+            assert_eq!(parse_number(t), Ok(v), "{t}");
+        }
+        for t in ["", "-", ".", "e5", "1e", "1x", "0x10", "1,2", "--1", "1e+"] {
+            assert_eq!(parse_number(t), Err(NumberError::Syntax), "{t}");
+        }
+        for t in ["nan", "NaN", "-inf", "Infinity", "1e999", "-1e400"] {
+            assert_eq!(parse_number(t), Err(NumberError::NonFinite), "{t}");
+        }
+    }
+
+    #[test]
+    fn located_errors_point_at_line_and_column() {
+        let text = "LST 0.1\n  Foo()\n";
+        let e = located("t.lst", text, ErrorKind::Syntax, 10, 3, "bad", "here");
+        assert!(e.message.starts_with("t.lst:2:3: bad"), "{}", e.message);
+        // Offsets inside a multi-byte character or past the end do not panic.
+        let e = located("t.lst", "é", ErrorKind::Syntax, 1, 1, "x", "y");
+        assert!(e.message.starts_with("t.lst:1:1"), "{}", e.message);
+        let e = located("t.lst", "ab", ErrorKind::Syntax, 99, 1, "x", "y");
+        assert!(e.message.starts_with("t.lst:1:3"), "{}", e.message);
+    }
+}

@@ -1,0 +1,530 @@
+//! The sibling files of a cpfg (vlab) model folder: view, functions, surfaces and
+//! colour maps or materials.
+//!
+//! This implements the model-folder support of issue 3: a vlab object folder holds
+//! the L-system (`*.l`) and the files cpfg reads next to it. Each format has its own
+//! reader, and [`load_folder`] finds and reads them the way cpfg is started on them.
+//!
+//! | file | module | what sylva keeps |
+//! |---|---|---|
+//! | `*.v` view file | [`view`] | angle, colour and width settings, tropisms, the surface, function and contour lists; viewing keys are listed as ignored |
+//! | `*.func` function, `*.fset` function set | [`func`] | the B-spline curve, evaluated as y(x) on \[0, 1\] |
+//! | `*.s` surface | [`surface`] | the bicubic Bézier patches, tessellated to a [`crate::Mesh`] |
+//! | `*.map` colour map, `*.mat` materials | [`colormap`] | one RGB colour per colour or material index |
+//!
+//! The formats follow cpfg's own readers (vlab 5, `interpret.c`, `movements.c`,
+//! `splinefun.cpp`, `patches.c`, medit) and were checked on the fifty models of the
+//! vlab CPFG manual and course corpus; each module's documentation gives the format and
+//! every place where sylva differs from cpfg.
+//!
+//! # Finding the files
+//!
+//! cpfg is started as `cpfg [options] file.l file.v [file.a] …` with `-m map` (colour
+//! map; `-m1`/`-m2` load a first and second map at indices 0 and 256), `-M mat`
+//! (materials) and `-e file` (environment). vlab folders declare that command line in
+//! their `specifications` file (for example `cpfg -M material.mat plant.l plant.v
+//! plant.a`). [`load_folder`] therefore:
+//!
+//! 1. reads `specifications` in the L-system's folder, if any, and takes the first
+//!    `cpfg …` command whose `.l` argument has the L-system's file name; its `.v`
+//!    argument is the view file and its `-m`/`-m1`/`-m2`/`-M` arguments the colours;
+//! 2. otherwise takes the `.v` file with the L-system's stem, or the only `.v` file in
+//!    the folder; and the `.map` with the stem, the only `.map`, the `.mat` with the
+//!    stem or the only `.mat` (in that order);
+//! 3. reads the functions the view file lists, in the order it lists them: cpfg's
+//!    `func(id, x)` refers to the `id`-th function, counted from 1, so function `id` is
+//!    `functions[id - 1]`. A `function set:` line replaces the functions listed before
+//!    it by the set's functions, as in cpfg. When the view file lists no function (or
+//!    there is no view file), sylva reads every `*.func` file of the folder in file-name
+//!    order and then every `*.fset` file; that order is a sylva convention. A listed
+//!    function whose file is missing gets cpfg's default function (y = 0), so the ids
+//!    of the following ones do not shift;
+//! 4. reads the surfaces the view file names (`surface:` and `line:` lines); a missing
+//!    surface file is skipped, as cpfg skips it.
+//!
+//! Everything found but not used (the animation file, environment files, contour
+//! files, viewing keys, missing files) is listed in [`ModelFolder::ignored`]. Paths in
+//! the view file and in `specifications` are relative to the folder.
+
+pub mod colormap;
+pub mod func;
+pub mod surface;
+pub mod view;
+
+use crate::lsystem::source::{ErrorKind, LsystemError};
+use colormap::ColorMap;
+use func::Function;
+use miette::{NamedSource, SourceSpan};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use surface::Surface;
+use view::View;
+
+/// Everything sylva reads from a cpfg model folder next to its L-system.
+#[derive(Debug, Clone)]
+pub struct ModelFolder {
+    /// The L-system file the folder was loaded for.
+    pub lsystem: PathBuf,
+    /// The view file, when one was found.
+    pub view: Option<View>,
+    /// Where the view file was read from.
+    pub view_file: Option<PathBuf>,
+    /// The functions, in cpfg id order: `func(id, x)` is `functions[id - 1]`. Each
+    /// name is the function's `name:` or, without one, its file stem.
+    pub functions: Vec<(String, Function)>,
+    /// The surfaces named in the view file, by their one-character id (`~l` draws
+    /// surface `"l"`).
+    pub surfaces: Vec<(String, Surface)>,
+    /// The colour map (`-m`) or material colours (`-M`), when one was found.
+    pub colormap: Option<ColorMap>,
+    /// The colour map or material files that were read, in load order.
+    pub colormap_files: Vec<PathBuf>,
+    /// What was found but not used, one human-readable note each.
+    pub ignored: Vec<String>,
+}
+
+/// Finds and reads the view, function, surface and colour files of the cpfg model
+/// folder that holds `lsystem_path` (see the [module documentation](self) for how).
+///
+/// Errors: a file that exists but cannot be read ([`crate::Error::Read`]) or does not
+/// parse ([`crate::Error::Lsystem`], located in that file). Missing optional files are
+/// not errors; they are listed in [`ModelFolder::ignored`].
+pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
+    let dir = match lsystem_path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let lsystem_name = lsystem_path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = lsystem_path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut folder = ModelFolder {
+        lsystem: lsystem_path.to_path_buf(),
+        view: None,
+        view_file: None,
+        functions: Vec::new(),
+        surfaces: Vec::new(),
+        colormap: None,
+        colormap_files: Vec::new(),
+        ignored: Vec::new(),
+    };
+    let listing = list_dir(&dir);
+
+    // 1. The cpfg command line of `specifications`, if it names this L-system.
+    let spec_path = dir.join("specifications");
+    let command = if spec_path.is_file() {
+        let text = read_text(&spec_path)?;
+        find_cpfg_command(&text, &lsystem_name)
+    } else {
+        None
+    };
+
+    let view_name: Option<String>;
+    let mut colour_files: Vec<(usize, String, bool)> = Vec::new(); // (base, file, is_material)
+    if let Some(cmd) = &command {
+        view_name = cmd.view.clone();
+        for (base, file) in &cmd.maps {
+            colour_files.push((*base, file.clone(), false));
+        }
+        if let Some(m) = &cmd.materials {
+            colour_files.push((0, m.clone(), true));
+        }
+        for other in &cmd.other_files {
+            folder.ignored.push(format!("{other} (named on the cpfg command line; not used)"));
+        }
+    } else {
+        view_name = pick(&listing, &stem, "v");
+        if view_name.is_none() && listing.iter().any(|f| has_ext(f, "v")) {
+            folder.ignored.push(format!("several .v files and none named {stem}.v: no view file chosen"));
+        }
+        if let Some(m) = pick(&listing, &stem, "map") {
+            colour_files.push((0, m, false));
+        } else if let Some(m) = pick(&listing, &stem, "mat") {
+            colour_files.push((0, m, true));
+        }
+    }
+
+    // 2. The view file.
+    if let Some(v) = view_name {
+        let path = dir.join(&v);
+        if path.is_file() {
+            let text = read_text(&path)?;
+            let view = view::parse(&display_name(&path), &text)?;
+            for key in &view.ignored {
+                folder.ignored.push(format!("{v}: {key}"));
+            }
+            folder.view = Some(view);
+            folder.view_file = Some(path);
+        } else {
+            folder.ignored.push(format!("missing view file {v}"));
+        }
+    }
+
+    // 3. Functions.
+    let listed = folder.view.as_ref().map(|v| !v.functions.is_empty()).unwrap_or(false);
+    if listed {
+        let refs = folder.view.as_ref().map(|v| v.functions.clone()).unwrap_or_default();
+        for r in refs {
+            let path = dir.join(&r.file);
+            if r.is_set {
+                folder.functions.clear();
+                if path.is_file() {
+                    let text = read_text(&path)?;
+                    let set = func::parse_set(&display_name(&path), &text)?;
+                    folder.functions.extend(set.functions);
+                } else {
+                    folder.ignored.push(format!("missing function set {}", r.file));
+                }
+            } else if path.is_file() {
+                let text = read_text(&path)?;
+                let mut f = func::parse(&display_name(&path), &text)?;
+                if f.format == func::FunctionFormat::Range {
+                    f.set_samples(r.samples);
+                }
+                let name = f.name.clone().unwrap_or_else(|| file_stem(&r.file));
+                folder.functions.push((name, f));
+            } else {
+                folder.ignored.push(format!(
+                    "missing function file {} (function {} is y = 0, as in cpfg)",
+                    r.file,
+                    folder.functions.len() + 1
+                ));
+                folder.functions.push((file_stem(&r.file), Function::cpfg_default()));
+            }
+        }
+    } else {
+        for f in listing.iter().filter(|f| has_ext(f, "func")) {
+            let path = dir.join(f);
+            let text = read_text(&path)?;
+            let fun = func::parse(&display_name(&path), &text)?;
+            let name = fun.name.clone().unwrap_or_else(|| file_stem(f));
+            folder.functions.push((name, fun));
+        }
+        for f in listing.iter().filter(|f| has_ext(f, "fset")) {
+            let path = dir.join(f);
+            let text = read_text(&path)?;
+            let set = func::parse_set(&display_name(&path), &text)?;
+            folder.functions.extend(set.functions);
+        }
+    }
+
+    // 4. Surfaces.
+    let surface_refs: Vec<view::SurfaceRef> = folder
+        .view
+        .as_ref()
+        .map(|v| v.surfaces.iter().chain(v.line_surface.iter()).cloned().collect())
+        .unwrap_or_default();
+    for r in surface_refs {
+        let id = r.id.to_string();
+        if folder.surfaces.iter().any(|(n, _)| *n == id) {
+            folder.ignored.push(format!("surface id {id} used twice: {} ignored, as in cpfg", r.file));
+            continue;
+        }
+        let path = dir.join(&r.file);
+        if path.is_file() {
+            let text = read_text(&path)?;
+            let s = surface::parse(&display_name(&path), &text)?;
+            folder.surfaces.push((id, s));
+        } else {
+            folder.ignored.push(format!("missing surface file {} (surface {id})", r.file));
+        }
+    }
+
+    // 5. Colour maps and materials.
+    for (base, file, is_material) in colour_files {
+        let path = dir.join(&file);
+        if !path.is_file() {
+            folder.ignored.push(format!("missing colour file {file}"));
+            continue;
+        }
+        let bytes =
+            std::fs::read(&path).map_err(|source| crate::Error::Read { path: path.clone(), source })?;
+        let parsed = if is_material { colormap::parse_materials(&bytes) } else { colormap::parse(&bytes) };
+        let map = parsed.map_err(|why| plain_error(&display_name(&path), &why))?;
+        match folder.colormap.as_mut() {
+            Some(existing) => existing.insert_at(base, &map),
+            None => {
+                let mut m = ColorMap { colors: Vec::new(), materials: None };
+                m.insert_at(base, &map);
+                folder.colormap = Some(m);
+            }
+        }
+        folder.colormap_files.push(path);
+    }
+    Ok(folder)
+}
+
+/// The parts of a `cpfg …` command line that matter here.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct CpfgCommand {
+    lsystem: Option<String>,
+    view: Option<String>,
+    /// Colour maps with the colour index they start at.
+    maps: Vec<(usize, String)>,
+    materials: Option<String>,
+    other_files: Vec<String>,
+}
+
+/// Parses the `cpfg …` lines of a vlab `specifications` file and returns the first
+/// whose `.l` argument is `lsystem` (compared by file name).
+fn find_cpfg_command(spec: &str, lsystem: &str) -> Option<CpfgCommand> {
+    for line in spec.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let Some(at) = words.iter().position(|w| *w == "cpfg" || w.ends_with("/cpfg")) else {
+            continue;
+        };
+        let mut cmd = CpfgCommand::default();
+        let mut k = at + 1;
+        while k < words.len() {
+            let w = words[k];
+            if matches!(w, "|" | ";" | "&&" | "||" | "&") {
+                break;
+            }
+            if let Some(opt) = w.strip_prefix('-') {
+                let arg = words.get(k + 1).map(|s| s.to_string());
+                match opt {
+                    "m" | "m1" => {
+                        if let Some(a) = arg {
+                            cmd.maps.push((0, a));
+                        }
+                        k += 2;
+                    }
+                    "m2" => {
+                        if let Some(a) = arg {
+                            cmd.maps.push((256, a));
+                        }
+                        k += 2;
+                    }
+                    "M" => {
+                        cmd.materials = arg;
+                        k += 2;
+                    }
+                    "e" => {
+                        if let Some(a) = arg {
+                            cmd.other_files.push(a);
+                        }
+                        k += 2;
+                    }
+                    "w" | "wp" | "wr" => k += 3,
+                    _ => k += 1,
+                }
+                continue;
+            }
+            let name = Path::new(w).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            if has_ext(w, "l") && cmd.lsystem.is_none() {
+                cmd.lsystem = Some(name);
+            } else if has_ext(w, "v") && cmd.view.is_none() {
+                cmd.view = Some(w.to_string());
+            } else {
+                cmd.other_files.push(w.to_string());
+            }
+            k += 1;
+        }
+        if cmd.lsystem.as_deref() == Some(lsystem) {
+            return Some(cmd);
+        }
+    }
+    None
+}
+
+/// File names (not paths) of the plain files in `dir`, sorted.
+fn list_dir(dir: &Path) -> Vec<String> {
+    let mut out: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_file())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    out.sort();
+    out
+}
+
+/// `stem.ext` if present, else the only `*.ext` file.
+fn pick(listing: &[String], stem: &str, ext: &str) -> Option<String> {
+    let same = format!("{stem}.{ext}");
+    if listing.contains(&same) {
+        return Some(same);
+    }
+    let mut all = listing.iter().filter(|f| has_ext(f, ext));
+    match (all.next(), all.next()) {
+        (Some(one), None) => Some(one.clone()),
+        _ => None,
+    }
+}
+
+fn has_ext(file: &str, ext: &str) -> bool {
+    Path::new(file).extension().map(|e| e.eq_ignore_ascii_case(ext)).unwrap_or(false)
+}
+
+fn file_stem(file: &str) -> String {
+    Path::new(file).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+fn display_name(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// Reads a text file; invalid UTF-8 (Latin-1 comments) is replaced, not an error.
+fn read_text(path: &Path) -> Result<String, crate::Error> {
+    let bytes =
+        std::fs::read(path).map_err(|source| crate::Error::Read { path: path.to_path_buf(), source })?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// An [`LsystemError`] with no place in a file (for binary files).
+fn plain_error(name: &str, what: &str) -> Box<LsystemError> {
+    Box::new(LsystemError {
+        kind: ErrorKind::Syntax,
+        message: format!("{name}: {what}"),
+        source_code: NamedSource::new(name, Arc::<str>::from("")),
+        span: None,
+        label: String::new(),
+        help: None,
+    })
+}
+
+/// A text file being read, for located errors: the original text is kept as is (no
+/// preprocessing), so offsets are offsets into the file.
+#[derive(Debug, Clone)]
+pub(crate) struct TextFile {
+    name: String,
+    text: Arc<str>,
+}
+
+impl TextFile {
+    pub(crate) fn new(name: &str, text: &str) -> Self {
+        TextFile { name: name.to_string(), text: Arc::from(text) }
+    }
+
+    /// 1-based line and column of a byte offset.
+    pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
+        let mut at = offset.min(self.text.len());
+        while !self.text.is_char_boundary(at) {
+            at -= 1;
+        }
+        let before = &self.text[..at];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+        (line, col)
+    }
+
+    /// A syntax error at byte `offset` spanning `len` bytes.
+    pub(crate) fn error(&self, offset: usize, len: usize, what: &str, label: &str) -> Box<LsystemError> {
+        let offset = offset.min(self.text.len());
+        let (line, col) = self.line_col(offset);
+        let len = len.min(self.text.len() - offset).max(usize::from(offset < self.text.len()));
+        Box::new(LsystemError {
+            kind: ErrorKind::Syntax,
+            message: format!("{}:{line}:{col}: {what}", self.name),
+            source_code: NamedSource::new(self.name.clone(), self.text.clone()),
+            span: Some(SourceSpan::new(offset.into(), len)),
+            label: label.to_string(),
+            help: None,
+        })
+    }
+}
+
+/// Splits `s` into tokens separated by characters for which `sep` is true; each token
+/// comes with its byte offset in the file (`base` is the offset of `s`).
+pub(crate) fn tokens(s: &str, base: usize, sep: impl Fn(char) -> bool) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut start: Option<usize> = None;
+    for (i, c) in s.char_indices() {
+        if sep(c) {
+            if let Some(st) = start.take() {
+                out.push((base + st, &s[st..i]));
+            }
+        } else if start.is_none() {
+            start = Some(i);
+        }
+    }
+    if let Some(st) = start {
+        out.push((base + st, &s[st..]));
+    }
+    out
+}
+
+/// Parses a finite floating-point number as C's `%f` would accept it whole.
+pub(crate) fn number(s: &str) -> Option<f64> {
+    s.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+/// Replaces `/* … */` and `//` comments by spaces, keeping newlines and every byte
+/// offset (the C preprocessor's comment removal, which cpfg runs on view files).
+pub(crate) fn strip_comments(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'/' && b.get(i + 1) == Some(&b'*') {
+            out.extend_from_slice(b"  ");
+            i += 2;
+            while i < b.len() && !(b[i] == b'*' && b.get(i + 1) == Some(&b'/')) {
+                out.push(if b[i] == b'\n' { b'\n' } else { b' ' });
+                i += 1;
+            }
+            if i < b.len() {
+                out.extend_from_slice(b"  ");
+                i += 2;
+            }
+        } else if b[i] == b'/' && b.get(i + 1) == Some(&b'/') {
+            while i < b.len() && b[i] != b'\n' {
+                out.push(b' ');
+                i += 1;
+            }
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    // Comment bytes became ASCII spaces and comments start and end on ASCII bytes, so
+    // no multi-byte character was split.
+    String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpfg_command_lines() {
+        let spec = "plant.l\nmodel:\n\tgenerate:\n\t\tcpfg -w 300 500 -m plant.map -e plant.e plant.l plant.v plant.a\n";
+        let c = find_cpfg_command(spec, "plant.l").unwrap();
+        assert_eq!(c.view.as_deref(), Some("plant.v"));
+        assert_eq!(c.maps, vec![(0, "plant.map".to_string())]);
+        assert_eq!(c.other_files, vec!["plant.e".to_string(), "plant.a".to_string()]);
+        assert!(find_cpfg_command(spec, "other.l").is_none());
+        let sedge = "\t\tcpfg -m1 sedge.map -m2 sedge.map2 sedge.l sedge.v sedge.a\n\t\tcpfg -m2 sedge.map2 male.l male.v male.a\n";
+        let c = find_cpfg_command(sedge, "male.l").unwrap();
+        assert_eq!(c.view.as_deref(), Some("male.v"));
+        assert_eq!(c.maps, vec![(256, "sedge.map2".to_string())]);
+        let c = find_cpfg_command("cpfg -M material.mat spiral.l spiral.v", "spiral.l").unwrap();
+        assert_eq!(c.materials.as_deref(), Some("material.mat"));
+    }
+
+    #[test]
+    fn comments_keep_offsets() {
+        let s = "a: 1 /* x\ny */ b // c\nd: 2";
+        let t = strip_comments(s);
+        assert_eq!(t.len(), s.len());
+        assert_eq!(t.lines().map(str::trim).collect::<Vec<_>>(), vec!["a: 1", "b", "d: 2"]);
+        // Unterminated comments and non-ASCII text do not panic.
+        assert_eq!(strip_comments("é /* ü").len(), "é /* ü".len());
+    }
+
+    #[test]
+    fn located_errors() {
+        let f = TextFile::new("x.v", "a: 1\nbb: ?\n");
+        let e = f.error(9, 1, "bad", "here");
+        assert!(e.message.starts_with("x.v:2:5: bad"), "{}", e.message);
+        // Offsets past the end are clamped.
+        let e = f.error(1000, 5, "eof", "here");
+        assert!(e.message.starts_with("x.v:3:1"), "{}", e.message);
+    }
+
+    #[test]
+    fn tokens_with_offsets() {
+        let t = tokens(" T: 0,1 ,0", 10, |c| c.is_whitespace() || c == ',' || c == ':');
+        assert_eq!(t, vec![(11, "T"), (14, "0"), (16, "1"), (19, "0")]);
+    }
+}

@@ -1,0 +1,228 @@
+//! Catmull–Clark subdivision (seed 003 §5: "coarse watertight mesh → Catmull–Clark steps";
+//! the junction mesher's all-quad cages are its control meshes).
+//!
+//! One step turns every n-gon into n quads. Child vertices are numbered vertex points
+//! first (`v`), then face points (`V + f`), then edge points (`V + F + e`), so control
+//! vertices keep their indices at every level. The child face of parent corner `c` (vertex
+//! `v`, outgoing edge `e`, incoming edge `e'`, face `f`) is `c` itself:
+//! `[vv(v), ev(e), fv(f), ev(e')]`, counter-clockwise like its parent.
+//!
+//! Masks (Catmull & Clark 1978; crease rules in [`super::crease`]):
+//! - face point: the centroid of the face;
+//! - smooth edge point: `(a + b + f₀ + f₁) / 4` with the two adjacent face points;
+//!   boundary or sharp edge: `(a + b) / 2`;
+//! - smooth vertex point of valence n: `(n − 2)/n · v + 1/n² · Σ eᵢ + 1/n² · Σ fᵢ` (eᵢ the
+//!   neighbouring vertices, fᵢ the adjacent face points), OpenSubdiv's form of
+//!   `(Q + 2R + (n − 3)S)/n`.
+
+use super::crease::Rules;
+use super::topology::{Detail, Topology, NONE};
+use super::{assume_init, assume_init_mut, fill, fill_chunks, Primvar};
+use std::mem::MaybeUninit;
+
+/// Splits `p` into its Catmull–Clark child topology, building adjacency up to `detail`.
+pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
+    let nv = p.num_verts;
+    let nf = p.num_faces;
+    let ne = p.edge_count() as u32;
+    let nc = p.corner_count();
+    let fv_base = nv;
+    let ev_base = nv + nf;
+    let mut t = Topology {
+        num_verts: nv + nf + ne,
+        num_faces: nc as u32,
+        face_size: 4,
+        face_verts: vec![0; 4 * nc],
+        ..Default::default()
+    };
+    fill_chunks(par, &mut t.face_verts, 4, |c, out| {
+        let c = c as u32;
+        out[0] = p.face_verts[c as usize];
+        out[1] = ev_base + p.face_edges[c as usize];
+        out[2] = fv_base + p.face_of(c);
+        out[3] = ev_base + p.face_edges[p.prev(c) as usize];
+    });
+    if detail == Detail::Faces {
+        return t;
+    }
+    t.face_edges = vec![0; 4 * nc];
+    fill_chunks(par, &mut t.face_edges, 4, |c, out| {
+        let c = c as u32;
+        let v = p.face_verts[c as usize];
+        let pc = p.prev(c);
+        out[0] = p.half_at(p.face_edges[c as usize], v);
+        out[1] = 2 * ne + c;
+        out[2] = 2 * ne + pc;
+        out[3] = p.half_at(p.face_edges[pc as usize], v);
+    });
+    t.edge_verts = vec![[0; 2]; 2 * ne as usize + nc];
+    {
+        let (halves, interior) = t.edge_verts.split_at_mut(2 * ne as usize);
+        fill_chunks(par, halves, 2, |e, out| {
+            let [a, b] = p.edge_verts[e];
+            out[0] = [a, ev_base + e as u32];
+            out[1] = [ev_base + e as u32, b];
+        });
+        fill(par, interior, |c, out| {
+            *out = [ev_base + p.face_edges[c], fv_base + p.face_of(c as u32)];
+        });
+    }
+    if detail == Detail::Edges {
+        return t;
+    }
+    t.edge_corners = vec![[0; 2]; 2 * ne as usize + nc];
+    {
+        let (halves, interior) = t.edge_corners.split_at_mut(2 * ne as usize);
+        fill_chunks(par, halves, 2, |e, out| {
+            let a = p.edge_verts[e][0];
+            for (k, &ck) in p.edge_corners[e].iter().enumerate() {
+                if ck == NONE {
+                    out[0][k] = NONE;
+                    out[1][k] = NONE;
+                    continue;
+                }
+                let (at_start, at_end) = (4 * ck, 4 * p.next(ck) + 3);
+                if p.face_verts[ck as usize] == a {
+                    out[0][k] = at_start;
+                    out[1][k] = at_end;
+                } else {
+                    out[1][k] = at_start;
+                    out[0][k] = at_end;
+                }
+            }
+        });
+        fill(par, interior, |c, out| {
+            let c = c as u32;
+            *out = [4 * c + 1, 4 * p.next(c) + 2];
+        });
+    }
+    // Vertex → corners: vertex points, face points, edge points.
+    let mut off = Vec::with_capacity(t.num_verts as usize + 1);
+    off.push(0u32);
+    let mut acc = 0u32;
+    for v in 0..nv as usize {
+        acc += p.vert_corner_offsets[v + 1] - p.vert_corner_offsets[v];
+        off.push(acc);
+    }
+    for f in 0..nf as usize {
+        acc += p.corners(f).len() as u32;
+        off.push(acc);
+    }
+    for e in 0..ne as usize {
+        acc += 2 * (1 + (p.edge_corners[e][1] != NONE) as u32);
+        off.push(acc);
+    }
+    let mut vc = vec![0u32; acc as usize];
+    {
+        let (vvs, rest) = vc.split_at_mut(off[nv as usize] as usize);
+        let (fvs, evs) = rest.split_at_mut((off[(nv + nf) as usize] - off[nv as usize]) as usize);
+        fill(par, vvs, |i, slot| *slot = 4 * p.vert_corners[i]);
+        fill(par, fvs, |c, slot| *slot = 4 * c as u32 + 2);
+        if evs.len() == 4 * ne as usize {
+            // No boundary: every edge point has four corners.
+            fill_chunks(par, evs, 4, |e, out| {
+                let [c0, c1] = p.edge_corners[e];
+                out.copy_from_slice(&[4 * c0 + 1, 4 * p.next(c0) + 3, 4 * c1 + 1, 4 * p.next(c1) + 3]);
+            });
+        } else {
+            let mut k = 0;
+            for e in 0..ne as usize {
+                for ck in p.edge_corners[e] {
+                    if ck != NONE {
+                        evs[k] = 4 * ck + 1;
+                        evs[k + 1] = 4 * p.next(ck) + 3;
+                        k += 2;
+                    }
+                }
+            }
+        }
+    }
+    t.vert_corner_offsets = off;
+    t.vert_corners = vc;
+    t
+}
+
+/// Interpolates per-vertex values of level `p` into `dst` (the child level's values).
+pub(crate) fn interpolate<T: Primvar>(p: &Topology, rules: &Rules, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
+    let nv = p.num_verts as usize;
+    let nf = p.num_faces as usize;
+    let (vv, rest) = dst.split_at_mut(nv);
+    let (fp, ep) = rest.split_at_mut(nf);
+    fill(par, fp, |f, out| {
+        let r = p.corners(f);
+        let inv = 1.0 / r.len() as f32;
+        let mut s = T::zero();
+        for c in r {
+            s = s.add(src[p.face_verts[c] as usize]);
+        }
+        out.write(s.scale(inv));
+    });
+    // SAFETY: every face point was written just above.
+    let fp: &[T] = unsafe { assume_init(fp) };
+    fill(par, ep, |e, out| {
+        let [a, b] = p.edge_verts[e];
+        let [c0, c1] = p.edge_corners[e];
+        let s = src[a as usize].add(src[b as usize]);
+        out.write(if c1 == NONE {
+            s.scale(0.5)
+        } else {
+            s.add(fp[p.face_of(c0) as usize]).add(fp[p.face_of(c1) as usize]).scale(0.25)
+        });
+    });
+    fill(par, vv, |v, out| {
+        let cs = p.vertex_corners(v);
+        if cs.is_empty() {
+            out.write(src[v]);
+            return;
+        }
+        let mut sum = T::zero();
+        for &c in cs {
+            sum = sum.add(src[p.face_verts[p.next(c) as usize] as usize]).add(fp[p.face_of(c) as usize]);
+        }
+        let n = cs.len() as f32;
+        out.write(src[v].scale((n - 2.0) / n).add(sum.scale(1.0 / (n * n))));
+    });
+    // SAFETY: every edge and vertex point was written just above.
+    let (ep, vv) = unsafe { (assume_init_mut(ep), assume_init_mut(vv)) };
+    for &(e, w) in &rules.edge_specials {
+        let [a, b] = p.edge_verts[e as usize];
+        let mid = src[a as usize].add(src[b as usize]).scale(0.5);
+        let smooth = ep[e as usize];
+        ep[e as usize] = mid.scale(w).add(smooth.scale(1.0 - w));
+    }
+    super::apply_vertex_specials(rules, src, vv);
+}
+
+/// Linear interpolation (every edge and vertex sharp): face centroids, edge midpoints,
+/// vertices kept. Used for face-varying data interpolated linearly (seed 000 §2.9).
+pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
+    let nv = p.num_verts as usize;
+    let nf = p.num_faces as usize;
+    let (vv, rest) = dst.split_at_mut(nv);
+    let (fp, ep) = rest.split_at_mut(nf);
+    for (d, s) in vv.iter_mut().zip(src) {
+        d.write(*s);
+    }
+    fill(par, fp, |f, out| {
+        let r = p.corners(f);
+        let inv = 1.0 / r.len() as f32;
+        let mut s = T::zero();
+        for c in r {
+            s = s.add(src[p.face_verts[c] as usize]);
+        }
+        out.write(s.scale(inv));
+    });
+    fill(par, ep, |e, out| {
+        let [a, b] = p.edge_verts[e];
+        out.write(src[a as usize].add(src[b as usize]).scale(0.5));
+    });
+}
+
+/// Number of faces after `levels` steps from a control mesh with `corners` face corners
+/// and `faces` faces (saturating).
+pub fn face_count(faces: usize, corners: usize, levels: u32) -> u128 {
+    if levels == 0 {
+        return faces as u128;
+    }
+    (corners as u128).saturating_mul(4u128.saturating_pow(levels - 1))
+}

@@ -1,0 +1,237 @@
+//! Face-varying refinement: UVs (or any per-corner data) with exact seams.
+//!
+//! Seed 000 §4.4.3 (spec 000 §2.9) interpolates UVs linearly per face and notes that
+//! "better: apply Loop masks to UVs inside each UV chart, treating UV seams as
+//! boundaries"; seed 001 §6.3 (spec 001 §2.12) reports that smoothly subdivided UVs
+//! "shrink away from the texture borders". Both are solved the OpenSubdiv way: a
+//! face-varying channel gets its own topology whose vertices are the (vertex, value, fan)
+//! triples — corners around a mesh vertex are merged across an edge only when both faces
+//! agree on the values at both ends — so a UV seam is a boundary of that topology. The
+//! channel is then refined by the same scheme with
+//! [`FvarInterpolation`](super::FvarInterpolation) deciding how boundaries behave:
+//! everything linear, linear boundaries with pinned control vertices, or B-spline
+//! boundaries with pinned chart corners. Interior edges inherit the mesh's crease
+//! sharpness. Both sides of a seam are computed from the same values by the same rule, so
+//! seams stay exact.
+
+use super::crease::{self, Features, Rules, INFINITE};
+use super::topology::{Detail, Topology, NONE};
+use super::{
+    interpolate_into, into_init, uninit_vec, BoundaryInterpolation, FvarInterpolation, Primvar, RefineError, Refiner,
+    Scheme,
+};
+use crate::mesh::FaceVarying;
+
+/// The refined topology of one face-varying channel; interpolate any number of value
+/// sets that share its indices.
+#[derive(Debug, Clone)]
+pub struct FaceVaryingRefiner {
+    scheme: Scheme,
+    linear: bool,
+    parallel: bool,
+    levels: Vec<Topology>,
+    rules: Vec<Rules>,
+    /// Face-varying vertex of the control level → index into the channel's values.
+    value_of: Vec<u32>,
+    /// One more than the largest value index used.
+    values_needed: usize,
+}
+
+impl FaceVaryingRefiner {
+    /// Builds the channel's topology from its per-corner `indices` and refines it like
+    /// `refiner`.
+    pub fn new(
+        refiner: &Refiner,
+        indices: &[u32],
+        interpolation: FvarInterpolation,
+    ) -> Result<FaceVaryingRefiner, RefineError> {
+        let mesh = &refiner.levels[0].topo;
+        let mesh_features = &refiner.levels[0].features;
+        let nc = mesh.corner_count();
+        if indices.len() != nc {
+            return Err(RefineError::WrongLength {
+                what: "face-varying indices",
+                expected: nc,
+                got: indices.len(),
+            });
+        }
+        // Union–find over corners of the same vertex, across non-seam interior edges.
+        let mut parent: Vec<u32> = (0..nc as u32).collect();
+        fn root(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                let g = parent[parent[x as usize] as usize];
+                parent[x as usize] = g;
+                x = g;
+            }
+            x
+        }
+        for c in 0..nc as u32 {
+            let e = mesh.face_edges[c as usize] as usize;
+            let [c0, c1] = mesh.edge_corners[e];
+            if c1 == NONE || c0 != c {
+                continue;
+            }
+            let seam = indices[c0 as usize] != indices[mesh.next(c1) as usize]
+                || indices[mesh.next(c0) as usize] != indices[c1 as usize];
+            if !seam {
+                // c0 (at a) pairs with the corner at a in c1's face, and likewise at b.
+                for (x, y) in [(c0, mesh.next(c1)), (mesh.next(c0), c1)] {
+                    let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
+                    if rx != ry {
+                        let (lo, hi) = (rx.min(ry), rx.max(ry));
+                        parent[hi as usize] = lo;
+                    }
+                }
+            }
+        }
+        let mut id_of_root = vec![NONE; nc];
+        let mut ids = vec![0u32; nc];
+        let mut value_of = Vec::new();
+        let mut mesh_vertex = Vec::new();
+        for c in 0..nc as u32 {
+            let r = root(&mut parent, c) as usize;
+            if id_of_root[r] == NONE {
+                id_of_root[r] = value_of.len() as u32;
+                value_of.push(indices[c as usize]);
+                mesh_vertex.push(mesh.face_verts[c as usize]);
+            }
+            ids[c as usize] = id_of_root[r];
+        }
+        let offsets: Vec<u32> = (0..=mesh.face_count())
+            .map(|f| if f == mesh.face_count() { nc as u32 } else { mesh.corners(f).start as u32 })
+            .collect();
+        let top = Topology::from_faces(value_of.len(), &offsets, &ids)?;
+        let linear = interpolation == FvarInterpolation::Linear;
+        let features = if linear {
+            Features::default()
+        } else {
+            initial_features(mesh, mesh_features, &top, &mesh_vertex, interpolation)
+        };
+        let opts = refiner.options();
+        let mut levels = vec![top];
+        let mut rules = Vec::new();
+        let mut feats = features;
+        for l in 0..refiner.levels() {
+            let last = l + 1 == refiner.levels();
+            let p = &levels[l];
+            let detail = match (last, linear) {
+                (true, _) => Detail::Faces,
+                (false, true) => Detail::Edges,
+                (false, false) => Detail::Full,
+            };
+            if !linear {
+                let (r, child) =
+                    crease::refine_features(p, &feats, opts.creasing, BoundaryInterpolation::EdgeAndCorner);
+                rules.push(r);
+                feats = child;
+            }
+            let child = super::split(opts.scheme, p, detail, opts.parallel);
+            levels.push(child);
+        }
+        let values_needed = indices.iter().map(|&i| i as usize + 1).max().unwrap_or(0);
+        Ok(FaceVaryingRefiner {
+            scheme: opts.scheme,
+            linear,
+            parallel: opts.parallel,
+            levels,
+            rules,
+            value_of,
+            values_needed,
+        })
+    }
+
+    /// The finest level's per-corner indices (parallel to the refined mesh's faces).
+    pub fn indices(&self) -> &[u32] {
+        &self.levels.last().expect("level 0 always exists").face_verts
+    }
+
+    /// Number of distinct face-varying values at the finest level.
+    pub fn value_count(&self) -> usize {
+        self.levels.last().expect("level 0 always exists").vertex_count()
+    }
+
+    /// Number of face-varying vertices of the control level (values split at seams).
+    pub fn control_value_count(&self) -> usize {
+        self.value_of.len()
+    }
+
+    /// Interpolates the channel's `values` (indexed by the control mesh's indices) to the
+    /// finest level's values, indexed by [`FaceVaryingRefiner::indices`].
+    pub fn interpolate_values<T: Primvar>(&self, values: &[T]) -> Result<Vec<T>, RefineError> {
+        if values.len() < self.values_needed {
+            return Err(RefineError::WrongLength {
+                what: "face-varying values",
+                expected: self.values_needed,
+                got: values.len(),
+            });
+        }
+        let none = Rules::default();
+        let mut cur: Vec<T> = self.value_of.iter().map(|&i| values[i as usize]).collect();
+        for l in 0..self.levels.len() - 1 {
+            let mut next = uninit_vec(self.levels[l + 1].vertex_count());
+            let rules = self.rules.get(l).unwrap_or(&none);
+            interpolate_into(self.scheme, self.linear, &self.levels[l], rules, &cur, &mut next, self.parallel);
+            // SAFETY: the kernels write every child value.
+            cur = unsafe { into_init(next) };
+        }
+        Ok(cur)
+    }
+
+    /// Interpolates the channel's `values` (indexed by the control mesh's indices) to the
+    /// finest level, with the finest indices.
+    pub fn interpolate<T: Primvar>(&self, values: &[T]) -> Result<FaceVarying<T>, RefineError> {
+        let values = self.interpolate_values(values)?;
+        Ok(FaceVarying { values, indices: self.indices().to_vec() })
+    }
+}
+
+/// Sharp features of the control level of a smooth face-varying channel: the mesh's
+/// creases and corners, plus pinned vertices on the channel's boundaries.
+fn initial_features(
+    mesh: &Topology,
+    mesh_features: &Features,
+    top: &Topology,
+    mesh_vertex: &[u32],
+    interpolation: FvarInterpolation,
+) -> Features {
+    let boundary = top.boundary_edges();
+    let mut creases = Vec::new();
+    for fe in 0..top.edge_count() {
+        let [c0, c1] = top.edge_corners[fe];
+        if c1 == NONE {
+            continue;
+        }
+        let s = mesh_features.edge_sharpness(mesh.face_edges[c0 as usize]);
+        if s > 0.0 {
+            creases.push((fe as u32, s));
+        }
+    }
+    let mut on_boundary = vec![false; top.vertex_count()];
+    for &e in &boundary {
+        for v in top.edge_verts[e as usize] {
+            on_boundary[v as usize] = true;
+        }
+    }
+    let mut siblings = vec![0u32; mesh.vertex_count()];
+    for &v in mesh_vertex {
+        siblings[v as usize] += 1;
+    }
+    let mut corners = Vec::new();
+    for (fv, &v) in mesh_vertex.iter().enumerate() {
+        let inherited = match mesh_features.corners.binary_search_by_key(&v, |x| x.0) {
+            Ok(i) => mesh_features.corners[i].1,
+            Err(_) => 0.0,
+        };
+        let pinned = on_boundary[fv]
+            && match interpolation {
+                FvarInterpolation::Boundaries => true,
+                FvarInterpolation::CornersPlus => siblings[v as usize] >= 3,
+                FvarInterpolation::Linear => true,
+            };
+        let s = if pinned { INFINITE } else { inherited };
+        if s > 0.0 {
+            corners.push((fv as u32, s));
+        }
+    }
+    Features { creases, corners, boundary }
+}

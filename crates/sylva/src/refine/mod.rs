@@ -1,0 +1,737 @@
+//! Subdivision surfaces: Loop and Catmull–Clark refinement with boundaries, sharp and
+//! semi-sharp creases, corners, face-varying UVs and limit positions and normals.
+//!
+//! ```text
+//!  Mesh + corners ─► Topology::from_faces ─► split ─► split ─► …   (Refiner::new: topology once)
+//!                      (validate, edges)      │ rules per level (crease.rs)
+//!  positions, colours, weights ──────────────►├─ Refiner::interpolate        (any Primvar, any count)
+//!  UV indices ─► FaceVaryingRefiner ─────────►├─ FaceVaryingRefiner::interpolate
+//!                                             └─ Refiner::limit / limit_normals (limit.rs)
+//! ```
+//!
+//! The split follows OpenSubdiv: the [`Refiner`] refines the **topology** once per level
+//! (adjacency, sharpness and the masks that creases change), then any number of
+//! per-vertex value sets ([`Primvar`]: `f32`, `Vec2`, `Vec3`, `Vec4`, `[f32; N]`) are
+//! interpolated through it; wind animation changes positions every frame, topology never
+//! (architecture: "Refiner"). Face-varying channels get their own topology
+//! ([`FaceVaryingRefiner`]) whose seams are boundaries, so seams stay exact.
+//!
+//! Schemes: [`loop_`] (seed 000 §4.4, seed 001 §3.3; spec 000 §2.8, spec 001 §2.10) and
+//! [`catmull_clark`] (seed 003 §5; spec 003 §5). Creases, corners and boundaries:
+//! [`crease`] (DeRose–Kass–Truong / OpenSubdiv rules, seed 001 §2.10). Limit surface:
+//! [`limit`] (seed 001 §2.11 "move to limit surface").
+//!
+//! Every level is computed in parallel with rayon over child elements, each child value
+//! written by exactly one task with a fixed summation order, so the output is
+//! bit-identical for any thread count (and with [`RefineOptions::parallel`] off).
+
+pub mod catmull_clark;
+pub mod crease;
+pub mod fvar;
+pub mod limit;
+pub mod loop_;
+pub mod topology;
+
+pub use crease::{Corner, INFINITE};
+pub use fvar::FaceVaryingRefiner;
+pub use topology::{Ring, Topology, NONE};
+
+use crate::mesh::{Crease, FaceVarying, Mesh};
+use crease::{Features, Rules};
+use glam::{Vec2, Vec3, Vec4};
+use rayon::prelude::*;
+use std::mem::MaybeUninit;
+use topology::Detail;
+
+/// The largest output a refinement may produce unless told otherwise (100 M faces).
+pub const DEFAULT_MAX_FACES: usize = 100_000_000;
+
+/// Why a mesh cannot be refined.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, miette::Diagnostic)]
+pub enum RefineError {
+    /// More than two faces share an edge.
+    #[error("non-manifold edge between vertices {a} and {b}: it is shared by {} faces ({faces:?}); subdivision needs at most 2", faces.len())]
+    #[diagnostic(help("split the edge or remove the extra faces"))]
+    NonManifoldEdge {
+        /// One end.
+        a: u32,
+        /// The other end.
+        b: u32,
+        /// The faces sharing it.
+        faces: Vec<u32>,
+    },
+    /// Two faces traverse an edge in the same direction.
+    #[error("inconsistent orientation: faces {} and {} both run from vertex {a} to vertex {b}", faces[0], faces[1])]
+    #[diagnostic(help("flip one of the faces so that neighbours agree (counter-clockwise from the front)"))]
+    InconsistentOrientation {
+        /// Start vertex of both half-edges.
+        a: u32,
+        /// End vertex of both half-edges.
+        b: u32,
+        /// The two faces.
+        faces: [u32; 2],
+    },
+    /// A vertex whose faces form several separate fans (a "bow-tie").
+    #[error("non-manifold vertex {vertex}: its faces form {fans} separate fans")]
+    #[diagnostic(help("duplicate the vertex, one copy per fan"))]
+    NonManifoldVertex {
+        /// The vertex.
+        vertex: u32,
+        /// How many fans (at least 2).
+        fans: usize,
+    },
+    /// A face with fewer than 3 corners or a repeated vertex.
+    #[error("degenerate face {face}: vertices {vertices:?}")]
+    DegenerateFace {
+        /// The face.
+        face: usize,
+        /// Its vertices.
+        vertices: Vec<u32>,
+    },
+    /// A face refers to a vertex that does not exist.
+    #[error("face {face} refers to vertex {vertex}, but there are {count} vertices")]
+    VertexOutOfRange {
+        /// The face.
+        face: usize,
+        /// The bad index.
+        vertex: u32,
+        /// The number of vertices.
+        count: usize,
+    },
+    /// Loop subdivision needs triangles.
+    #[error("Loop subdivision needs triangles, but face {face} has {corners} corners")]
+    #[diagnostic(help("triangulate the mesh first, or use --scheme catmull-clark"))]
+    NotTriangles {
+        /// The first non-triangle face.
+        face: usize,
+        /// Its corner count.
+        corners: usize,
+    },
+    /// A crease tag on two vertices that share no edge.
+    #[error("crease between vertices {a} and {b}: they share no edge")]
+    CreaseNotAnEdge {
+        /// One end.
+        a: u32,
+        /// The other end.
+        b: u32,
+    },
+    /// A sharpness that is NaN or negative.
+    #[error("invalid sharpness {sharpness} on {what}: sharpness must be a number ≥ 0")]
+    BadSharpness {
+        /// The edge or vertex.
+        what: String,
+        /// The value.
+        sharpness: f32,
+    },
+    /// The output would exceed the face budget.
+    #[error("{levels} levels of subdivision would make {faces} faces, more than the limit of {limit}")]
+    #[diagnostic(help("use fewer levels, or raise the limit (RefineOptions::max_faces)"))]
+    Budget {
+        /// Requested levels.
+        levels: u32,
+        /// Faces that would be produced.
+        faces: u128,
+        /// The limit.
+        limit: usize,
+    },
+    /// Indices would overflow `u32`.
+    #[error("{what} is too large ({count} elements) for 32-bit indices")]
+    TooLarge {
+        /// What.
+        what: &'static str,
+        /// How many.
+        count: usize,
+    },
+    /// A value array of the wrong length.
+    #[error("{what}: expected {expected} values, got {got}")]
+    WrongLength {
+        /// Which input.
+        what: &'static str,
+        /// Expected count.
+        expected: usize,
+        /// Given count.
+        got: usize,
+    },
+    /// Catmull–Clark limit masks need quads.
+    #[error("Catmull–Clark limit positions need an all-quad level; refine at least one level first")]
+    LimitNeedsQuads,
+    /// Anything else wrong with the input mesh.
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+}
+
+/// The subdivision scheme.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Scheme {
+    /// Loop's scheme for triangle meshes (seeds 000 and 001).
+    Loop,
+    /// Catmull–Clark for any polygons; the first level makes quads (seed 003).
+    #[default]
+    CatmullClark,
+}
+
+/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`). Boundary
+/// edges are always infinitely sharp, so the boundary refines as a cubic B-spline curve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BoundaryInterpolation {
+    /// Boundary edges sharp; a vertex with a single face follows the crease rule too.
+    EdgeOnly,
+    /// Boundary edges sharp, and vertices with a single face are corners (they stay put).
+    #[default]
+    EdgeAndCorner,
+}
+
+/// How semi-sharp edge sharpness decays (OpenSubdiv's `CreasingMethod`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CreasingMethod {
+    /// Every child edge gets the parent's sharpness minus 1.
+    #[default]
+    Uniform,
+    /// DeRose et al.'s Chaikin rule: ¾ own + ¼ mean of the other semi-sharp edges at the
+    /// vertex, minus 1; sharpness varies smoothly along a crease.
+    Chaikin,
+}
+
+/// How face-varying values (UVs) are interpolated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FvarInterpolation {
+    /// Linear everywhere: face centroids and edge midpoints of the UV polygons (seed 000
+    /// §2.9; OpenSubdiv `FVAR_LINEAR_ALL`). UVs never shrink, seams are exact.
+    #[default]
+    Linear,
+    /// Smooth (the scheme's masks) inside each UV chart; seams and boundaries stay the
+    /// linear UV polyline with their control vertices pinned (OpenSubdiv
+    /// `FVAR_LINEAR_BOUNDARIES`). Removes the UV shrinkage seed 001 §6.3 reports.
+    Boundaries,
+    /// Smooth inside; seams and boundaries refine as cubic B-spline curves with corners
+    /// (single-face chart corners and junctions of three or more charts) pinned — like
+    /// OpenSubdiv's `FVAR_LINEAR_CORNERS_PLUS1`.
+    CornersPlus,
+}
+
+/// Options of a [`Refiner`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefineOptions {
+    /// Loop or Catmull–Clark.
+    pub scheme: Scheme,
+    /// Uniform refinement levels.
+    pub levels: u32,
+    /// Boundary vertex rule.
+    pub boundary: BoundaryInterpolation,
+    /// Sharpness decay of semi-sharp creases.
+    pub creasing: CreasingMethod,
+    /// Build full adjacency at the last level as well (needed for limit positions and
+    /// normals); otherwise the last level has only its faces.
+    pub full_last_level: bool,
+    /// Run on the rayon thread pool (the result is identical either way).
+    pub parallel: bool,
+    /// Refuse to produce more faces than this.
+    pub max_faces: usize,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        RefineOptions {
+            scheme: Scheme::CatmullClark,
+            levels: 1,
+            boundary: BoundaryInterpolation::EdgeAndCorner,
+            creasing: CreasingMethod::Uniform,
+            full_last_level: false,
+            parallel: true,
+            max_faces: DEFAULT_MAX_FACES,
+        }
+    }
+}
+
+/// A value that can be interpolated through a [`Refiner`]: positions, UVs, colours, skin
+/// weights. Masks are affine combinations computed in `f32`.
+pub trait Primvar: Copy + Send + Sync + 'static {
+    /// The additive identity.
+    fn zero() -> Self;
+    /// `self + other`.
+    fn add(self, other: Self) -> Self;
+    /// `self · w`.
+    fn scale(self, w: f32) -> Self;
+}
+
+macro_rules! glam_primvar {
+    ($($t:ty),*) => {$(
+        impl Primvar for $t {
+            #[inline]
+            fn zero() -> Self { <$t>::ZERO }
+            #[inline]
+            fn add(self, o: Self) -> Self { self + o }
+            #[inline]
+            fn scale(self, w: f32) -> Self { self * w }
+        }
+    )*};
+}
+glam_primvar!(Vec2, Vec3, Vec4);
+
+impl Primvar for f32 {
+    #[inline]
+    fn zero() -> Self {
+        0.0
+    }
+    #[inline]
+    fn add(self, o: Self) -> Self {
+        self + o
+    }
+    #[inline]
+    fn scale(self, w: f32) -> Self {
+        self * w
+    }
+}
+
+impl<const N: usize> Primvar for [f32; N] {
+    #[inline]
+    fn zero() -> Self {
+        [0.0; N]
+    }
+    #[inline]
+    fn add(mut self, o: Self) -> Self {
+        for (a, b) in self.iter_mut().zip(o) {
+            *a += b;
+        }
+        self
+    }
+    #[inline]
+    fn scale(mut self, w: f32) -> Self {
+        for a in &mut self {
+            *a *= w;
+        }
+        self
+    }
+}
+
+/// Elements per parallel task.
+const CHUNK: usize = 2048;
+
+/// `dst[i] = f(i)` for every element, on the rayon pool when `par`.
+pub(crate) fn fill<T: Send>(par: bool, dst: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
+    if par && dst.len() > CHUNK {
+        dst.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, chunk)| {
+            let base = ci * CHUNK;
+            for (k, x) in chunk.iter_mut().enumerate() {
+                f(base + k, x);
+            }
+        });
+    } else {
+        for (i, x) in dst.iter_mut().enumerate() {
+            f(i, x);
+        }
+    }
+}
+
+/// Fills `dst` in chunks of `n` elements: `f(i, &mut dst[i*n..(i+1)*n])`.
+pub(crate) fn fill_chunks<T: Send>(par: bool, dst: &mut [T], n: usize, f: impl Fn(usize, &mut [T]) + Sync) {
+    if par && dst.len() > CHUNK * n {
+        dst.par_chunks_mut(CHUNK * n).enumerate().for_each(|(ci, chunk)| {
+            for (k, x) in chunk.chunks_mut(n).enumerate() {
+                f(ci * CHUNK + k, x);
+            }
+        });
+    } else {
+        for (i, x) in dst.chunks_mut(n).enumerate() {
+            f(i, x);
+        }
+    }
+}
+
+/// `n` uninitialised slots, for outputs that a kernel writes completely (saves zeroing
+/// large arrays and lets the first touch of each page happen in the parallel writers).
+pub(crate) fn uninit_vec<T>(n: usize) -> Vec<MaybeUninit<T>> {
+    let mut v = Vec::with_capacity(n);
+    // SAFETY: `MaybeUninit` needs no initialisation, and the capacity is `n`.
+    unsafe { v.set_len(n) };
+    v
+}
+
+/// Views fully written slots as values.
+///
+/// # Safety
+/// Every element of `s` must have been written.
+pub(crate) unsafe fn assume_init<T>(s: &[MaybeUninit<T>]) -> &[T] {
+    // SAFETY: same layout; initialised by the caller's contract.
+    unsafe { std::slice::from_raw_parts(s.as_ptr().cast::<T>(), s.len()) }
+}
+
+/// Mutable view of fully written slots as values.
+///
+/// # Safety
+/// Every element of `s` must have been written.
+pub(crate) unsafe fn assume_init_mut<T>(s: &mut [MaybeUninit<T>]) -> &mut [T] {
+    // SAFETY: same layout; initialised by the caller's contract.
+    unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<T>(), s.len()) }
+}
+
+/// Turns a fully written vector into a vector of values.
+///
+/// # Safety
+/// Every element of `v` must have been written.
+pub(crate) unsafe fn into_init<T>(v: Vec<MaybeUninit<T>>) -> Vec<T> {
+    let mut v = std::mem::ManuallyDrop::new(v);
+    // SAFETY: same layout, length and capacity; initialised by the caller's contract.
+    unsafe { Vec::from_raw_parts(v.as_mut_ptr().cast::<T>(), v.len(), v.capacity()) }
+}
+
+/// Interpolates one level of `scheme` into uninitialised `dst`, writing all of it.
+pub(crate) fn interpolate_into<T: Primvar>(
+    scheme: Scheme,
+    linear: bool,
+    p: &Topology,
+    rules: &Rules,
+    src: &[T],
+    dst: &mut [MaybeUninit<T>],
+    par: bool,
+) {
+    match (scheme, linear) {
+        (Scheme::Loop, false) => loop_::interpolate(p, rules, src, dst, par),
+        (Scheme::CatmullClark, false) => catmull_clark::interpolate(p, rules, src, dst, par),
+        (Scheme::Loop, true) => loop_::interpolate_linear(p, src, dst, par),
+        (Scheme::CatmullClark, true) => catmull_clark::interpolate_linear(p, src, dst, par),
+    }
+}
+
+/// Overwrites the crease and corner vertices:
+/// `w_vertex·v + w_pair·(a + b) + smooth·(smooth value)`. The pair is summed first, and
+/// `a + b` is commutative in floating point, so both sides of a face-varying seam (which
+/// see the same values in a different order) get bit-identical results.
+pub(crate) fn apply_vertex_specials<T: Primvar>(rules: &Rules, src: &[T], vv: &mut [T]) {
+    for s in &rules.vertex_specials {
+        let v = s.vertex as usize;
+        let mut out = src[v].scale(s.w_vertex);
+        if s.w_pair != 0.0 {
+            out = out.add(src[s.pair[0] as usize].add(src[s.pair[1] as usize]).scale(s.w_pair));
+        }
+        if s.smooth != 0.0 {
+            out = out.add(vv[v].scale(s.smooth));
+        }
+        vv[v] = out;
+    }
+}
+
+/// One refinement level: its adjacency and sharp features.
+#[derive(Debug, Clone)]
+pub(crate) struct Level {
+    pub topo: Topology,
+    pub features: Features,
+}
+
+/// Splits `p` with `scheme`.
+pub(crate) fn split(scheme: Scheme, p: &Topology, detail: Detail, par: bool) -> Topology {
+    match scheme {
+        Scheme::Loop => loop_::split(p, detail, par),
+        Scheme::CatmullClark => catmull_clark::split(p, detail, par),
+    }
+}
+
+/// Faces after `levels` steps of `scheme` (saturating).
+pub fn output_face_count(scheme: Scheme, faces: usize, corners: usize, levels: u32) -> u128 {
+    match scheme {
+        Scheme::Loop => loop_::face_count(faces, levels),
+        Scheme::CatmullClark => catmull_clark::face_count(faces, corners, levels),
+    }
+}
+
+/// Uniform refinement of a control mesh's topology, OpenSubdiv-style: built once, then
+/// used to interpolate any number of value sets.
+///
+/// ```
+/// use sylva::refine::{Refiner, RefineOptions, Scheme};
+/// # use sylva::Mesh; use glam::Vec3;
+/// let mut quad = Mesh::new();
+/// quad.positions = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+/// quad.push_face(&[0, 1, 2, 3]);
+/// let opts = RefineOptions { scheme: Scheme::CatmullClark, levels: 2, ..Default::default() };
+/// let refiner = Refiner::new(&quad, &[], &opts).unwrap();
+/// let fine = refiner.interpolate(&quad.positions).unwrap();
+/// assert_eq!(refiner.finest().face_count(), 16);
+/// assert_eq!(fine.len(), refiner.finest().vertex_count());
+/// ```
+#[derive(Debug, Clone)]
+pub struct Refiner {
+    options: RefineOptions,
+    levels: Vec<Level>,
+    rules: Vec<Rules>,
+}
+
+impl Refiner {
+    /// Validates `mesh` (manifold, consistently oriented; triangles for Loop), reads its
+    /// creases (`mesh.creases`) and the vertex sharpness in `corners`, checks the face
+    /// budget and refines the topology `options.levels` times. Positions are not read.
+    pub fn new(mesh: &Mesh, corners: &[Corner], options: &RefineOptions) -> Result<Refiner, RefineError> {
+        let n_faces = mesh.face_count();
+        if options.scheme == Scheme::Loop {
+            if let Some(f) = (0..n_faces).find(|&f| mesh.face(f).len() != 3) {
+                return Err(RefineError::NotTriangles { face: f, corners: mesh.face(f).len() });
+            }
+        }
+        let out = output_face_count(options.scheme, n_faces, mesh.face_indices.len(), options.levels);
+        if out > options.max_faces as u128 {
+            return Err(RefineError::Budget { levels: options.levels, faces: out, limit: options.max_faces });
+        }
+        // Indices must fit in u32 at the finest level (vertices ≈ faces + corners).
+        if out.saturating_mul(2) + mesh.positions.len() as u128 >= NONE as u128 {
+            return Err(RefineError::TooLarge { what: "refined mesh", count: out as usize });
+        }
+        let topo = Topology::from_faces(mesh.positions.len(), &mesh.face_offsets, &mesh.face_indices)?;
+        let features = control_features(&topo, &mesh.creases, corners)?;
+        let mut levels = vec![Level { topo, features }];
+        let mut rules = Vec::new();
+        for l in 0..options.levels {
+            let last = l + 1 == options.levels;
+            let parent = &levels[l as usize];
+            let (r, child_features) =
+                crease::refine_features(&parent.topo, &parent.features, options.creasing, options.boundary);
+            let detail = if last && !options.full_last_level { Detail::Faces } else { Detail::Full };
+            let topo = split(options.scheme, &parent.topo, detail, options.parallel);
+            rules.push(r);
+            levels.push(Level { topo, features: child_features });
+        }
+        Ok(Refiner { options: options.clone(), levels, rules })
+    }
+
+    /// The options it was built with.
+    pub fn options(&self) -> &RefineOptions {
+        &self.options
+    }
+
+    /// Number of refinement levels (0 = the control mesh only).
+    pub fn levels(&self) -> usize {
+        self.levels.len() - 1
+    }
+
+    /// The topology of level `l` (0 = control mesh).
+    pub fn level(&self, l: usize) -> &Topology {
+        &self.levels[l].topo
+    }
+
+    /// The finest level's topology.
+    pub fn finest(&self) -> &Topology {
+        &self.levels.last().expect("level 0 always exists").topo
+    }
+
+    /// Interpolates per-vertex values of the control mesh to the finest level.
+    pub fn interpolate<T: Primvar>(&self, control: &[T]) -> Result<Vec<T>, RefineError> {
+        let expected = self.level(0).vertex_count();
+        if control.len() != expected {
+            return Err(RefineError::WrongLength { what: "control values", expected, got: control.len() });
+        }
+        let mut cur = control.to_vec();
+        for l in 0..self.levels() {
+            let p = &self.levels[l].topo;
+            let mut next = uninit_vec(self.level(l + 1).vertex_count());
+            interpolate_into(self.options.scheme, false, p, &self.rules[l], &cur, &mut next, self.options.parallel);
+            // SAFETY: the kernels write every child value.
+            cur = unsafe { into_init(next) };
+        }
+        Ok(cur)
+    }
+
+    /// Interpolates values of level `l` (`src`, one per vertex) into level `l + 1` (`dst`).
+    ///
+    /// # Panics
+    /// If the slice lengths do not match the two levels' vertex counts.
+    pub fn interpolate_level<T: Primvar>(&self, l: usize, src: &[T], dst: &mut [T]) {
+        let p = &self.levels[l].topo;
+        assert_eq!(src.len(), p.vertex_count(), "source values of level {l}");
+        assert_eq!(
+            dst.len(),
+            self.levels[l + 1].topo.vertex_count(),
+            "destination values of level {}",
+            l + 1
+        );
+        // SAFETY: the kernel only writes valid values into `dst`.
+        let dst = unsafe { &mut *(dst as *mut [T] as *mut [MaybeUninit<T>]) };
+        interpolate_into(self.options.scheme, false, p, &self.rules[l], src, dst, self.options.parallel);
+    }
+
+    /// Builds the refined topology of a face-varying channel with `indices` (one per
+    /// control-mesh corner) and the given interpolation.
+    pub fn face_varying(
+        &self,
+        indices: &[u32],
+        interpolation: FvarInterpolation,
+    ) -> Result<FaceVaryingRefiner, RefineError> {
+        FaceVaryingRefiner::new(self, indices, interpolation)
+    }
+
+    /// Pushes finest-level values to their limit positions (seed 001 §2.11; needs
+    /// [`RefineOptions::full_last_level`]).
+    pub fn limit<T: Primvar>(&self, finest: &[T]) -> Result<Vec<T>, RefineError> {
+        let level = self.levels.last().expect("level 0 always exists");
+        limit::limit_positions(
+            self.options.scheme,
+            self.options.boundary,
+            &level.topo,
+            &level.features,
+            finest,
+        )
+    }
+
+    /// Exact limit normals of the finest level, face-varying: one value per vertex on
+    /// smooth vertices, one per sector on creases, corners and boundaries (needs
+    /// [`RefineOptions::full_last_level`]). `finest_positions` are the interpolated
+    /// positions of the finest level (before [`Refiner::limit`]): the tangent masks apply
+    /// to them.
+    pub fn limit_normals(&self, finest_positions: &[Vec3]) -> Result<FaceVarying<Vec3>, RefineError> {
+        let level = self.levels.last().expect("level 0 always exists");
+        limit::limit_normals(
+            self.options.scheme,
+            self.options.boundary,
+            &level.topo,
+            &level.features,
+            finest_positions,
+        )
+    }
+
+    /// The creases still sharp at the finest level, as vertex pairs (so a refined mesh can
+    /// be refined again with the same result).
+    pub fn finest_creases(&self) -> Vec<Crease> {
+        let n = self.levels.len();
+        let last = &self.levels[n - 1];
+        if n == 1 {
+            return last
+                .features
+                .creases
+                .iter()
+                .map(|&(e, s)| {
+                    let [a, b] = last.topo.edge_verts[e as usize];
+                    Crease { a, b, sharpness: s }
+                })
+                .collect();
+        }
+        // Child crease edges are always halves of parent edges: 2e at edge_verts[e][0].
+        let parent = &self.levels[n - 2].topo;
+        let ev_base = match self.options.scheme {
+            Scheme::Loop => parent.num_verts,
+            Scheme::CatmullClark => parent.num_verts + parent.num_faces,
+        };
+        last.features
+            .creases
+            .iter()
+            .map(|&(h, s)| {
+                let e = h / 2;
+                let [a, b] = parent.edge_verts[e as usize];
+                let mid = ev_base + e;
+                let (a, b) = if h % 2 == 0 { (a, mid) } else { (mid, b) };
+                let sharpness = if s >= INFINITE { f32::INFINITY } else { s };
+                Crease { a, b, sharpness }
+            })
+            .collect()
+    }
+
+    /// The finest level's faces as a [`Mesh`] with `positions` (no face-varying data).
+    pub fn finest_mesh(&self, positions: Vec<Vec3>) -> Mesh {
+        let t = self.finest();
+        let mut m = Mesh::new();
+        m.positions = positions;
+        m.face_indices = t.face_verts.clone();
+        m.face_offsets = if t.face_size > 0 {
+            (0..=t.num_faces).map(|f| f * t.face_size).collect()
+        } else {
+            t.face_offsets.clone()
+        };
+        m.creases = self.finest_creases();
+        m
+    }
+}
+
+/// Reads the control mesh's tagged creases and vertex sharpness into sparse feature lists
+/// (sharpness ≥ [`INFINITE`], including `f32::INFINITY`, is infinitely sharp).
+fn control_features(
+    topo: &Topology,
+    creases: &[Crease],
+    corners: &[Corner],
+) -> Result<Features, RefineError> {
+    let boundary = topo.boundary_edges();
+    let mut ec: Vec<(u32, f32)> = Vec::with_capacity(creases.len());
+    for c in creases {
+        if c.sharpness.is_nan() || c.sharpness < 0.0 {
+            return Err(RefineError::BadSharpness {
+                what: format!("crease {}–{}", c.a, c.b),
+                sharpness: c.sharpness,
+            });
+        }
+        let e = topo.find_edge(c.a, c.b).ok_or(RefineError::CreaseNotAnEdge { a: c.a, b: c.b })?;
+        if c.sharpness > 0.0 && !topo.is_boundary_edge(e as usize) {
+            ec.push((e, c.sharpness.min(INFINITE)));
+        }
+    }
+    ec.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
+    ec.dedup_by_key(|x| x.0); // a repeated tag: the sharpest wins
+    let mut vc: Vec<(u32, f32)> = Vec::with_capacity(corners.len());
+    for c in corners {
+        if c.sharpness.is_nan() || c.sharpness < 0.0 {
+            return Err(RefineError::BadSharpness {
+                what: format!("vertex {}", c.vertex),
+                sharpness: c.sharpness,
+            });
+        }
+        if c.vertex as usize >= topo.vertex_count() {
+            return Err(RefineError::InvalidMesh(format!(
+                "corner tag on vertex {}, but there are {} vertices",
+                c.vertex,
+                topo.vertex_count()
+            )));
+        }
+        if c.sharpness > 0.0 {
+            vc.push((c.vertex, c.sharpness.min(INFINITE)));
+        }
+    }
+    // Isolated vertices have no mask: keep them where they are.
+    for v in 0..topo.vertex_count() {
+        if topo.vertex_corners(v).is_empty() {
+            vc.push((v as u32, INFINITE));
+        }
+    }
+    vc.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
+    vc.dedup_by_key(|x| x.0);
+    Ok(Features { creases: ec, corners: vc, boundary })
+}
+
+/// What [`subdivide`] does beyond the refinement itself.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SubdivideOptions {
+    /// Scheme, levels, boundary and crease rules, parallelism, budget.
+    pub refine: RefineOptions,
+    /// Push the finest vertices to the limit surface and emit exact limit normals.
+    pub limit: bool,
+    /// How UVs are interpolated (when the mesh has UVs).
+    pub uv: FvarInterpolation,
+}
+
+/// Subdivides `mesh` (positions, creases, corners, UVs) and returns the refined mesh.
+/// Input normals are dropped (they no longer describe the surface); with
+/// [`SubdivideOptions::limit`] the result has exact limit normals instead.
+pub fn subdivide(mesh: &Mesh, corners: &[Corner], options: &SubdivideOptions) -> Result<Mesh, RefineError> {
+    mesh.validate().map_err(RefineError::InvalidMesh)?;
+    let mut ro = options.refine.clone();
+    ro.full_last_level |= options.limit;
+    let refiner = Refiner::new(mesh, corners, &ro)?;
+    let mut positions = refiner.interpolate(&mesh.positions)?;
+    let mut normals = None;
+    if options.limit {
+        // Tangent masks apply to the finest control points, not to their limits.
+        normals = Some(refiner.limit_normals(&positions)?);
+        positions = refiner.limit(&positions)?;
+    }
+    let mut out = refiner.finest_mesh(positions);
+    out.normals = normals;
+    if let Some(uvs) = &mesh.uvs {
+        let fvr = refiner.face_varying(&uvs.indices, options.uv)?;
+        out.uvs = Some(fvr.interpolate(&uvs.values)?);
+    }
+    Ok(out)
+}
+
+/// Runs `f` on a dedicated rayon pool of `threads` workers (refinement inside it uses that
+/// many threads; the result is the same for any count).
+pub fn with_threads<R: Send>(
+    threads: usize,
+    f: impl FnOnce() -> R + Send,
+) -> Result<R, rayon::ThreadPoolBuildError> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;
+    Ok(pool.install(f))
+}

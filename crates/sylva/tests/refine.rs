@@ -1,0 +1,793 @@
+//! Properties of the subdivision engine (`sylva::refine`) from specs 000, 001 and 003:
+//! counts, closedness, convex hull, crease curves, sharpness decay, analytic limit
+//! surfaces, face-varying seams and determinism across thread counts.
+
+use glam::{Vec2, Vec3};
+use sylva::mesh::{Crease, FaceVarying, Mesh};
+use sylva::refine::{
+    loop_, subdivide, Corner, FvarInterpolation, RefineError, RefineOptions, Refiner, Scheme,
+    SubdivideOptions, Topology,
+};
+
+// ---------------------------------------------------------------------------------------
+// Meshes
+
+fn mesh_from(positions: Vec<Vec3>, faces: &[Vec<u32>]) -> Mesh {
+    let mut m = Mesh::new();
+    m.positions = positions;
+    for f in faces {
+        m.push_face(f);
+    }
+    m
+}
+
+/// (nx+1)×(ny+1) vertices, vertex (i, j) at index j·(nx+1) + i, quads counter-clockwise.
+fn grid_quads(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
+    let w = nx + 1;
+    let pos = (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| at(i, j)).collect();
+    let mut faces = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            let a = j * w + i;
+            faces.push(vec![a, a + 1, a + w + 1, a + w]);
+        }
+    }
+    mesh_from(pos, &faces)
+}
+
+/// Triangulated grid with diagonals along (1, 1): the three-direction mesh of Loop's
+/// regular case.
+fn grid_tris(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
+    let w = nx + 1;
+    let pos = (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| at(i, j)).collect();
+    let mut faces = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            let a = j * w + i;
+            faces.push(vec![a, a + 1, a + w + 1]);
+            faces.push(vec![a, a + w + 1, a + w]);
+        }
+    }
+    mesh_from(pos, &faces)
+}
+
+fn cube() -> Mesh {
+    let p =
+        (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0);
+    mesh_from(
+        p.collect(),
+        &[
+            vec![0, 2, 3, 1],
+            vec![4, 5, 7, 6],
+            vec![0, 1, 5, 4],
+            vec![2, 6, 7, 3],
+            vec![0, 4, 6, 2],
+            vec![1, 3, 7, 5],
+        ],
+    )
+}
+
+fn tetrahedron() -> Mesh {
+    mesh_from(
+        vec![
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+            Vec3::new(-1.0, 1.0, -1.0),
+            Vec3::new(-1.0, -1.0, 1.0),
+        ],
+        &[vec![0, 1, 2], vec![0, 3, 1], vec![0, 2, 3], vec![1, 3, 2]],
+    )
+}
+
+fn octahedron() -> Mesh {
+    let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    mesh_from(
+        p,
+        &[
+            vec![0, 2, 4],
+            vec![2, 1, 4],
+            vec![1, 3, 4],
+            vec![3, 0, 4],
+            vec![2, 0, 5],
+            vec![1, 2, 5],
+            vec![3, 1, 5],
+            vec![0, 3, 5],
+        ],
+    )
+}
+
+/// Torus of n×m quads (or 2nm triangles), ring `i` around the big circle.
+fn torus(n: u32, m: u32, tris: bool) -> Mesh {
+    let mut pos = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b) =
+                (i as f32 / n as f32 * std::f32::consts::TAU, j as f32 / m as f32 * std::f32::consts::TAU);
+            let r = 2.0 + 0.7 * b.cos();
+            pos.push(Vec3::new(r * a.cos(), 0.7 * b.sin(), r * a.sin()));
+        }
+    }
+    let id = |i: u32, j: u32| (i % n) * m + (j % m);
+    let mut faces = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
+            if tris {
+                faces.push(vec![a, b, c]);
+                faces.push(vec![a, c, d]);
+            } else {
+                faces.push(vec![a, b, c, d]);
+            }
+        }
+    }
+    mesh_from(pos, &faces)
+}
+
+/// Small deterministic pseudo-random numbers in [-1, 1].
+fn noise(k: u32) -> f32 {
+    let mut x = k.wrapping_mul(0x9E37_79B9) ^ 0x85EB_CA6B;
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x2C1B_3C6D);
+    x ^= x >> 12;
+    (x % 20001) as f32 / 10000.0 - 1.0
+}
+
+fn opts(scheme: Scheme, levels: u32) -> RefineOptions {
+    RefineOptions { scheme, levels, ..Default::default() }
+}
+
+fn refine(mesh: &Mesh, scheme: Scheme, levels: u32) -> Mesh {
+    let o = SubdivideOptions { refine: opts(scheme, levels), ..Default::default() };
+    subdivide(mesh, &[], &o).unwrap()
+}
+
+fn edge_count(m: &Mesh) -> usize {
+    Topology::from_faces(m.vertex_count(), &m.face_offsets, &m.face_indices).unwrap().edge_count()
+}
+
+/// Largest distance from a point of `a` to the nearest point of `b`, both ways.
+fn hausdorff(a: &[Vec3], b: &[Vec3]) -> f32 {
+    let one = |x: &[Vec3], y: &[Vec3]| {
+        x.iter().map(|p| y.iter().map(|q| p.distance(*q)).fold(f32::MAX, f32::min)).fold(0.0, f32::max)
+    };
+    one(a, b).max(one(b, a))
+}
+
+/// The boundary loop of `m` starting at vertex `start`, following boundary edges
+/// counter-clockwise.
+fn boundary_loop(m: &Mesh, start: u32) -> Vec<u32> {
+    let t = Topology::from_faces(m.vertex_count(), &m.face_offsets, &m.face_indices).unwrap();
+    // next boundary vertex: the end of the boundary edge leaving `v` in face order.
+    let mut next = std::collections::HashMap::new();
+    for f in 0..t.face_count() {
+        let face = t.face(f);
+        for k in 0..face.len() {
+            let (a, b) = (face[k], face[(k + 1) % face.len()]);
+            let e = t.find_edge(a, b).unwrap();
+            if t.is_boundary_edge(e as usize) {
+                next.insert(a, b);
+            }
+        }
+    }
+    let mut out = vec![start];
+    let mut v = next[&start];
+    while v != start {
+        out.push(v);
+        v = next[&v];
+    }
+    out
+}
+
+/// Cubic B-spline subdivision of a closed polygon; `pinned` points stay (corners).
+fn curve_subdivide(p: &[Vec3], pinned: &[bool], levels: u32) -> Vec<Vec3> {
+    let (mut p, mut pinned) = (p.to_vec(), pinned.to_vec());
+    for _ in 0..levels {
+        let n = p.len();
+        let mut q = Vec::with_capacity(2 * n);
+        let mut qp = Vec::with_capacity(2 * n);
+        for i in 0..n {
+            let (a, b, c) = (p[(i + n - 1) % n], p[i], p[(i + 1) % n]);
+            q.push(if pinned[i] { b } else { (a + 6.0 * b + c) / 8.0 });
+            qp.push(pinned[i]);
+            q.push((b + c) / 2.0);
+            qp.push(false);
+        }
+        p = q;
+        pinned = qp;
+    }
+    p
+}
+
+// ---------------------------------------------------------------------------------------
+// Counts, closedness, errors
+
+#[test]
+fn loop_beta_erratum() {
+    assert_eq!(loop_::beta(3), 3.0 / 16.0);
+    assert_eq!(loop_::beta(6), 1.0 / 16.0);
+    assert!((loop_::beta(4) - 31.0 / 256.0).abs() < 1e-15);
+}
+
+#[test]
+fn loop_counts_per_level() {
+    let mut m = octahedron();
+    for _ in 0..4 {
+        let (v, e, f) = (m.vertex_count(), edge_count(&m), m.face_count());
+        let c = refine(&m, Scheme::Loop, 1);
+        assert_eq!(c.face_count(), 4 * f);
+        assert_eq!(c.vertex_count(), v + e);
+        assert_eq!(edge_count(&c), 2 * e + 3 * f);
+        m = c;
+    }
+    assert_eq!(refine(&octahedron(), Scheme::Loop, 3).face_count(), 8 * 64);
+}
+
+#[test]
+fn catmull_clark_counts_per_level() {
+    // A triangle and a pentagon sharing an edge: the first level makes 3 + 5 quads.
+    let m = mesh_from(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.5, -1.0, 0.0),
+            Vec3::new(1.5, 1.0, 0.0),
+            Vec3::new(0.5, 2.0, 0.0),
+            Vec3::new(-0.5, 1.0, 0.0),
+        ],
+        &[vec![0, 2, 1], vec![0, 1, 3, 4, 5]],
+    );
+    let one = refine(&m, Scheme::CatmullClark, 1);
+    assert_eq!(one.face_count(), 8);
+    assert!((0..8).all(|f| one.face(f).len() == 4));
+    assert_eq!(one.vertex_count(), 6 + 2 + edge_count(&m));
+    for l in 2..5 {
+        assert_eq!(refine(&m, Scheme::CatmullClark, l).face_count(), 8 * 4usize.pow(l - 1));
+    }
+    // Seed 003 §10.11: V' = V + E + F on a closed quad mesh.
+    let c = cube();
+    let r = refine(&c, Scheme::CatmullClark, 1);
+    assert_eq!(r.vertex_count(), 8 + 12 + 6);
+    assert_eq!(r.face_count(), 24);
+}
+
+#[test]
+fn closed_manifold_stays_closed_and_manifold() {
+    for (m, scheme) in [
+        (cube(), Scheme::CatmullClark),
+        (octahedron(), Scheme::Loop),
+        (torus(6, 4, false), Scheme::CatmullClark),
+        (torus(6, 4, true), Scheme::Loop),
+    ] {
+        let chi0 = m.vertex_count() as i64 - edge_count(&m) as i64 + m.face_count() as i64;
+        for l in 1..4 {
+            let r = refine(&m, scheme, l);
+            let t = Topology::from_faces(r.vertex_count(), &r.face_offsets, &r.face_indices).unwrap();
+            assert_eq!(t.edge_count() * 2, r.face_indices.len(), "every edge has two faces");
+            assert!((0..t.edge_count()).all(|e| !t.is_boundary_edge(e)));
+            let chi = t.vertex_count() as i64 - t.edge_count() as i64 + t.face_count() as i64;
+            assert_eq!(chi, chi0, "Euler characteristic");
+        }
+    }
+}
+
+#[test]
+fn non_manifold_input_names_the_vertices() {
+    let m = mesh_from(
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Y],
+        &[vec![0, 1, 2], vec![1, 0, 3], vec![0, 1, 4]],
+    );
+    let e = Refiner::new(&m, &[], &opts(Scheme::Loop, 1)).unwrap_err();
+    assert!(matches!(&e, RefineError::NonManifoldEdge { a: 0, b: 1, faces } if faces.len() == 3), "{e}");
+    assert!(e.to_string().contains("vertices 0 and 1"), "{e}");
+    let flipped = mesh_from(vec![Vec3::ZERO, Vec3::X, Vec3::Y, -Vec3::Y], &[vec![0, 1, 2], vec![0, 1, 3]]);
+    let e = Refiner::new(&flipped, &[], &opts(Scheme::Loop, 1)).unwrap_err();
+    assert!(e.to_string().contains("vertex 0 to vertex 1"), "{e}");
+}
+
+#[test]
+fn loop_rejects_quads_and_budget_is_enforced() {
+    let e = Refiner::new(&cube(), &[], &opts(Scheme::Loop, 1)).unwrap_err();
+    assert!(matches!(e, RefineError::NotTriangles { face: 0, corners: 4 }), "{e}");
+    let o = RefineOptions { max_faces: 1000, ..opts(Scheme::CatmullClark, 5) };
+    let e = Refiner::new(&cube(), &[], &o).unwrap_err();
+    assert!(matches!(e, RefineError::Budget { faces: 6144, .. }), "{e}");
+    assert!(e.to_string().contains("6144"));
+}
+
+#[test]
+fn creases_must_be_edges_and_sharpness_valid() {
+    let mut m = cube();
+    m.creases.push(Crease { a: 0, b: 7, sharpness: 1.0 });
+    assert!(matches!(
+        Refiner::new(&m, &[], &opts(Scheme::CatmullClark, 1)),
+        Err(RefineError::CreaseNotAnEdge { a: 0, b: 7 })
+    ));
+    m.creases[0] = Crease { a: 0, b: 1, sharpness: f32::NAN };
+    assert!(matches!(
+        Refiner::new(&m, &[], &opts(Scheme::CatmullClark, 1)),
+        Err(RefineError::BadSharpness { .. })
+    ));
+}
+
+// ---------------------------------------------------------------------------------------
+// Geometry
+
+#[test]
+fn refined_vertices_stay_in_the_convex_hull() {
+    // Tetrahedron: inside all four face planes (spec 001 §7.7: positive weights).
+    let t = tetrahedron();
+    let planes: Vec<(Vec3, f32)> = (0..4)
+        .map(|f| {
+            let [a, b, c] = [0, 1, 2].map(|k| t.positions[t.face(f)[k] as usize]);
+            let n = (b - a).cross(c - a).normalize();
+            (n, n.dot(a))
+        })
+        .collect();
+    for l in 1..6 {
+        for p in &refine(&t, Scheme::Loop, l).positions {
+            for (n, d) in &planes {
+                assert!(n.dot(*p) <= d + 1e-5, "level {l}: {p} outside the hull");
+            }
+        }
+    }
+    // Random closed meshes, 5 levels: inside the control bounding box.
+    for seed in 0..3 {
+        let mut o = octahedron();
+        for (i, p) in o.positions.iter_mut().enumerate() {
+            *p += Vec3::new(
+                noise(seed * 100 + 3 * i as u32),
+                noise(seed * 100 + 3 * i as u32 + 1),
+                noise(seed * 100 + 3 * i as u32 + 2),
+            ) * 0.4;
+        }
+        let (lo, hi) = o.bounds().unwrap();
+        for p in &refine(&o, Scheme::Loop, 5).positions {
+            assert!(p.cmpge(lo - 1e-5).all() && p.cmple(hi + 1e-5).all());
+        }
+    }
+    let (lo, hi) = cube().bounds().unwrap();
+    for p in &refine(&cube(), Scheme::CatmullClark, 4).positions {
+        assert!(p.cmpge(lo - 1e-5).all() && p.cmple(hi + 1e-5).all());
+    }
+}
+
+#[test]
+fn boundary_refines_as_cubic_bspline_curve() {
+    for scheme in [Scheme::CatmullClark, Scheme::Loop] {
+        let f = |i: u32, j: u32| {
+            Vec3::new(
+                i as f32 + 0.3 * noise(i * 7 + j),
+                j as f32 + 0.3 * noise(i * 13 + j + 5),
+                noise(i * 31 + j),
+            )
+        };
+        let m = if scheme == Scheme::Loop { grid_tris(4, 3, f) } else { grid_quads(4, 3, f) };
+        let control = boundary_loop(&m, 0);
+        // Grid corners have a single face (two for the triangle grid's diagonal corners):
+        // with EdgeAndCorner the single-face ones stay put.
+        let faces_at = |v: u32| m.face_indices.iter().filter(|&&x| x == v).count();
+        let pinned: Vec<bool> = control.iter().map(|&v| faces_at(v) == 1).collect();
+        let pts: Vec<Vec3> = control.iter().map(|&v| m.positions[v as usize]).collect();
+        for l in 1..4 {
+            let r = refine(&m, scheme, l);
+            let got: Vec<Vec3> = boundary_loop(&r, 0).iter().map(|&v| r.positions[v as usize]).collect();
+            let want = curve_subdivide(&pts, &pinned, l);
+            assert_eq!(got.len(), want.len());
+            for (g, w) in got.iter().zip(&want) {
+                assert!(g.distance(*w) < 1e-5, "{scheme:?} level {l}: {g} vs {w}");
+            }
+        }
+    }
+}
+
+/// Marks the ring of torus edges at big-circle index 0 (j = 0..m) as creases.
+fn torus_crease_ring(m: &mut Mesh, mm: u32, sharpness: f32) {
+    for j in 0..mm {
+        m.creases.push(Crease { a: j, b: (j + 1) % mm, sharpness });
+    }
+}
+
+#[test]
+fn sharp_crease_refines_as_cubic_bspline_curve() {
+    for (tris, scheme) in [(false, Scheme::CatmullClark), (true, Scheme::Loop)] {
+        let mm = 6;
+        let mut m = torus(8, mm, tris);
+        torus_crease_ring(&mut m, mm, f32::INFINITY);
+        let pts: Vec<Vec3> = (0..mm).map(|j| m.positions[j as usize]).collect();
+        for l in 1..4 {
+            let refiner = Refiner::new(&m, &[], &opts(scheme, l)).unwrap();
+            let fine = refiner.interpolate(&m.positions).unwrap();
+            let want = curve_subdivide(&pts, &vec![false; mm as usize], l);
+            // The refined crease: the sharp edges of the finest level, chained from vertex 0.
+            let creases = refiner.finest_creases();
+            assert_eq!(creases.len(), want.len());
+            let mut chain = vec![0u32];
+            while chain.len() < want.len() {
+                let v = *chain.last().unwrap();
+                let prev = if chain.len() > 1 { chain[chain.len() - 2] } else { u32::MAX };
+                let next = creases
+                    .iter()
+                    .find_map(|c| {
+                        if c.a == v && c.b != prev {
+                            Some(c.b)
+                        } else if c.b == v && c.a != prev {
+                            Some(c.a)
+                        } else {
+                            None
+                        }
+                    })
+                    .unwrap();
+                chain.push(next);
+            }
+            let got: Vec<Vec3> = chain.iter().map(|&v| fine[v as usize]).collect();
+            // The chain may run either way round.
+            let fwd = got.iter().zip(&want).all(|(g, w)| g.distance(*w) < 1e-5);
+            let mut rev = want.clone();
+            rev[1..].reverse();
+            let bwd = got.iter().zip(&rev).all(|(g, w)| g.distance(*w) < 1e-5);
+            assert!(fwd || bwd, "{scheme:?} level {l}");
+        }
+    }
+}
+
+#[test]
+fn sharpness_s_uses_sharp_masks_for_s_levels() {
+    for (tris, scheme) in [(false, Scheme::CatmullClark), (true, Scheme::Loop)] {
+        let mm = 6;
+        let base = torus(8, mm, tris);
+        let with = |s: f32, levels: u32| {
+            let mut m = base.clone();
+            torus_crease_ring(&mut m, mm, s);
+            refine(&m, scheme, levels)
+        };
+        // s = 0 is untagged; s ≥ levels is infinitely sharp.
+        assert_eq!(with(0.0, 3).positions, refine(&base, scheme, 3).positions);
+        assert_eq!(with(3.0, 3).positions, with(f32::INFINITY, 3).positions);
+        assert_eq!(with(7.0, 3).positions, with(f32::INFINITY, 3).positions);
+        // s = 2: two sharp levels, then smooth ones.
+        let mut sharp2 = with(f32::INFINITY, 2);
+        sharp2.creases.clear();
+        let then_smooth = refine(&sharp2, scheme, 2);
+        let direct = with(2.0, 4);
+        assert!(hausdorff(&direct.positions, &then_smooth.positions) < 1e-5);
+        assert!(hausdorff(&direct.positions, &with(3.0, 4).positions) > 1e-3);
+        // Fractional sharpness lies between its neighbours on the crease.
+        let p = |s: f32| with(s, 2).positions[0];
+        let (a, b, c) = (p(1.0), p(1.5), p(2.0));
+        assert!((b - a).length() > 1e-4 && (c - b).length() > 1e-4);
+        assert!((b - a).dot(c - b) > 0.0, "s = 1.5 between s = 1 and s = 2");
+    }
+}
+
+#[test]
+fn tip_sharpness_pins_a_vertex_for_t_levels() {
+    // Seed 001 §2.10: "a tip with sharpness t stays fixed for t levels".
+    let m = octahedron();
+    let tip = [Corner { vertex: 4, sharpness: 2.0 }];
+    let at = |l: u32| {
+        let r = Refiner::new(&m, &tip, &opts(Scheme::Loop, l)).unwrap();
+        r.interpolate(&m.positions).unwrap()[4]
+    };
+    assert_eq!(at(1), Vec3::Z);
+    assert_eq!(at(2), Vec3::Z);
+    assert!(at(3).distance(Vec3::Z) > 1e-3);
+    let inf = [Corner { vertex: 4, sharpness: f32::INFINITY }];
+    let r = Refiner::new(&m, &inf, &opts(Scheme::Loop, 4)).unwrap();
+    assert_eq!(r.interpolate(&m.positions).unwrap()[4], Vec3::Z);
+}
+
+// ---------------------------------------------------------------------------------------
+// Limit surface
+
+/// Uniform cubic B-spline basis centred at 0 (support [-2, 2]) and its derivative.
+fn bspline(t: f32) -> (f32, f32) {
+    let a = t.abs();
+    let (v, d) = if a < 1.0 {
+        (2.0 / 3.0 - a * a + 0.5 * a * a * a, -2.0 * a + 1.5 * a * a)
+    } else if a < 2.0 {
+        let u = 2.0 - a;
+        (u * u * u / 6.0, -0.5 * u * u)
+    } else {
+        (0.0, 0.0)
+    };
+    (v, d * t.signum())
+}
+
+#[test]
+fn catmull_clark_limit_matches_bicubic_bspline() {
+    let n = 10;
+    let h = |i: u32, j: u32| 0.5 * noise(i * 101 + j * 7 + 3);
+    let m = grid_quads(n, n, |i, j| Vec3::new(i as f32, j as f32, h(i, j)));
+    let o = SubdivideOptions { refine: opts(Scheme::CatmullClark, 3), limit: true, ..Default::default() };
+    let r = subdivide(&m, &[], &o).unwrap();
+    let normals = r.normals.as_ref().unwrap();
+    let mut checked = 0;
+    for (c, &v) in r.face_indices.iter().enumerate() {
+        let p = r.positions[v as usize];
+        if p.x < 2.0 || p.y < 2.0 || p.x > (n - 2) as f32 || p.y > (n - 2) as f32 {
+            continue;
+        }
+        let (mut z, mut zx, mut zy) = (0.0, 0.0, 0.0);
+        for j in 0..=n {
+            for i in 0..=n {
+                let (bx, dx) = bspline(p.x - i as f32);
+                let (by, dy) = bspline(p.y - j as f32);
+                z += h(i, j) * bx * by;
+                zx += h(i, j) * dx * by;
+                zy += h(i, j) * bx * dy;
+            }
+        }
+        assert!((p.z - z).abs() < 1e-4, "limit height at ({}, {}): {} vs {z}", p.x, p.y, p.z);
+        let want = Vec3::new(-zx, -zy, 1.0).normalize();
+        let got = normals.values[normals.indices[c] as usize];
+        assert!(got.dot(want) > 1.0 - 1e-5, "normal at ({}, {}): {got} vs {want}", p.x, p.y);
+        checked += 1;
+    }
+    assert!(checked > 1000);
+}
+
+#[test]
+fn loop_limit_matches_quartic_box_spline() {
+    // For a cubic polynomial p sampled on the three-direction lattice, the box spline
+    // M₂₂₂ gives S = p + ½ Σ ∂ₐ∂ᵦp · Cov with Cov = h²/6 [[2, 1], [1, 2]] (the covariance
+    // of Σ ξₖ Uₖ, Uₖ uniform on [0, 1]; odd moments vanish by symmetry).
+    let n = 12;
+    let h = 0.25f32;
+    let a = [0.1f32, 0.3, -0.2, 0.15, -0.1, 0.2, 0.05, -0.04, 0.03, 0.02];
+    let p = |x: f32, y: f32| {
+        a[0] + a[1] * x
+            + a[2] * y
+            + a[3] * x * x
+            + a[4] * x * y
+            + a[5] * y * y
+            + a[6] * x * x * x
+            + a[7] * x * x * y
+            + a[8] * x * y * y
+            + a[9] * y * y * y
+    };
+    // Second derivatives pxx, pxy, pyy and their gradients.
+    let pxx = |x: f32, y: f32| 2.0 * a[3] + 6.0 * a[6] * x + 2.0 * a[7] * y;
+    let pxy = |x: f32, y: f32| a[4] + 2.0 * a[7] * x + 2.0 * a[8] * y;
+    let pyy = |x: f32, y: f32| 2.0 * a[5] + 2.0 * a[8] * x + 6.0 * a[9] * y;
+    let cov = [2.0 * h * h / 6.0, h * h / 6.0, 2.0 * h * h / 6.0];
+    let s =
+        |x: f32, y: f32| p(x, y) + 0.5 * (cov[0] * pxx(x, y) + 2.0 * cov[1] * pxy(x, y) + cov[2] * pyy(x, y));
+    let sx = |x: f32, y: f32| {
+        a[1] + 2.0 * a[3] * x
+            + a[4] * y
+            + 3.0 * a[6] * x * x
+            + 2.0 * a[7] * x * y
+            + a[8] * y * y
+            + 0.5 * (cov[0] * 6.0 * a[6] + 2.0 * cov[1] * 2.0 * a[7] + cov[2] * 2.0 * a[8])
+    };
+    let sy = |x: f32, y: f32| {
+        a[2] + a[4] * x
+            + 2.0 * a[5] * y
+            + a[7] * x * x
+            + 2.0 * a[8] * x * y
+            + 3.0 * a[9] * y * y
+            + 0.5 * (cov[0] * 2.0 * a[7] + 2.0 * cov[1] * 2.0 * a[8] + cov[2] * 6.0 * a[9])
+    };
+    let m = grid_tris(n, n, |i, j| {
+        let (x, y) = (i as f32 * h, j as f32 * h);
+        Vec3::new(x, y, p(x, y))
+    });
+    let o = SubdivideOptions { refine: opts(Scheme::Loop, 3), limit: true, ..Default::default() };
+    let r = subdivide(&m, &[], &o).unwrap();
+    let normals = r.normals.as_ref().unwrap();
+    let (lo, hi) = (2.5 * h, (n as f32 - 2.5) * h);
+    let mut checked = 0;
+    for (c, &v) in r.face_indices.iter().enumerate() {
+        let q = r.positions[v as usize];
+        if q.x < lo || q.y < lo || q.x > hi || q.y > hi {
+            continue;
+        }
+        assert!((q.z - s(q.x, q.y)).abs() < 2e-5, "at ({}, {}): {} vs {}", q.x, q.y, q.z, s(q.x, q.y));
+        let want = Vec3::new(-sx(q.x, q.y), -sy(q.x, q.y), 1.0).normalize();
+        let got = normals.values[normals.indices[c] as usize];
+        assert!(got.dot(want) > 1.0 - 1e-6, "normal at ({}, {}): {got} vs {want}", q.x, q.y);
+        checked += 1;
+    }
+    assert!(checked > 1000);
+}
+
+#[test]
+fn limit_is_level_independent_and_normals_point_outward() {
+    // Spec 001 §7.26: a vertex has the same limit position at level n and n + 1.
+    for (m, scheme) in
+        [(cube(), Scheme::CatmullClark), (octahedron(), Scheme::Loop), (torus(6, 4, true), Scheme::Loop)]
+    {
+        let lim = |l: u32| {
+            let o = SubdivideOptions { refine: opts(scheme, l), limit: true, ..Default::default() };
+            subdivide(&m, &[], &o).unwrap()
+        };
+        let (a, b) = (lim(2), lim(3));
+        for v in 0..a.vertex_count() {
+            assert!(a.positions[v].distance(b.positions[v]) < 1e-5, "{scheme:?} vertex {v}");
+        }
+        let n = b.normals.as_ref().unwrap();
+        let is_torus = m.face_count() == 48;
+        for (c, &v) in b.face_indices.iter().enumerate() {
+            let p = b.positions[v as usize];
+            // Outward: away from the centre, or from the torus's core circle (radius 2).
+            let out = if is_torus { p - 2.0 * Vec3::new(p.x, 0.0, p.z).normalize() } else { p };
+            assert!(n.values[n.indices[c] as usize].dot(out) > 0.0, "{scheme:?}: inward normal at {p}");
+        }
+    }
+}
+
+#[test]
+fn crease_keeps_two_normals_and_boundary_limit_is_on_the_curve() {
+    // A flat open grid folded along x = 2 by an infinitely sharp crease.
+    let mut m = grid_quads(4, 4, |i, j| {
+        let x = i as f32;
+        Vec3::new(x, j as f32, if i > 2 { (x - 2.0) * 0.8 } else { 0.0 })
+    });
+    for j in 0..4 {
+        m.creases.push(Crease { a: j * 5 + 2, b: (j + 1) * 5 + 2, sharpness: f32::INFINITY });
+    }
+    let o = SubdivideOptions { refine: opts(Scheme::CatmullClark, 2), limit: true, ..Default::default() };
+    let r = subdivide(&m, &[], &o).unwrap();
+    let n = r.normals.as_ref().unwrap();
+    // Vertex 12 = control (2, 2): on the crease, interior. Its corners see two normals.
+    let mut seen: Vec<Vec3> = Vec::new();
+    for (c, &v) in r.face_indices.iter().enumerate() {
+        if v == 12 {
+            let nv = n.values[n.indices[c] as usize];
+            if !seen.iter().any(|s| s.distance(nv) < 1e-6) {
+                seen.push(nv);
+            }
+        }
+    }
+    assert_eq!(seen.len(), 2, "{seen:?}");
+    let flat = seen.iter().find(|s| s.z > 0.999).expect("the flat side's normal is +Z");
+    let tilted = seen.iter().find(|s| s.z < 0.99).unwrap();
+    assert!(flat.dot(*tilted) < 0.9);
+    assert!((tilted.x + 0.8 * tilted.z).abs() < 1e-3, "{tilted}");
+}
+
+// ---------------------------------------------------------------------------------------
+// Face-varying UVs
+
+/// A quad strip wrapped into a cylinder (open at both ends), with a UV seam at u = 0 / 1.
+fn cylinder_with_seam(around: u32, along: u32) -> Mesh {
+    let mut pos = Vec::new();
+    for j in 0..=along {
+        for i in 0..around {
+            let a = i as f32 / around as f32 * std::f32::consts::TAU;
+            pos.push(Vec3::new(a.cos(), j as f32 * 0.5, a.sin()));
+        }
+    }
+    let mut uv = Vec::new();
+    for j in 0..=along {
+        for i in 0..=around {
+            uv.push(Vec2::new(i as f32 / around as f32, j as f32 / along as f32));
+        }
+    }
+    let mut m = Mesh::new();
+    m.positions = pos;
+    let mut idx = Vec::new();
+    for j in 0..along {
+        for i in 0..around {
+            let v = |i: u32, j: u32| j * around + i % around;
+            let t = |i: u32, j: u32| j * (around + 1) + i;
+            // Counter-clockwise seen from outside (x = cos a, z = sin a; +y up).
+            m.push_face(&[v(i, j), v(i, j + 1), v(i + 1, j + 1), v(i + 1, j)]);
+            idx.extend_from_slice(&[t(i, j), t(i, j + 1), t(i + 1, j + 1), t(i + 1, j)]);
+        }
+    }
+    m.uvs = Some(FaceVarying { values: uv, indices: idx });
+    m
+}
+
+#[test]
+fn uv_seams_stay_exact_in_every_mode() {
+    let m = cylinder_with_seam(6, 3);
+    for uv in [FvarInterpolation::Linear, FvarInterpolation::Boundaries, FvarInterpolation::CornersPlus] {
+        for scheme in [Scheme::CatmullClark] {
+            let o = SubdivideOptions { refine: opts(scheme, 3), uv, ..Default::default() };
+            let r = subdivide(&m, &[], &o).unwrap();
+            let uvs = r.uvs.as_ref().unwrap();
+            // Every vertex on the seam (x > 0, z ≈ 0) has corners with u = 0 and u = 1 and
+            // the same v on both sides.
+            let mut per_vertex: std::collections::HashMap<u32, Vec<Vec2>> = Default::default();
+            for (c, &v) in r.face_indices.iter().enumerate() {
+                per_vertex.entry(v).or_default().push(uvs.values[uvs.indices[c] as usize]);
+            }
+            let mut seam_vertices = 0;
+            for (v, list) in &per_vertex {
+                let p = r.positions[*v as usize];
+                let us: Vec<f32> = list.iter().map(|t| t.x).collect();
+                if us.iter().any(|&u| u == 0.0) && us.iter().any(|&u| u == 1.0) {
+                    seam_vertices += 1;
+                    let v0 = list[0].y;
+                    assert!(list.iter().all(|t| t.y == v0), "{uv:?}: v differs across the seam at {p}");
+                } else {
+                    // Off the seam a vertex has a single UV.
+                    assert!(list.iter().all(|t| *t == list[0]), "{uv:?}: split UV off the seam at {p}");
+                }
+            }
+            assert_eq!(seam_vertices, 3 * 8 + 1, "{uv:?}");
+        }
+    }
+}
+
+#[test]
+fn linear_boundary_uvs_do_not_shrink() {
+    // A grid with UV = position / size: the UV chart's border must stay the unit square's
+    // border with uniformly spaced values in Linear and Boundaries modes.
+    let n = 4;
+    let mut m = grid_quads(n, n, |i, j| Vec3::new(i as f32, j as f32, 0.3 * noise(i * 17 + j)));
+    m.uvs = Some(FaceVarying {
+        values: m.positions.iter().map(|p| Vec2::new(p.x / n as f32, p.y / n as f32)).collect(),
+        indices: m.face_indices.clone(),
+    });
+    for uv in [FvarInterpolation::Linear, FvarInterpolation::Boundaries] {
+        let o = SubdivideOptions { refine: opts(Scheme::CatmullClark, 2), uv, ..Default::default() };
+        let r = subdivide(&m, &[], &o).unwrap();
+        let uvs = r.uvs.as_ref().unwrap();
+        let mut bottom: Vec<f32> = uvs.values.iter().filter(|t| t.y == 0.0).map(|t| t.x).collect();
+        bottom.sort_by(f32::total_cmp);
+        let want: Vec<f32> = (0..=16).map(|k| k as f32 / 16.0).collect();
+        assert_eq!(bottom.len(), want.len(), "{uv:?}");
+        for (a, b) in bottom.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-6, "{uv:?}: {bottom:?}");
+        }
+        assert!(uvs.values.iter().all(|t| t.x >= 0.0 && t.x <= 1.0 && t.y >= 0.0 && t.y <= 1.0));
+    }
+}
+
+#[test]
+fn smooth_uvs_follow_the_surface_without_seams() {
+    // Without seams, CornersPlus UVs use the same masks as the positions, so an affine
+    // UV map of a flat grid stays affine in the refined positions.
+    let n = 5;
+    let mut m = grid_tris(n, n, |i, j| {
+        Vec3::new(i as f32 + 0.2 * noise(i * 3 + j), j as f32 + 0.2 * noise(i + 7 * j), 0.0)
+    });
+    let map = |p: Vec3| Vec2::new(0.1 * p.x + 0.05 * p.y + 0.2, -0.03 * p.x + 0.12 * p.y);
+    m.uvs = Some(FaceVarying {
+        values: m.positions.iter().map(|&p| map(p)).collect(),
+        indices: m.face_indices.clone(),
+    });
+    let o = SubdivideOptions {
+        refine: opts(Scheme::Loop, 3),
+        uv: FvarInterpolation::CornersPlus,
+        ..Default::default()
+    };
+    let r = subdivide(&m, &[], &o).unwrap();
+    let uvs = r.uvs.as_ref().unwrap();
+    for (c, &v) in r.face_indices.iter().enumerate() {
+        let want = map(r.positions[v as usize]);
+        let got = uvs.values[uvs.indices[c] as usize];
+        assert!(got.distance(want) < 1e-5, "{got} vs {want}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Determinism
+
+#[test]
+fn output_is_identical_for_any_thread_count() {
+    let n = 48;
+    let mut m = grid_quads(n, n, |i, j| Vec3::new(i as f32, j as f32, noise(i * 1000 + j)));
+    m.uvs = Some(FaceVarying {
+        values: m.positions.iter().map(|p| Vec2::new(p.x, p.y) / n as f32).collect(),
+        indices: m.face_indices.clone(),
+    });
+    m.creases.push(Crease { a: 5, b: 6, sharpness: 1.5 });
+    let run = |threads: usize, parallel: bool| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let o = SubdivideOptions {
+            refine: RefineOptions { parallel, ..opts(Scheme::CatmullClark, 3) },
+            limit: true,
+            uv: FvarInterpolation::Boundaries,
+        };
+        pool.install(|| subdivide(&m, &[], &o).unwrap())
+    };
+    let one = run(1, false);
+    assert!(one.face_count() > 4 * 2048);
+    for threads in [1, 2, 3] {
+        assert_eq!(run(threads, true), one, "{threads} threads");
+    }
+}
