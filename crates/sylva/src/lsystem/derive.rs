@@ -172,26 +172,35 @@ impl LSystem {
         opts: &DeriveOptions,
         functions: Vec<Function>,
     ) -> Result<ModuleString, Box<LsystemError>> {
-        self.derive_full(opts, functions).map(|(m, _)| m)
+        self.derive_full(opts, functions, None).map(|(m, _)| m)
     }
 
     /// Derives and also returns the evaluator (global variables as the derivation left
-    /// them, the generator's state), which the homomorphism then uses.
+    /// them, the generator's state), which the homomorphism then uses. With `turtle`,
+    /// query modules (`?P`, `?H`, `?U`, `?L`) are answered after the axiom and after
+    /// every step by interpreting the string (without the homomorphism).
     pub fn derive_full(
         &self,
         opts: &DeriveOptions,
         functions: Vec<Function>,
+        turtle: Option<&super::turtle::TurtleOptions>,
     ) -> Result<(ModuleString, Evaluator), Box<LsystemError>> {
+        let queries = |m: &mut ModuleString| match turtle {
+            Some(t) if self.has_queries => super::turtle::answer_queries(&self.symbols, m, t, &self.source),
+            _ => Ok(()),
+        };
         let mut ev = self.evaluator(opts.seed, functions)?;
         let mut cur = self.axiom_string(&mut ev)?;
         if cur.len() > opts.budget {
             return Err(self.budget_error(0, opts, cur.len()));
         }
+        queries(&mut cur)?;
         let mut next = ModuleString::new();
         for step in 1..=opts.steps {
             self.run_block(&self.start_each, &mut ev, "the StartEach: block")?;
             self.step(&cur, &mut next, &mut ev, opts, step)?;
             std::mem::swap(&mut cur, &mut next);
+            queries(&mut cur)?;
             self.run_block(&self.end_each, &mut ev, "the EndEach: block")?;
         }
         self.run_block(&self.end, &mut ev, "the End: block")?;

@@ -176,6 +176,9 @@ pub struct LSystem {
     pub context_skip: Vec<bool>,
     /// True when some production has a context.
     pub has_context: bool,
+    /// True when the L-system uses query modules (`?P`, `?H`, `?U`, `?L`), which the
+    /// turtle answers after every derivation step.
+    pub has_queries: bool,
     /// Derivation length from the file (`derivation length:`), 0 when absent.
     pub derivation_length: u32,
     /// Seed from the file (`seed:`), if given.
@@ -326,6 +329,7 @@ impl LSystem {
             homomorphism: RuleSet { max_depth: 1, ..Default::default() },
             context_skip: Vec::new(),
             has_context: false,
+            has_queries: false,
             derivation_length: 0,
             seed: None,
             define_block: None,
@@ -350,6 +354,7 @@ impl LSystem {
         ls.homomorphism.by_symbol = index(&ls.homomorphism.productions);
         ls.context_skip.resize(n, false);
         ls.has_context = ls.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
+        ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
         Ok(ls)
     }
 
@@ -1097,7 +1102,6 @@ impl LSystem {
     fn check_symbol(&self, name: &str, at: usize) -> PResult<()> {
         let unsupported = match name {
             "?E" => Some("environmental program communication module `?E`"),
-            "?P" | "?H" | "?U" | "?L" => Some("turtle query modules (`?P`, `?H`, `?U`, `?L`)"),
             _ => None,
         };
         match unsupported {

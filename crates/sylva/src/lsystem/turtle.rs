@@ -125,6 +125,7 @@ enum Cmd {
     CylinderStart,
     CylinderPoint,
     CylinderEnd,
+    Query,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -219,6 +220,7 @@ fn command(name: &str) -> Cmd {
         "." => Cmd::Vertex,
         "@O" => Cmd::Sphere,
         "@o" | "@c" => Cmd::Disc,
+        "?P" | "?H" | "?U" | "?L" => Cmd::Query,
         "@Gs" => Cmd::CylinderStart,
         "@Gc" => Cmd::CylinderPoint,
         "@Ge" => Cmd::CylinderEnd,
@@ -247,6 +249,49 @@ pub fn interpret_with(
     opts: &TurtleOptions,
     source: &Source,
     on_draw: &mut dyn FnMut(DVec3, DVec3),
+) -> Result<Skeleton, Box<LsystemError>> {
+    run(symbols, string, opts, source, on_draw, &mut |_, _| {})
+}
+
+/// The turtle state a query module sees: position, heading, up, left.
+pub type QueryState = [DVec3; 4];
+
+/// Answers cpfg's query modules (`?P` position, `?H` heading, `?U` up, `?L` left): runs
+/// the turtle over `string` and writes the turtle's state at each query module into its
+/// parameters (x, y, z, as many as the module has). cpfg does this after every
+/// derivation step, so productions can react to where a module is.
+pub fn answer_queries(
+    symbols: &Symbols,
+    string: &mut ModuleString,
+    opts: &TurtleOptions,
+    source: &Source,
+) -> Result<(), Box<LsystemError>> {
+    let names = ["?P", "?H", "?U", "?L"];
+    let which: Vec<Option<usize>> =
+        (0..symbols.len()).map(|i| names.iter().position(|n| *n == symbols.name(i as u16))).collect();
+    if which.iter().all(Option::is_none) {
+        return Ok(());
+    }
+    let mut found: Vec<(usize, QueryState)> = Vec::new();
+    run(symbols, string, opts, source, &mut |_, _| {}, &mut |i, st| found.push((i, st)))?;
+    for (i, st) in found {
+        let Some(k) = which[string.syms[i] as usize] else { continue };
+        let v = st[k];
+        let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
+        for (slot, c) in string.params[range].iter_mut().zip([v.x, v.y, v.z]) {
+            *slot = c;
+        }
+    }
+    Ok(())
+}
+
+fn run(
+    symbols: &Symbols,
+    string: &ModuleString,
+    opts: &TurtleOptions,
+    source: &Source,
+    on_draw: &mut dyn FnMut(DVec3, DVec3),
+    on_query: &mut dyn FnMut(usize, QueryState),
 ) -> Result<Skeleton, Box<LsystemError>> {
     let fail = |what: String| source.error_nowhere(ErrorKind::NonFinite, &what);
     for (name, v) in [
@@ -455,6 +500,7 @@ pub fn interpret_with(
                     }
                 }
             }
+            Cmd::Query => on_query(i, [st.pos, st.h, st.u, st.l]),
             Cmd::CylinderStart => {
                 st.gc =
                     sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, NO_PARENT, st.u.as_vec3(), st.order);
@@ -653,6 +699,17 @@ mod tests {
         assert!(close(s.position[3], [5.0, 1.0, 0.0]));
         let s = run("@R(1,0,0)F");
         assert!(close(s.position[1], [1.0, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn query_modules_see_the_turtle() {
+        let text = "Lsystem: 1\nAxiom: F(2)?P(0,0,0)+(90)?H(0,0,0)\n?P(x,y,z) : y > 1 --> A(y)\nendlsystem\n";
+        let ls = LSystem::parse("q.l", text, &[]).unwrap();
+        let opts = DeriveOptions { steps: 1, budget: 100, seed: 0 };
+        let (m, _) = ls.derive_full(&opts, Vec::new(), Some(&TurtleOptions::default())).unwrap();
+        let s = ls.format(&m);
+        assert!(s.starts_with("F(2)A(2)+(90)?H(0,"), "{s}");
+        assert!(s.contains(",1)"), "heading turned toward +Z: {s}");
     }
 
     #[test]
