@@ -5,6 +5,8 @@
 
 #![warn(missing_docs)]
 
+mod subdivide;
+
 use clap::{Parser, Subcommand};
 use miette::{IntoDiagnostic, Result};
 use std::path::{Path, PathBuf};
@@ -25,6 +27,8 @@ enum Command {
     Grow(GrowArgs),
     /// List every embedded preset with a one-line description.
     Presets,
+    /// Subdivide a control mesh (OBJ) with Loop or Catmull–Clark.
+    Subdivide(subdivide::SubdivideArgs),
     /// L-system tools.
     Lsys {
         #[command(subcommand)]
@@ -89,6 +93,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Grow(args) => grow(args),
+        Command::Subdivide(args) => subdivide::run(args),
         Command::Presets => {
             for p in sylva::presets::all() {
                 println!("{:<24} {}", p.name, p.description());
