@@ -84,7 +84,9 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
     let scheme = match args.scheme {
         Some(SchemeArg::Loop) => Scheme::Loop,
         Some(SchemeArg::CatmullClark) => Scheme::CatmullClark,
-        None if mesh.face_count() > 0 && (0..mesh.face_count()).all(|f| mesh.face(f).len() == 3) => Scheme::Loop,
+        None if mesh.face_count() > 0 && (0..mesh.face_count()).all(|f| mesh.face(f).len() == 3) => {
+            Scheme::Loop
+        }
         None => Scheme::CatmullClark,
     };
     let creasing = match args.creasing {
@@ -115,7 +117,8 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
         _ => subdivide(),
     }
     .map_err(|e| miette::Report::new(e).wrap_err(format!("cannot subdivide {}", args.input.display())))?;
-    let name = args.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
+    let name =
+        args.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
     let (faces, verts) = (refined.face_count(), refined.vertex_count());
     let model = Model { parts: vec![Part { name, mesh: refined, material: Material::bark() }] };
     sylva::export::write(&model, &args.output)?;
@@ -180,7 +183,8 @@ mod tests {
     fn clear_errors() {
         let input = temp("quads.obj");
         std::fs::write(&input, CUBE).unwrap();
-        let loop_on_quads = SubdivideArgs { scheme: Some(SchemeArg::Loop), ..args(input.clone(), temp("x.obj")) };
+        let loop_on_quads =
+            SubdivideArgs { scheme: Some(SchemeArg::Loop), ..args(input.clone(), temp("x.obj")) };
         let e = format!("{:?}", run(loop_on_quads).unwrap_err());
         assert!(e.contains("Loop subdivision needs triangles"), "{e}");
         let too_big = SubdivideArgs { levels: 12, ..args(input.clone(), temp("x.obj")) };

@@ -145,12 +145,12 @@ fn edge_count(m: &Mesh) -> usize {
     Topology::from_faces(m.vertex_count(), &m.face_offsets, &m.face_indices).unwrap().edge_count()
 }
 
-/// Largest distance from a point of `a` to the nearest point of `b`, both ways.
+/// Largest distance from a point of `a` to the nearest point of `b`, both ways (∞ when
+/// some point has no neighbour within 0.01).
 fn hausdorff(a: &[Vec3], b: &[Vec3]) -> f32 {
-    let one = |x: &[Vec3], y: &[Vec3]| {
-        x.iter().map(|p| y.iter().map(|q| p.distance(*q)).fold(f32::MAX, f32::min)).fold(0.0, f32::max)
-    };
-    one(a, b).max(one(b, a))
+    let (a, b): (Vec<[f32; 3]>, Vec<[f32; 3]>) =
+        (a.iter().map(|p| p.to_array()).collect(), b.iter().map(|p| p.to_array()).collect());
+    max_nearest(&a, &b, 0.01).zip(max_nearest(&b, &a, 0.01)).map_or(f32::INFINITY, |(x, y)| x.max(y))
 }
 
 /// The boundary loop of `m` starting at vertex `start`, following boundary edges
@@ -698,7 +698,7 @@ fn uv_seams_stay_exact_in_every_mode() {
             for (v, list) in &per_vertex {
                 let p = r.positions[*v as usize];
                 let us: Vec<f32> = list.iter().map(|t| t.x).collect();
-                if us.iter().any(|&u| u == 0.0) && us.iter().any(|&u| u == 1.0) {
+                if us.contains(&0.0) && us.contains(&1.0) {
                     seam_vertices += 1;
                     let v0 = list[0].y;
                     assert!(list.iter().all(|t| t.y == v0), "{uv:?}: v differs across the seam at {p}");
@@ -789,5 +789,291 @@ fn output_is_identical_for_any_thread_count() {
     assert!(one.face_count() > 4 * 2048);
     for threads in [1, 2, 3] {
         assert_eq!(run(threads, true), one, "{threads} threads");
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Agreement with OpenSubdiv (bench/opensubdiv/osd_refine.cpp, Far API)
+
+/// The reference program: `$SYLVA_OSD_REFINE`, or built here with g++ when OpenSubdiv's
+/// headers are installed (`apt-get install libosd-dev`). `None` (the test is skipped)
+/// when neither works, unless `SYLVA_REQUIRE_OSD` is set.
+fn osd_refine() -> Option<std::path::PathBuf> {
+    if let Ok(p) = std::env::var("SYLVA_OSD_REFINE") {
+        return Some(p.into());
+    }
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/opensubdiv/osd_refine.cpp");
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("osd_refine");
+    let built = std::path::Path::new("/usr/include/opensubdiv/far/topologyDescriptor.h").exists()
+        && std::process::Command::new("g++")
+            .args(["-O2", "-std=c++14"])
+            .arg(&src)
+            .args(["-losdCPU", "-o"])
+            .arg(&out)
+            .status()
+            .is_ok_and(|s| s.success());
+    if built {
+        return Some(out);
+    }
+    assert!(
+        std::env::var_os("SYLVA_REQUIRE_OSD").is_none(),
+        "SYLVA_REQUIRE_OSD is set but OpenSubdiv is not available"
+    );
+    eprintln!("skipping the OpenSubdiv agreement test: install libosd-dev and g++, or set SYLVA_OSD_REFINE");
+    None
+}
+
+/// Writes `m` as OBJ with OpenSubdiv tags (sharpness ∞ → 10).
+fn write_osd_obj(m: &Mesh, corners: &[Corner], chaikin: bool, path: &std::path::Path) {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for p in &m.positions {
+        writeln!(s, "v {:.9} {:.9} {:.9}", p.x, p.y, p.z).unwrap();
+    }
+    if let Some(uv) = &m.uvs {
+        for t in &uv.values {
+            writeln!(s, "vt {:.9} {:.9}", t.x, t.y).unwrap();
+        }
+    }
+    for f in 0..m.face_count() {
+        s.push('f');
+        for c in m.corners(f) {
+            write!(s, " {}", m.face_indices[c] + 1).unwrap();
+            if let Some(uv) = &m.uvs {
+                write!(s, "/{}", uv.indices[c] + 1).unwrap();
+            }
+        }
+        s.push('\n');
+    }
+    let sharp = |x: f32| if x.is_finite() { x } else { 10.0 };
+    for c in &m.creases {
+        writeln!(s, "t crease 2/1 {} {} {}", c.a, c.b, sharp(c.sharpness)).unwrap();
+    }
+    for c in corners {
+        writeln!(s, "t corner 1/1 {} {}", c.vertex, sharp(c.sharpness)).unwrap();
+    }
+    if chaikin {
+        s.push_str("t creasemethod 0/0/1 chaikin\n");
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+/// Largest distance from any point of `a` to its nearest point in `b` (spatial hash with
+/// cells of `cell`; `None` if some point has no neighbour within a cell).
+fn max_nearest(a: &[[f32; 3]], b: &[[f32; 3]], cell: f32) -> Option<f32> {
+    use std::collections::HashMap;
+    let key = |p: &[f32; 3]| p.map(|x| (x / cell).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (i, p) in b.iter().enumerate() {
+        grid.entry(key(p)).or_default().push(i);
+    }
+    let mut worst = 0.0f32;
+    for p in a {
+        let k = key(p);
+        let mut best = f32::MAX;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(list) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                        for &i in list {
+                            let q = b[i];
+                            let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+                                .sqrt();
+                            best = best.min(d);
+                        }
+                    }
+                }
+            }
+        }
+        if best == f32::MAX {
+            return None;
+        }
+        worst = worst.max(best);
+    }
+    Some(worst)
+}
+
+fn diagonal(p: &[[f32; 3]]) -> f32 {
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for q in p {
+        for k in 0..3 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+}
+
+/// Refines `m` with both engines at levels 1–3 and compares positions (and linear UVs)
+/// as point sets: counts equal, every point within 1e-5 of the bounding-box diagonal.
+fn agree(osd: &std::path::Path, name: &str, m: &Mesh, corners: &[Corner], scheme: Scheme, chaikin: bool) {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let obj = dir.join(format!("osd-{name}.obj"));
+    write_osd_obj(m, corners, chaikin, &obj);
+    for levels in 1..=3 {
+        let out = dir.join(format!("osd-{name}-{levels}.txt"));
+        let scheme_arg = if scheme == Scheme::Loop { "loop" } else { "catmark" };
+        let status = std::process::Command::new(osd)
+            .arg(&obj)
+            .arg(scheme_arg)
+            .arg(levels.to_string())
+            .arg(&out)
+            .status()
+            .unwrap();
+        assert!(status.success(), "{name}: osd_refine failed");
+        let text = std::fs::read_to_string(&out).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<usize> = lines.next().unwrap().split(' ').map(|x| x.parse().unwrap()).collect();
+        let (mut osd_p, mut osd_t) = (Vec::new(), Vec::new());
+        for l in lines {
+            let nums: Vec<f32> = l.split(' ').skip(1).map(|x| x.parse().unwrap()).collect();
+            if l.starts_with("v ") {
+                osd_p.push([nums[0], nums[1], nums[2]]);
+            } else {
+                osd_t.push([nums[0], nums[1], 0.0]);
+            }
+        }
+        let o = SubdivideOptions {
+            refine: RefineOptions {
+                scheme,
+                levels,
+                creasing: if chaikin { sylva::refine::CreasingMethod::Chaikin } else { Default::default() },
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let r = subdivide(m, corners, &o).unwrap();
+        assert_eq!(r.face_count(), header[1], "{name} level {levels}: faces");
+        assert_eq!(r.vertex_count(), header[0], "{name} level {levels}: vertices");
+        let ours: Vec<[f32; 3]> = r.positions.iter().map(|p| p.to_array()).collect();
+        let tol = 1e-5 * diagonal(&osd_p);
+        let d = max_nearest(&ours, &osd_p, 4.0 * tol)
+            .zip(max_nearest(&osd_p, &ours, 4.0 * tol))
+            .map(|(a, b)| a.max(b));
+        assert!(
+            d.is_some_and(|d| d <= tol),
+            "{name} level {levels}: positions differ from OpenSubdiv by {d:?} (tolerance {tol})"
+        );
+        if let Some(uv) = &r.uvs {
+            assert_eq!(uv.values.len(), header[2], "{name} level {levels}: UV values");
+            let ours: Vec<[f32; 3]> = uv.values.iter().map(|t| [t.x, t.y, 0.0]).collect();
+            let tol = 1e-5 * diagonal(&osd_t).max(1e-3);
+            let d = max_nearest(&ours, &osd_t, 4.0 * tol)
+                .zip(max_nearest(&osd_t, &ours, 4.0 * tol))
+                .map(|(a, b)| a.max(b));
+            assert!(
+                d.is_some_and(|d| d <= tol),
+                "{name} level {levels}: UVs differ from OpenSubdiv by {d:?}"
+            );
+        }
+    }
+}
+
+fn triangulate(m: &Mesh) -> Mesh {
+    let mut t = Mesh::new();
+    t.positions = m.positions.clone();
+    for f in 0..m.face_count() {
+        let face = m.face(f);
+        for k in 1..face.len() - 1 {
+            t.push_face(&[face[0], face[k], face[k + 1]]);
+        }
+    }
+    t
+}
+
+#[test]
+fn agrees_with_opensubdiv() {
+    let Some(osd) = osd_refine() else { return };
+    let bumpy =
+        |i: u32, j: u32| Vec3::new(i as f32 + 0.2 * noise(i + 11 * j), j as f32, 0.5 * noise(7 * i + j + 1));
+    // 1. cube, 2. tetrahedron, 3. open grid, 4. torus — both schemes.
+    agree(&osd, "cube-cc", &cube(), &[], Scheme::CatmullClark, false);
+    agree(&osd, "cube-loop", &triangulate(&cube()), &[], Scheme::Loop, false);
+    agree(&osd, "tetra-loop", &tetrahedron(), &[], Scheme::Loop, false);
+    agree(&osd, "tetra-cc", &tetrahedron(), &[], Scheme::CatmullClark, false);
+    agree(&osd, "grid-cc", &grid_quads(5, 4, bumpy), &[], Scheme::CatmullClark, false);
+    agree(&osd, "grid-loop", &grid_tris(5, 4, bumpy), &[], Scheme::Loop, false);
+    agree(&osd, "torus-cc", &torus(8, 6, false), &[], Scheme::CatmullClark, false);
+    agree(&osd, "torus-loop", &torus(8, 6, true), &[], Scheme::Loop, false);
+    // 5. semi-sharp creases (uniform and Chaikin decay), infinitely sharp creases.
+    let mut creased = cube();
+    for (a, b, s) in
+        [(0, 1, 0.5), (1, 3, 1.5), (3, 2, 2.3), (4, 5, f32::INFINITY), (5, 7, f32::INFINITY), (0, 4, 1.0)]
+    {
+        creased.creases.push(Crease { a, b, sharpness: s });
+    }
+    agree(&osd, "creased-cc", &creased, &[], Scheme::CatmullClark, false);
+    agree(&osd, "creased-cc-chaikin", &creased, &[], Scheme::CatmullClark, true);
+    let mut tri_creased = triangulate(&creased);
+    tri_creased.creases = creased.creases.clone();
+    agree(&osd, "creased-loop", &tri_creased, &[], Scheme::Loop, false);
+    let mut ring = torus(8, 6, false);
+    torus_crease_ring(&mut ring, 6, 1.7);
+    agree(&osd, "torus-ring-cc", &ring, &[], Scheme::CatmullClark, true);
+    // 6. corners (vertex sharpness), on a closed and an open mesh.
+    let corners = [Corner { vertex: 0, sharpness: f32::INFINITY }, Corner { vertex: 6, sharpness: 1.5 }];
+    agree(&osd, "corners-cc", &cube(), &corners, Scheme::CatmullClark, false);
+    agree(&osd, "corners-loop", &octahedron(), &[Corner { vertex: 4, sharpness: 2.5 }], Scheme::Loop, false);
+    agree(
+        &osd,
+        "grid-corner-cc",
+        &grid_quads(4, 4, bumpy),
+        &[Corner { vertex: 12, sharpness: 0.6 }],
+        Scheme::CatmullClark,
+        false,
+    );
+    // 7. mixed polygons.
+    let mixed = mesh_from(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.2),
+            Vec3::new(0.5, -1.0, 0.0),
+            Vec3::new(1.5, 1.0, 0.0),
+            Vec3::new(0.5, 2.0, 0.3),
+            Vec3::new(-0.5, 1.0, 0.0),
+        ],
+        &[vec![0, 2, 1], vec![0, 1, 3, 4, 5]],
+    );
+    agree(&osd, "mixed-cc", &mixed, &[], Scheme::CatmullClark, false);
+    // 8. face-varying UV seams (linear UVs).
+    agree(&osd, "cylinder-uv-cc", &cylinder_with_seam(6, 3), &[], Scheme::CatmullClark, false);
+    let mut tri_cyl = triangulate(&cylinder_with_seam(6, 3));
+    let cyl = cylinder_with_seam(6, 3);
+    let uv = cyl.uvs.as_ref().unwrap();
+    let mut idx = Vec::new();
+    for f in 0..cyl.face_count() {
+        let r: Vec<u32> = cyl.corners(f).map(|c| uv.indices[c]).collect();
+        for k in 1..r.len() - 1 {
+            idx.extend_from_slice(&[r[0], r[k], r[k + 1]]);
+        }
+    }
+    tri_cyl.uvs = Some(FaceVarying { values: uv.values.clone(), indices: idx });
+    agree(&osd, "cylinder-uv-loop", &tri_cyl, &[], Scheme::Loop, false);
+    // 9. a tree control mesh from the tube mesher (triangles, bark UVs).
+    let mut bark = tree_bark();
+    bark.normals = None;
+    agree(&osd, "tree-tube-loop", &bark, &[], Scheme::Loop, false);
+    agree(&osd, "tree-tube-cc", &bark, &[], Scheme::CatmullClark, false);
+}
+
+/// The bark of the default preset, a few derivation steps deep (the tube mesher's output).
+fn tree_bark() -> Mesh {
+    let sets = [("generator.iterations".to_string(), toml::Value::Integer(3))];
+    let loaded = sylva::recipe::load(sylva::presets::DEFAULT_PRESET, &sets).unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    grown.model.parts.into_iter().find(|p| p.name == "bark").unwrap().mesh
+}
+
+#[test]
+fn tree_meshes_refine_closed_or_open_consistently() {
+    let bark = tree_bark();
+    for scheme in [Scheme::Loop, Scheme::CatmullClark] {
+        let r = refine(&bark, scheme, 2);
+        let t = Topology::from_faces(r.vertex_count(), &r.face_offsets, &r.face_indices).unwrap();
+        let t0 = Topology::from_faces(bark.vertex_count(), &bark.face_offsets, &bark.face_indices).unwrap();
+        let chi = |t: &Topology| t.vertex_count() as i64 - t.edge_count() as i64 + t.face_count() as i64;
+        assert_eq!(chi(&t), chi(&t0));
+        let open = |t: &Topology| (0..t.edge_count()).filter(|&e| t.is_boundary_edge(e)).count();
+        assert_eq!(open(&t), open(&t0) * 4, "boundary edges double per level");
     }
 }

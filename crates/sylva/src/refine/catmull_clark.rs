@@ -143,7 +143,13 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
 }
 
 /// Interpolates per-vertex values of level `p` into `dst` (the child level's values).
-pub(crate) fn interpolate<T: Primvar>(p: &Topology, rules: &Rules, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
+pub(crate) fn interpolate<T: Primvar>(
+    p: &Topology,
+    rules: &Rules,
+    src: &[T],
+    dst: &mut [MaybeUninit<T>],
+    par: bool,
+) {
     let nv = p.num_verts as usize;
     let nf = p.num_faces as usize;
     let (vv, rest) = dst.split_at_mut(nv);

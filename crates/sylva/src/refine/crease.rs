@@ -308,9 +308,17 @@ pub(crate) fn refine_features(
     }
     for (ci, &(e, s)) in features.creases.iter().enumerate() {
         let [c0, c1] = crease_child[ci];
-        // OpenSubdiv `ComputeEdgeVertexMask`: s ≥ 1 is a full crease; below 1 it stays one
-        // only if both child halves remain sharp (possible with Chaikin), else blend by s.
-        let w = if s >= 1.0 || (method == CreasingMethod::Chaikin && c0 > 0.0 && c1 > 0.0) { 1.0 } else { s };
+        // OpenSubdiv `ComputeEdgeVertexMask`: the edge point keeps the crease mask while
+        // its child vertex is a crease (both halves still sharp), else it blends the crease
+        // and smooth masks by the parent sharpness s. With uniform decay the halves are
+        // sharp exactly when s > 1 (and s = 1 blends with weight 1). With Chaikin a half
+        // can vanish while s > 1; OpenSubdiv 3.x then uses s unclamped (a slight
+        // extrapolation), and so do we, to produce the same surface.
+        let child_crease = match method {
+            CreasingMethod::Uniform => s > 1.0,
+            CreasingMethod::Chaikin => c0 > 0.0 && c1 > 0.0,
+        };
+        let w = if child_crease { 1.0 } else { s };
         rules.edge_specials.push((e, w));
     }
     child.creases.sort_unstable_by_key(|x| x.0);

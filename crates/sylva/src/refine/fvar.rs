@@ -17,8 +17,8 @@
 use super::crease::{self, Features, Rules, INFINITE};
 use super::topology::{Detail, Topology, NONE};
 use super::{
-    interpolate_into, into_init, uninit_vec, BoundaryInterpolation, FvarInterpolation, Primvar, RefineError, Refiner,
-    Scheme,
+    interpolate_into, into_init, uninit_vec, BoundaryInterpolation, FvarInterpolation, Primvar, RefineError,
+    Refiner, Scheme,
 };
 use crate::mesh::FaceVarying;
 
@@ -170,7 +170,15 @@ impl FaceVaryingRefiner {
         for l in 0..self.levels.len() - 1 {
             let mut next = uninit_vec(self.levels[l + 1].vertex_count());
             let rules = self.rules.get(l).unwrap_or(&none);
-            interpolate_into(self.scheme, self.linear, &self.levels[l], rules, &cur, &mut next, self.parallel);
+            interpolate_into(
+                self.scheme,
+                self.linear,
+                &self.levels[l],
+                rules,
+                &cur,
+                &mut next,
+                self.parallel,
+            );
             // SAFETY: the kernels write every child value.
             cur = unsafe { into_init(next) };
         }

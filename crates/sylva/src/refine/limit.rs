@@ -68,6 +68,7 @@ pub(crate) fn limit_positions<T: Primvar>(
     topo: &Topology,
     features: &Features,
     src: &[T],
+    par: bool,
 ) -> Result<Vec<T>, RefineError> {
     needs_full(topo)?;
     if src.len() != topo.vertex_count() {
@@ -81,7 +82,7 @@ pub(crate) fn limit_positions<T: Primvar>(
         return Err(RefineError::LimitNeedsQuads);
     }
     let mut out = vec![T::zero(); src.len()];
-    fill(true, &mut out, |v, o| {
+    fill(par, &mut out, |v, o| {
         let cs = topo.vertex_corners(v);
         let n = cs.len();
         *o = match scheme {

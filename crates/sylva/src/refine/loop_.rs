@@ -187,7 +187,13 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
 }
 
 /// Interpolates per-vertex values of triangle level `p` into `dst` (the child level).
-pub(crate) fn interpolate<T: Primvar>(p: &Topology, rules: &Rules, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
+pub(crate) fn interpolate<T: Primvar>(
+    p: &Topology,
+    rules: &Rules,
+    src: &[T],
+    dst: &mut [MaybeUninit<T>],
+    par: bool,
+) {
     let nv = p.num_verts as usize;
     let (vv, ep) = dst.split_at_mut(nv);
     fill(par, ep, |e, out| {

@@ -522,7 +522,15 @@ impl Refiner {
         for l in 0..self.levels() {
             let p = &self.levels[l].topo;
             let mut next = uninit_vec(self.level(l + 1).vertex_count());
-            interpolate_into(self.options.scheme, false, p, &self.rules[l], &cur, &mut next, self.options.parallel);
+            interpolate_into(
+                self.options.scheme,
+                false,
+                p,
+                &self.rules[l],
+                &cur,
+                &mut next,
+                self.options.parallel,
+            );
             // SAFETY: the kernels write every child value.
             cur = unsafe { into_init(next) };
         }
@@ -567,6 +575,7 @@ impl Refiner {
             &level.topo,
             &level.features,
             finest,
+            self.options.parallel,
         )
     }
 

@@ -188,7 +188,7 @@ impl Topology {
                 }
             }
             n => {
-                if (c + 1) % n == 0 {
+                if (c + 1).is_multiple_of(n) {
                     c + 1 - n
                 } else {
                     c + 1
@@ -203,7 +203,7 @@ impl Topology {
         match self.face_size {
             4 => (c & !3) | (c.wrapping_sub(1) & 3),
             3 => {
-                if c % 3 == 0 {
+                if c.is_multiple_of(3) {
                     c + 2
                 } else {
                     c - 1
@@ -218,7 +218,7 @@ impl Topology {
                 }
             }
             n => {
-                if c % n == 0 {
+                if c.is_multiple_of(n) {
                     c + n - 1
                 } else {
                     c - 1
