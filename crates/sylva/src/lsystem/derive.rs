@@ -444,9 +444,18 @@ impl LSystem {
         if left.len() > found.len() {
             return false;
         }
+        let mut wrapped = false;
         for (k, &(sym, ar)) in left.iter().enumerate().rev() {
             loop {
                 if pos < 0 {
+                    // A ring L-system's string is circular: wrap once, never onto i.
+                    if !self.ring || wrapped {
+                        return false;
+                    }
+                    wrapped = true;
+                    pos = cur.len() as isize - 1;
+                }
+                if wrapped && pos as usize <= i {
                     return false;
                 }
                 let s = cur.syms[pos as usize];
@@ -527,8 +536,19 @@ impl LSystem {
             }
             ContextItem::Module(sym, ar) => {
                 let mut p = pos;
+                let mut wrapped = false;
                 loop {
                     if p >= n {
+                        // A ring L-system's string is circular: the first context module
+                        // may wrap around once, never onto the predecessor.
+                        if self.ring && k == 0 && !wrapped && pos > 0 {
+                            wrapped = true;
+                            p = 0;
+                            continue;
+                        }
+                        return false;
+                    }
+                    if wrapped && p + 1 >= pos {
                         return false;
                     }
                     let s = cur.syms[p];

@@ -176,6 +176,8 @@ pub struct LSystem {
     pub context_skip: Vec<bool>,
     /// True when some production has a context.
     pub has_context: bool,
+    /// `ring L-system`: the string is circular for context matching.
+    pub ring: bool,
     /// True when the L-system uses query modules (`?P`, `?H`, `?U`, `?L`), which the
     /// turtle answers after every derivation step.
     pub has_queries: bool,
@@ -218,6 +220,7 @@ enum Item {
     Keyword { kw: Kw, value: usize, end: usize, at: usize },
     Block { kw: Kw, start: usize, end: usize, at: usize },
     Production { start: usize, end: usize },
+    Ring,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -329,6 +332,7 @@ impl LSystem {
             homomorphism: RuleSet { max_depth: 1, ..Default::default() },
             context_skip: Vec::new(),
             has_context: false,
+            ring: false,
             has_queries: false,
             derivation_length: 0,
             seed: None,
@@ -399,14 +403,10 @@ impl LSystem {
                 items.push(Item::Keyword { kw, value, end, at: s });
                 continue;
             }
-            if line.to_ascii_lowercase().replace(['-', ' '], "").starts_with("ringlsystem") {
-                return Err(self.source.error(
-                    ErrorKind::Unsupported,
-                    s,
-                    e - s,
-                    "unsupported: ring L-systems (a circular string)",
-                    "not supported",
-                ));
+            if line.to_ascii_lowercase().replace(['-', ' '], "") == "ringlsystem" {
+                items.push(Item::Ring);
+                i += 1;
+                continue;
             }
             // A production: its left side may span lines while a statement block is
             // open; the successor continues on the following lines.
@@ -660,6 +660,10 @@ impl LSystem {
             let (at, kw) = match *it {
                 Item::Keyword { at, kw, .. } | Item::Block { at, kw, .. } => (at, Some(kw)),
                 Item::Production { start, .. } => (start, None),
+                Item::Ring => {
+                    self.ring = true;
+                    continue;
+                }
             };
             if kw == Some(Kw::Lsystem) {
                 if state != State::Before {
@@ -683,6 +687,7 @@ impl LSystem {
                 return Err(self.source.error(ErrorKind::Syntax, at, 1, what, "here"));
             }
             match it {
+                Item::Ring => {}
                 Item::Production { start, end } => {
                     let p = self.production(*start, *end, section)?;
                     match section {
@@ -1349,6 +1354,20 @@ mod tests {
         assert!(ls.start.is_some());
         let plus = ls.symbols.get("+").unwrap() as usize;
         assert!(ls.context_skip[plus]);
+    }
+
+    #[test]
+    fn ring_lsystems_wrap_contexts() {
+        let text = "Lsystem: 1\nring lsystem\nAxiom: BBA\nA < B --> A\nA --> B\nendlsystem\n";
+        let ls = LSystem::parse("r.l", text, &[]).unwrap();
+        assert!(ls.ring);
+        let m = ls.derive(&crate::lsystem::DeriveOptions { steps: 1, budget: 100, seed: 1 }).unwrap();
+        // The first B's left neighbour is the last A (the string is a ring).
+        assert_eq!(ls.format(&m), "ABB");
+        let text = "Lsystem: 1\nring lsystem\nAxiom: ABB\nB > A --> A\nA --> B\nendlsystem\n";
+        let ls = LSystem::parse("r.l", text, &[]).unwrap();
+        let m = ls.derive(&crate::lsystem::DeriveOptions { steps: 1, budget: 100, seed: 1 }).unwrap();
+        assert_eq!(ls.format(&m), "BBA");
     }
 
     #[test]
