@@ -1325,22 +1325,31 @@ impl<'a> Parser<'a> {
         }
     }
 
+    /// Compiles the arguments of a call whose name ends at `self.pos` (at `(`);
+    /// returns how many there were.
+    fn arguments(&mut self, name: &str) -> Result<usize, Box<LsystemError>> {
+        self.pos += 1; // (
+        let mut n = 0;
+        if !self.eat(")") {
+            loop {
+                self.ternary()?;
+                n += 1;
+                if self.eat(",") {
+                    continue;
+                }
+                if self.eat(")") {
+                    break;
+                }
+                return Err(self.err(self.pos, &format!("expected `,` or `)` in call of `{name}`"), "here"));
+            }
+        }
+        Ok(n)
+    }
+
     fn call(&mut self, name: &str, start: usize) -> PResult {
         if name == "printf" || name == "fprintf" {
             // Accepted for compatibility; prints nothing, evaluates to 0.
-            self.pos += 1;
-            let mut n = 0;
-            if !self.eat(")") {
-                loop {
-                    self.ternary()?;
-                    n += 1;
-                    if self.eat(",") {
-                        continue;
-                    }
-                    self.expect(")", &format!("closing `{name}(`"))?;
-                    break;
-                }
-            }
+            let n = self.arguments(name)?;
             for _ in 0..n {
                 self.ops.push(Op::Pop);
             }
@@ -1370,21 +1379,7 @@ impl<'a> Parser<'a> {
                 "unknown function",
             ));
         };
-        self.pos += 1; // (
-        let mut n = 0;
-        if !self.eat(")") {
-            loop {
-                self.ternary()?;
-                n += 1;
-                if self.eat(",") {
-                    continue;
-                }
-                if self.eat(")") {
-                    break;
-                }
-                return Err(self.err(self.pos, &format!("expected `,` or `)` in call of `{name}`"), "here"));
-            }
-        }
+        let n = self.arguments(name)?;
         if n != arity {
             return Err(self.src.error(
                 ErrorKind::Arity,

@@ -319,59 +319,32 @@ impl Source {
     /// Evaluates a `#if` condition: `defined(X)` / `defined X`, macros, then an
     /// expression; unknown identifiers are 0 as in C.
     fn eval_condition(&self, arg: &str, at: u64) -> Result<bool, Box<LsystemError>> {
-        let mut s = String::new();
-        let b: Vec<char> = arg.chars().collect();
-        let mut i = 0;
-        while i < b.len() {
-            if b[i].is_ascii_alphabetic() || b[i] == '_' {
-                let st = i;
-                while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
-                    i += 1;
-                }
-                let ident: String = b[st..i].iter().collect();
-                if ident == "defined" {
-                    let mut j = i;
-                    while j < b.len() && (b[j] == ' ' || b[j] == '(') {
-                        j += 1;
-                    }
-                    let ns = j;
-                    while j < b.len() && (b[j].is_ascii_alphanumeric() || b[j] == '_') {
-                        j += 1;
-                    }
-                    let name: String = b[ns..j].iter().collect();
-                    while j < b.len() && (b[j] == ' ' || b[j] == ')') {
-                        j += 1;
-                    }
-                    s.push_str(if self.macros.contains_key(&name) { " 1 " } else { " 0 " });
-                    i = j;
-                } else {
-                    s.push_str(&ident);
-                }
-            } else {
-                s.push(b[i]);
-                i += 1;
+        let s = map_identifiers(arg, |ident, rest| {
+            if ident != "defined" {
+                return (ident.to_string(), 0);
             }
-        }
+            // `defined(X)` or `defined X`.
+            let mut j = 0;
+            while j < rest.len() && (rest[j] == ' ' || rest[j] == '(') {
+                j += 1;
+            }
+            let ns = j;
+            while j < rest.len() && (rest[j].is_ascii_alphanumeric() || rest[j] == '_') {
+                j += 1;
+            }
+            let name: String = rest[ns..j].iter().collect();
+            while j < rest.len() && (rest[j] == ' ' || rest[j] == ')') {
+                j += 1;
+            }
+            ((if self.macros.contains_key(&name) { " 1 " } else { " 0 " }).to_string(), j)
+        });
         let line: Vec<Ch> = s.chars().map(|c| (c, at)).collect();
         let expanded: String = self.expand(&line, 0)?.into_iter().map(|(c, _)| c).collect();
         // Remaining identifiers are 0 (C rule); function names stay.
-        let mut t = String::new();
-        let b: Vec<char> = expanded.chars().collect();
-        let mut i = 0;
-        while i < b.len() {
-            if b[i].is_ascii_alphabetic() || b[i] == '_' {
-                let st = i;
-                while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
-                    i += 1;
-                }
-                let ident: String = b[st..i].iter().collect();
-                let call = b[i..].iter().find(|c| !c.is_whitespace()) == Some(&'(');
-                t.push_str(if call { &ident } else { "0" });
-            } else {
-                t.push(b[i]);
-                i += 1;
-            }
-        }
+        let t = map_identifiers(&expanded, |ident, rest| {
+            let call = rest.iter().find(|c| !c.is_whitespace()) == Some(&'(');
+            ((if call { ident } else { "0" }).to_string(), 0)
+        });
         let tmp = Source::new("#if", &t, &[])?;
         let e =
             super::expr::compile(&tmp, 0, tmp.text.len(), &super::expr::Scope::default()).map_err(|_| {
@@ -584,6 +557,30 @@ impl Source {
             help: None,
         })
     }
+}
+
+/// Rewrites every identifier of `text` through `f(identifier, rest of the text)`, which
+/// returns the replacement and how many characters of the rest it consumed.
+fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usize)) -> String {
+    let b: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphabetic() || b[i] == '_' {
+            let st = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
+                i += 1;
+            }
+            let ident: String = b[st..i].iter().collect();
+            let (rep, used) = f(&ident, &b[i..]);
+            out.push_str(&rep);
+            i += used;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    out
 }
 
 /// 1-based line and column of a byte offset in `text`.
