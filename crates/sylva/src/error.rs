@@ -45,6 +45,10 @@ pub enum Error {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Lsystem(#[from] Box<crate::lsystem::LsystemError>),
+    /// A mesh that cannot be subdivided.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Refine(#[from] crate::refine::RefineError),
     /// An invalid skeleton.
     #[error("invalid skeleton: {0}")]
     Skeleton(#[from] crate::skeleton::SkeletonError),

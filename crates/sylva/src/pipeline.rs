@@ -256,7 +256,8 @@ pub fn mesh(
     let tube = tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
     report.mesh_time = t.elapsed();
     report.axes = tube.axes;
-    let mut parts = vec![Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() }];
+    let bark = refine_bark(recipe, tube.mesh)?;
+    let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
     if !skeleton.organs.is_empty() {
         let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
         report.missing_surfaces = missing;
@@ -268,6 +269,26 @@ pub fn mesh(
     report.triangles = model.triangle_count();
     report.vertices = model.vertex_count();
     Ok(model)
+}
+
+/// Subdivides the bark control mesh as `[refine]` says (unchanged for `none` or 0 levels).
+fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
+    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+    let scheme = match recipe.refine.scheme.as_str() {
+        "loop" => Scheme::Loop,
+        "catmull-clark" => Scheme::CatmullClark,
+        _ => return Ok(mesh),
+    };
+    if recipe.refine.levels == 0 && !recipe.refine.limit {
+        return Ok(mesh);
+    }
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme, levels: recipe.refine.levels, ..Default::default() },
+        limit: recipe.refine.limit,
+        ..Default::default()
+    };
+    // Without `limit` the result has no normals; the exporters compute smooth ones.
+    Ok(subdivide(&mesh, &[], &opts)?)
 }
 
 /// Runs the whole pipeline of a loaded recipe.

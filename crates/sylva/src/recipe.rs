@@ -28,6 +28,9 @@ pub struct Recipe {
     /// The mesher.
     #[serde(default)]
     pub mesh: MeshSection,
+    /// Subdivision of the mesher's control mesh.
+    #[serde(default)]
+    pub refine: RefineSection,
     /// Output files.
     #[serde(default)]
     pub output: OutputSection,
@@ -154,6 +157,30 @@ fn default_tips() -> String {
 impl Default for MeshSection {
     fn default() -> Self {
         MeshSection { method: default_method(), sides: default_sides(), tips: default_tips() }
+    }
+}
+
+/// `[refine]`: subdivision of the bark control mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RefineSection {
+    /// `none`, `loop` (triangle meshes) or `catmull-clark`.
+    #[serde(default = "default_scheme")]
+    pub scheme: String,
+    /// Subdivision levels (each multiplies the face count by 4).
+    #[serde(default)]
+    pub levels: u32,
+    /// Push the result to the limit surface with exact limit normals.
+    #[serde(default)]
+    pub limit: bool,
+}
+
+fn default_scheme() -> String {
+    "none".into()
+}
+
+impl Default for RefineSection {
+    fn default() -> Self {
+        RefineSection { scheme: default_scheme(), levels: 0, limit: false }
     }
 }
 
@@ -425,6 +452,18 @@ impl Recipe {
         }
         if !["tube"].contains(&self.mesh.method.as_str()) {
             return bad("mesh.method", format!("is `{}`; known methods: tube", self.mesh.method));
+        }
+        if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
+            return bad(
+                "refine.scheme",
+                format!("is `{}`; use none, loop or catmull-clark", self.refine.scheme),
+            );
+        }
+        if self.refine.levels > 6 {
+            return bad(
+                "refine.levels",
+                format!("is {}; at most 6 (each level multiplies faces by 4)", self.refine.levels),
+            );
         }
         if !(3..=1024).contains(&self.mesh.sides) {
             return bad("mesh.sides", format!("must be in 3..=1024, got {}", self.mesh.sides));

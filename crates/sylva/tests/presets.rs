@@ -53,3 +53,18 @@ fn every_preset_meshes_closed_and_round_trips_through_obj() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn refine_section_subdivides_the_bark() {
+    let plain = sylva::pipeline::grow(&recipe::load("lsys-honda-a", &[]).unwrap()).unwrap();
+    let sets: Vec<_> =
+        ["refine.scheme=loop", "refine.levels=1"].iter().map(|s| recipe::parse_set(s).unwrap()).collect();
+    let loaded = recipe::load("lsys-honda-a", &sets).unwrap();
+    let refined = sylva::pipeline::grow(&loaded).unwrap();
+    let (a, b) = (&plain.model.parts[0].mesh, &refined.model.parts[0].mesh);
+    assert_eq!(b.face_count(), 4 * a.face_count());
+    check_closed_manifold("lsys-honda-a refined", b);
+    let bad: Vec<_> = ["refine.scheme=butterfly"].iter().map(|s| recipe::parse_set(s).unwrap()).collect();
+    let e = recipe::load("lsys-honda-a", &bad).unwrap_err();
+    assert!(e.to_string().contains("refine.scheme"), "{e}");
+}
