@@ -184,14 +184,18 @@ fn grow(args: GrowArgs) -> Result<()> {
         let r = &grown.report;
         let s = &r.skeleton;
         println!("{}: {}", loaded.recipe.name, loaded.recipe.description);
-        println!(
-            "  derived {} steps, {} modules in {:.1} ms; turtle {:.1} ms; mesh {:.1} ms",
-            r.steps,
-            r.modules,
-            r.derive_time.as_secs_f64() * 1e3,
-            r.interpret_time.as_secs_f64() * 1e3,
-            r.mesh_time.as_secs_f64() * 1e3
-        );
+        if r.summary.is_empty() {
+            println!(
+                "  derived {} steps, {} modules in {:.1} ms; turtle {:.1} ms; mesh {:.1} ms",
+                r.steps,
+                r.modules,
+                r.derive_time.as_secs_f64() * 1e3,
+                r.interpret_time.as_secs_f64() * 1e3,
+                r.mesh_time.as_secs_f64() * 1e3
+            );
+        } else {
+            println!("  {}; mesh {:.1} ms", r.summary, r.mesh_time.as_secs_f64() * 1e3);
+        }
         println!(
             "  skeleton: {} nodes, {} segments, {} tips, depth {}, max order {}, total length {:.3} m, height {:.3} m",
             s.nodes,

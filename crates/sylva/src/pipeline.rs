@@ -41,6 +41,8 @@ pub struct Report {
     pub missing_surfaces: Vec<String>,
     /// Problems that did not stop the run (printed by the CLI).
     pub warnings: Vec<String>,
+    /// One line from generators other than the L-system: what they built.
+    pub summary: String,
 }
 
 /// The products of a run.
@@ -209,6 +211,35 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 }
             }
             Ok(Generated { skeleton: sk, surfaces })
+        }
+        Generator::WeberPenn(p) => {
+            let tree = crate::grow::weber_penn::grow(p, loaded.recipe.seed)?;
+            let r = &tree.report;
+            report.interpret_time = r.elapsed;
+            report.summary = format!(
+                "weber-penn: stems per level {:?} (+ clones {:?}), {} leaves, in {:.1} ms",
+                r.stems_per_level,
+                r.clones_per_level,
+                r.leaves,
+                r.elapsed.as_secs_f64() * 1e3
+            );
+            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
+        }
+        Generator::SpaceColonization(p) => {
+            let tree = crate::grow::colonize::grow(p, loaded.recipe.seed)?;
+            let r = &tree.report;
+            report.interpret_time = r.elapsed;
+            report.summary = format!(
+                "space colonization: {} of {} attraction points consumed in {} iterations{}, {} tips, {} leaves, in {:.1} ms",
+                r.points - r.points_left,
+                r.points,
+                r.iterations,
+                if r.stalled { " (stalled)" } else { "" },
+                r.tips,
+                r.leaves,
+                r.elapsed.as_secs_f64() * 1e3
+            );
+            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
         }
         Generator::Import(g) => {
             let t = Instant::now();

@@ -22,6 +22,14 @@ pub struct Preset {
 }
 
 impl Preset {
+    /// True for a magnetic-curves composition (`kind = "curves"`), which `sylva curves`
+    /// renders; every other preset is a tree recipe for `sylva grow`.
+    pub fn is_curves(&self) -> bool {
+        toml::from_str::<toml::Table>(self.recipe)
+            .ok()
+            .is_some_and(|t| t.get("kind").and_then(|k| k.as_str()) == Some("curves"))
+    }
+
     /// The recipe's `description` line, if it has one.
     pub fn description(&self) -> String {
         toml::from_str::<toml::Table>(self.recipe)

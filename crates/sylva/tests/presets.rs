@@ -27,7 +27,7 @@ fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
 fn every_preset_meshes_closed_and_round_trips_through_obj() {
     let dir = std::env::temp_dir().join(format!("sylva-presets-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    for p in sylva::presets::all() {
+    for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
         let loaded = recipe::load(p.name, &[]).unwrap();
         let grown = sylva::pipeline::grow(&loaded).unwrap_or_else(|e| panic!("{}: {e}", p.name));
         let bark = &grown.model.parts[0].mesh;
@@ -41,8 +41,11 @@ fn every_preset_meshes_closed_and_round_trips_through_obj() {
             tobj::load_obj(&obj, &tobj::LoadOptions { triangulate: false, ..Default::default() })
                 .unwrap_or_else(|e| panic!("{}: tobj cannot read the OBJ: {e}", p.name));
         let positions: usize = models.iter().map(|m| m.mesh.positions.len() / 3).sum();
-        let faces: usize =
-            models.iter().map(|m| m.mesh.face_arities.len().max(m.mesh.indices.len() / 3)).sum();
+        // tobj leaves `face_arities` empty when every face of a model is a triangle.
+        let faces: usize = models
+            .iter()
+            .map(|m| if m.mesh.face_arities.is_empty() { m.mesh.indices.len() / 3 } else { m.mesh.face_arities.len() })
+            .sum();
         let vertices: usize = grown.model.parts.iter().map(|p| p.mesh.vertex_count()).sum();
         let mesh_faces: usize = grown.model.parts.iter().map(|p| p.mesh.face_count()).sum();
         assert_eq!(positions, vertices, "{}: OBJ vertex count", p.name);
