@@ -5,6 +5,7 @@
 
 #![warn(missing_docs)]
 
+mod curves_cmd;
 mod subdivide;
 
 use clap::{Parser, Subcommand};
@@ -27,6 +28,8 @@ enum Command {
     Grow(GrowArgs),
     /// List every embedded preset with a one-line description.
     Presets,
+    /// Render a magnetic-curves composition (seed 004 ch. 7) to SVG or PNG.
+    Curves(curves_cmd::CurvesArgs),
     /// Subdivide a control mesh (OBJ) with Loop or Catmull–Clark.
     Subdivide(subdivide::SubdivideArgs),
     /// L-system tools.
@@ -94,6 +97,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Grow(args) => grow(args),
         Command::Subdivide(args) => subdivide::run(args),
+        Command::Curves(args) => curves_cmd::run(args),
         Command::Presets => {
             for p in sylva::presets::all() {
                 println!("{:<24} {}", p.name, p.description());

@@ -40,9 +40,170 @@ pub struct SubdivideArgs {
     /// Worker threads (default: all cores; the output is identical for any count).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Adaptive Loop refinement instead of uniform (seed 001): `flatness=RAD,size=AREA`
+    /// (flatness in radians, or degrees with a `deg` suffix; size = smallest triangle
+    /// area to split). `-n` is the deepest level. Output is crack-free.
+    #[arg(long, value_name = "flatness=F,size=S", value_parser = parse_adaptive)]
+    pub adaptive: Option<AdaptiveArg>,
+    /// Tessellate the (subdivided) mesh with PN triangles / PN quads (seed 003): `standard`
+    /// (⅓ edge rule) or `rounder` (½ rule). Use `-n 0` or `-n 1` before PN.
+    #[arg(long, value_enum, value_name = "RULE")]
+    pub pn: Option<PnArg>,
+    /// Segments per patch edge for `--pn` (each face becomes level² faces).
+    #[arg(long, value_name = "K", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub pn_level: u32,
+    /// Inner control points of PN quads: Theyer's diagonals or zero twist.
+    #[arg(long, value_enum, default_value_t = PnInteriorArg::Theyer)]
+    pub pn_interior: PnInteriorArg,
+    /// Normal interpolation across PN patches.
+    #[arg(long, value_enum, default_value_t = PnNormalsArg::Quadratic)]
+    pub pn_normals: PnNormalsArg,
+    /// Fractal noise after every uniform level (seed 001 §6.5): `k=K,h=H,bias=B` and
+    /// optionally `l=LACUNARITY` (default 2), `top=T` (feature size at the top of the mesh;
+    /// t falls from 1 at the base, default 0.25; 1 = uniform), `seed=N`. K is a fraction of
+    /// the bounding-box diagonal.
+    #[arg(long, value_name = "k=K,h=H,bias=B", value_parser = parse_noise)]
+    pub noise: Option<NoiseArg>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// `--adaptive flatness=…,size=…`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveArg {
+    /// Flatness tolerance in radians.
+    pub flatness: f32,
+    /// Size tolerance (area).
+    pub size: f32,
+}
+
+/// `--noise k=…,h=…,bias=…[,l=…][,top=…][,seed=…]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseArg {
+    /// Scale as a fraction of the bounding-box diagonal.
+    pub k: f32,
+    /// Fractal dimension H.
+    pub h: f32,
+    /// Bias b.
+    pub bias: f32,
+    /// Lacunarity L.
+    pub lacunarity: f32,
+    /// Feature size t at the top.
+    pub top: f32,
+    /// Random seed.
+    pub seed: u64,
+}
+
+/// `--pn`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PnArg {
+    /// ⅓ edge rule (Vlachos; Th Eq. 3.1).
+    Standard,
+    /// ½ edge rule, rounder (Th Eq. 3.2).
+    Rounder,
+}
+
+/// `--pn-interior`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PnInteriorArg {
+    /// Theyer: the edge rule along the diagonals.
+    Theyer,
+    /// Zero twist at the corners.
+    ZeroTwist,
+}
+
+/// `--pn-normals`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PnNormalsArg {
+    /// Linear blend of the corner normals.
+    Linear,
+    /// Vlachos' quadratic normals.
+    Quadratic,
+}
+
+/// Splits `key=value,key=value` into pairs, rejecting unknown and repeated keys.
+fn key_values<'a>(s: &'a str, keys: &[&str]) -> Result<Vec<(&'a str, &'a str)>, String> {
+    let mut out: Vec<(&str, &str)> = Vec::new();
+    for item in s.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        let (k, v) = item.split_once('=').ok_or_else(|| format!("`{item}` is not key=value"))?;
+        let (k, v) = (k.trim(), v.trim());
+        if !keys.contains(&k) {
+            return Err(format!("unknown key `{k}` (expected {})", keys.join(", ")));
+        }
+        if out.iter().any(|(x, _)| *x == k) {
+            return Err(format!("`{k}` is given twice"));
+        }
+        out.push((k, v));
+    }
+    Ok(out)
+}
+
+fn number(key: &str, v: &str) -> Result<f32, String> {
+    match v.parse::<f32>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{key}={v}`: not a finite number")),
+    }
+}
+
+/// Parses `--adaptive flatness=0.25,size=0.0001` (`flatness=15deg` in degrees).
+pub fn parse_adaptive(s: &str) -> Result<AdaptiveArg, String> {
+    let mut a = AdaptiveArg { flatness: 0.25, size: 1e-4 };
+    for (k, v) in key_values(s, &["flatness", "size"])? {
+        match k {
+            "flatness" => {
+                let x = match v.strip_suffix("deg") {
+                    Some(d) => number(k, d.trim())?.to_radians(),
+                    None => number(k, v)?,
+                };
+                if x < 0.0 {
+                    return Err(format!("`flatness={v}`: the angle must be ≥ 0"));
+                }
+                a.flatness = x;
+            }
+            _ => {
+                let x = number(k, v)?;
+                if x < 0.0 {
+                    return Err(format!("`size={v}`: the area must be ≥ 0"));
+                }
+                a.size = x;
+            }
+        }
+    }
+    Ok(a)
+}
+
+/// Parses `--noise k=0.01,h=0.5,bias=0.5[,l=2][,top=0.25][,seed=1]`.
+pub fn parse_noise(s: &str) -> Result<NoiseArg, String> {
+    let mut a = NoiseArg { k: 0.005, h: 0.5, bias: 0.5, lacunarity: 2.0, top: 0.25, seed: 1 };
+    for (k, v) in key_values(s, &["k", "h", "bias", "l", "top", "seed"])? {
+        let in01 = |x: f32| -> Result<f32, String> {
+            if (0.0..=1.0).contains(&x) {
+                Ok(x)
+            } else {
+                Err(format!("`{k}={v}`: must be in [0, 1]"))
+            }
+        };
+        match k {
+            "k" => {
+                a.k = number(k, v)?;
+                if a.k < 0.0 {
+                    return Err(format!("`k={v}`: the scale must be ≥ 0"));
+                }
+            }
+            "h" => a.h = in01(number(k, v)?)?,
+            "bias" => a.bias = in01(number(k, v)?)?,
+            "top" => a.top = in01(number(k, v)?)?,
+            "l" => {
+                a.lacunarity = number(k, v)?;
+                if a.lacunarity <= 0.0 {
+                    return Err(format!("`l={v}`: the lacunarity must be > 0"));
+                }
+            }
+            _ => a.seed = v.parse().map_err(|_| format!("`seed={v}`: not a non-negative integer"))?,
+        }
+    }
+    Ok(a)
 }
 
 /// `--scheme`.
@@ -111,7 +272,69 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
             UvArg::SmoothCurves => FvarInterpolation::CornersPlus,
         },
     };
-    let subdivide = || refine::subdivide(mesh, &obj.corners, &options);
+    if args.adaptive.is_some() {
+        if scheme != Scheme::Loop {
+            miette::bail!(
+                "--adaptive refines triangles with Loop's scheme; it cannot be used with Catmull–Clark"
+            );
+        }
+        if args.noise.is_some() || args.limit {
+            miette::bail!("--adaptive cannot be combined with --noise or --limit (they need uniform levels)");
+        }
+        if options.uv != FvarInterpolation::Linear {
+            miette::bail!("--adaptive carries UVs linearly; use --uv linear");
+        }
+    }
+    let diagonal = mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
+    let subdivide = || -> Result<sylva::Mesh, refine::RefineError> {
+        let refined = if let Some(a) = args.adaptive {
+            let opts = refine::adaptive::AdaptiveOptions {
+                max_levels: args.levels,
+                flatness: a.flatness,
+                min_area: a.size,
+                boundary: options.refine.boundary,
+                creasing: options.refine.creasing,
+                max_faces: args.max_faces,
+            };
+            refine::adaptive::adaptive_loop(mesh, &obj.corners, &opts)?
+        } else if let Some(n) = args.noise {
+            let noise = refine::noise::NoiseOptions {
+                k: n.k * diagonal,
+                lacunarity: n.lacunarity,
+                h: n.h,
+                bias: n.bias,
+                feature: refine::noise::FeatureSize::Height { top: n.top },
+            };
+            refine::noise::subdivide_with_noise(mesh, &obj.corners, &options, &noise, n.seed)?
+        } else {
+            refine::subdivide(mesh, &obj.corners, &options)?
+        };
+        match args.pn {
+            None => Ok(refined),
+            Some(rule) => {
+                let edge_rule = match rule {
+                    PnArg::Standard => refine::pn::EdgeRule::Standard,
+                    PnArg::Rounder => refine::pn::EdgeRule::Rounder,
+                };
+                let opts = refine::pn::PnOptions {
+                    level: args.pn_level,
+                    edge_rule,
+                    diagonal_rule: refine::pn::EdgeRule::Standard,
+                    interior: match args.pn_interior {
+                        PnInteriorArg::Theyer => refine::pn::QuadInterior::Theyer,
+                        PnInteriorArg::ZeroTwist => refine::pn::QuadInterior::ZeroTwist,
+                    },
+                    normals: match args.pn_normals {
+                        PnNormalsArg::Linear => refine::pn::NormalInterpolation::Linear,
+                        PnNormalsArg::Quadratic => refine::pn::NormalInterpolation::Quadratic,
+                    },
+                    source: refine::pn::NormalSource::Mesh,
+                    max_faces: args.max_faces,
+                };
+                refine::pn::pn_tessellate(&refined, &opts)
+            }
+        }
+    };
     let refined = match args.threads {
         Some(n) if n > 1 => refine::with_threads(n, subdivide).into_diagnostic()?,
         _ => subdivide(),
@@ -128,10 +351,13 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
             Scheme::CatmullClark => "Catmull–Clark",
         };
         println!(
-            "wrote {}: {faces} faces, {verts} vertices ({scheme}, {} levels{}) in {:.0} ms",
+            "wrote {}: {faces} faces, {verts} vertices ({scheme}, {} {}levels{}{}{}) in {:.0} ms",
             args.output.display(),
             args.levels,
+            if args.adaptive.is_some() { "adaptive " } else { "" },
             if args.limit { ", limit" } else { "" },
+            if args.noise.is_some() { ", noise" } else { "" },
+            if args.pn.is_some() { format!(", PN level {}", args.pn_level) } else { String::new() },
             start.elapsed().as_secs_f64() * 1e3
         );
     }
@@ -159,6 +385,12 @@ mod tests {
             creasing: None,
             max_faces: refine::DEFAULT_MAX_FACES,
             threads: None,
+            adaptive: None,
+            pn: None,
+            pn_level: 4,
+            pn_interior: PnInteriorArg::Theyer,
+            pn_normals: PnNormalsArg::Quadratic,
+            noise: None,
             quiet: true,
         }
     }
@@ -197,5 +429,82 @@ mod tests {
         let e = format!("{:?}", run(args(bad, temp("x.obj"))).unwrap_err());
         assert!(e.contains("line 2"), "{e}");
         assert!(!temp("x.obj").exists());
+    }
+
+    const TETRA: &str = "v 1 1 1\nv -1 -1 1\nv -1 1 -1\nv 1 -1 -1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
+
+    #[test]
+    fn adaptive_pn_and_noise_flags() {
+        let input = temp("tetra.obj");
+        std::fs::write(&input, TETRA).unwrap();
+        let out = temp("tetra-out.obj");
+        let adaptive = parse_adaptive("flatness=15deg,size=0.001").unwrap();
+        assert!((adaptive.flatness - 15f32.to_radians()).abs() < 1e-6);
+        run(SubdivideArgs { adaptive: Some(adaptive), levels: 3, ..args(input.clone(), out.clone()) })
+            .unwrap();
+        let back = sylva::mesh::obj_read::read_obj(&out).unwrap();
+        assert!(back.mesh.face_count() > 4 && back.mesh.face_count() <= 4 * 64);
+        run(SubdivideArgs {
+            pn: Some(PnArg::Rounder),
+            pn_level: 3,
+            levels: 1,
+            ..args(input.clone(), out.clone())
+        })
+        .unwrap();
+        let back = sylva::mesh::obj_read::read_obj(&out).unwrap();
+        assert_eq!(back.mesh.face_count(), 16 * 9);
+        let noise = parse_noise("k=0.01,h=0.5,bias=0.3,seed=9").unwrap();
+        run(SubdivideArgs { noise: Some(noise), ..args(input.clone(), out.clone()) }).unwrap();
+        let a = std::fs::read(&out).unwrap();
+        run(SubdivideArgs { noise: Some(noise), ..args(input.clone(), out.clone()) }).unwrap();
+        assert_eq!(a, std::fs::read(&out).unwrap(), "seeded noise is deterministic");
+    }
+
+    #[test]
+    fn bad_adaptive_pn_and_noise_values_are_clear_errors() {
+        for (s, want) in [
+            ("flatness=abc", "not a finite number"),
+            ("flatness=-1", "≥ 0"),
+            ("size=-2", "≥ 0"),
+            ("depth=3", "unknown key `depth`"),
+            ("flatness", "not key=value"),
+            ("size=1,size=2", "twice"),
+        ] {
+            let e = parse_adaptive(s).unwrap_err();
+            assert!(e.contains(want), "{s}: {e}");
+        }
+        for (s, want) in [
+            ("k=-1", "≥ 0"),
+            ("h=2", "[0, 1]"),
+            ("bias=1.5", "[0, 1]"),
+            ("l=0", "> 0"),
+            ("seed=-3", "integer"),
+            ("k=nan", "finite"),
+            ("q=1", "unknown key"),
+        ] {
+            let e = parse_noise(s).unwrap_err();
+            assert!(e.contains(want), "{s}: {e}");
+        }
+        let input = temp("cube-adaptive.obj");
+        std::fs::write(&input, CUBE).unwrap();
+        let a = parse_adaptive("flatness=0.2,size=0").unwrap();
+        let e = format!(
+            "{:?}",
+            run(SubdivideArgs { adaptive: Some(a), ..args(input.clone(), temp("y.obj")) }).unwrap_err()
+        );
+        assert!(e.contains("Catmull–Clark"), "{e}");
+        let tetra = temp("tetra2.obj");
+        std::fs::write(&tetra, TETRA).unwrap();
+        let both = SubdivideArgs { adaptive: Some(a), limit: true, ..args(tetra.clone(), temp("y.obj")) };
+        let e = format!("{:?}", run(both).unwrap_err());
+        assert!(e.contains("--limit"), "{e}");
+        let huge = SubdivideArgs {
+            pn: Some(PnArg::Standard),
+            pn_level: 1024,
+            levels: 3,
+            ..args(tetra, temp("y.obj"))
+        };
+        let e = format!("{:?}", run(huge).unwrap_err());
+        assert!(e.contains("100000000"), "{e}");
     }
 }

@@ -19,9 +19,11 @@
 
 #![warn(missing_docs)]
 
+pub mod curves;
 pub mod error;
 pub mod export;
 pub mod fsutil;
+pub mod grow;
 pub mod import;
 pub mod lsystem;
 pub mod mesh;

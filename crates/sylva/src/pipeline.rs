@@ -226,7 +226,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
             Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
         }
         Generator::SpaceColonization(p) => {
-            let tree = crate::grow::colonize::grow(p, loaded.recipe.seed)?;
+            let tree = crate::grow::colonize::grow_with(p, loaded.recipe.seed, &|f: &str| loaded.read(f))?;
             let r = &tree.report;
             report.interpret_time = r.elapsed;
             report.summary = format!(

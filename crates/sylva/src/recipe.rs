@@ -445,7 +445,8 @@ impl Recipe {
                 }
             }
             // Both generators validate their own parameters (naming the key) when they run.
-            Generator::WeberPenn(_) | Generator::SpaceColonization(_) => {}
+            Generator::SpaceColonization(g) => g.validate()?,
+            Generator::WeberPenn(_) => {}
             Generator::Import(g) => {
                 if !["bridge", "strict", "new-root"].contains(&g.gap.as_str()) {
                     return bad("generator.gap", format!("is `{}`; use bridge, strict or new-root", g.gap));

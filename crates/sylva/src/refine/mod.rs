@@ -19,17 +19,22 @@
 //! Schemes: [`loop_`] (seed 000 §4.4, seed 001 §3.3; spec 000 §2.8, spec 001 §2.10) and
 //! [`catmull_clark`] (seed 003 §5; spec 003 §5). Creases, corners and boundaries:
 //! [`crease`] (DeRose–Kass–Truong / OpenSubdiv rules, seed 001 §2.10). Limit surface:
-//! [`limit`] (seed 001 §2.11 "move to limit surface").
+//! [`limit`] (seed 001 §2.11 "move to limit surface"). Adaptive Loop refinement:
+//! [`adaptive`] (seed 001 §A.3). PN triangles and quads: [`pn`] (seed 003 §3.3.1).
+//! Fractal noise between levels: [`noise`] (seed 001 §6.5).
 //!
 //! Every level is computed in parallel with rayon over child elements, each child value
 //! written by exactly one task with a fixed summation order, so the output is
 //! bit-identical for any thread count (and with [`RefineOptions::parallel`] off).
 
+pub mod adaptive;
 pub mod catmull_clark;
 pub mod crease;
 pub mod fvar;
 pub mod limit;
 pub mod loop_;
+pub mod noise;
+pub mod pn;
 pub mod topology;
 
 pub use crease::{Corner, INFINITE};
@@ -158,6 +163,9 @@ pub enum RefineError {
     /// Anything else wrong with the input mesh.
     #[error("invalid mesh: {0}")]
     InvalidMesh(String),
+    /// An option out of range (adaptive tolerances, PN level or size, noise parameters).
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
 }
 
 /// The subdivision scheme.

@@ -1,0 +1,507 @@
+//! Rendering magnetic curves: tapered strokes with outlines and per-curve or per-point
+//! colours, turned into filled polygons that both the SVG writer
+//! ([`crate::export::svg`]) and the anti-aliased PNG rasterizer (`tiny-skia`) draw
+//! (seed 004 §7.3: "each curve has a thickness and the outer contour has a different
+//! colour"; spec 004 §3.8).
+//!
+//! # From curves to shapes
+//!
+//! A [`Drawing`] holds curves in drawing units with **y up** (the particle's plane).
+//! [`picture`] turns each curve into one or more [`Shape`]s — closed polygons in
+//! picture coordinates (y down, the same units) with a solid colour:
+//!
+//! 1. Width varies along the curve (`widths`, the full width at each point). The
+//!    outline polygon is the left offset `p + n·w/2` forwards, a round cap, the right
+//!    offset backwards and a round start cap. At each point the half width is clamped
+//!    to 0.9 times the local radius of curvature (magnetic curves) so the inner offset
+//!    never folds back on itself at a spiral's centre; drawn polylines use mitred
+//!    joins instead. Every polygon winds the same way, so the non-zero fill rule
+//!    paints the union of a curve that crosses itself without holes.
+//! 2. An outline colour draws the same stroke `2·outline` wider first, then the body on
+//!    top, curve after curve, so crossing strands look layered (the hair of Fig. 7.10).
+//! 3. Per-point colours (Fig. 7.6, coloured from the local noise) split the stroke into
+//!    runs of [`RUN`] segments, each filled with the colour at its middle; runs overlap
+//!    by one segment so anti-aliasing leaves no seams.
+//! 4. Each offset polyline is simplified (greedily, [`simplify`]) to the caller's `tolerance`
+//!    in drawing units — the one explicit accuracy parameter; the writers pass 0.2
+//!    output pixels — so a curve traced at one point per unit does not cost one edge
+//!    per unit at a small output size.
+//!
+//! The same shapes go to SVG (`<path>` per shape: paths, not pixels) and to the PNG
+//! rasterizer, so both outputs agree.
+
+use crate::error::{Error, Result};
+use crate::fsutil::write_atomic;
+use glam::{DVec2, Vec2};
+use std::path::Path;
+
+use super::magnetic::curvature;
+
+/// Segments per colour run of a per-point coloured curve.
+pub const RUN: usize = 6;
+
+/// Largest raster the PNG writer makes (either side, pixels).
+pub const MAX_PIXELS_SIDE: u32 = 16_384;
+
+/// An sRGB colour with alpha, 8 bits per channel.
+pub type Rgba = [u8; 4];
+
+/// How a curve's body is coloured.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Paint {
+    /// One colour.
+    Solid(Rgba),
+    /// One colour per point.
+    PerPoint(Vec<Rgba>),
+}
+
+/// One curve to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Curve {
+    /// Points in drawing units, y up.
+    pub points: Vec<DVec2>,
+    /// Full stroke width at each point (same length as `points`).
+    pub widths: Vec<f64>,
+    /// Body colour.
+    pub paint: Paint,
+    /// Outline colour and width added on each side, if any.
+    pub outline: Option<(Rgba, f64)>,
+    /// A traced magnetic curve (true) or a drawn polyline such as a hairline or a
+    /// window frame (false; mitred joins, not counted as a curve).
+    pub magnetic: bool,
+    /// `(parent curve, point index)` for branches.
+    pub parent: Option<(usize, usize)>,
+    /// Branch generation (0 for roots).
+    pub depth: u32,
+}
+
+/// A composition's output: curves on a canvas.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drawing {
+    /// Canvas width in drawing units.
+    pub width: f64,
+    /// Canvas height in drawing units.
+    pub height: f64,
+    /// Background colour; `None` leaves it transparent.
+    pub background: Option<Rgba>,
+    /// The curves, in drawing order.
+    pub curves: Vec<Curve>,
+}
+
+impl Drawing {
+    /// The number of magnetic curves (what Table 7.1 counts).
+    pub fn magnetic_count(&self) -> usize {
+        self.curves.iter().filter(|c| c.magnetic).count()
+    }
+
+    /// Total number of points of all curves.
+    pub fn point_count(&self) -> usize {
+        self.curves.iter().map(|c| c.points.len()).sum()
+    }
+}
+
+/// A filled polygon of a [`Picture`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    /// Closed outline, picture coordinates (y down).
+    pub polygon: Vec<Vec2>,
+    /// Fill colour.
+    pub color: Rgba,
+}
+
+/// Filled shapes ready for SVG or raster output.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Picture {
+    /// Width in drawing units.
+    pub width: f64,
+    /// Height in drawing units.
+    pub height: f64,
+    /// Background colour.
+    pub background: Option<Rgba>,
+    /// Shapes, painted in order.
+    pub shapes: Vec<Shape>,
+}
+
+/// The tolerance the writers use: 0.2 output pixels, in drawing units, for a drawing
+/// `width_px` pixels wide.
+pub fn tolerance_for(drawing: &Drawing, width_px: u32) -> f64 {
+    0.2 * drawing.width / width_px.max(1) as f64
+}
+
+/// Turns a drawing into filled shapes (see the module docs), simplifying outlines to
+/// `tolerance` drawing units (0 keeps every point). Curves with fewer than two distinct
+/// points, or with non-finite numbers, are skipped.
+pub fn picture(drawing: &Drawing, tolerance: f64) -> Picture {
+    let mut shapes = Vec::new();
+    let h = drawing.height;
+    let tol = if tolerance.is_finite() { tolerance.max(0.0) } else { 0.0 };
+    for c in &drawing.curves {
+        let Some(stroke) = Stroke::new(c) else { continue };
+        if let Some((color, ow)) = c.outline {
+            if ow > 0.0 && ow.is_finite() {
+                let o = stroke.offsets(ow, c.magnetic);
+                shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true, tol), color });
+            }
+        }
+        let o = stroke.offsets(0.0, c.magnetic);
+        match &stroke.colors {
+            None => shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true, tol), color: stroke.solid }),
+            Some(colors) => {
+                let n = o.len();
+                let mut a = 0;
+                while a + 1 < n {
+                    let b = (a + RUN).min(n - 1);
+                    let color = colors[(a + b) / 2];
+                    // Overlap the previous run by one segment.
+                    shapes.push(Shape { polygon: o.polygon(a.saturating_sub(1), b, h, a == 0, tol), color });
+                    a = b;
+                }
+            }
+        }
+    }
+    Picture { width: drawing.width, height: drawing.height, background: drawing.background, shapes }
+}
+
+/// A curve's points with duplicates removed, and their widths and colours.
+struct Stroke {
+    points: Vec<DVec2>,
+    /// Signed curvature per point (magnetic curves only).
+    kappa: Vec<f64>,
+    half: Vec<f64>,
+    colors: Option<Vec<Rgba>>,
+    solid: Rgba,
+}
+
+/// Left and right offset polylines plus cap data.
+struct Offsets {
+    points: Vec<DVec2>,
+    left: Vec<DVec2>,
+    right: Vec<DVec2>,
+    half: Vec<f64>,
+    tangent_start: DVec2,
+    tangent_end: DVec2,
+}
+
+impl Stroke {
+    fn new(c: &Curve) -> Option<Stroke> {
+        let mut points = Vec::with_capacity(c.points.len());
+        let mut half = Vec::with_capacity(c.points.len());
+        let per_point = match &c.paint {
+            Paint::PerPoint(v) if v.len() == c.points.len() => Some(v),
+            _ => None,
+        };
+        let mut colors = per_point.map(|_| Vec::with_capacity(c.points.len()));
+        for (i, &p) in c.points.iter().enumerate() {
+            let w = c.widths.get(i).copied().unwrap_or(1.0);
+            if !p.is_finite() || !w.is_finite() {
+                return None;
+            }
+            if points.last().is_some_and(|q: &DVec2| q.distance_squared(p) < 1e-18) {
+                continue;
+            }
+            points.push(p);
+            half.push(0.5 * w.max(0.0));
+            if let (Some(cs), Some(v)) = (colors.as_mut(), per_point) {
+                cs.push(v[i]);
+            }
+        }
+        if points.len() < 2 {
+            return None;
+        }
+        let solid = match &c.paint {
+            Paint::Solid(s) => *s,
+            Paint::PerPoint(v) => v.first().copied().unwrap_or([0, 0, 0, 255]),
+        };
+        let kappa = if c.magnetic { curvature(&points) } else { Vec::new() };
+        Some(Stroke { points, kappa, half, colors, solid })
+    }
+
+    /// Offsets at half width + `extra`.
+    fn offsets(&self, extra: f64, magnetic: bool) -> Offsets {
+        let p = &self.points;
+        let n = p.len();
+        let kappa = &self.kappa;
+        let mut left = Vec::with_capacity(n);
+        let mut right = Vec::with_capacity(n);
+        let mut half = Vec::with_capacity(n);
+        let dir = |a: DVec2, b: DVec2| (b - a).normalize_or(DVec2::X);
+        for i in 0..n {
+            let t_in = if i > 0 { dir(p[i - 1], p[i]) } else { dir(p[0], p[1]) };
+            let t_out = if i + 1 < n { dir(p[i], p[i + 1]) } else { t_in };
+            let t = (t_in + t_out).normalize_or(t_out);
+            let normal = t.perp();
+            let mut hw = self.half[i] + extra;
+            if magnetic {
+                let k = kappa[i].abs();
+                if k > 0.0 {
+                    hw = hw.min(0.9 / k);
+                }
+            } else {
+                // Mitre: keep the stroke's thickness at a corner, clamped at 2×.
+                let c = t.dot(t_out).abs().max(0.5);
+                hw /= c;
+            }
+            left.push(p[i] + normal * hw);
+            right.push(p[i] - normal * hw);
+            half.push(hw);
+        }
+        Offsets {
+            points: p.clone(),
+            left,
+            right,
+            half,
+            tangent_start: dir(p[0], p[1]),
+            tangent_end: dir(p[n - 2], p[n - 1]),
+        }
+    }
+}
+
+impl Offsets {
+    fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// The closed outline of points `a..=b`, with a round cap at the curve's end when
+    /// `b` is the last point and at its start when `a` is 0 and `start_cap` holds, in
+    /// picture coordinates (y flipped about `height`).
+    fn polygon(&self, a: usize, b: usize, height: f64, start_cap: bool, tol: f64) -> Vec<Vec2> {
+        let n = self.len();
+        let mut out = Vec::with_capacity(2 * (b - a + 1) + 34);
+        let flip = |p: DVec2| Vec2::new(p.x as f32, (height - p.y) as f32);
+        let mut keep = Vec::new();
+        simplify(&self.left[a..=b], tol, &mut keep);
+        out.extend(keep.iter().map(|&i| flip(self.left[a + i])));
+        if b == n - 1 {
+            cap(&mut out, self.points[b], self.tangent_end, self.half[b], true, &flip);
+        }
+        simplify(&self.right[a..=b], tol, &mut keep);
+        out.extend(keep.iter().rev().map(|&i| flip(self.right[a + i])));
+        if a == 0 && start_cap {
+            cap(&mut out, self.points[a], self.tangent_start, self.half[a], false, &flip);
+        }
+        out
+    }
+}
+
+/// Longest run of points one kept segment may replace in [`simplify`].
+pub const MAX_RUN: usize = 48;
+
+/// Greedy polyline simplification: the indices of `pts` to keep so that no dropped
+/// point lies farther than `tol` from the kept segment that replaces it (first and last
+/// always kept), in increasing order. From each kept point the segment is extended one
+/// point at a time while every skipped point stays within `tol`, up to [`MAX_RUN`]
+/// points: O(n · MAX_RUN) worst case, linear and cache-friendly on the smooth,
+/// densely sampled curves this is for (Douglas–Peucker degrades to O(n²) on spirals).
+pub fn simplify(pts: &[DVec2], tol: f64, keep: &mut Vec<usize>) {
+    keep.clear();
+    let n = pts.len();
+    if n <= 2 || tol <= 0.0 {
+        keep.extend(0..n);
+        return;
+    }
+    let tol2 = tol * tol;
+    let within = |a: usize, b: usize| {
+        let (pa, d) = (pts[a], pts[b] - pts[a]);
+        let len2 = d.length_squared();
+        pts[a + 1..b].iter().all(|&p| {
+            let t = if len2 > 0.0 { ((p - pa).dot(d) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            (pa + d * t).distance_squared(p) <= tol2
+        })
+    };
+    keep.push(0);
+    let mut a = 0;
+    let mut j = 2;
+    while j < n {
+        if j - a > MAX_RUN || !within(a, j) {
+            a = j - 1;
+            keep.push(a);
+        }
+        j += 1;
+    }
+    keep.push(n - 1);
+}
+
+/// Appends the interior points of a half-circle cap from the left offset to the right
+/// one (`end`) or from the right to the left (start).
+fn cap(out: &mut Vec<Vec2>, c: DVec2, t: DVec2, h: f64, end: bool, flip: &impl Fn(DVec2) -> Vec2) {
+    if h < 0.05 {
+        return;
+    }
+    let k = ((h * std::f64::consts::PI / 1.5).ceil() as usize).clamp(2, 16);
+    let n = t.perp();
+    for j in 1..k {
+        let phi = std::f64::consts::PI * j as f64 / k as f64;
+        let (s, co) = phi.sin_cos();
+        let v = if end { n * co + t * s } else { -n * co - t * s };
+        out.push(flip(c + v * h));
+    }
+}
+
+/// An RGBA raster, not premultiplied, rows top to bottom.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Raster {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width × height × 4` bytes.
+    pub rgba: Vec<u8>,
+}
+
+/// Pixel size for a picture drawn `width_px` wide (height from the aspect ratio).
+pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
+    if width_px == 0 || width_px > MAX_PIXELS_SIDE {
+        return Err(Error::Recipe(format!("image size {width_px} px must be in 1..={MAX_PIXELS_SIDE}")));
+    }
+    if !(picture.width > 0.0 && picture.height > 0.0 && picture.width.is_finite() && picture.height.is_finite()) {
+        return Err(Error::InvalidGeometry {
+            what: "curves drawing".into(),
+            why: format!("canvas {} × {} must be positive", picture.width, picture.height),
+        });
+    }
+    let h = (width_px as f64 * picture.height / picture.width).round().max(1.0);
+    if h > MAX_PIXELS_SIDE as f64 {
+        return Err(Error::Recipe(format!(
+            "image height {h} px exceeds {MAX_PIXELS_SIDE}; lower the size or change the canvas aspect"
+        )));
+    }
+    Ok((width_px, h as u32))
+}
+
+/// Rasterizes `picture` `width_px` pixels wide with anti-aliasing (tiny-skia, non-zero
+/// fill rule).
+pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {
+    use tiny_skia::{Color, FillRule, Paint as SkPaint, PathBuilder, Pixmap, Transform};
+    let (w, h) = pixel_size(picture, width_px)?;
+    let mut pixmap = Pixmap::new(w, h).ok_or_else(|| Error::InvalidGeometry {
+        what: "curves raster".into(),
+        why: format!("cannot allocate {w} × {h} pixels"),
+    })?;
+    if let Some([r, g, b, a]) = picture.background {
+        pixmap.fill(Color::from_rgba8(r, g, b, a));
+    }
+    let sx = w as f32 / picture.width as f32;
+    let sy = h as f32 / picture.height as f32;
+    let transform = Transform::from_scale(sx, sy);
+    let mut paint = SkPaint { anti_alias: true, ..Default::default() };
+    for s in &picture.shapes {
+        if s.polygon.len() < 3 {
+            continue;
+        }
+        let mut pb = PathBuilder::with_capacity(s.polygon.len() + 1, s.polygon.len());
+        pb.move_to(s.polygon[0].x, s.polygon[0].y);
+        for p in &s.polygon[1..] {
+            pb.line_to(p.x, p.y);
+        }
+        pb.close();
+        let Some(path) = pb.finish() else { continue };
+        let [r, g, b, a] = s.color;
+        paint.set_color_rgba8(r, g, b, a);
+        pixmap.fill_path(&path, &paint, FillRule::Winding, transform, None);
+    }
+    let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
+    for px in pixmap.pixels() {
+        let c = px.demultiply();
+        rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+    }
+    Ok(Raster { width: w, height: h, rgba })
+}
+
+/// Encodes a raster as an 8-bit RGBA PNG.
+pub fn encode_png(raster: &Raster, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let mut enc = png::Encoder::new(w, raster.width, raster.height);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::Fast);
+    let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+    writer.write_image_data(&raster.rgba).map_err(std::io::Error::other)?;
+    writer.finish().map_err(std::io::Error::other)
+}
+
+/// Rasterizes `picture` `width_px` wide and writes it as a PNG, atomically.
+pub fn write_png(picture: &Picture, path: &Path, width_px: u32) -> Result<()> {
+    let raster = rasterize(picture, width_px)?;
+    write_atomic(path, |w| encode_png(&raster, w))
+}
+
+/// Parses `#rgb`, `#rrggbb` or `#rrggbbaa`; `what` names the value in messages.
+pub fn parse_color(s: &str, what: &str) -> Result<Rgba> {
+    let bad = || Error::Recipe(format!("{what}: `{s}` is not a colour; write #rrggbb, #rrggbbaa or #rgb"));
+    let hex = s.trim().strip_prefix('#').ok_or_else(bad)?;
+    if !hex.bytes().all(|c| c.is_ascii_hexdigit()) {
+        return Err(bad());
+    }
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).map_err(|_| bad());
+    match hex.len() {
+        3 => {
+            let d = |i: usize| u8::from_str_radix(&hex[i..i + 1], 16).map(|v| v * 17).map_err(|_| bad());
+            Ok([d(0)?, d(1)?, d(2)?, 255])
+        }
+        6 => Ok([byte(0)?, byte(2)?, byte(4)?, 255]),
+        8 => Ok([byte(0)?, byte(2)?, byte(4)?, byte(6)?]),
+        _ => Err(bad()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(magnetic: bool) -> Drawing {
+        Drawing {
+            width: 100.0,
+            height: 50.0,
+            background: Some([255, 255, 255, 255]),
+            curves: vec![Curve {
+                points: vec![DVec2::new(10.0, 25.0), DVec2::new(50.0, 25.0), DVec2::new(90.0, 25.0)],
+                widths: vec![10.0, 10.0, 10.0],
+                paint: Paint::Solid([255, 0, 0, 255]),
+                outline: Some(([0, 0, 0, 255], 2.0)),
+                magnetic,
+                parent: None,
+                depth: 0,
+            }],
+        }
+    }
+
+    #[test]
+    fn stroke_covers_its_centre_line() {
+        let pic = picture(&line(true), 0.0);
+        assert_eq!(pic.shapes.len(), 2);
+        let r = rasterize(&pic, 100).unwrap();
+        assert_eq!((r.width, r.height), (100, 50));
+        let px = |x: usize, y: usize| &r.rgba[(y * 100 + x) * 4..(y * 100 + x) * 4 + 4];
+        assert_eq!(px(50, 25), &[255, 0, 0, 255]);
+        assert_eq!(px(50, 5), &[255, 255, 255, 255]);
+        // The outline ring: 5..7 px from the centre line.
+        assert_eq!(px(50, 19), &[0, 0, 0, 255]);
+    }
+
+    #[test]
+    fn simplify_keeps_shape_within_tolerance() {
+        let pts: Vec<DVec2> = (0..200).map(|i| DVec2::new(i as f64, (i as f64 * 0.05).sin() * 20.0)).collect();
+        let mut keep = Vec::new();
+        simplify(&pts, 0.1, &mut keep);
+        assert!(keep.len() < 60 && keep.len() > 5, "{}", keep.len());
+        assert_eq!((keep[0], *keep.last().unwrap()), (0, 199));
+        for w in keep.windows(2) {
+            let (a, b) = (pts[w[0]], pts[w[1]]);
+            for p in &pts[w[0]..=w[1]] {
+                let t = ((*p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+                assert!((a + (b - a) * t).distance(*p) <= 0.1 + 1e-12);
+            }
+        }
+        simplify(&pts, 0.0, &mut keep);
+        assert_eq!(keep.len(), 200);
+    }
+
+    #[test]
+    fn colours_parse() {
+        assert_eq!(parse_color("#ff8000", "c").unwrap(), [255, 128, 0, 255]);
+        assert_eq!(parse_color("#f80", "c").unwrap(), [255, 136, 0, 255]);
+        assert_eq!(parse_color("#ff800080", "c").unwrap(), [255, 128, 0, 128]);
+        assert!(parse_color("ff8000", "c").is_err());
+        assert!(parse_color("#ff80", "c").is_err());
+        assert!(parse_color("#ééé", "c").is_err());
+    }
+}

@@ -1,0 +1,427 @@
+//! Adaptive Loop refinement with crack-free (red–green) transitions between levels
+//! (seed 001 §A.3 and §8.2, spec 001 §2.11; issue 4 item 6).
+//!
+//! Seed 001's Salad refines a triangle only where the surface bends — the **flatness
+//! tolerance**, the dihedral angle (radians) between two adjacent triangles, or on creases
+//! and boundaries the turn between two consecutive sharp edges — and only while the
+//! triangle is larger than the **size tolerance** (world-space area). The seed leaves
+//! crack handling open; the output here is always conforming:
+//!
+//! 1. The control mesh is refined uniformly to `max_levels` by the [`Refiner`], so every
+//!    level's positions are exactly Loop's (creases, corners, boundaries, semi-sharp
+//!    decay included). The refinement hierarchy is a forest of 4-ary face trees: face `f`
+//!    of level `l` has the children `4f … 4f + 3` at level `l + 1`.
+//! 2. A face of the hierarchy is **red-refined** when it is a leaf so far, wants
+//!    refinement (bends more than the flatness tolerance across one of its edges, and is
+//!    larger than the size tolerance) and is above `max_levels`.
+//! 3. **Balance**: a refined face's edge neighbours must exist at its level (so two
+//!    faces sharing an edge differ by at most one level, and an edge carries at most one
+//!    hanging vertex).
+//! 4. **Closure**: a leaf with two or three hanging edge midpoints is red-refined too;
+//!    a leaf with one is split **green** into two triangles through the midpoint.
+//!
+//! Steps 2–4 repeat until nothing changes. Every edge of the output then has the same
+//! vertices on both sides (no T-junctions): a closed manifold input gives a closed
+//! manifold output. Each output vertex takes its Loop position at the finest level that
+//! uses it, so refined regions sit on the refined surface. Output vertices keep the
+//! hierarchy's order: the control vertices first (same indices when all are used). UVs
+//! are carried linearly (barycentric in the control triangle, dyadic weights, so seams
+//! stay exact).
+
+use super::topology::{Topology, NONE};
+use super::{BoundaryInterpolation, Corner, CreasingMethod, RefineError, RefineOptions, Refiner, Scheme};
+use crate::mesh::{FaceVarying, Mesh};
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+
+/// Tolerances and rules of [`adaptive_loop`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveOptions {
+    /// The deepest level any triangle may reach.
+    pub max_levels: u32,
+    /// Flatness tolerance in **radians** (seed 001: "the dihedral angle between adjacent
+    /// triangles"): a triangle is split when the angle between its normal and a
+    /// neighbour's exceeds it, or, across a crease or boundary edge, when the turn between
+    /// that edge and the next sharp edge does. `f32::INFINITY` never refines.
+    pub flatness: f32,
+    /// Size tolerance: triangles of this world-space area or less are never split.
+    pub min_area: f32,
+    /// Boundary vertex rule (as in [`RefineOptions::boundary`]).
+    pub boundary: BoundaryInterpolation,
+    /// Semi-sharp crease decay (as in [`RefineOptions::creasing`]).
+    pub creasing: CreasingMethod,
+    /// Refuse inputs whose uniform refinement to `max_levels` would exceed this many faces.
+    pub max_faces: usize,
+}
+
+impl Default for AdaptiveOptions {
+    /// Seed 001's Fig A.5 values (flatness 0.25 rad, size 0.0001) and 4 levels at most.
+    fn default() -> Self {
+        AdaptiveOptions {
+            max_levels: 4,
+            flatness: 0.25,
+            min_area: 1e-4,
+            boundary: BoundaryInterpolation::EdgeAndCorner,
+            creasing: CreasingMethod::Uniform,
+            max_faces: super::DEFAULT_MAX_FACES,
+        }
+    }
+}
+
+/// Refines the triangle mesh `mesh` (with its creases and the vertex sharpness in
+/// `corners`) adaptively with Loop's rules; see the [module docs](self). The result is
+/// conforming, carries linearly interpolated UVs when `mesh` has UVs, and has no normals
+/// (the exporters compute smooth ones).
+///
+/// ```
+/// use sylva::refine::adaptive::{adaptive_loop, AdaptiveOptions};
+/// # use sylva::Mesh; use glam::Vec3;
+/// let mut tet = Mesh::new();
+/// tet.positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+/// for f in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] { tet.push_face(&f); }
+/// let opts = AdaptiveOptions { max_levels: 3, flatness: 0.3, min_area: 0.01, ..Default::default() };
+/// let fine = adaptive_loop(&tet, &[], &opts).unwrap();
+/// assert!(fine.face_count() > 4 && fine.face_count() < 4 * 64);
+/// ```
+pub fn adaptive_loop(
+    mesh: &Mesh,
+    corners: &[Corner],
+    options: &AdaptiveOptions,
+) -> Result<Mesh, RefineError> {
+    adaptive_loop_levels(mesh, corners, options).map(|(m, _)| m)
+}
+
+/// [`adaptive_loop`], also returning the hierarchy level of every output face (green
+/// halves report the level of the triangle they split).
+pub fn adaptive_loop_levels(
+    mesh: &Mesh,
+    corners: &[Corner],
+    options: &AdaptiveOptions,
+) -> Result<(Mesh, Vec<u8>), RefineError> {
+    mesh.validate().map_err(RefineError::InvalidMesh)?;
+    if mesh.face_count() == 0 {
+        let mut out = mesh.clone();
+        out.normals = None;
+        return Ok((out, Vec::new()));
+    }
+    if options.flatness.is_nan() || options.flatness < 0.0 {
+        return Err(RefineError::InvalidOption(format!(
+            "adaptive flatness tolerance must be an angle ≥ 0 (radians), got {}",
+            options.flatness
+        )));
+    }
+    if options.min_area.is_nan() || options.min_area < 0.0 {
+        return Err(RefineError::InvalidOption(format!(
+            "adaptive size tolerance must be an area ≥ 0, got {}",
+            options.min_area
+        )));
+    }
+    if options.max_levels > 15 {
+        return Err(RefineError::Budget {
+            levels: options.max_levels,
+            faces: super::output_face_count(Scheme::Loop, mesh.face_count(), 0, options.max_levels),
+            limit: options.max_faces,
+        });
+    }
+    let ro = RefineOptions {
+        scheme: Scheme::Loop,
+        levels: options.max_levels,
+        boundary: options.boundary,
+        creasing: options.creasing,
+        full_last_level: false,
+        parallel: true,
+        max_faces: options.max_faces,
+    };
+    let refiner = Refiner::new(mesh, corners, &ro)?;
+    let n = refiner.levels();
+    let mut pos: Vec<Vec<Vec3>> = Vec::with_capacity(n + 1);
+    pos.push(mesh.positions.clone());
+    for l in 0..n {
+        let mut next = vec![Vec3::ZERO; refiner.level(l + 1).vertex_count()];
+        refiner.interpolate_level(l, &pos[l], &mut next);
+        pos.push(next);
+    }
+    let h = Hierarchy { refiner: &refiner, pos: &pos, options };
+    let refined = h.select();
+    Ok(h.emit(mesh, &refined))
+}
+
+/// The uniform hierarchy and the tolerances.
+struct Hierarchy<'a> {
+    refiner: &'a Refiner,
+    pos: &'a [Vec<Vec3>],
+    options: &'a AdaptiveOptions,
+}
+
+/// 0 unknown, 1 no, 2 yes.
+type Want = Vec<u8>;
+
+impl Hierarchy<'_> {
+    fn topo(&self, l: usize) -> &Topology {
+        &self.refiner.levels[l].topo
+    }
+
+    /// The face across edge `j` of face `f` at level `l` (< max level), if any.
+    fn neighbour(&self, l: usize, f: usize, j: usize) -> Option<usize> {
+        let t = self.topo(l);
+        let c = (3 * f + j) as u32;
+        let [c0, c1] = t.edge_corners[t.face_edges[c as usize] as usize];
+        let other = if c0 == c { c1 } else { c0 };
+        (other != NONE).then(|| other as usize / 3)
+    }
+
+    fn face_normal(&self, l: usize, f: usize) -> Vec3 {
+        let t = self.topo(l);
+        let p = &self.pos[l];
+        let v = &t.face_verts[3 * f..3 * f + 3];
+        let (a, b, c) = (p[v[0] as usize], p[v[1] as usize], p[v[2] as usize]);
+        (b - a).cross(c - a)
+    }
+
+    /// The turn (radians) at `v` between sharp edge `e` and the one other sharp edge at
+    /// `v`; 0 when `v` has no single continuation (an end, a dart or a corner).
+    fn sharp_turn(&self, l: usize, e: u32, v: u32) -> f32 {
+        let t = self.topo(l);
+        let feat = &self.refiner.levels[l].features;
+        // A corner (tagged, or a single-face boundary vertex with the EdgeAndCorner rule)
+        // is expected to be pointed.
+        let single_face = t.vertex_corners(v as usize).len() == 1;
+        if feat.corners.binary_search_by_key(&v, |x| x.0).is_ok()
+            || (single_face && self.options.boundary == BoundaryInterpolation::EdgeAndCorner)
+        {
+            return 0.0;
+        }
+        let mut other = None;
+        for &c in t.vertex_corners(v as usize) {
+            for x in [t.face_edges[c as usize], t.face_edges[t.prev(c) as usize]] {
+                if x != e && feat.edge_sharpness(x) > 0.0 && other != Some(x) {
+                    if other.is_some() {
+                        return 0.0; // three or more sharp edges: a corner
+                    }
+                    other = Some(x);
+                }
+            }
+        }
+        let Some(x) = other else { return 0.0 };
+        let p = &self.pos[l];
+        let u = t.other_vertex(e, v);
+        let w = t.other_vertex(x, v);
+        let d1 = p[v as usize] - p[u as usize];
+        let d2 = p[w as usize] - p[v as usize];
+        angle(d1, d2)
+    }
+
+    /// Whether face `f` of level `l` bends more than the flatness tolerance and is larger
+    /// than the size tolerance.
+    fn wants(&self, l: usize, f: usize) -> bool {
+        if self.options.flatness == f32::INFINITY {
+            return false;
+        }
+        let nf = self.face_normal(l, f);
+        if 0.5 * nf.length() <= self.options.min_area {
+            return false;
+        }
+        let t = self.topo(l);
+        let feat = &self.refiner.levels[l].features;
+        for j in 0..3 {
+            let e = t.face_edges[3 * f + j];
+            let bend = if feat.edge_sharpness(e) > 0.0 {
+                let [a, b] = t.edge_verts[e as usize];
+                self.sharp_turn(l, e, a).max(self.sharp_turn(l, e, b))
+            } else {
+                match self.neighbour(l, f, j) {
+                    Some(g) => angle(nf, self.face_normal(l, g)),
+                    None => 0.0,
+                }
+            };
+            if bend > self.options.flatness {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Which faces of each level (below the finest) are red-refined.
+    fn select(&self) -> Vec<Vec<bool>> {
+        let n = self.refiner.levels();
+        let mut refine: Vec<Vec<bool>> = (0..n).map(|l| vec![false; self.topo(l).face_count()]).collect();
+        let mut want: Vec<Want> = (0..n).map(|l| vec![0u8; self.topo(l).face_count()]).collect();
+        loop {
+            let mut changed = false;
+            // Wishes of every existing leaf, coarse to fine.
+            for l in 0..n {
+                let nf = self.topo(l).face_count();
+                for f in 0..nf {
+                    if refine[l][f] || (l > 0 && !refine[l - 1][f / 4]) {
+                        continue;
+                    }
+                    if want[l][f] == 0 {
+                        want[l][f] = if self.wants(l, f) { 2 } else { 1 };
+                    }
+                    if want[l][f] == 2 {
+                        refine[l][f] = true;
+                        changed = true;
+                    }
+                }
+            }
+            // Balance, fine to coarse: a refined face's parent and its edge neighbours'
+            // parents are refined.
+            for l in (1..n).rev() {
+                let (coarse, fine) = refine.split_at_mut(l);
+                let (parent, this) = (&mut coarse[l - 1], &fine[0]);
+                for f in 0..this.len() {
+                    if !this[f] {
+                        continue;
+                    }
+                    if !parent[f / 4] {
+                        parent[f / 4] = true;
+                        changed = true;
+                    }
+                    for j in 0..3 {
+                        if let Some(g) = self.neighbour(l, f, j) {
+                            if !parent[g / 4] {
+                                parent[g / 4] = true;
+                                changed = true;
+                            }
+                        }
+                    }
+                }
+            }
+            // Red closure: a leaf with two or more hanging edges is refined.
+            for l in 0..n {
+                for f in 0..refine[l].len() {
+                    if refine[l][f] || (l > 0 && !refine[l - 1][f / 4]) {
+                        continue;
+                    }
+                    let hanging =
+                        (0..3).filter(|&j| self.neighbour(l, f, j).is_some_and(|g| refine[l][g])).count();
+                    if hanging >= 2 {
+                        refine[l][f] = true;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                return refine;
+            }
+        }
+    }
+
+    /// Writes the leaves (and green halves) as a mesh.
+    fn emit(&self, mesh: &Mesh, refine: &[Vec<bool>]) -> (Mesh, Vec<u8>) {
+        let n = self.refiner.levels();
+        let finest_verts = self.topo(n).vertex_count();
+        // (global vertex, barycentric corner weights in the control face), per leaf corner.
+        let mut tris: Vec<([u32; 3], [[f32; 3]; 3], u32, u8)> = Vec::new();
+        let mut level_of = vec![u8::MAX; finest_verts];
+        let mut use_vertex = |v: u32, l: usize| {
+            let s = &mut level_of[v as usize];
+            if *s == u8::MAX || (*s as usize) < l {
+                *s = l as u8;
+            }
+        };
+        for l in 0..=n {
+            let t = self.topo(l);
+            for f in 0..t.face_count() {
+                let exists = l == 0 || refine[l - 1][f / 4];
+                if !exists || (l < n && refine[l][f]) {
+                    continue;
+                }
+                let v: [u32; 3] = [t.face_verts[3 * f], t.face_verts[3 * f + 1], t.face_verts[3 * f + 2]];
+                let (root, w) = barycentric(f, l);
+                let hanging = if l < n {
+                    (0..3).find(|&j| self.neighbour(l, f, j).is_some_and(|g| refine[l][g]))
+                } else {
+                    None
+                };
+                for &x in &v {
+                    use_vertex(x, l);
+                }
+                match hanging {
+                    None => tris.push((v, w, root, l as u8)),
+                    Some(j) => {
+                        let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+                        let m = t.num_verts + t.face_edges[3 * f + j];
+                        use_vertex(m, l + 1);
+                        let wm = mid(w[j], w[j1]);
+                        tris.push(([v[j], m, v[j2]], [w[j], wm, w[j2]], root, l as u8));
+                        tris.push(([m, v[j1], v[j2]], [wm, w[j1], w[j2]], root, l as u8));
+                    }
+                }
+            }
+        }
+        // Compact the vertices in hierarchy order: control vertices keep their order
+        // (and their indices when all are used), then each level's new edge points.
+        let mut index = vec![u32::MAX; finest_verts];
+        let mut out = Mesh::new();
+        for (v, &l) in level_of.iter().enumerate() {
+            if l != u8::MAX {
+                index[v] = out.positions.len() as u32;
+                out.positions.push(self.pos[l as usize][v]);
+            }
+        }
+        out.face_indices.reserve(3 * tris.len());
+        out.face_offsets.reserve(tris.len());
+        for (vs, ..) in &tris {
+            out.push_face(&[index[vs[0] as usize], index[vs[1] as usize], index[vs[2] as usize]]);
+        }
+        if let Some(uv) = &mesh.uvs {
+            let mut values: Vec<Vec2> = Vec::new();
+            let mut indices = Vec::with_capacity(3 * tris.len());
+            let mut seen: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
+            for (vs, ws, root, _) in &tris {
+                let r = 3 * *root as usize;
+                let c = [
+                    uv.values[uv.indices[r] as usize],
+                    uv.values[uv.indices[r + 1] as usize],
+                    uv.values[uv.indices[r + 2] as usize],
+                ];
+                for k in 0..3 {
+                    let w = ws[k];
+                    let value = c[0] * w[0] + c[1] * w[1] + c[2] * w[2];
+                    let key = (index[vs[k] as usize], [value.x.to_bits(), value.y.to_bits()]);
+                    let i = *seen.entry(key).or_insert_with(|| {
+                        values.push(value);
+                        values.len() as u32 - 1
+                    });
+                    indices.push(i);
+                }
+            }
+            out.uvs = Some(FaceVarying { values, indices });
+        }
+        let levels = tris.iter().map(|t| t.3).collect();
+        (out, levels)
+    }
+}
+
+/// The angle between two vectors (0 when either is degenerate).
+fn angle(a: Vec3, b: Vec3) -> f32 {
+    let d = (a.length_squared() * b.length_squared()).sqrt();
+    if d.is_nan() || d <= 0.0 || d.is_infinite() {
+        return 0.0;
+    }
+    (a.dot(b) / d).clamp(-1.0, 1.0).acos()
+}
+
+fn mid(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5]
+}
+
+/// The control face of face `f` at level `l` and the barycentric weights of its three
+/// corners in it (Loop's child layout: `4f (v₀ m₀ m₂)`, `4f+1 (m₀ v₁ m₁)`,
+/// `4f+2 (m₂ m₁ v₂)`, `4f+3 (m₀ m₁ m₂)`). The weights are dyadic, hence exact.
+fn barycentric(f: usize, l: usize) -> (u32, [[f32; 3]; 3]) {
+    let mut w = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for i in (0..l).rev() {
+        let k = (f >> (2 * i)) & 3;
+        let [a, b, c] = w;
+        let (m0, m1, m2) = (mid(a, b), mid(b, c), mid(c, a));
+        w = match k {
+            0 => [a, m0, m2],
+            1 => [m0, b, m1],
+            2 => [m2, m1, c],
+            _ => [m0, m1, m2],
+        };
+    }
+    ((f >> (2 * l)) as u32, w)
+}

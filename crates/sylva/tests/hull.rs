@@ -1,0 +1,794 @@
+//! The hull mesher (seed 000, spec 000 §2.3–2.7 and §7): trimming, simplification,
+//! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
+//! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
+
+use glam::{DVec3, Vec3};
+use std::collections::{HashMap, HashSet};
+use sylva::mesh::hull::{hull_mesh, pair_offsets, simplify, HullMesh, HullOptions, JointKind};
+use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+use sylva::{Mesh, Skeleton, NO_PARENT};
+
+// ---------------------------------------------------------------------------------------
+// Mesh checks
+
+/// What [`check`] measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Topo {
+    vertices: usize,
+    edges: usize,
+    faces: usize,
+    boundary_loops: usize,
+    components: usize,
+    euler: i64,
+}
+
+/// Asserts a valid, consistently oriented 2-manifold of triangles (each directed edge
+/// once, every vertex star one fan, no NaN, no unused vertex) of genus 0 in every
+/// component (χ = 2·C − B); returns its counts.
+fn check(name: &str, m: &Mesh) -> Topo {
+    m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+    let nv = m.positions.len();
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut wedges: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nv];
+    for f in 0..m.face_count() {
+        let t = m.face(f);
+        assert_eq!(t.len(), 3, "{name}: face {f} is not a triangle");
+        for k in 0..3 {
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            assert_ne!(a, b, "{name}: face {f} repeats vertex {a}");
+            let n = directed.entry((a, b)).or_default();
+            *n += 1;
+            assert_eq!(*n, 1, "{name}: directed edge {a}->{b} used twice (orientation or non-manifold)");
+            wedges[a as usize].push((b, c));
+        }
+    }
+    let mut edges = HashSet::new();
+    let mut boundary_next: HashMap<u32, u32> = HashMap::new();
+    for &(a, b) in directed.keys() {
+        edges.insert((a.min(b), a.max(b)));
+        if !directed.contains_key(&(b, a)) {
+            // Boundary edge b→a missing: the hole runs b → a.
+            assert!(boundary_next.insert(b, a).is_none(), "{name}: two boundary edges leave vertex {b}");
+        }
+    }
+    // Vertex stars: wedges (next, prev) chain into one fan.
+    for (v, ws) in wedges.iter().enumerate() {
+        assert!(!ws.is_empty(), "{name}: vertex {v} is unused");
+        let by_next: HashMap<u32, u32> = ws.iter().copied().collect();
+        let mut start = ws[0].0;
+        // On a boundary vertex, start at the wedge nobody continues into.
+        let prevs: HashSet<u32> = ws.iter().map(|w| w.1).collect();
+        if let Some(w) = ws.iter().find(|w| !prevs.contains(&w.0)) {
+            start = w.0;
+        }
+        let mut seen = 0;
+        let mut at = start;
+        while let Some(&p) = by_next.get(&at) {
+            seen += 1;
+            at = p;
+            if at == start || seen > ws.len() {
+                break;
+            }
+        }
+        assert_eq!(seen, ws.len(), "{name}: vertex {v} star is not one fan");
+    }
+    // Boundary loops.
+    let mut visited = HashSet::new();
+    let mut boundary_loops = 0;
+    for &s in boundary_next.keys() {
+        if visited.contains(&s) {
+            continue;
+        }
+        boundary_loops += 1;
+        let mut at = s;
+        while visited.insert(at) {
+            at = boundary_next[&at];
+        }
+    }
+    // Components (union–find over face vertices).
+    let mut parent: Vec<u32> = (0..nv as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    for f in 0..m.face_count() {
+        let t = m.face(f);
+        for k in 1..3 {
+            let (a, b) = (find(&mut parent, t[0]), find(&mut parent, t[k]));
+            parent[a as usize] = b;
+        }
+    }
+    let components = (0..nv as u32).filter(|&v| find(&mut parent, v) == v).count();
+    let euler = nv as i64 - edges.len() as i64 + m.face_count() as i64;
+    assert_eq!(
+        euler,
+        2 * components as i64 - boundary_loops as i64,
+        "{name}: not genus 0 (χ {euler}, {components} components, {boundary_loops} holes)"
+    );
+    Topo { vertices: nv, edges: edges.len(), faces: m.face_count(), boundary_loops, components, euler }
+}
+
+fn signed_volume(m: &Mesh) -> f64 {
+    (0..m.face_count())
+        .map(|f| {
+            let [a, b, c] = [0, 1, 2].map(|k| m.positions[m.face(f)[k] as usize].as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+fn face_area(m: &Mesh, f: usize) -> f64 {
+    let [a, b, c] = [0, 1, 2].map(|k| m.positions[m.face(f)[k] as usize].as_dvec3());
+    (b - a).cross(c - a).length() * 0.5
+}
+
+fn loop2(m: &Mesh) -> Mesh {
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
+        ..Default::default()
+    };
+    subdivide(m, &[], &opts).expect("Loop subdivision of the hull control mesh")
+}
+
+/// Meshes with and without caps and checks everything that holds for any input.
+fn full_check(name: &str, sk: &Skeleton, sides: u32, refine: bool) -> HullMesh {
+    let open =
+        hull_mesh(sk, &HullOptions { sides, ..Default::default() }).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let t = check(name, &open.mesh);
+    assert_eq!(t.boundary_loops, open.open_loops, "{name}: open loops");
+    let capped = hull_mesh(sk, &HullOptions { sides, caps: true, ..Default::default() }).unwrap();
+    let tc = check(&format!("{name} capped"), &capped.mesh);
+    assert_eq!(tc.boundary_loops, 0, "{name}: capped mesh has holes");
+    assert_eq!(capped.open_loops, 0);
+    assert_eq!(tc.euler, 2 * tc.components as i64);
+    if capped.mesh.face_count() > 0 {
+        assert!(signed_volume(&capped.mesh) > 0.0, "{name}: inward-facing (volume ≤ 0)");
+    }
+    // Components: one per tree, plus one per loop of each fallback joint, minus one per
+    // fallback joint (its pieces were one before).
+    let uv = open.mesh.uvs.as_ref().unwrap();
+    assert!(uv.values.iter().all(|v| v.is_finite()), "{name}: UV not finite");
+    assert_eq!(uv.indices.len(), open.mesh.face_indices.len());
+    if refine && open.mesh.face_count() > 0 {
+        let fine = loop2(&open.mesh);
+        let tf = check(&format!("{name} Loop 2"), &fine);
+        assert_eq!(tf.faces, 16 * t.faces);
+        assert_eq!(tf.boundary_loops, t.boundary_loops);
+        assert_eq!(tf.euler, t.euler);
+        let finec = loop2(&capped.mesh);
+        check(&format!("{name} capped Loop 2"), &finec);
+    }
+    open
+}
+
+// ---------------------------------------------------------------------------------------
+// Skeleton builders
+
+fn seg(s: &mut Skeleton, parent: u32, p: Vec3, r: f32) -> u32 {
+    let up = if parent == NO_PARENT {
+        Vec3::X
+    } else {
+        let d = p - s.position[parent as usize];
+        d.any_orthonormal_vector()
+    };
+    s.push(p, r, parent, up, 0)
+}
+
+fn chain(points: &[Vec3], r: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let mut at = NO_PARENT;
+    for &p in points {
+        at = seg(&mut s, at, p, r);
+    }
+    s
+}
+
+/// Trunk of height 2 with `n` children fanned around it at `tilt` from vertical.
+fn whorl(n: usize, tilt: f32, r_child: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let top = seg(&mut s, root, Vec3::Y * 2.0, 0.2);
+    for k in 0..n {
+        let a = k as f32 * std::f32::consts::TAU / n as f32;
+        let d = Vec3::new(tilt.sin() * a.cos(), tilt.cos(), tilt.sin() * a.sin());
+        seg(&mut s, top, Vec3::Y * 2.0 + d * 2.0, r_child);
+    }
+    s
+}
+
+fn y_fork() -> Skeleton {
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
+    seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), 0.12);
+    seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), 0.15);
+    s
+}
+
+/// A random-ish tree of `depth` levels (deterministic), with bends and short
+/// internodes.
+fn tree(depth: u32, segs: u32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.3);
+    let mut stack = vec![(root, Vec3::Y, 2.0f32, 0.3f32, 0u32)];
+    let mut h = 1u32;
+    while let Some((node, dir, len, r, level)) = stack.pop() {
+        let mut at = node;
+        let mut p = s.position[node as usize];
+        let mut d = dir;
+        for k in 0..segs {
+            h = h.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            let wob =
+                Vec3::new(((h >> 8) % 100) as f32 / 500.0 - 0.1, 0.0, ((h >> 16) % 100) as f32 / 500.0 - 0.1);
+            d = (d + wob).normalize();
+            p += d * (len / segs as f32);
+            let rr = r * (1.0 - 0.25 * (k + 1) as f32 / segs as f32);
+            at = seg(&mut s, at, p, rr);
+        }
+        if level + 1 < depth {
+            let side = d.any_orthonormal_vector();
+            let other = d.cross(side);
+            for (k, w) in [0.8f32, -0.7, 0.3].iter().enumerate() {
+                let nd = (d + side * *w + other * (k as f32 - 1.0) * 0.5).normalize();
+                stack.push((at, nd, len * 0.75, r * 0.65, level + 1));
+            }
+        }
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------------------
+// Spec 000 §7 properties
+
+/// Property 4: trimming offsets (special cases, symmetry, continuity, tightness).
+#[test]
+fn trimming_offsets_follow_the_geometry() {
+    let eps = 1e-6;
+    let (a, b) = (DVec3::Y, DVec3::X);
+    let (oa, ob) = pair_offsets(a, 0.4, b, 0.25, eps).unwrap();
+    assert!((oa - 0.25).abs() < 1e-12 && (ob - 0.4).abs() < 1e-12, "90°: offA = rB, offB = rA");
+    assert_eq!(pair_offsets(a, 0.4, -a, 0.25, eps), Some((0.0, 0.0)), "180°: 0");
+    assert_eq!(pair_offsets(a, 0.4, a, 0.25, eps), None, "aligned");
+    assert_eq!(pair_offsets(a, 0.4, DVec3::new(1e-4, 1.0, 0.0).normalize(), 0.25, eps), None);
+    // Continuity across 90°.
+    let dir = |deg: f64| DVec3::new(deg.to_radians().sin(), deg.to_radians().cos(), 0.0);
+    let below = pair_offsets(a, 0.4, dir(90.0 - 1e-7), 0.25, eps).unwrap();
+    let above = pair_offsets(a, 0.4, dir(90.0 + 1e-7), 0.25, eps).unwrap();
+    assert!((below.0 - above.0).abs() < 1e-6 && (below.1 - above.1).abs() < 1e-6);
+    // Continuity towards 180°.
+    let near = pair_offsets(a, 0.4, dir(180.0 - 1e-6), 0.25, eps).unwrap();
+    assert!(near.0 < 1e-6 && near.1 < 1e-6);
+
+    // Tightness by sampling solid half-infinite cylinders.
+    let inside = |p: DVec3, axis: DVec3, r: f64| {
+        let t = p.dot(axis);
+        t >= 0.0 && (p - axis * t).length() <= r
+    };
+    for &deg in &[20.0, 45.0, 70.0, 90.0, 110.0, 135.0, 160.0] {
+        for &(ra, rb) in &[(0.5, 0.5), (0.5, 0.2), (0.2, 0.5), (1.0, 0.1)] {
+            let b = dir(deg);
+            let (oa, ob) = pair_offsets(a, ra, b, rb, eps).unwrap();
+            if (ra - rb) == 0.0 {
+                assert!((oa - ob).abs() < 1e-12, "equal radii must give equal offsets");
+            }
+            for (axis, r, off, other, ro) in [(a, ra, oa, b, rb), (b, rb, ob, a, ra)] {
+                let (u, w) = axis.any_orthonormal_pair();
+                let disc = |t: f64| {
+                    let mut v = Vec::new();
+                    for i in 0..=40 {
+                        for j in 0..=40 {
+                            let x = (i as f64 / 20.0 - 1.0) * r;
+                            let y = (j as f64 / 20.0 - 1.0) * r;
+                            if x * x + y * y <= r * r {
+                                v.push(axis * t + u * x + w * y);
+                            }
+                        }
+                    }
+                    v
+                };
+                for t in [off * 1.0001 + 1e-9, off * 1.05 + 1e-3, off * 2.0 + 0.1] {
+                    assert!(
+                        disc(t).iter().all(|&p| !inside(p, other, ro)),
+                        "{deg}° r {ra}/{rb}: a point beyond the offset {off} at {t} is inside the other tube"
+                    );
+                }
+                if off > 1e-3 {
+                    // The extreme point lies in the plane of the two axes: scan that
+                    // chord of the cross-section finely.
+                    let v = (other - axis * other.dot(axis)).normalize();
+                    let chord =
+                        |t: f64| (0..=4000).map(move |i| axis * t + v * ((i as f64 / 2000.0 - 1.0) * r));
+                    assert!(
+                        chord(off * 0.99).any(|p| inside(p, other, ro)),
+                        "{deg}° r {ra}/{rb}: offset {off} is not tight"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Property 5: simplification never moves end points, leaves no crossing branch,
+/// is stable, and drops exactly the collapsed branches.
+#[test]
+fn simplification_never_moves_end_points_and_is_stable() {
+    // Short internodes with laterals: joints too close together.
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.3);
+    let mut at = seg(&mut s, r, Vec3::Y * 3.0, 0.3);
+    for k in 0..6 {
+        let y = 3.0 + 0.15 * (k + 1) as f32;
+        let side = seg(
+            &mut s,
+            at,
+            Vec3::new(0.0, y + 2.0, 0.0) + Vec3::new((k as f32).cos(), 0.0, (k as f32).sin()) * 2.0,
+            0.1,
+        );
+        let _ = side;
+        at = seg(&mut s, at, Vec3::Y * y, 0.28);
+    }
+    seg(&mut s, at, Vec3::Y * 6.0, 0.25);
+    let opts = HullOptions::default();
+    let g = simplify(&s, &opts).unwrap();
+    assert!(!g.collapsed.is_empty(), "the fixture must collapse something");
+    let internodes = s.parent.iter().filter(|&&p| p != NO_PARENT).count();
+    assert_eq!(g.branches.len() + g.collapsed.len() + g.dropped.len(), internodes);
+    let by_node: HashMap<u32, &_> = g.branches.iter().map(|b| (b.node, b)).collect();
+    for b in &g.branches {
+        assert_eq!(b.end, s.position[b.node as usize].as_dvec3(), "end point moved");
+        assert_eq!(b.start, s.position[b.start_node as usize].as_dvec3());
+        if b.parent != NO_PARENT {
+            assert_eq!(b.start, by_node[&b.parent].end, "child does not start at its parent's end");
+        } else {
+            assert_eq!(b.start_node, 0, "root base moved");
+        }
+        let len = b.start.distance(b.end);
+        assert!(b.start_offset + b.end_offset < len || g.clamped.contains(&b.node));
+    }
+    // Rerun on the simplified skeleton: nothing collapses.
+    let mut t = Skeleton::new();
+    let mut map = HashMap::new();
+    map.insert(0u32, t.push(s.position[0], s.radius[0], NO_PARENT, s.up[0], 0));
+    for b in &g.branches {
+        let p = map[&b.start_node];
+        let i = t.push(s.position[b.node as usize], s.radius[b.node as usize], p, s.up[b.node as usize], 0);
+        map.insert(b.node, i);
+    }
+    // Keep the start radii as they were (min rule): radius of the start node already is.
+    let g2 = simplify(&t, &opts).unwrap();
+    assert!(g2.collapsed.is_empty(), "simplification is not stable: {:?}", g2.collapsed);
+    assert_eq!(g2.branches.len(), g.branches.len());
+    // The mesh is valid too.
+    let m = full_check("short internodes", &s, 4, true);
+    assert_eq!(m.collapsed, g.collapsed);
+}
+
+/// Property 6: N = max(1, round(L / (π r̄))).
+#[test]
+fn segment_count_formula() {
+    for (len, r, n) in
+        [(10.0f32, 1.0f32, 3u32), (1.0, 1.0, 1), (0.01, 1.0, 1), (100.0, 1.0, 32), (7.0, 0.5, 4)]
+    {
+        let s = chain(&[Vec3::ZERO, Vec3::Y * len], r);
+        let m = hull_mesh(&s, &HullOptions::default()).unwrap();
+        assert_eq!(m.branches.len(), 1);
+        assert_eq!(m.branches[0].segments, n, "L {len} r {r}");
+        assert_eq!(m.mesh.positions.len(), (n as usize + 1) * 4);
+        assert_eq!(m.mesh.face_count(), 2 * n as usize * 4);
+    }
+    // The cap on segments.
+    let s = chain(&[Vec3::ZERO, Vec3::Y * 1000.0], 0.001);
+    let m = hull_mesh(&s, &HullOptions { max_segments: 50, ..Default::default() }).unwrap();
+    assert_eq!(m.branches[0].segments, 50);
+}
+
+/// Property 7: (N+1)·s vertices and 2Ns faces per branch; loops planar, orthogonal to
+/// the axis, equidistant; interior-loop vertices have valence 6.
+#[test]
+fn branches_have_regular_loops() {
+    for sides in [3u32, 4, 6, 9] {
+        let s = tree(3, 3);
+        let m = hull_mesh(&s, &HullOptions { sides, ..Default::default() }).unwrap();
+        let mesh = &m.mesh;
+        let mut valence = vec![HashSet::new(); mesh.positions.len()];
+        for f in 0..mesh.face_count() {
+            let t = mesh.face(f);
+            for k in 0..3 {
+                valence[t[k] as usize].insert(t[(k + 1) % 3]);
+                valence[t[(k + 1) % 3] as usize].insert(t[k]);
+            }
+        }
+        let su = sides as usize;
+        let mut total_v = 0;
+        for b in &m.branches {
+            assert_eq!(b.faces.len(), 2 * b.segments as usize * su);
+            total_v += (b.segments as usize + 1) * su;
+            let start = s.position[b.start_node as usize].as_dvec3();
+            let end = s.position[b.node as usize].as_dvec3();
+            let d = (end - start).normalize();
+            for i in 0..=b.segments as usize {
+                let vs: Vec<DVec3> = (0..su)
+                    .map(|j| mesh.positions[b.first_vertex as usize + i * su + j].as_dvec3())
+                    .collect();
+                let c = vs.iter().copied().sum::<DVec3>() / su as f64;
+                let r0 = (vs[0] - c).length();
+                for v in &vs {
+                    assert!((v - c).dot(d).abs() < 1e-4, "loop not orthogonal to the axis");
+                    assert!(((v - c).length() - r0).abs() < 1e-4, "loop not equidistant");
+                }
+                // Centre on the axis.
+                let t = (c - start).dot(d);
+                assert!(((c - start) - d * t).length() < 1e-4);
+                if i > 0 && i < b.segments as usize {
+                    for j in 0..su {
+                        assert_eq!(
+                            valence[b.first_vertex as usize + i * su + j].len(),
+                            6,
+                            "interior valence"
+                        );
+                    }
+                }
+            }
+        }
+        let caps = 0;
+        assert_eq!(mesh.positions.len(), total_v + caps, "joints add no vertices");
+    }
+}
+
+/// Properties 8–12: all triangles, no degenerate faces, boundary = base + tips, every
+/// joint watertight with k(s+2) − 4 faces, totals and Euler characteristic 1 − L.
+#[test]
+fn joints_are_watertight_and_totals_match() {
+    for sides in [3u32, 4, 5, 8] {
+        for (name, s) in [("y fork", y_fork()), ("whorl 5", whorl(5, 0.9, 0.08)), ("tree", tree(3, 2))] {
+            let m = hull_mesh(&s, &HullOptions { sides, ..Default::default() }).unwrap();
+            assert!(m.fallbacks.is_empty(), "{name}: fallbacks {:?}", m.fallbacks);
+            let t = check(name, &m.mesh);
+            let leaves = m.open_loops - 1;
+            assert_eq!(t.boundary_loops, 1 + leaves);
+            assert_eq!(t.components, 1);
+            assert_eq!(t.euler, 1 - leaves as i64, "{name}: χ = 1 − L");
+            let su = sides as usize;
+            let mut f_expect = 0;
+            let mut v_expect = 0;
+            for b in &m.branches {
+                f_expect += 2 * su * b.segments as usize;
+                v_expect += su * (b.segments as usize + 1);
+            }
+            for j in &m.joints {
+                let k = j.loops as usize;
+                assert_eq!(j.faces.len(), k * (su + 2) - 4, "{name}: joint {} faces", j.node);
+                if k > 2 {
+                    assert_eq!(j.kind, JointKind::Hull);
+                }
+                f_expect += k * (su + 2) - 4;
+            }
+            assert_eq!(t.faces, f_expect);
+            assert_eq!(t.vertices, v_expect);
+            assert_eq!(2 * t.edges, 3 * t.faces + su * (1 + leaves), "E = (3F + s(1+L))/2");
+            for f in 0..m.mesh.face_count() {
+                assert!(face_area(&m.mesh, f) > 1e-9, "{name}: degenerate face {f}");
+            }
+            // Every joint face touches loop edges only through branch faces: each loop
+            // edge has one branch face and one joint face (follows from the manifold check
+            // plus the per-branch face ranges).
+            for j in &m.joints {
+                let jf: HashSet<usize> = (j.faces.start as usize..j.faces.end as usize).collect();
+                let mut used = HashSet::new();
+                for &f in &jf {
+                    used.extend(m.mesh.face(f).iter().copied());
+                }
+                assert_eq!(used.len(), j.loops as usize * su, "{name}: joint uses exactly its loop vertices");
+            }
+        }
+    }
+}
+
+/// Property 19: every corner has a finite UV; branch corners have u = j/s (the wrap
+/// corner u = 1) and v = v₀ + i/2; chains through bands continue v.
+#[test]
+fn uvs_cover_every_corner_and_follow_the_branches() {
+    let s = tree(3, 4);
+    let m = hull_mesh(&s, &HullOptions::default()).unwrap();
+    let uv = m.mesh.uvs.as_ref().unwrap();
+    assert!(uv.values.iter().all(|v| v.is_finite()));
+    let su = 4usize;
+    let mut saw_wrap = false;
+    for b in &m.branches {
+        for f in b.faces.clone() {
+            let f = f as usize;
+            for (k, c) in m.mesh.corners(f).enumerate() {
+                let v = m.mesh.face_indices[c] as usize - b.first_vertex as usize;
+                let (i, j) = (v / su, v % su);
+                let q = uv.values[uv.indices[c] as usize];
+                let u_ok = (q.x - j as f32 / su as f32).abs() < 1e-6 || (j == 0 && q.x == 1.0);
+                saw_wrap |= j == 0 && q.x == 1.0;
+                assert!(u_ok, "branch {} corner {k}: u {} for column {j}", b.node, q.x);
+                assert!((q.y as f64 - (b.v0 + i as f64 * 0.5)).abs() < 1e-4, "v {} for loop {i}", q.y);
+            }
+        }
+    }
+    assert!(saw_wrap);
+    // Joint UV triangles: every face corner set, counter-clockwise or degenerate.
+    for j in &m.joints {
+        for f in j.faces.clone() {
+            let c: Vec<_> = m.mesh.corners(f as usize).map(|c| uv.values[uv.indices[c] as usize]).collect();
+            let area = (c[1] - c[0]).perp_dot(c[2] - c[0]);
+            assert!(area > -1e-6, "joint {} face {f}: UV triangle is flipped ({area})", j.node);
+        }
+    }
+    // A straight chain is one seamless chart: v is continuous through the band joints.
+    let s = chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(0.1, 2.0, 0.0), Vec3::new(0.3, 3.0, 0.0)], 0.1);
+    let m = hull_mesh(&s, &HullOptions::default()).unwrap();
+    assert_eq!(m.joints.len(), 2);
+    assert!(m.joints.iter().all(|j| j.kind == JointKind::Band));
+    assert!(m.branches[1].v0 > m.branches[0].v0 + m.branches[0].segments as f64 * 0.5);
+    let uv = m.mesh.uvs.as_ref().unwrap();
+    // No seam except the u wrap: every vertex has at most 2 distinct UVs.
+    let mut per_vertex: HashMap<u32, HashSet<(u32, u32)>> = HashMap::new();
+    for (c, &v) in m.mesh.face_indices.iter().enumerate() {
+        let q = uv.values[uv.indices[c] as usize];
+        per_vertex.entry(v).or_default().insert((q.x.to_bits(), q.y.to_bits()));
+    }
+    assert!(per_vertex.values().all(|s| s.len() <= 2));
+}
+
+/// Property 22: the same input gives byte-identical output.
+#[test]
+fn output_is_deterministic() {
+    let s = tree(3, 3);
+    let a = hull_mesh(&s, &HullOptions::default()).unwrap();
+    let b = hull_mesh(&s, &HullOptions::default()).unwrap();
+    assert_eq!(a, b);
+    let bits = |m: &Mesh| m.positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&a.mesh), bits(&b.mesh));
+    let dir = std::env::temp_dir().join(format!("sylva-hull-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut files = Vec::new();
+    for (k, m) in [a, b].into_iter().enumerate() {
+        let model = sylva::Model {
+            parts: vec![sylva::Part { name: "bark".into(), mesh: m.mesh, material: sylva::Material::bark() }],
+        };
+        let sub = dir.join(format!("run{k}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let path = sub.join("tree.obj");
+        sylva::export::write(&model, &path).unwrap();
+        files.push(std::fs::read(&path).unwrap());
+    }
+    assert!(files[0] == files[1], "OBJ bytes differ between two runs");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------
+// Robustness (issue 5 item 4)
+
+#[test]
+fn hard_cases_give_a_manifold_or_a_reported_fallback() {
+    let mut cases: Vec<(&str, Skeleton)> = Vec::new();
+    cases.push(("whorl of 8", whorl(8, 1.0, 0.08)));
+    cases.push(("whorl of 12, flat", whorl(12, std::f32::consts::FRAC_PI_2, 0.05)));
+    cases.push(("whorl of 6, thick children", whorl(6, 0.8, 0.3)));
+    // Aligned child: continues the parent straight on, next to a lateral.
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let a = seg(&mut s, r, Vec3::Y * 2.0, 0.2);
+    seg(&mut s, a, Vec3::Y * 4.0, 0.18);
+    seg(&mut s, a, Vec3::new(1.5, 3.5, 0.0), 0.1);
+    cases.push(("aligned child", s));
+    // A child thicker than its parent.
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.1);
+    let a = seg(&mut s, r, Vec3::Y * 2.0, 0.1);
+    seg(&mut s, a, Vec3::new(0.5, 4.0, 0.0), 0.4);
+    seg(&mut s, a, Vec3::new(-1.5, 3.0, 0.0), 0.05);
+    cases.push(("thick child", s));
+    // Zero-length internodes (inside a chain, at a fork and as a tip).
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.1);
+    let a = seg(&mut s, r, Vec3::Y, 0.1);
+    let z = seg(&mut s, a, Vec3::Y, 0.1);
+    seg(&mut s, z, Vec3::new(0.0, 2.0, 0.0), 0.1);
+    seg(&mut s, z, Vec3::new(1.0, 2.0, 0.0), 0.05);
+    seg(&mut s, z, Vec3::Y, 0.05);
+    cases.push(("zero-length internode", s));
+    cases.push(("3-node chain", chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(0.5, 2.0, 0.0)], 0.1)));
+    cases.push(("single segment", chain(&[Vec3::ZERO, Vec3::Y], 0.1)));
+    cases.push(("hairpin", chain(&[Vec3::ZERO, Vec3::Y * 2.0, Vec3::Y], 0.1)));
+    cases.push((
+        "right-angle bends",
+        chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 1.0)], 0.1),
+    ));
+    // Two children in exactly the same direction (aligned: no solution).
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.1);
+    let a = seg(&mut s, r, Vec3::Y, 0.1);
+    seg(&mut s, a, Vec3::new(1.0, 2.0, 0.0), 0.05);
+    seg(&mut s, a, Vec3::new(2.0, 3.0, 0.0), 0.05);
+    seg(&mut s, a, Vec3::new(-1.0, 2.0, 0.0), 0.05);
+    cases.push(("duplicate directions", s));
+    // Non-planar junction with very short internodes and mixed radii.
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.3);
+    let a = seg(&mut s, r, Vec3::Y * 0.2, 0.3);
+    let b = seg(&mut s, a, Vec3::new(0.05, 0.35, 0.0), 0.25);
+    seg(&mut s, b, Vec3::new(1.0, 1.0, 1.0), 0.1);
+    seg(&mut s, b, Vec3::new(-1.0, 0.8, 0.5), 0.2);
+    seg(&mut s, a, Vec3::new(0.2, 0.5, -1.0), 0.15);
+    seg(&mut s, b, Vec3::new(0.0, 2.0, 0.1), 0.2);
+    cases.push(("non-planar short", s));
+    // Zero radii everywhere and a skeleton that is one point.
+    cases.push(("zero radius", chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(1.0, 2.0, 0.0)], 0.0)));
+    let mut s = whorl(4, 0.7, 0.1);
+    s.radius.iter_mut().for_each(|r| *r = 0.0);
+    cases.push(("zero-radius whorl", s));
+    cases.push(("one point", chain(&[Vec3::ONE, Vec3::ONE, Vec3::ONE], 0.1)));
+    cases.push(("empty", Skeleton::new()));
+    // Several children from the root node (stems without a trunk).
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    for d in [Vec3::new(1.0, 2.0, 0.0), Vec3::new(-1.0, 2.0, 0.3), Vec3::new(0.0, 2.0, -1.0)] {
+        seg(&mut s, r, d, 0.1);
+    }
+    cases.push(("root whorl", s));
+    // Children going backwards and sideways (obtuse and reflex).
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let a = seg(&mut s, r, Vec3::Y * 2.0, 0.2);
+    seg(&mut s, a, Vec3::new(1.0, 0.5, 0.0), 0.1);
+    seg(&mut s, a, Vec3::new(-1.0, 0.3, 0.2), 0.1);
+    seg(&mut s, a, Vec3::new(0.0, 3.0, 0.0), 0.15);
+    cases.push(("drooping children", s));
+    cases.push(("big tree", tree(4, 3)));
+    for (name, s) in &cases {
+        for sides in [3u32, 4, 7] {
+            let m = full_check(&format!("{name} s={sides}"), s, sides, true);
+            for j in &m.joints {
+                assert_eq!(
+                    j.kind == JointKind::Fallback || !j.detached.is_empty(),
+                    m.fallbacks.contains(&j.node)
+                );
+            }
+            if sides == 4 {
+                println!(
+                    "{name:>24}: {} branches, {} joints, fallbacks {:?}, collapsed {}, clamped {:?}, dropped {:?}",
+                    m.branches.len(),
+                    m.joints.len(),
+                    m.fallbacks,
+                    m.collapsed.len(),
+                    m.clamped,
+                    m.dropped
+                );
+            }
+        }
+    }
+    // The cases that must not fall back.
+    for name in [
+        "whorl of 8",
+        "whorl of 6, thick children",
+        "aligned child",
+        "thick child",
+        "3-node chain",
+        "root whorl",
+    ] {
+        let s = &cases.iter().find(|c| c.0 == name).unwrap().1;
+        let m = hull_mesh(s, &HullOptions::default()).unwrap();
+        assert!(m.fallbacks.is_empty(), "{name}: fallbacks {:?}", m.fallbacks);
+    }
+    // The ones that must: true alignment.
+    for name in ["hairpin", "duplicate directions"] {
+        let s = &cases.iter().find(|c| c.0 == name).unwrap().1;
+        let m = hull_mesh(s, &HullOptions::default()).unwrap();
+        assert_eq!(m.fallbacks, vec![1], "{name}");
+    }
+}
+
+#[test]
+fn bad_options_and_skeletons_are_errors() {
+    let s = y_fork();
+    for sides in [0, 2, 1025] {
+        assert!(hull_mesh(&s, &HullOptions { sides, ..Default::default() }).is_err());
+    }
+    assert!(hull_mesh(&s, &HullOptions { margin: f64::NAN, ..Default::default() }).is_err());
+    assert!(hull_mesh(&s, &HullOptions { segment_factor: 0.0, ..Default::default() }).is_err());
+    let mut bad = y_fork();
+    bad.radius[2] = f32::NAN;
+    assert!(matches!(hull_mesh(&bad, &HullOptions::default()), Err(sylva::Error::Skeleton(_))));
+}
+
+// ---------------------------------------------------------------------------------------
+// Every preset
+
+#[test]
+fn every_preset_meshes_into_a_valid_manifold() {
+    println!("| preset | nodes | vertices | faces | boundary loops | fallbacks | collapsed | ms |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut meshed = 0;
+    for p in sylva::presets::all() {
+        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
+        let mut report = sylva::pipeline::Report::default();
+        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut report) else { continue };
+        let sk = &g.skeleton;
+        let t0 = std::time::Instant::now();
+        let full = hull_mesh(sk, &HullOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let (v_full, f_full) = (full.mesh.positions.len(), full.mesh.face_count());
+        // Very large trees are checked with coarse branches (2 segments at most): the
+        // joints, which are what can go wrong, are the same.
+        let big = f_full > 1_000_000;
+        let coarse = HullOptions { max_segments: 2, ..Default::default() };
+        let m = if big { hull_mesh(sk, &coarse).unwrap() } else { full };
+        let t = check(p.name, &m.mesh);
+        assert_eq!(t.boundary_loops, m.open_loops, "{}", p.name);
+        if m.mesh.face_count() < 400_000 {
+            let capped =
+                hull_mesh(sk, &HullOptions { caps: true, ..if big { coarse } else { Default::default() } })
+                    .unwrap();
+            let tc = check(p.name, &capped.mesh);
+            assert_eq!(tc.boundary_loops, 0);
+            if capped.mesh.face_count() > 0 {
+                assert!(signed_volume(&capped.mesh) > 0.0, "{}: volume", p.name);
+            }
+        }
+        if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {
+            check(&format!("{} Loop 2", p.name), &loop2(&m.mesh));
+        }
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {ms:.1} |",
+            p.name,
+            sk.len(),
+            v_full,
+            f_full,
+            t.boundary_loops,
+            m.fallbacks.len(),
+            m.collapsed.len()
+        );
+        meshed += 1;
+    }
+    assert!(meshed > 0);
+}
+
+/// Throughput: `cargo test --release -p sylva --test hull -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn throughput() {
+    let s = tree(7, 4);
+    let t0 = std::time::Instant::now();
+    let m = hull_mesh(&s, &HullOptions::default()).unwrap();
+    let dt = t0.elapsed().as_secs_f64();
+    println!(
+        "{} nodes → {} vertices, {} faces, {} joints in {:.1} ms ({:.0} nodes/s)",
+        s.len(),
+        m.mesh.positions.len(),
+        m.mesh.face_count(),
+        m.joints.len(),
+        dt * 1e3,
+        s.len() as f64 / dt
+    );
+    for k in [2usize, 5, 10, 20, 50, 100, 200] {
+        let w = whorl(k, 1.2, 0.2 / (k as f32).sqrt());
+        let t0 = std::time::Instant::now();
+        let m = hull_mesh(&w, &HullOptions::default()).unwrap();
+        println!("whorl {k}: {:.2} ms, fallbacks {}", t0.elapsed().as_secs_f64() * 1e3, m.fallbacks.len());
+    }
+}
+
+/// Diagnostic: why joints of a preset fall back (`HULL_PRESET=name`).
+#[test]
+#[ignore]
+fn fallback_reasons() {
+    let name = std::env::var("HULL_PRESET").unwrap_or_else(|_| "wp-european-larch".into());
+    let loaded = sylva::recipe::load(&name, &[]).unwrap();
+    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap();
+    let m = hull_mesh(&g.skeleton, &HullOptions::default()).unwrap();
+    let graph = simplify(&g.skeleton, &HullOptions::default()).unwrap();
+    let aligned: HashSet<u32> = graph.aligned.iter().copied().collect();
+    let a = m.fallbacks.iter().filter(|j| aligned.contains(j)).count();
+    let mut ks: HashMap<u32, usize> = HashMap::new();
+    for j in m.joints.iter().filter(|j| j.kind == JointKind::Fallback && !aligned.contains(&j.node)) {
+        *ks.entry(j.loops).or_default() += 1;
+    }
+    println!("{name}: {} fallbacks, {a} aligned; others by k: {ks:?}", m.fallbacks.len());
+}
