@@ -284,10 +284,28 @@ pub fn mesh(
         "open" => TipStyle::Open,
         _ => TipStyle::Round,
     };
-    let tube = tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
+    let control = if recipe.mesh.method == "hull" {
+        use crate::mesh::hull::{hull_mesh, HullOptions};
+        let opts =
+            HullOptions { sides: recipe.mesh.sides, caps: recipe.mesh.tips != "open", ..Default::default() };
+        let h = hull_mesh(skeleton, &opts)?;
+        report.axes = h.branches.len();
+        if !h.fallbacks.is_empty() {
+            report.warnings.push(format!(
+                "hull mesher: {} joint(s) fell back to capped tubes (first nodes {:?})",
+                h.fallbacks.len(),
+                &h.fallbacks[..h.fallbacks.len().min(8)]
+            ));
+        }
+        h.mesh
+    } else {
+        let tube =
+            tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
+        report.axes = tube.axes;
+        tube.mesh
+    };
     report.mesh_time = t.elapsed();
-    report.axes = tube.axes;
-    let bark = refine_bark(recipe, tube.mesh)?;
+    let bark = refine_bark(recipe, control)?;
     let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
     if !skeleton.organs.is_empty() {
         let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);

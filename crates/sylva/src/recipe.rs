@@ -50,7 +50,7 @@ pub enum Generator {
     /// 001, interpreted by the turtle) or a sylva JSON skeleton.
     Import(ImportGenerator),
     /// Weber & Penn 1995 parametric trees (`docs/weber-penn.md`).
-    WeberPenn(crate::grow::weber_penn::WeberPennParams),
+    WeberPenn(Box<crate::grow::weber_penn::WeberPennParams>),
     /// Space colonization, Runions, Lane & Prusinkiewicz 2007 (`docs/colonize.md`).
     SpaceColonization(crate::grow::colonize::ColonizeParams),
 }
@@ -446,7 +446,7 @@ impl Recipe {
             }
             // Both generators validate their own parameters (naming the key) when they run.
             Generator::SpaceColonization(g) => g.validate()?,
-            Generator::WeberPenn(_) => {}
+            Generator::WeberPenn(g) => g.validate()?,
             Generator::Import(g) => {
                 if !["bridge", "strict", "new-root"].contains(&g.gap.as_str()) {
                     return bad("generator.gap", format!("is `{}`; use bridge, strict or new-root", g.gap));
@@ -463,8 +463,8 @@ impl Recipe {
                 }
             }
         }
-        if !["tube"].contains(&self.mesh.method.as_str()) {
-            return bad("mesh.method", format!("is `{}`; known methods: tube", self.mesh.method));
+        if !["tube", "hull"].contains(&self.mesh.method.as_str()) {
+            return bad("mesh.method", format!("is `{}`; known methods: tube, hull", self.mesh.method));
         }
         if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
             return bad(
