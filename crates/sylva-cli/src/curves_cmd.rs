@@ -46,7 +46,8 @@ pub fn run(args: CurvesArgs) -> Result<()> {
         sets.push(sylva::recipe::parse_set(s)?);
     }
     if let Some(s) = args.seed {
-        let s = i64::try_from(s).map_err(|_| miette::miette!("--seed {s} is too large (max {})", i64::MAX))?;
+        let s =
+            i64::try_from(s).map_err(|_| miette::miette!("--seed {s} is too large (max {})", i64::MAX))?;
         sets.push(("seed".into(), toml::Value::Integer(s)));
     }
     if let Some(px) = args.size {

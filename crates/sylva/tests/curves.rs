@@ -13,7 +13,13 @@ use sylva::curves::noise::Perlin;
 use sylva::curves::{self, space};
 
 fn particle(profile: Profile, scale: f64, duration: f64) -> Particle {
-    Particle { position: DVec2::ZERO, velocity: DVec2::X, mass: 1.0, charge: Charge::new(profile, scale), duration }
+    Particle {
+        position: DVec2::ZERO,
+        velocity: DVec2::X,
+        mass: 1.0,
+        charge: Charge::new(profile, scale),
+        duration,
+    }
 }
 
 fn run(p: &Particle, b: f64, opts: &TraceOptions) -> Trace {
@@ -62,7 +68,8 @@ fn constant_charge_and_field_trace_a_circle() {
 /// Acceptance: q = 0 is a straight line at unchanged speed.
 #[test]
 fn zero_charge_is_a_straight_line() {
-    for profile in [Profile::Constant { q: 0.0 }, Profile::Sine { amplitude: 0.0, mean: 0.0, period: 7.0, phase: 0.0 }]
+    for profile in
+        [Profile::Constant { q: 0.0 }, Profile::Sine { amplitude: 0.0, mean: 0.0, period: 7.0, phase: 0.0 }]
     {
         let mut p = particle(profile, 1.0, 500.0);
         p.velocity = DVec2::new(0.6, -0.8) * 2.0;
@@ -114,16 +121,20 @@ fn flipping_the_charge_mirrors_the_path() {
 #[test]
 fn spiral_curvature_increases_with_time() {
     let opts = TraceOptions::default();
-    let spiral = |t_end: f64, alpha: f64| {
-        run(&particle(Profile::Spiral { t_end, alpha }, 1.0, t_end), 1.0, &opts)
-    };
+    let spiral =
+        |t_end: f64, alpha: f64| run(&particle(Profile::Spiral { t_end, alpha }, 1.0, t_end), 1.0, &opts);
     for (t_end, alpha) in [(650.0, 0.8), (450.0, 0.75), (250.0, 0.7), (50.0, 0.65)] {
         let tr = spiral(t_end, alpha);
         assert_eq!(tr.end, End::Duration);
         let k: Vec<f64> = curvature(&tr.points).iter().map(|k| k.abs()).collect();
         let n = k.len();
         for i in 1..n - 2 {
-            assert!(k[i + 1] > k[i], "T {t_end} α {alpha}: |κ| not increasing at {i}: {} → {}", k[i], k[i + 1]);
+            assert!(
+                k[i + 1] > k[i],
+                "T {t_end} α {alpha}: |κ| not increasing at {i}: {} → {}",
+                k[i],
+                k[i + 1]
+            );
         }
         // Chords are slightly shorter than the arcs at the tight centre.
         assert!((tr.length() - t_end).abs() < 1e-2 * t_end, "{}", tr.length());
@@ -137,7 +148,8 @@ fn spiral_curvature_increases_with_time() {
         let k = curvature(&tr.points);
         (k[k.len() - 2] / k[1]).abs()
     };
-    let (a, b, c) = (tightening(&spiral(450.0, 0.8)), tightening(&spiral(450.0, 0.75)), tightening(&spiral(450.0, 0.65)));
+    let (a, b, c) =
+        (tightening(&spiral(450.0, 0.8)), tightening(&spiral(450.0, 0.75)), tightening(&spiral(450.0, 0.65)));
     assert!(a > b && b > c, "{a} {b} {c}");
 }
 
@@ -158,7 +170,8 @@ fn expression_profiles_match_builtin_ones() {
 fn test_fill(region: Region, field: Field, seed: u64, max_curves: usize) -> (FillParams, fill::FillResult) {
     let (lo, hi) = region.bounds();
     let params = FillParams { region, max_curves, ..FillParams::default() };
-    let roots = [Root { position: DVec2::new(0.5 * (lo.x + hi.x), lo.y + 1.0), direction: DVec2::Y, charge: None }];
+    let roots =
+        [Root { position: DVec2::new(0.5 * (lo.x + hi.x), lo.y + 1.0), direction: DVec2::Y, charge: None }];
     let mut rng = Pcg64::seed_from_u64(seed);
     let res = fill::space_fill(&roots, &params, &field, &mut rng, &mut Budget::new(50_000_000)).unwrap();
     (params, res)
@@ -267,7 +280,12 @@ fn space_filling_invariants() {
 /// point, where the child peels off its parent).
 #[test]
 fn space_filled_polylines_do_not_cross() {
-    let (_, res) = test_fill(Region::Rect { min: DVec2::ZERO, max: DVec2::new(500.0, 400.0) }, Field::Uniform(1.0), 11, 120);
+    let (_, res) = test_fill(
+        Region::Rect { min: DVec2::ZERO, max: DVec2::new(500.0, 400.0) },
+        Field::Uniform(1.0),
+        11,
+        120,
+    );
     let curves = &res.curves;
     // Segments bucketed by a coarse grid.
     let cell = 10.0;
@@ -354,7 +372,8 @@ fn branching_releases_at_equal_intervals_with_fair_signs() {
         assert_eq!(c.trace.velocities[0], curves[0].trace.velocities[i]);
     }
     // Fairness over many children.
-    let br = Branching { count: 400, depth: 1, from: 0.0, to: 1.0, signs: Signs::Random, duration_scale: 0.01 };
+    let br =
+        Branching { count: 400, depth: 1, from: 0.0, to: 1.0, signs: Signs::Random, duration_scale: 0.01 };
     let curves = grow_branching(
         &root,
         &Field::Uniform(1.0),
@@ -429,7 +448,16 @@ fn every_preset_renders_to_svg_and_png() {
         let reader = png::Decoder::new(std::io::Cursor::new(&png)).read_info().unwrap();
         let info = reader.info();
         assert_eq!(info.width, 300, "{name}");
-        assert_eq!(info.color_type, png::ColorType::Rgba);
+        let expected = if g.drawing.background.is_some_and(|c| c[3] == 255) {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Rgba
+        };
+        assert_eq!(info.color_type, expected, "{name}");
+        let mut reader = reader;
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        assert!(buf.iter().any(|&b| b != buf[0]), "{name}: a blank image");
         // Files, through write_atomic.
         for ext in ["svg", "png"] {
             let path = dir.join(format!("{name}.{ext}"));
@@ -500,7 +528,12 @@ fn branch_widths_join_their_parents() {
     for c in curves {
         if let Some((p, k)) = c.parent {
             let parent_w = curves[p].widths[k].max(0.0);
-            assert!((c.widths[0] - parent_w).abs() < 1e-9, "branch starts at {} vs parent {}", c.widths[0], parent_w);
+            assert!(
+                (c.widths[0] - parent_w).abs() < 1e-9,
+                "branch starts at {} vs parent {}",
+                c.widths[0],
+                parent_w
+            );
             let w = &c.widths;
             assert!(w.windows(2).all(|x| (x[1] - x[0]).abs() < 0.5), "width jumps along a branch");
             checked += 1;
@@ -530,7 +563,8 @@ fn preset_loading_errors_are_clear() {
     assert_eq!(c.spec.width, 700.0);
     let e = curves::load_preset("curves-window", &set("curves.colour", toml::Value::Integer(1))).unwrap_err();
     assert!(e.to_string().contains("colour"), "{e}");
-    let e = curves::load_preset("curves-window", &set("curves.style.widht", toml::Value::Integer(1))).unwrap_err();
+    let e = curves::load_preset("curves-window", &set("curves.style.widht", toml::Value::Integer(1)))
+        .unwrap_err();
     assert!(e.to_string().contains("widht") && e.to_string().contains("curves.style"), "{e}");
     let e = curves::load_preset("no-such-curves", &[]).unwrap_err().to_string();
     assert!(e.contains("no-such-curves") && e.contains("curves-klimt-tree"), "{e}");
@@ -548,11 +582,12 @@ fn preset_loading_errors_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("dt"), "{e}");
-    let e = curves::load_preset("curves-window", &set("curves.background", toml::Value::String("red".into())))
-        .unwrap()
-        .generate()
-        .unwrap_err()
-        .to_string();
+    let e =
+        curves::load_preset("curves-window", &set("curves.background", toml::Value::String("red".into())))
+            .unwrap()
+            .generate()
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("background") && e.contains("red"), "{e}");
     // A layer with an unknown key and an unknown layer type.
     let text = r#"
@@ -610,8 +645,14 @@ fn three_d_curves_follow_helices() {
         duration: 400.0,
     };
     let b = 0.8;
-    let c = space::trace3(&p3, &space::Field3::Uniform(DVec3::new(0.0, 0.0, b)), 0.5, &mut Budget::new(1 << 30), 0)
-        .unwrap();
+    let c = space::trace3(
+        &p3,
+        &space::Field3::Uniform(DVec3::new(0.0, 0.0, b)),
+        0.5,
+        &mut Budget::new(1 << 30),
+        0,
+    )
+    .unwrap();
     let r = 1.5 * 1.0 / (0.2 * b);
     let centre = DVec2::new(0.0, -r);
     for (x, v) in c.points.iter().zip(&c.velocities) {
@@ -621,8 +662,13 @@ fn three_d_curves_follow_helices() {
     }
     // Projected onto the plane it is the 2D curve.
     let p2 = Particle { position: DVec2::ZERO, velocity: DVec2::X, mass: 1.5, charge, duration: 400.0 };
-    let t2 = trace(&p2, &Field::Uniform(b), &TraceOptions { dt: 0.5, ..Default::default() }, &mut Budget::new(1 << 30))
-        .unwrap();
+    let t2 = trace(
+        &p2,
+        &Field::Uniform(b),
+        &TraceOptions { dt: 0.5, ..Default::default() },
+        &mut Budget::new(1 << 30),
+    )
+    .unwrap();
     for (a, b) in c.points.iter().zip(&t2.points) {
         assert!(a.truncate().distance(*b) < 1e-9);
     }
@@ -661,7 +707,8 @@ fn three_d_curves_make_skeletons_and_sphere_curves_stay_on_the_sphere() {
         charge: Charge::new(Profile::Spiral { t_end: 500.0, alpha: 0.7 }, 0.6),
         duration: 500.0,
     };
-    let field = space::Field3::Perlin { noise: Perlin::new(1), scale: 150.0, strength: 1.0, bias: DVec3::ZERO };
+    let field =
+        space::Field3::Perlin { noise: Perlin::new(1), scale: 150.0, strength: 1.0, bias: DVec3::ZERO };
     let c = space::trace_on_sphere(&sp, &field, 1.0, &mut Budget::new(1 << 20), 0).unwrap();
     assert_eq!(c.points.len(), 501);
     for (p, v) in c.points.iter().zip(&c.velocities) {
@@ -689,8 +736,29 @@ fn regenerate_docs_pngs() {
         let t = std::time::Instant::now();
         let g = c.generate().unwrap_or_else(|e| panic!("{name}: {e}"));
         let gen = t.elapsed();
+        // Small files for the docs: 480 px wide, best compression.
         let path = out.join(format!("{name}.png"));
-        curves::write_drawing(&g.drawing, &path, 500).unwrap();
+        let d = &g.drawing;
+        let raster = curves::render::rasterize(
+            &curves::render::picture(d, curves::render::tolerance_for(d, 480)),
+            480,
+        )
+        .unwrap();
+        sylva::fsutil::write_atomic(&path, |w| {
+            let mut enc = png::Encoder::new(w, raster.width, raster.height);
+            let data: Vec<u8> = if raster.opaque {
+                enc.set_color(png::ColorType::Rgb);
+                raster.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+            } else {
+                enc.set_color(png::ColorType::Rgba);
+                raster.rgba.clone()
+            };
+            enc.set_compression(png::Compression::High);
+            let mut wr = enc.write_header().map_err(std::io::Error::other)?;
+            wr.write_image_data(&data).map_err(std::io::Error::other)?;
+            wr.finish().map_err(std::io::Error::other)
+        })
+        .unwrap();
         println!(
             "{:<28} curves {:>5}  steps {:>9}  attempts {:>6}  abandoned {:>5}  {:>7.1} ms",
             name,

@@ -193,7 +193,11 @@ impl FieldSpec {
             FieldSpec::Perlin { scale, strength, seed: s, .. } => {
                 check_positive("field.scale", *scale)?;
                 check_finite("field.strength", *strength)?;
-                Ok(Field::Perlin { noise: Perlin::new(s.unwrap_or(seed)), scale: *scale, strength: *strength })
+                Ok(Field::Perlin {
+                    noise: Perlin::new(s.unwrap_or(seed)),
+                    scale: *scale,
+                    strength: *strength,
+                })
             }
         }
     }
@@ -254,7 +258,9 @@ impl RegionSpec {
     fn region(&self, what: &str) -> Result<Region> {
         let r = match self {
             RegionSpec::Rect { min, max } => Region::Rect { min: v2(*min), max: v2(*max) },
-            RegionSpec::Ellipse { center, radii } => Region::Ellipse { center: v2(*center), radii: v2(*radii) },
+            RegionSpec::Ellipse { center, radii } => {
+                Region::Ellipse { center: v2(*center), radii: v2(*radii) }
+            }
             RegionSpec::Polygon { points } => Region::Polygon(points.iter().map(|p| v2(*p)).collect()),
         };
         r.validate(what)?;
@@ -1002,8 +1008,13 @@ impl Raw {
 
 /// Generates the drawing of a composition.
 pub(crate) fn generate(spec: &CurvesSpec, seed: u64, name: &str) -> Result<Generated> {
-    for (k, v) in [("width", spec.width), ("height", spec.height), ("dt", spec.dt), ("speed", spec.speed), ("mass", spec.mass)]
-    {
+    for (k, v) in [
+        ("width", spec.width),
+        ("height", spec.height),
+        ("dt", spec.dt),
+        ("speed", spec.speed),
+        ("mass", spec.mass),
+    ] {
         check_positive(&format!("curves.{k}"), v)?;
     }
     let background = match spec.background.as_deref() {
@@ -1179,8 +1190,12 @@ fn build_layer(
                     },
                 };
                 let grown = match &region {
-                    None => grow_branching(&particle, &field, &opts, &branching, rng, budget, spec.max_curves)?,
-                    Some(r) => grow_in_region(&particle, &field, &opts, &branching, r, rng, budget, spec.max_curves)?,
+                    None => {
+                        grow_branching(&particle, &field, &opts, &branching, rng, budget, spec.max_curves)?
+                    }
+                    Some(r) => {
+                        grow_in_region(&particle, &field, &opts, &branching, r, rng, budget, spec.max_curves)?
+                    }
                 };
                 let base = raws.len();
                 let mut group: Vec<Raw> = grown
@@ -1286,7 +1301,11 @@ fn build_layer(
             };
             let roots = if root.is_empty() {
                 let (lo, hi) = region.bounds();
-                vec![Root { position: DVec2::new(0.5 * (lo.x + hi.x), lo.y), direction: DVec2::Y, charge: None }]
+                vec![Root {
+                    position: DVec2::new(0.5 * (lo.x + hi.x), lo.y),
+                    direction: DVec2::Y,
+                    charge: None,
+                }]
             } else {
                 root.iter()
                     .map(|r| {
@@ -1336,6 +1355,12 @@ fn build_layer(
                 return Err(ctx.err("the hairline needs at least two finite points"));
             }
             let parting = parting.unwrap_or(0.5 * spec.width);
+            if *strands as usize > spec.max_curves {
+                return Err(ctx.err(format!(
+                    "{strands} strands exceed the curve limit {}; raise `curves.max_curves`",
+                    spec.max_curves
+                )));
+            }
             let mut raws = Vec::new();
             for s in 0..*strands {
                 let (pos, tangent) = along(&line, (s as f64 + 0.5) / *strands as f64);
@@ -1384,6 +1409,13 @@ fn build_layer(
         LayerSpec::Fire { start, charge, k, flip_at, side, field, .. } => {
             let field = field.field(ctx.noise_seed)?;
             let (base_charge, duration) = ctx.charge(charge, *k, None, Some(*flip_at))?;
+            let total: u64 = side.iter().map(|sd| sd.tongues as u64).sum();
+            if total > spec.max_curves as u64 {
+                return Err(ctx.err(format!(
+                    "{total} tongues exceed the curve limit {}; raise `curves.max_curves`",
+                    spec.max_curves
+                )));
+            }
             let mut raws = Vec::new();
             let mut at = v2(*start);
             {
@@ -1399,7 +1431,8 @@ fn build_layer(
                         let mut ch = base_charge.clone();
                         ch.scale *= sd.sign;
                         let v0 = heading(h) * spec.speed;
-                        let particle = Particle { position: at, velocity: v0, mass: spec.mass, charge: ch, duration };
+                        let particle =
+                            Particle { position: at, velocity: v0, mass: spec.mass, charge: ch, duration };
                         // The seed: terminate when v_x reaches 0 (a sign change of v_x).
                         let mut ref_sign = v0.x.signum() * (v0.x.abs() > 1e-9) as i32 as f64;
                         let tr = magnetic::trace_with(&particle, &field, &opts, budget, i as u64, |v| {
@@ -1453,6 +1486,12 @@ fn build_layer(
                     // §7.3: reverse the velocity at the border; the re-entry starts a
                     // new curve with a new random colour.
                     v = -v;
+                    if raws.len() >= spec.max_curves {
+                        return Err(ctx.err(format!(
+                            "more than {} re-entries; raise `curves.max_curves` or shorten `duration`",
+                            spec.max_curves
+                        )));
+                    }
                     if current.len() >= 2 {
                         let mut r = Raw::new(std::mem::take(&mut current), None, 0);
                         if random_colors {
@@ -1530,6 +1569,12 @@ fn build_layer(
             let field3 = field.field3(ctx.noise_seed)?;
             let (ch, duration) = ctx.charge(charge, *k, *duration, None)?;
             let proj = Projection::new(view, spec);
+            if *particles as usize > spec.max_curves {
+                return Err(ctx.err(format!(
+                    "{particles} particles exceed the curve limit {}; raise `curves.max_curves`",
+                    spec.max_curves
+                )));
+            }
             let mut raws = Vec::new();
             for i in 0..*particles {
                 // A uniform random point and tangent direction on the sphere.
@@ -1740,13 +1785,13 @@ fn style_curves(
                         255,
                     ])
                 } else {
-                    let k = ((rng.random::<f64>() * style.palette.len() as f64) as usize).min(style.palette.len() - 1);
+                    let k = ((rng.random::<f64>() * style.palette.len() as f64) as usize)
+                        .min(style.palette.len() - 1);
                     Paint::Solid(style.palette[k])
                 }
             }
             (None, ColorBy::Noise) => {
-                let channel =
-                    style.channel.unwrap_or_else(|| ((rng.random::<f64>() * 3.0) as usize).min(2));
+                let channel = style.channel.unwrap_or_else(|| ((rng.random::<f64>() * 3.0) as usize).min(2));
                 let colors = r
                     .points
                     .iter()

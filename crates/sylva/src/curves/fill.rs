@@ -62,7 +62,7 @@ type Queue = BinaryHeap<Reverse<(u32, u32, usize, usize)>>;
 pub const EMPTY: u32 = u32::MAX;
 
 /// Most cells an occupancy grid may have.
-pub const MAX_CELLS: usize = 1 << 26;
+pub const MAX_CELLS: usize = 1 << 24;
 
 /// A bounded region of the plane.
 #[derive(Debug, Clone, PartialEq)]
@@ -149,9 +149,10 @@ impl Region {
     pub fn mirrored(&self, axis: f64) -> Region {
         let m = |p: DVec2| DVec2::new(2.0 * axis - p.x, p.y);
         match self {
-            Region::Rect { min, max } => {
-                Region::Rect { min: DVec2::new(2.0 * axis - max.x, min.y), max: DVec2::new(2.0 * axis - min.x, max.y) }
-            }
+            Region::Rect { min, max } => Region::Rect {
+                min: DVec2::new(2.0 * axis - max.x, min.y),
+                max: DVec2::new(2.0 * axis - min.x, max.y),
+            },
             Region::Ellipse { center, radii } => Region::Ellipse { center: m(*center), radii: *radii },
             Region::Polygon(pts) => Region::Polygon(pts.iter().map(|p| m(*p)).collect()),
         }
@@ -567,10 +568,10 @@ pub fn space_fill(
 
     // One attempt: trace with the grid visitor; on failure restore the grid.
     let attempt = |grid: &mut Occupancy,
-                       particle: &Particle,
-                       parent: Option<usize>,
-                       budget: &mut Budget,
-                       id: u32|
+                   particle: &Particle,
+                   parent: Option<usize>,
+                   budget: &mut Budget,
+                   id: u32|
      -> Result<(Option<Trace>, Outcome)> {
         let mut w = Walker {
             grid,
@@ -699,7 +700,13 @@ pub fn space_fill(
             });
             if let Some(tr) = tr {
                 enqueue(queue, curves.len(), depth, &tr);
-                curves.push(FillCurve { trace: tr, parent, depth, rung: usize::MAX, sign: charge.scale.signum() });
+                curves.push(FillCurve {
+                    trace: tr,
+                    parent,
+                    depth,
+                    rung: usize::MAX,
+                    sign: charge.scale.signum(),
+                });
                 return Ok(true);
             }
             return Ok(false);

@@ -306,9 +306,7 @@ impl Field {
     pub fn bz(&self, p: DVec2) -> f64 {
         match self {
             Field::Uniform(b) => *b,
-            Field::Perlin { noise, scale, strength } => {
-                strength * 0.5 * (1.0 + noise.noise2(p / *scale))
-            }
+            Field::Perlin { noise, scale, strength } => strength * 0.5 * (1.0 + noise.noise2(p / *scale)),
         }
     }
 
@@ -716,12 +714,14 @@ pub fn grow_branching(
             branching.duration_scale
         )));
     }
-    let mut out = vec![BranchCurve {
-        trace: trace(root, field, opts, budget)?,
-        parent: None,
-        depth: 0,
-        sign: 1.0,
-    }];
+    if branching.depth > 0 && branching.count as usize >= max_curves {
+        return Err(Error::Recipe(format!(
+            "children: count = {} exceeds the curve limit {max_curves}; raise `curves.max_curves`",
+            branching.count
+        )));
+    }
+    let mut out =
+        vec![BranchCurve { trace: trace(root, field, opts, budget)?, parent: None, depth: 0, sign: 1.0 }];
     let mut particles = vec![root.clone()];
     let mut next = 0;
     while next < out.len() {

@@ -164,7 +164,8 @@ pub fn write_drawing(drawing: &Drawing, path: &Path, width_px: u32) -> Result<()
 pub fn skeleton(generated: &Generated, opts: &space::SkeletonOptions) -> Result<crate::Skeleton> {
     if generated.curves3d.is_empty() {
         return Err(Error::Recipe(
-            "this composition has no 3D curves (`space` or `sphere` layers); write .svg or .png instead".into(),
+            "this composition has no 3D curves (`space` or `sphere` layers); write .svg or .png instead"
+                .into(),
         ));
     }
     space::to_skeleton(&generated.curves3d, opts)
@@ -195,11 +196,10 @@ pub fn svg_string(drawing: &Drawing, width_px: u32) -> Result<String> {
 
 /// Encodes a drawing as PNG bytes (no file).
 pub fn png_bytes(drawing: &Drawing, width_px: u32) -> Result<Vec<u8>> {
-    let raster = render::rasterize(&render::picture(drawing, render::tolerance_for(drawing, width_px)), width_px)?;
+    let raster =
+        render::rasterize(&render::picture(drawing, render::tolerance_for(drawing, width_px)), width_px)?;
     let mut out = Vec::new();
-    render::encode_png(&raster, &mut out).map_err(|e| Error::InvalidGeometry {
-        what: "PNG encoder".into(),
-        why: e.to_string(),
-    })?;
+    render::encode_png(&raster, &mut out)
+        .map_err(|e| Error::InvalidGeometry { what: "PNG encoder".into(), why: e.to_string() })?;
     Ok(out)
 }

@@ -22,10 +22,10 @@
 //! 3. Per-point colours (Fig. 7.6, coloured from the local noise) split the stroke into
 //!    runs of [`RUN`] segments, each filled with the colour at its middle; runs overlap
 //!    by one segment so anti-aliasing leaves no seams.
-//! 4. Each offset polyline is simplified (greedily, [`simplify`]) to the caller's `tolerance`
-//!    in drawing units — the one explicit accuracy parameter; the writers pass 0.2
-//!    output pixels — so a curve traced at one point per unit does not cost one edge
-//!    per unit at a small output size.
+//! 4. Before offsetting, each centre line is simplified ([`simplify`], one pass) to half
+//!    the caller's `tolerance` in drawing units — the one explicit accuracy parameter;
+//!    the writers pass 0.2 output pixels — so a curve traced at one point per unit does
+//!    not cost one edge per unit at a small output size.
 //!
 //! The same shapes go to SVG (`<path>` per shape: paths, not pixels) and to the PNG
 //! rasterizer, so both outputs agree.
@@ -42,6 +42,9 @@ pub const RUN: usize = 6;
 
 /// Largest raster the PNG writer makes (either side, pixels).
 pub const MAX_PIXELS_SIDE: u32 = 16_384;
+
+/// Most pixels of one raster (64 Mpx, 256 MiB of RGBA).
+pub const MAX_PIXELS: u64 = 1 << 26;
 
 /// An sRGB colour with alpha, 8 bits per channel.
 pub type Rgba = [u8; 4];
@@ -136,16 +139,16 @@ pub fn picture(drawing: &Drawing, tolerance: f64) -> Picture {
     let h = drawing.height;
     let tol = if tolerance.is_finite() { tolerance.max(0.0) } else { 0.0 };
     for c in &drawing.curves {
-        let Some(stroke) = Stroke::new(c) else { continue };
+        let Some(stroke) = Stroke::new(c, tol) else { continue };
         if let Some((color, ow)) = c.outline {
             if ow > 0.0 && ow.is_finite() {
                 let o = stroke.offsets(ow, c.magnetic);
-                shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true, tol), color });
+                shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true), color });
             }
         }
         let o = stroke.offsets(0.0, c.magnetic);
         match &stroke.colors {
-            None => shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true, tol), color: stroke.solid }),
+            None => shapes.push(Shape { polygon: o.polygon(0, o.len() - 1, h, true), color: stroke.solid }),
             Some(colors) => {
                 let n = o.len();
                 let mut a = 0;
@@ -153,7 +156,7 @@ pub fn picture(drawing: &Drawing, tolerance: f64) -> Picture {
                     let b = (a + RUN).min(n - 1);
                     let color = colors[(a + b) / 2];
                     // Overlap the previous run by one segment.
-                    shapes.push(Shape { polygon: o.polygon(a.saturating_sub(1), b, h, a == 0, tol), color });
+                    shapes.push(Shape { polygon: o.polygon(a.saturating_sub(1), b, h, a == 0), color });
                     a = b;
                 }
             }
@@ -183,7 +186,7 @@ struct Offsets {
 }
 
 impl Stroke {
-    fn new(c: &Curve) -> Option<Stroke> {
+    fn new(c: &Curve, tol: f64) -> Option<Stroke> {
         let mut points = Vec::with_capacity(c.points.len());
         let mut half = Vec::with_capacity(c.points.len());
         let per_point = match &c.paint {
@@ -213,7 +216,42 @@ impl Stroke {
             Paint::PerPoint(v) => v.first().copied().unwrap_or([0, 0, 0, 255]),
         };
         let kappa = if c.magnetic { curvature(&points) } else { Vec::new() };
-        Some(Stroke { points, kappa, half, colors, solid })
+        let mut stroke = Stroke { points, kappa, half, colors, solid };
+        stroke.simplify(tol);
+        Some(stroke)
+    }
+
+    /// Drops centre-line points within `tol / 2` of the kept polyline (and whose width
+    /// is within `tol / 2` of the run's); a kept point's curvature becomes the largest
+    /// of its run, so the width clamp stays conservative.
+    fn simplify(&mut self, tol: f64) {
+        if tol <= 0.0 {
+            return;
+        }
+        let mut keep = Vec::new();
+        // Per-point colours change along the curve: keep runs short enough for them.
+        let max_run = if self.colors.is_some() { 8 } else { MAX_RUN };
+        simplify_with(&self.points, Some(&self.half), 0.5 * tol, max_run, &mut keep);
+        if keep.len() == self.points.len() {
+            return;
+        }
+        let pick = |v: &[DVec2]| keep.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let points = pick(&self.points);
+        let half = keep.iter().map(|&i| self.half[i]).collect();
+        let kappa = if self.kappa.is_empty() {
+            Vec::new()
+        } else {
+            let mut k = Vec::with_capacity(keep.len());
+            let mut prev = 0;
+            for &i in &keep {
+                let run = &self.kappa[prev..=i];
+                k.push(run.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+                prev = i;
+            }
+            k
+        };
+        let colors = self.colors.as_ref().map(|c| keep.iter().map(|&i| c[i]).collect());
+        (self.points, self.half, self.kappa, self.colors) = (points, half, kappa, colors);
     }
 
     /// Offsets at half width + `extra`.
@@ -264,18 +302,15 @@ impl Offsets {
     /// The closed outline of points `a..=b`, with a round cap at the curve's end when
     /// `b` is the last point and at its start when `a` is 0 and `start_cap` holds, in
     /// picture coordinates (y flipped about `height`).
-    fn polygon(&self, a: usize, b: usize, height: f64, start_cap: bool, tol: f64) -> Vec<Vec2> {
+    fn polygon(&self, a: usize, b: usize, height: f64, start_cap: bool) -> Vec<Vec2> {
         let n = self.len();
         let mut out = Vec::with_capacity(2 * (b - a + 1) + 34);
         let flip = |p: DVec2| Vec2::new(p.x as f32, (height - p.y) as f32);
-        let mut keep = Vec::new();
-        simplify(&self.left[a..=b], tol, &mut keep);
-        out.extend(keep.iter().map(|&i| flip(self.left[a + i])));
+        out.extend(self.left[a..=b].iter().map(|&p| flip(p)));
         if b == n - 1 {
             cap(&mut out, self.points[b], self.tangent_end, self.half[b], true, &flip);
         }
-        simplify(&self.right[a..=b], tol, &mut keep);
-        out.extend(keep.iter().rev().map(|&i| flip(self.right[a + i])));
+        out.extend(self.right[a..=b].iter().rev().map(|&p| flip(p)));
         if a == 0 && start_cap {
             cap(&mut out, self.points[a], self.tangent_start, self.half[a], false, &flip);
         }
@@ -284,41 +319,85 @@ impl Offsets {
 }
 
 /// Longest run of points one kept segment may replace in [`simplify`].
-pub const MAX_RUN: usize = 48;
+pub const MAX_RUN: usize = 64;
 
-/// Greedy polyline simplification: the indices of `pts` to keep so that no dropped
+/// Polyline simplification in one pass: the indices of `pts` to keep so that no dropped
 /// point lies farther than `tol` from the kept segment that replaces it (first and last
-/// always kept), in increasing order. From each kept point the segment is extended one
-/// point at a time while every skipped point stays within `tol`, up to [`MAX_RUN`]
-/// points: O(n · MAX_RUN) worst case, linear and cache-friendly on the smooth,
-/// densely sampled curves this is for (Douglas–Peucker degrades to O(n²) on spirals).
+/// always kept), in increasing order. From each kept point it keeps the cone of
+/// directions that pass within `tol` of every point so far (a sleeve / cone-intersection
+/// method) and ends the segment at the last point inside the cone; runs are at most
+/// [`MAX_RUN`] points and must move away from their anchor. O(n), a square root per
+/// point.
 pub fn simplify(pts: &[DVec2], tol: f64, keep: &mut Vec<usize>) {
+    simplify_with(pts, None, tol, MAX_RUN, keep);
+}
+
+/// [`simplify`] with runs of at most `max_run` points that also end when `extra` (e.g.
+/// a half width) changes by more than `tol` from the run's anchor.
+fn simplify_with(pts: &[DVec2], extra: Option<&[f64]>, tol: f64, max_run: usize, keep: &mut Vec<usize>) {
     keep.clear();
     let n = pts.len();
-    if n <= 2 || tol <= 0.0 {
+    if n <= 2 || !(tol > 0.0) {
         keep.extend(0..n);
         return;
     }
-    let tol2 = tol * tol;
-    let within = |a: usize, b: usize| {
-        let (pa, d) = (pts[a], pts[b] - pts[a]);
-        let len2 = d.length_squared();
-        pts[a + 1..b].iter().all(|&p| {
-            let t = if len2 > 0.0 { ((p - pa).dot(d) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            (pa + d * t).distance_squared(p) <= tol2
-        })
-    };
     keep.push(0);
     let mut a = 0;
-    let mut j = 2;
-    while j < n {
-        if j - a > MAX_RUN || !within(a, j) {
-            a = j - 1;
-            keep.push(a);
+    loop {
+        let pa = pts[a];
+        let (mut left, mut right, mut first) = (DVec2::ZERO, DVec2::ZERO, DVec2::ZERO);
+        let mut have_cone = false;
+        let mut rmax: f64 = 0.0;
+        let mut j = a + 1;
+        while j < n {
+            if j - a > max_run || extra.is_some_and(|e| (e[j] - e[a]).abs() > tol) {
+                break;
+            }
+            let v = pts[j] - pa;
+            let r = v.length();
+            if r <= tol {
+                j += 1;
+                continue;
+            }
+            let u = v / r;
+            if have_cone
+                && (right.perp_dot(u) < 0.0
+                    || u.perp_dot(left) < 0.0
+                    || r < rmax - tol
+                    || u.dot(first) <= 0.0)
+            {
+                break;
+            }
+            // The directions within asin(tol / r) of u reach within tol of this point.
+            let sn = tol / r;
+            let cs = (1.0 - sn * sn).max(0.0).sqrt();
+            let bl = u * cs + u.perp() * sn;
+            let br = u * cs - u.perp() * sn;
+            if !have_cone {
+                (left, right, first, have_cone) = (bl, br, u, true);
+            } else {
+                if left.perp_dot(bl) < 0.0 {
+                    left = bl;
+                }
+                if right.perp_dot(br) > 0.0 {
+                    right = br;
+                }
+            }
+            rmax = rmax.max(r);
+            j += 1;
         }
-        j += 1;
+        if j >= n {
+            keep.push(n - 1);
+            return;
+        }
+        // j failed; j − 1 is the last point the segment can reach.
+        a = (j - 1).max(a + 1);
+        if a >= n - 1 {
+            keep.push(n - 1);
+            return;
+        }
+        keep.push(a);
     }
-    keep.push(n - 1);
 }
 
 /// Appends the interior points of a half-circle cap from the left offset to the right
@@ -346,6 +425,8 @@ pub struct Raster {
     pub height: u32,
     /// `width × height × 4` bytes.
     pub rgba: Vec<u8>,
+    /// Every pixel has alpha 255 (an opaque background).
+    pub opaque: bool,
 }
 
 /// Pixel size for a picture drawn `width_px` wide (height from the aspect ratio).
@@ -353,7 +434,11 @@ pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
     if width_px == 0 || width_px > MAX_PIXELS_SIDE {
         return Err(Error::Recipe(format!("image size {width_px} px must be in 1..={MAX_PIXELS_SIDE}")));
     }
-    if !(picture.width > 0.0 && picture.height > 0.0 && picture.width.is_finite() && picture.height.is_finite()) {
+    if !(picture.width > 0.0
+        && picture.height > 0.0
+        && picture.width.is_finite()
+        && picture.height.is_finite())
+    {
         return Err(Error::InvalidGeometry {
             what: "curves drawing".into(),
             why: format!("canvas {} × {} must be positive", picture.width, picture.height),
@@ -363,6 +448,11 @@ pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
     if h > MAX_PIXELS_SIDE as f64 {
         return Err(Error::Recipe(format!(
             "image height {h} px exceeds {MAX_PIXELS_SIDE}; lower the size or change the canvas aspect"
+        )));
+    }
+    if width_px as f64 * h > MAX_PIXELS as f64 {
+        return Err(Error::Recipe(format!(
+            "a {width_px} × {h} image has more than {MAX_PIXELS} pixels; lower the size"
         )));
     }
     Ok((width_px, h as u32))
@@ -399,23 +489,40 @@ pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {
         paint.set_color_rgba8(r, g, b, a);
         pixmap.fill_path(&path, &paint, FillRule::Winding, transform, None);
     }
-    let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
-    for px in pixmap.pixels() {
-        let c = px.demultiply();
-        rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
-    }
-    Ok(Raster { width: w, height: h, rgba })
+    // Over an opaque background every pixel is opaque, and premultiplied equals straight.
+    let opaque = picture.background.is_some_and(|c| c[3] == 255);
+    let rgba = if opaque {
+        pixmap.take()
+    } else {
+        let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
+        for px in pixmap.pixels() {
+            let c = px.demultiply();
+            rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+        }
+        rgba
+    };
+    Ok(Raster { width: w, height: h, rgba, opaque })
 }
 
-/// Encodes a raster as an 8-bit RGBA PNG.
+/// Encodes a raster as an 8-bit PNG: RGB when it is opaque, RGBA otherwise.
 pub fn encode_png(raster: &Raster, w: &mut dyn std::io::Write) -> std::io::Result<()> {
     let mut enc = png::Encoder::new(w, raster.width, raster.height);
-    enc.set_color(png::ColorType::Rgba);
     enc.set_depth(png::BitDepth::Eight);
-    enc.set_compression(png::Compression::Fast);
-    let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-    writer.write_image_data(&raster.rgba).map_err(std::io::Error::other)?;
-    writer.finish().map_err(std::io::Error::other)
+    // The "Up" filter with fdeflate's fastest mode: flat backgrounds and long strokes
+    // compress well at a fraction of the adaptive filter's cost.
+    enc.set_compression(png::Compression::Fastest);
+    if raster.opaque {
+        enc.set_color(png::ColorType::Rgb);
+        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+        let rgb: Vec<u8> = raster.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        writer.write_image_data(&rgb).map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    } else {
+        enc.set_color(png::ColorType::Rgba);
+        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+        writer.write_image_data(&raster.rgba).map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    }
 }
 
 /// Rasterizes `picture` `width_px` wide and writes it as a PNG, atomically.
@@ -479,7 +586,8 @@ mod tests {
 
     #[test]
     fn simplify_keeps_shape_within_tolerance() {
-        let pts: Vec<DVec2> = (0..200).map(|i| DVec2::new(i as f64, (i as f64 * 0.05).sin() * 20.0)).collect();
+        let pts: Vec<DVec2> =
+            (0..200).map(|i| DVec2::new(i as f64, (i as f64 * 0.05).sin() * 20.0)).collect();
         let mut keep = Vec::new();
         simplify(&pts, 0.1, &mut keep);
         assert!(keep.len() < 60 && keep.len() > 5, "{}", keep.len());

@@ -136,7 +136,9 @@ pub fn advance3(x: DVec3, v: DVec3, omega: DVec3, dt: f64) -> (DVec3, DVec3) {
 
 fn check3(p: &Particle3, dt: f64) -> Result<()> {
     if !(p.position.is_finite() && p.velocity.is_finite() && p.velocity.length_squared() > 0.0) {
-        return Err(Error::Recipe("3D particle: start position and a non-zero velocity must be finite".into()));
+        return Err(Error::Recipe(
+            "3D particle: start position and a non-zero velocity must be finite".into(),
+        ));
     }
     if !(p.mass.is_finite() && p.mass > 0.0 && dt.is_finite() && dt > 0.0) {
         return Err(Error::Recipe("3D particle: mass and dt must be positive".into()));
@@ -208,8 +210,15 @@ pub fn grow3(
     budget: &mut Budget,
     max_curves: usize,
 ) -> Result<Vec<Curve3>> {
-    if !(branching.duration_scale.is_finite() && branching.duration_scale > 0.0 && branching.tilt.is_finite()) {
+    if !(branching.duration_scale.is_finite() && branching.duration_scale > 0.0 && branching.tilt.is_finite())
+    {
         return Err(Error::Recipe("children: scale must be positive and tilt finite".into()));
+    }
+    if branching.depth > 0 && branching.count as usize >= max_curves {
+        return Err(Error::Recipe(format!(
+            "children: count = {} exceeds the curve limit {max_curves}; raise `curves.max_curves`",
+            branching.count
+        )));
     }
     let mut out = vec![trace3(root, field, dt, budget, 0)?];
     let mut particles = vec![root.clone()];
@@ -396,9 +405,16 @@ pub fn trace_on_sphere(
     let n0 = p.normal.normalize_or(DVec3::ZERO);
     let d0 = p.direction - n0 * n0.dot(p.direction);
     if !(p.radius.is_finite() && p.radius > 0.0 && n0 != DVec3::ZERO && d0.length_squared() > 1e-18) {
-        return Err(Error::Recipe("sphere particle: needs a positive radius and a tangent start direction".into()));
+        return Err(Error::Recipe(
+            "sphere particle: needs a positive radius and a tangent start direction".into(),
+        ));
     }
-    if !(p.speed.is_finite() && p.speed > 0.0 && p.mass.is_finite() && p.mass > 0.0 && dt.is_finite() && dt > 0.0)
+    if !(p.speed.is_finite()
+        && p.speed > 0.0
+        && p.mass.is_finite()
+        && p.mass > 0.0
+        && dt.is_finite()
+        && dt > 0.0)
     {
         return Err(Error::Recipe("sphere particle: speed, mass and dt must be positive".into()));
     }

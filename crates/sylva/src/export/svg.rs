@@ -59,7 +59,8 @@ fn hex(c: Rgba) -> String {
 /// the aspect ratio). One `<path>` per shape.
 pub fn to_svg(picture: &Picture, width_px: u32) -> Result<String> {
     let (w, h) = pixel_size(picture, width_px)?;
-    let mut out = String::with_capacity(64 + picture.shapes.iter().map(|s| s.polygon.len() * 14 + 48).sum::<usize>());
+    let mut out =
+        String::with_capacity(64 + picture.shapes.iter().map(|s| s.polygon.len() * 14 + 48).sum::<usize>());
     let _ = writeln!(out, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = write!(
         out,

@@ -156,6 +156,10 @@ struct Hierarchy<'a> {
 /// 0 unknown, 1 no, 2 yes.
 type Want = Vec<u8>;
 
+/// An output triangle: global vertices, barycentric corner weights in its control face,
+/// the control face, and its level.
+type Leaf = ([u32; 3], [[f32; 3]; 3], u32, u8);
+
 impl Hierarchy<'_> {
     fn topo(&self, l: usize) -> &Topology {
         &self.refiner.levels[l].topo
@@ -167,7 +171,7 @@ impl Hierarchy<'_> {
         let c = (3 * f + j) as u32;
         let [c0, c1] = t.edge_corners[t.face_edges[c as usize] as usize];
         let other = if c0 == c { c1 } else { c0 };
-        (other != NONE).then(|| other as usize / 3)
+        (other != NONE).then_some(other as usize / 3)
     }
 
     fn face_normal(&self, l: usize, f: usize) -> Vec3 {
@@ -312,7 +316,7 @@ impl Hierarchy<'_> {
         let n = self.refiner.levels();
         let finest_verts = self.topo(n).vertex_count();
         // (global vertex, barycentric corner weights in the control face), per leaf corner.
-        let mut tris: Vec<([u32; 3], [[f32; 3]; 3], u32, u8)> = Vec::new();
+        let mut tris: Vec<Leaf> = Vec::new();
         let mut level_of = vec![u8::MAX; finest_verts];
         let mut use_vertex = |v: u32, l: usize| {
             let s = &mut level_of[v as usize];

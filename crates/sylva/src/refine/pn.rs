@@ -134,6 +134,9 @@ fn bernstein3(t: f32) -> [f32; 4] {
     [s * s * s, 3.0 * s * s * t, 3.0 * s * t * t, t * t * t]
 }
 
+/// A corner's identity for welding: (vertex index, normal index).
+type CornerKey = (u32, u32);
+
 /// One corner of a patch: position, unit normal and the key that identifies it for
 /// welding (vertex index, normal index).
 #[derive(Clone, Copy)]
@@ -291,9 +294,9 @@ impl QuadPatch {
                 let q = |t: f32| [(1.0 - t) * (1.0 - t), t * (1.0 - t), t * t];
                 let (qu, qv) = (q(u), q(v));
                 let mut n = Vec3::ZERO;
-                for i in 0..3 {
-                    for j in 0..3 {
-                        n += self.n[i][j] * (qu[i] * qv[j]);
+                for (row, wu) in self.n.iter().zip(qu) {
+                    for (nij, wv) in row.iter().zip(qv) {
+                        n += *nij * (wu * wv);
                     }
                 }
                 n
@@ -336,8 +339,8 @@ struct Builder<'a> {
     normals: Vec<Vec3>,
     uv_values: Vec<Vec2>,
     uv_indices: Vec<u32>,
-    corner_verts: HashMap<(u32, u32), u32>,
-    edge_verts: HashMap<((u32, u32), (u32, u32)), Vec<u32>>,
+    corner_verts: HashMap<CornerKey, u32>,
+    edge_verts: HashMap<(CornerKey, CornerKey), Vec<u32>>,
 }
 
 impl Builder<'_> {
