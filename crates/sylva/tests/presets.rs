@@ -44,7 +44,13 @@ fn every_preset_meshes_closed_and_round_trips_through_obj() {
         // tobj leaves `face_arities` empty when every face of a model is a triangle.
         let faces: usize = models
             .iter()
-            .map(|m| if m.mesh.face_arities.is_empty() { m.mesh.indices.len() / 3 } else { m.mesh.face_arities.len() })
+            .map(|m| {
+                if m.mesh.face_arities.is_empty() {
+                    m.mesh.indices.len() / 3
+                } else {
+                    m.mesh.face_arities.len()
+                }
+            })
             .sum();
         let vertices: usize = grown.model.parts.iter().map(|p| p.mesh.vertex_count()).sum();
         let mesh_faces: usize = grown.model.parts.iter().map(|p| p.mesh.face_count()).sum();
