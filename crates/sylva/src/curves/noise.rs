@@ -41,7 +41,7 @@ impl Perlin {
     /// A noise generator whose permutation comes from `seed` (Fisher–Yates shuffle
     /// driven by `Pcg64`). The same seed always gives the same noise.
     pub fn new(seed: u64) -> Self {
-        let mut rng = Pcg64::seed_from_u64(seed ^ 0x5EED_0F_9E71_u64);
+        let mut rng = Pcg64::seed_from_u64(seed ^ 0x5EED_F9E7u64);
         let mut p = [0u8; 256];
         for (i, v) in p.iter_mut().enumerate() {
             *v = i as u8;
