@@ -184,7 +184,8 @@ impl Occupancy {
         let o = min - DVec2::splat(cell);
         let nx = ((max.x - o.x) / cell).ceil() + 2.0;
         let ny = ((max.y - o.y) / cell).ceil() + 2.0;
-        if !(nx * ny <= MAX_CELLS as f64) {
+        // NaN sizes fail this test too.
+        if nx * ny > MAX_CELLS as f64 || nx.is_nan() || ny.is_nan() {
             return Err(Error::Recipe(format!(
                 "fill: the occupancy grid would have {:.0} cells (limit {MAX_CELLS}); raise `cell`",
                 nx * ny

@@ -337,7 +337,7 @@ pub fn simplify(pts: &[DVec2], tol: f64, keep: &mut Vec<usize>) {
 fn simplify_with(pts: &[DVec2], extra: Option<&[f64]>, tol: f64, max_run: usize, keep: &mut Vec<usize>) {
     keep.clear();
     let n = pts.len();
-    if n <= 2 || !(tol > 0.0) {
+    if n <= 2 || tol.is_nan() || tol <= 0.0 {
         keep.extend(0..n);
         return;
     }

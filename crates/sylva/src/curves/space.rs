@@ -332,11 +332,12 @@ pub fn to_skeleton(curves: &[Curve3], opts: &SkeletonOptions) -> Result<Skeleton
             _ => (NO_PARENT, opts.radius as f32),
         };
         let mut total = 0.0;
-        let mut cum = vec![0.0; n];
-        for i in 1..n {
-            total += c.points[i - 1].distance(c.points[i]);
-            cum[i] = total;
-        }
+        let cum: Vec<f64> = std::iter::once(0.0)
+            .chain(c.points.windows(2).map(|w| {
+                total += w[0].distance(w[1]);
+                total
+            }))
+            .collect();
         let total = total.max(1e-12);
         let mut list = Vec::new();
         let mut prev = attach;
