@@ -5,6 +5,7 @@
 
 #![warn(missing_docs)]
 
+mod check_cmd;
 mod curves_cmd;
 mod subdivide;
 
@@ -32,6 +33,8 @@ enum Command {
     Curves(curves_cmd::CurvesArgs),
     /// Subdivide a control mesh (OBJ) with Loop or Catmull–Clark.
     Subdivide(subdivide::SubdivideArgs),
+    /// Check a mesh file (OBJ, glTF, GLB): manifold, oriented, boundaries, self-intersections.
+    Check(check_cmd::CheckArgs),
     /// L-system tools.
     Lsys {
         #[command(subcommand)]
@@ -97,6 +100,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Grow(args) => grow(args),
         Command::Subdivide(args) => subdivide::run(args),
+        Command::Check(args) => check_cmd::run(args),
         Command::Curves(args) => curves_cmd::run(args),
         Command::Presets => {
             for p in sylva::presets::all() {

@@ -249,3 +249,32 @@ fn bad_input_gives_clear_errors() {
     assert!(leftovers.is_empty(), "left behind: {leftovers:?}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `sylva check` (issue 5 item 5): a hull-meshed binary tree is a valid closed manifold
+/// in OBJ, GLB and glTF; a mesh with a flipped face or a broken file is rejected.
+#[test]
+fn check_reports_valid_and_invalid_meshes() {
+    let d = tempdir("check");
+    for ext in ["obj", "glb", "gltf"] {
+        let out = format!("tree.{ext}");
+        let r =
+            sylva(&["grow", "lsys-binary-tree", "--set", "mesh.method=hull", "-o", &out, "--no-preview"], &d);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        let r = sylva(&["check", &out, "--closed"], &d);
+        assert_eq!(r.code, 0, "{ext}: {}{}", r.stdout, r.stderr);
+        assert!(r.stdout.contains("valid: closed 2-manifold"), "{ext}: {}", r.stdout);
+        assert!(r.stdout.contains("\n0 self-intersecting"), "{ext}: {}", r.stdout);
+    }
+    std::fs::write(
+        d.join("flip.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n",
+    )
+    .unwrap();
+    let r = sylva(&["check", "flip.obj"], &d);
+    assert_ne!(r.code, 0);
+    assert!(r.stdout.contains("inconsistent face orientation"), "{}", r.stdout);
+    std::fs::write(d.join("broken.glb"), b"glTF\x02\x00\x00\x00").unwrap();
+    fails(&d, &["check", "broken.glb"], "GLB header truncated");
+    fails(&d, &["check", "missing.obj"], "missing.obj");
+    fails(&d, &["check", "tree.txt"], "cannot tell the format");
+}

@@ -1,4 +1,5 @@
-//! Skeleton and module-string import: LST skeletons and CPFG turtle strings.
+//! Skeleton and module-string import: LST skeletons and CPFG turtle strings; glTF meshes
+//! read back for checking ([`gltf_read`]).
 //!
 //! ```text
 //!  .lst text ──► lst::parse ──────────────► Skeleton          (seed 000 §4.1.5–4.1.6)
@@ -18,6 +19,7 @@
 //! Nothing here panics or allocates more than a constant factor of its input.
 
 pub mod cpfg_str;
+pub mod gltf_read;
 pub mod lst;
 
 use crate::error::{Error, Result};

@@ -7,6 +7,7 @@
 //! face-varying channels). A [`Model`] is a list of named parts, each a mesh with a
 //! material. Architecture: "Core types".
 
+pub mod check;
 pub mod hull;
 pub mod obj_read;
 pub mod organs;

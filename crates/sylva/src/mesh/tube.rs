@@ -184,9 +184,11 @@ struct Station {
 }
 
 impl Station {
-    /// A radius-0 station is a single vertex, not a ring.
+    /// A radius-0 station is a single vertex, not a ring. So is a radius too small for
+    /// `f32` to place distinct ring vertices around this position (a twig tapering to
+    /// ~1e-6 m at 4 m from the origin): its ring would be a fan of zero-area faces.
     fn is_point(&self) -> bool {
-        self.radius <= 0.0
+        self.radius <= self.pos.abs().max_element() * (16.0 * f32::EPSILON)
     }
 }
 

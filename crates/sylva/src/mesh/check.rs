@@ -1,0 +1,797 @@
+//! The mesh checker: is a control cage or a refined surface a valid 2-manifold?
+//!
+//! Issue 5 ("a mesh checker used by tests and by `sylva check`") for the meshers of
+//! seeds 000 (hull joints), 001 (sweeps) and 003 (quad boxes), and for any OBJ or glTF
+//! file. [`check_mesh`] reports, for any polygon mesh:
+//!
+//! - **references**: face indices out of range, faces with fewer than 3 corners or a
+//!   repeated vertex, vertices no face uses;
+//! - **non-finite** positions (NaN, ∞);
+//! - **manifoldness**: edges used by more than two faces, and vertices whose faces form
+//!   more than one fan (a "bow-tie");
+//! - **orientation**: interior edges traversed the same way by both faces;
+//! - **boundary loops**: connected chains of boundary edges (an open tube base, a leaf
+//!   edge); the caller compares them with the loops its mesher designs;
+//! - **degenerate faces**: a repeated vertex, a sliver (area below `sliver` times the
+//!   square of the face's longest edge: collinear corners), or a face whose longest edge
+//!   is below `tiny_edge` times the bounding-box diagonal (a few `f32` ulps: the face is
+//!   rounding noise). Small but well-shaped faces, such as the tip of a tapering twig,
+//!   are not degenerate;
+//! - **self-intersections** (optional, the expensive part): every face is fanned into
+//!   triangles, a bounding-volume hierarchy (median split on the longest axis) is built
+//!   over the triangles, and every pair with overlapping boxes that shares no vertex is
+//!   tested edge-against-triangle in `f64` (a pair intersects when an edge of one
+//!   crosses the other). Pairs that share a vertex are not tested: they are neighbours
+//!   on the surface, where a test would only measure rounding. Coplanar overlaps are not
+//!   reported. Cost: O(n log n) to build, about O(n log n) to query on a mesh without
+//!   large overlaps; parallel over triangles with rayon.
+//!
+//! Plus the components and the Euler characteristic, so a caller can check genus.
+
+use crate::mesh::Mesh;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::fmt;
+
+/// What [`check_mesh`] looks at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CheckOptions {
+    /// Test for self-intersections (the expensive part).
+    pub self_intersections: bool,
+    /// A face is a degenerate sliver when its area is below this times the square of its
+    /// longest edge.
+    pub sliver: f64,
+    /// A face is degenerate when its longest edge is below this times the diagonal of the
+    /// mesh's bounding box.
+    pub tiny_edge: f64,
+    /// At most this many offending items of each kind are listed in the report (all are
+    /// counted).
+    pub max_listed: usize,
+    /// Stop the self-intersection search after about this many intersecting pairs (a
+    /// tree whose branches pass through each other can have millions); the count is then
+    /// a lower bound and [`MeshReport::intersections_truncated`] is set.
+    pub max_intersections: usize,
+}
+
+impl Default for CheckOptions {
+    fn default() -> Self {
+        Self {
+            self_intersections: true,
+            sliver: 1e-7,
+            tiny_edge: 1e-7,
+            max_listed: 8,
+            max_intersections: 100_000,
+        }
+    }
+}
+
+/// What [`check_mesh`] found. Counts are complete; the lists hold the first
+/// [`CheckOptions::max_listed`] items so a report can name them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MeshReport {
+    /// Vertices in the mesh.
+    pub vertices: usize,
+    /// Faces in the mesh.
+    pub faces: usize,
+    /// Distinct undirected edges.
+    pub edges: usize,
+    /// Triangles after fanning every face (the self-intersection test's unit).
+    pub triangles: usize,
+    /// Faces referencing a vertex that does not exist, or with fewer than 3 corners.
+    pub bad_faces: Vec<usize>,
+    /// Number of faces in `bad_faces` (all of them).
+    pub bad_face_count: usize,
+    /// Vertices with a NaN or infinite coordinate.
+    pub non_finite: Vec<usize>,
+    /// Number of non-finite vertices.
+    pub non_finite_count: usize,
+    /// Vertices no face references.
+    pub unused_vertices: usize,
+    /// Edges (vertex pairs) shared by more than two faces.
+    pub non_manifold_edges: Vec<[u32; 2]>,
+    /// Number of non-manifold edges.
+    pub non_manifold_edge_count: usize,
+    /// Vertices whose faces form more than one fan.
+    pub non_manifold_vertices: Vec<u32>,
+    /// Number of non-manifold vertices.
+    pub non_manifold_vertex_count: usize,
+    /// Interior edges whose two faces run the same way (inconsistent orientation).
+    pub flipped_edges: Vec<[u32; 2]>,
+    /// Number of flipped edges.
+    pub flipped_edge_count: usize,
+    /// Edges with exactly one face.
+    pub boundary_edges: usize,
+    /// Connected chains of boundary edges.
+    pub boundary_loops: usize,
+    /// Faces with a repeated vertex or (near) zero area.
+    pub degenerate_faces: Vec<usize>,
+    /// Number of degenerate faces.
+    pub degenerate_face_count: usize,
+    /// Edge-connected components of faces.
+    pub components: usize,
+    /// V − E + F over referenced vertices.
+    pub euler: i64,
+    /// Intersecting face pairs (face indices), when tested.
+    pub intersections: Vec<[usize; 2]>,
+    /// Number of intersecting triangle pairs; `None` when not tested.
+    pub intersection_count: Option<usize>,
+    /// The search stopped at [`CheckOptions::max_intersections`]: the count is a lower bound.
+    pub intersections_truncated: bool,
+}
+
+impl MeshReport {
+    /// True when the mesh is a consistently oriented 2-manifold with finite positions,
+    /// valid references, no degenerate faces and (if tested) no self-intersections.
+    /// Boundaries are allowed: compare [`MeshReport::boundary_loops`] with the design.
+    pub fn is_valid(&self) -> bool {
+        self.bad_face_count == 0
+            && self.non_finite_count == 0
+            && self.non_manifold_edge_count == 0
+            && self.non_manifold_vertex_count == 0
+            && self.flipped_edge_count == 0
+            && self.degenerate_face_count == 0
+            && self.intersection_count.unwrap_or(0) == 0
+    }
+
+    /// True when [`MeshReport::is_valid`] holds and there is no boundary at all.
+    pub fn is_closed_manifold(&self) -> bool {
+        self.is_valid() && self.boundary_edges == 0
+    }
+
+    /// The problems as short lines (empty when valid).
+    pub fn problems(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut add = |n: usize, what: &str, list: String| {
+            if n > 0 {
+                out.push(format!("{n} {what}{list}"));
+            }
+        };
+        add(self.bad_face_count, "face(s) with bad vertex references", listed(&self.bad_faces, "faces"));
+        add(self.non_finite_count, "vertex position(s) not finite", listed(&self.non_finite, "vertices"));
+        add(
+            self.non_manifold_edge_count,
+            "edge(s) shared by more than two faces",
+            listed(&self.non_manifold_edges, "edges"),
+        );
+        add(
+            self.non_manifold_vertex_count,
+            "non-manifold (bow-tie) vertex(es)",
+            listed(&self.non_manifold_vertices, "vertices"),
+        );
+        add(
+            self.flipped_edge_count,
+            "edge(s) with inconsistent face orientation",
+            listed(&self.flipped_edges, "edges"),
+        );
+        add(self.degenerate_face_count, "degenerate face(s)", listed(&self.degenerate_faces, "faces"));
+        add(
+            self.intersection_count.unwrap_or(0),
+            "self-intersecting triangle pair(s)",
+            listed(&self.intersections, "faces"),
+        );
+        out
+    }
+}
+
+fn listed<T: fmt::Debug>(items: &[T], what: &str) -> String {
+    if items.is_empty() {
+        String::new()
+    } else {
+        format!(" ({what} {items:?}{})", if items.len() >= 8 { " …" } else { "" })
+    }
+}
+
+impl fmt::Display for MeshReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} vertices, {} faces, {} edges, {} component(s), Euler characteristic {}",
+            self.vertices, self.faces, self.edges, self.components, self.euler
+        )?;
+        writeln!(f, "{} boundary edge(s) in {} loop(s)", self.boundary_edges, self.boundary_loops)?;
+        if self.unused_vertices > 0 {
+            writeln!(f, "{} vertex(es) used by no face", self.unused_vertices)?;
+        }
+        match self.intersection_count {
+            Some(n) => writeln!(
+                f,
+                "{}{n} self-intersecting triangle pair(s) among {} triangles",
+                if self.intersections_truncated { "at least " } else { "" },
+                self.triangles
+            )?,
+            None => writeln!(f, "self-intersections not tested")?,
+        }
+        let problems = self.problems();
+        if problems.is_empty() {
+            write!(
+                f,
+                "valid: {}",
+                if self.boundary_edges == 0 { "closed 2-manifold" } else { "2-manifold with boundary" }
+            )
+        } else {
+            for p in &problems {
+                writeln!(f, "problem: {p}")?;
+            }
+            write!(f, "INVALID")
+        }
+    }
+}
+
+/// Disjoint-set forest with path halving.
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        Self((0..n as u32).collect())
+    }
+    fn find(&mut self, mut a: u32) -> u32 {
+        while self.0[a as usize] != a {
+            let p = self.0[self.0[a as usize] as usize];
+            self.0[a as usize] = p;
+            a = p;
+        }
+        a
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (a, b) = (self.find(a), self.find(b));
+        if a != b {
+            self.0[a.max(b) as usize] = a.min(b);
+        }
+    }
+}
+
+/// Checks `mesh` (see the module documentation for what is checked).
+pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
+    let nv = mesh.vertex_count();
+    let nf = mesh.face_count();
+    let max = opts.max_listed;
+    let mut r = MeshReport { vertices: nv, faces: nf, ..Default::default() };
+
+    for (i, p) in mesh.positions.iter().enumerate() {
+        if !p.is_finite() {
+            r.non_finite_count += 1;
+            if r.non_finite.len() < max {
+                r.non_finite.push(i);
+            }
+        }
+    }
+    // Faces usable for topology: ≥ 3 corners, all references in range.
+    let mut good = vec![true; nf];
+    for (f, ok) in good.iter_mut().enumerate() {
+        let face = mesh.face(f);
+        if face.len() < 3 || face.iter().any(|&v| v as usize >= nv) {
+            *ok = false;
+            r.bad_face_count += 1;
+            if r.bad_faces.len() < max {
+                r.bad_faces.push(f);
+            }
+        }
+    }
+
+    // Undirected edge → (faces using it, how many run a→b with a < b).
+    let mut edges: HashMap<(u32, u32), (u32, u32, u32)> = HashMap::with_capacity(mesh.face_indices.len());
+    let mut used = vec![false; nv];
+    for f in (0..nf).filter(|&f| good[f]) {
+        let face = mesh.face(f);
+        for (k, &a) in face.iter().enumerate() {
+            used[a as usize] = true;
+            let b = face[(k + 1) % face.len()];
+            if a == b {
+                continue;
+            }
+            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0, f as u32));
+            e.0 += 1;
+            if a < b {
+                e.1 += 1;
+            }
+        }
+    }
+    r.unused_vertices = used.iter().filter(|u| !**u).count();
+    r.edges = edges.len();
+    let mut sorted: Vec<_> = edges.iter().map(|(&k, &v)| (k, v)).collect();
+    sorted.sort_unstable_by_key(|e| e.0);
+    let mut boundary = UnionFind::new(nv);
+    let mut on_boundary = vec![false; nv];
+    for &((a, b), (count, forward, _)) in &sorted {
+        match count {
+            1 => {
+                r.boundary_edges += 1;
+                boundary.union(a, b);
+                on_boundary[a as usize] = true;
+                on_boundary[b as usize] = true;
+            }
+            2 if forward != 1 => {
+                r.flipped_edge_count += 1;
+                if r.flipped_edges.len() < max {
+                    r.flipped_edges.push([a, b]);
+                }
+            }
+            2 => {}
+            _ => {
+                r.non_manifold_edge_count += 1;
+                if r.non_manifold_edges.len() < max {
+                    r.non_manifold_edges.push([a, b]);
+                }
+            }
+        }
+    }
+    r.boundary_loops = (0..nv as u32).filter(|&v| on_boundary[v as usize] && boundary.find(v) == v).count();
+
+    // Fans around each vertex: union the corners of a vertex that share an edge.
+    // Corner c of face f at vertex v touches the edges (prev, v) and (v, next).
+    let mut vertex_corners: Vec<Vec<(u32, u32, u32)>> = vec![Vec::new(); nv];
+    let mut faces_uf = UnionFind::new(nf);
+    for f in (0..nf).filter(|&f| good[f]) {
+        let face = mesh.face(f);
+        let n = face.len();
+        for k in 0..n {
+            let v = face[k];
+            vertex_corners[v as usize].push((f as u32, face[(k + n - 1) % n], face[(k + 1) % n]));
+        }
+        for k in 0..n {
+            let (a, b) = (face[k], face[(k + 1) % n]);
+            if let Some(&(_, _, first)) = edges.get(&(a.min(b), a.max(b))) {
+                faces_uf.union(f as u32, first);
+            }
+        }
+    }
+    for (v, corners) in vertex_corners.iter().enumerate() {
+        if corners.len() < 2 {
+            continue;
+        }
+        let mut uf = UnionFind::new(corners.len());
+        let mut by_neighbour: HashMap<u32, u32> = HashMap::with_capacity(corners.len() * 2);
+        for (i, &(_, p, n)) in corners.iter().enumerate() {
+            for w in [p, n] {
+                match by_neighbour.get(&w) {
+                    Some(&j) => uf.union(i as u32, j),
+                    None => {
+                        by_neighbour.insert(w, i as u32);
+                    }
+                }
+            }
+        }
+        let fans = (0..corners.len() as u32).filter(|&i| uf.find(i) == i).count();
+        if fans > 1 {
+            r.non_manifold_vertex_count += 1;
+            if r.non_manifold_vertices.len() < max {
+                r.non_manifold_vertices.push(v as u32);
+            }
+        }
+    }
+    r.components = (0..nf as u32).filter(|&f| good[f as usize] && faces_uf.find(f) == f).count();
+    let used_count = (nv - r.unused_vertices) as i64;
+    r.euler = used_count - r.edges as i64 + (nf - r.bad_face_count) as i64;
+
+    // Degenerate faces: repeated vertex or tiny area (Newell's normal).
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .filter(|p| p.is_finite())
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let diag = if lo.x <= hi.x { (hi - lo).as_dvec3().length() } else { 0.0 };
+    for f in (0..nf).filter(|&f| good[f]) {
+        let face = mesh.face(f);
+        let repeated = (0..face.len()).any(|i| face[i + 1..].contains(&face[i]));
+        let area = newell(mesh, face).length() * 0.5;
+        let longest = (0..face.len())
+            .map(|k| {
+                let (a, b) = (face[k] as usize, face[(k + 1) % face.len()] as usize);
+                mesh.positions[a].as_dvec3().distance(mesh.positions[b].as_dvec3())
+            })
+            .fold(0.0, f64::max);
+        // NaN areas and lengths count as degenerate too.
+        let sliver = area.is_nan() || area <= opts.sliver * longest * longest;
+        let tiny = longest.is_nan() || longest <= opts.tiny_edge * diag;
+        if repeated || sliver || tiny {
+            r.degenerate_face_count += 1;
+            if r.degenerate_faces.len() < max {
+                r.degenerate_faces.push(f);
+            }
+        }
+    }
+
+    // Self-intersections, only on meshes whose positions and references are sound.
+    let mut tris: Vec<([u32; 3], u32)> = Vec::with_capacity(mesh.face_indices.len());
+    for f in (0..nf).filter(|&f| good[f]) {
+        let face = mesh.face(f);
+        for k in 1..face.len() - 1 {
+            tris.push(([face[0], face[k], face[k + 1]], f as u32));
+        }
+    }
+    r.triangles = tris.len();
+    if opts.self_intersections && r.non_finite_count == 0 {
+        let pairs = self_intersections(&mesh.positions, &tris, opts.max_intersections);
+        r.intersections_truncated = pairs.len() >= opts.max_intersections;
+        r.intersection_count = Some(pairs.len());
+        r.intersections = pairs.into_iter().take(max).collect();
+    }
+    r
+}
+
+fn newell(mesh: &Mesh, face: &[u32]) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for (k, &a) in face.iter().enumerate() {
+        let p = mesh.positions[a as usize].as_dvec3();
+        let q = mesh.positions[face[(k + 1) % face.len()] as usize].as_dvec3();
+        n += p.cross(q);
+    }
+    n
+}
+
+/// An axis-aligned box.
+#[derive(Clone, Copy)]
+struct Aabb {
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Aabb {
+    fn empty() -> Self {
+        Self { lo: DVec3::splat(f64::MAX), hi: DVec3::splat(f64::MIN) }
+    }
+    fn grow(&mut self, o: &Aabb) {
+        self.lo = self.lo.min(o.lo);
+        self.hi = self.hi.max(o.hi);
+    }
+    fn overlaps(&self, o: &Aabb) -> bool {
+        self.lo.cmple(o.hi).all() && o.lo.cmple(self.hi).all()
+    }
+}
+
+/// A BVH node: a box and either two children or a range of leaf triangles.
+struct Node {
+    bounds: Aabb,
+    /// Leaves: start into `order`; inner: index of the left child (right = left + 1).
+    first: u32,
+    /// Leaf triangle count; 0 for an inner node.
+    count: u32,
+}
+
+/// Builds the BVH over `boxes`; `order` is permuted so each leaf owns a contiguous range.
+fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
+    const LEAF: usize = 4;
+    let mut nodes = vec![Node { bounds: Aabb::empty(), first: 0, count: order.len() as u32 }];
+    let mut stack = vec![(0usize, 0usize, order.len())];
+    while let Some((id, start, end)) = stack.pop() {
+        let mut b = Aabb::empty();
+        let mut centres = Aabb::empty();
+        for &t in &order[start..end] {
+            b.grow(&boxes[t as usize]);
+            let c = (boxes[t as usize].lo + boxes[t as usize].hi) * 0.5;
+            centres.grow(&Aabb { lo: c, hi: c });
+        }
+        nodes[id].bounds = b;
+        let extent = centres.hi - centres.lo;
+        if end - start <= LEAF || extent.max_element() <= 0.0 {
+            nodes[id].first = start as u32;
+            nodes[id].count = (end - start) as u32;
+            continue;
+        }
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = (start + end) / 2;
+        let key = |t: &u32| boxes[*t as usize].lo[axis] + boxes[*t as usize].hi[axis];
+        order[start..end].select_nth_unstable_by(mid - start, |a, b| key(a).total_cmp(&key(b)));
+        let left = nodes.len();
+        nodes.push(Node { bounds: Aabb::empty(), first: 0, count: 0 });
+        nodes.push(Node { bounds: Aabb::empty(), first: 0, count: 0 });
+        nodes[id].first = left as u32;
+        nodes[id].count = 0;
+        stack.push((left, start, mid));
+        stack.push((left + 1, mid, end));
+    }
+    nodes
+}
+
+/// Pairs of internodes (each named by its child node, smaller first) of `skeleton`
+/// whose capsules overlap although they share no node: branches that pass through each
+/// other in the skeleton itself, so no mesher can keep their surfaces apart. A capsule
+/// is the segment parent → child swept by the larger of the two radii; overlaps shallower
+/// than `tolerance × (r_a + r_b)` are ignored.
+pub fn skeleton_collisions(skeleton: &crate::Skeleton, tolerance: f64) -> Vec<[usize; 2]> {
+    let seg: Vec<usize> = (0..skeleton.len()).filter(|&i| skeleton.parent[i] != crate::NO_PARENT).collect();
+    if seg.is_empty() {
+        return Vec::new();
+    }
+    let ends = |s: usize| {
+        let i = seg[s];
+        let p = skeleton.parent[i] as usize;
+        let r = skeleton.radius[i].max(skeleton.radius[p]) as f64;
+        (skeleton.position[p].as_dvec3(), skeleton.position[i].as_dvec3(), r, p, i)
+    };
+    let boxes: Vec<Aabb> = (0..seg.len())
+        .map(|s| {
+            let (a, b, r, ..) = ends(s);
+            Aabb { lo: a.min(b) - r, hi: a.max(b) + r }
+        })
+        .collect();
+    let mut order: Vec<u32> = (0..seg.len() as u32).collect();
+    let nodes = build_bvh(&boxes, &mut order);
+    let mut pairs: Vec<[usize; 2]> = (0..seg.len())
+        .into_par_iter()
+        .flat_map_iter(|s| {
+            let mut found = Vec::new();
+            let (a0, a1, ra, pa, ia) = ends(s);
+            for o in query(&nodes, &order, &boxes[s]) {
+                let (b0, b1, rb, pb, ib) = ends(o);
+                if o <= s || pa == pb || pa == ib || pb == ia || !boxes[o].overlaps(&boxes[s]) {
+                    continue;
+                }
+                if segment_distance(a0, a1, b0, b1) < (ra + rb) * (1.0 - tolerance) {
+                    found.push([ia.min(ib), ia.max(ib)]);
+                }
+            }
+            found
+        })
+        .collect();
+    pairs.sort_unstable();
+    pairs
+}
+
+/// Leaf items of the BVH whose node boxes overlap `b` (candidates; callers re-test).
+fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut stack = vec![0u32];
+    while let Some(n) = stack.pop() {
+        let node = &nodes[n as usize];
+        if !node.bounds.overlaps(b) {
+            continue;
+        }
+        if node.count == 0 {
+            stack.push(node.first);
+            stack.push(node.first + 1);
+        } else {
+            out.extend(
+                order[node.first as usize..(node.first + node.count) as usize].iter().map(|&o| o as usize),
+            );
+        }
+    }
+    out
+}
+
+/// Closest distance between segments p0p1 and q0q1.
+fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let (s, t) = if a <= 1e-30 && e <= 1e-30 {
+        (0.0, 0.0)
+    } else if a <= 1e-30 {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= 1e-30 {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-30 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    (p0 + d1 * s).distance(q0 + d2 * t)
+}
+
+/// Pairs of faces whose triangles cross (each pair once, smaller triangle index first).
+fn self_intersections(positions: &[Vec3], tris: &[([u32; 3], u32)], limit: usize) -> Vec<[usize; 2]> {
+    use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+    if tris.is_empty() {
+        return Vec::new();
+    }
+    let corners = |t: usize| tris[t].0.map(|v| positions[v as usize].as_dvec3());
+    let boxes: Vec<Aabb> = (0..tris.len())
+        .map(|t| {
+            let [a, b, c] = corners(t);
+            // Pad by a relative epsilon so touching boxes are still visited.
+            let pad = (a.abs().max(b.abs()).max(c.abs())).max_element() * 1e-9;
+            Aabb { lo: a.min(b).min(c) - pad, hi: a.max(b).max(c) + pad }
+        })
+        .collect();
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    let nodes = build_bvh(&boxes, &mut order);
+    let total = AtomicUsize::new(0);
+    let mut pairs: Vec<[usize; 2]> = (0..tris.len())
+        .into_par_iter()
+        .flat_map_iter(|t| {
+            let mut found = Vec::new();
+            if total.load(Relaxed) >= limit {
+                return found;
+            }
+            let (tv, tb, tp) = (tris[t].0, boxes[t], corners(t));
+            for o in query(&nodes, &order, &tb) {
+                if o <= t || !boxes[o].overlaps(&tb) || tris[o].0.iter().any(|v| tv.contains(v)) {
+                    continue;
+                }
+                if triangles_cross(&tp, &corners(o)) {
+                    found.push([tris[t].1 as usize, tris[o].1 as usize]);
+                }
+            }
+            total.fetch_add(found.len(), Relaxed);
+            found
+        })
+        .collect();
+    pairs.sort_unstable();
+    // Past the limit, which triangles were searched depends on thread timing, so a
+    // truncated count is only a lower bound; below it the result is exact.
+    pairs.truncate(limit);
+    pairs
+}
+
+/// True when an edge of either triangle passes through the other's interior.
+fn triangles_cross(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    (0..3).any(|i| segment_hits(a[i], a[(i + 1) % 3], b))
+        || (0..3).any(|i| segment_hits(b[i], b[(i + 1) % 3], a))
+}
+
+/// Segment p→q against triangle t (Möller–Trumbore, both ends inclusive, parallel misses).
+fn segment_hits(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
+    let d = q - p;
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    let scale = e1.length() * e2.length() * d.length();
+    if det.abs() <= 1e-12 * scale {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let s = p - t[0];
+    let u = s.dot(h) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let qv = s.cross(e1);
+    let v = d.dot(qv) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return false;
+    }
+    let s_param = e2.dot(qv) * inv;
+    (0.0..=1.0).contains(&s_param)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube(offset: Vec3) -> Mesh {
+        let mut m = Mesh::new();
+        for i in 0..8 {
+            m.positions
+                .push(offset + Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32));
+        }
+        for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
+            m.push_face(&f);
+        }
+        m
+    }
+
+    fn merge(a: &Mesh, b: &Mesh) -> Mesh {
+        let mut m = a.clone();
+        let off = m.positions.len() as u32;
+        m.positions.extend_from_slice(&b.positions);
+        for f in 0..b.face_count() {
+            let face: Vec<u32> = b.face(f).iter().map(|v| v + off).collect();
+            m.push_face(&face);
+        }
+        m
+    }
+
+    #[test]
+    fn crossing_branches_collide_and_a_fork_does_not() {
+        use crate::{Skeleton, NO_PARENT};
+        let mut s = Skeleton::new();
+        let root = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
+        let top = s.push(Vec3::Y * 2.0, 0.1, root, Vec3::X, 0);
+        s.push(Vec3::new(1.0, 3.0, 0.0), 0.05, top, Vec3::X, 1);
+        s.push(Vec3::new(-1.0, 3.0, 0.0), 0.05, top, Vec3::X, 1);
+        assert!(skeleton_collisions(&s, 0.01).is_empty());
+        // A second tree whose trunk passes through the first one's trunk.
+        let r2 = s.push(Vec3::new(-1.0, 1.0, 0.05), 0.1, NO_PARENT, Vec3::Y, 0);
+        let t2 = s.push(Vec3::new(1.0, 1.0, 0.05), 0.1, r2, Vec3::Y, 0);
+        assert_eq!(skeleton_collisions(&s, 0.01), vec![[1, t2 as usize]]);
+        assert!(
+            (segment_distance(
+                Vec3::ZERO.as_dvec3(),
+                DVec3::X,
+                DVec3::new(0.5, 1.0, -1.0),
+                DVec3::new(0.5, 1.0, 1.0)
+            ) - 1.0)
+                .abs()
+                < 1e-12
+        );
+    }
+
+    #[test]
+    fn a_cube_is_a_closed_manifold() {
+        let r = check_mesh(&cube(Vec3::ZERO), &CheckOptions::default());
+        assert!(r.is_closed_manifold(), "{r}");
+        assert_eq!((r.vertices, r.edges, r.faces, r.euler, r.components), (8, 12, 6, 2, 1));
+        assert_eq!(r.intersection_count, Some(0));
+    }
+
+    #[test]
+    fn an_open_box_has_one_boundary_loop() {
+        let mut m = Mesh::new();
+        let c = cube(Vec3::ZERO);
+        m.positions = c.positions.clone();
+        for f in 0..5 {
+            m.push_face(c.face(f));
+        }
+        let r = check_mesh(&m, &CheckOptions::default());
+        assert!(r.is_valid() && !r.is_closed_manifold(), "{r}");
+        assert_eq!((r.boundary_edges, r.boundary_loops), (4, 1));
+    }
+
+    #[test]
+    fn a_flipped_face_is_reported() {
+        let mut m = cube(Vec3::ZERO);
+        let f = m.corners(2);
+        m.face_indices[f].reverse();
+        let r = check_mesh(&m, &CheckOptions::default());
+        assert_eq!(r.flipped_edge_count, 4, "{r}");
+        assert!(!r.is_valid());
+    }
+
+    #[test]
+    fn overlapping_cubes_intersect_and_separate_ones_do_not() {
+        let apart = merge(&cube(Vec3::ZERO), &cube(Vec3::new(2.0, 0.0, 0.0)));
+        let r = check_mesh(&apart, &CheckOptions::default());
+        assert!(r.is_closed_manifold(), "{r}");
+        assert_eq!(r.components, 2);
+        let overlap = merge(&cube(Vec3::ZERO), &cube(Vec3::new(0.5, 0.3, 0.2)));
+        let r = check_mesh(&overlap, &CheckOptions::default());
+        assert!(r.intersection_count.unwrap() > 0, "{r}");
+        assert!(!r.is_valid());
+        assert!(r.problems().iter().any(|p| p.contains("self-intersecting")));
+    }
+
+    #[test]
+    fn a_third_face_on_an_edge_is_non_manifold() {
+        let mut m = cube(Vec3::ZERO);
+        m.positions.push(Vec3::new(0.5, -1.0, 0.5));
+        m.push_face(&[0, 1, 8]);
+        let r = check_mesh(&m, &CheckOptions { self_intersections: false, ..Default::default() });
+        assert_eq!(r.non_manifold_edge_count, 1, "{r}");
+        assert_eq!(r.intersection_count, None);
+    }
+
+    #[test]
+    fn bow_ties_nan_bad_indices_and_degenerate_faces_are_reported() {
+        let mut m = Mesh::new();
+        m.positions = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        ];
+        m.push_face(&[0, 1, 2]);
+        m.push_face(&[0, 3, 4]);
+        m.push_face(&[0, 1, 5]); // zero area: collinear
+        m.push_face(&[0, 1, 9]); // out of range
+        let r = check_mesh(&m, &CheckOptions::default());
+        assert_eq!(r.bad_face_count, 1);
+        assert_eq!(r.degenerate_face_count, 1);
+        assert!(r.non_manifold_vertex_count >= 1, "{r}");
+        m.positions[2].x = f32::NAN;
+        let r = check_mesh(&m, &CheckOptions::default());
+        assert_eq!(r.non_finite_count, 1);
+        assert_eq!(r.intersection_count, None);
+        assert!(!r.is_valid());
+    }
+}
