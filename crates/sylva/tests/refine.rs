@@ -1077,3 +1077,27 @@ fn tree_meshes_refine_closed_or_open_consistently() {
         assert_eq!(open(&t), open(&t0) * 4, "boundary edges double per level");
     }
 }
+
+/// An empty control mesh refines to an empty mesh with either scheme, at any level and
+/// with the limit options: no panic, no error.
+#[test]
+fn empty_meshes_refine_to_empty_meshes() {
+    use sylva::refine::{subdivide, RefineOptions, Refiner, Scheme, SubdivideOptions};
+    let empty = sylva::Mesh::new();
+    for scheme in [Scheme::Loop, Scheme::CatmullClark] {
+        for levels in [0, 1, 3] {
+            let refine = RefineOptions { scheme, levels, ..Default::default() };
+            let r = Refiner::new(&empty, &[], &refine).unwrap();
+            assert_eq!(r.finest().face_count(), 0);
+            for limit in [false, true] {
+                let out = subdivide(
+                    &empty,
+                    &[],
+                    &SubdivideOptions { refine: refine.clone(), limit, ..Default::default() },
+                )
+                .unwrap_or_else(|e| panic!("{scheme:?} {levels} {limit}: {e}"));
+                assert_eq!((out.face_count(), out.vertex_count()), (0, 0));
+            }
+        }
+    }
+}

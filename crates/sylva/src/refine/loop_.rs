@@ -48,7 +48,7 @@ fn beta_table() -> [f32; 64] {
 /// Splits triangle level `p` into its Loop child topology, building adjacency up to
 /// `detail`.
 pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
-    debug_assert_eq!(p.face_size, 3);
+    debug_assert!(p.face_size == 3 || p.num_faces == 0, "Loop needs triangles");
     let nv = p.num_verts;
     let nf = p.num_faces as usize;
     let ne = p.edge_count() as u32;
