@@ -77,3 +77,23 @@ fn refine_section_subdivides_the_bark() {
     let e = recipe::load("lsys-honda-a", &bad).unwrap_err();
     assert!(e.to_string().contains("refine.scheme"), "{e}");
 }
+
+/// The catalogue (issue 6): every preset has a small picture in `docs/presets/` (grown)
+/// or `docs/curves/` (curves), listed in `docs/presets.md`. Regenerate with
+/// `tools/regen-previews.sh`.
+#[test]
+fn every_preset_has_a_catalogue_picture() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let catalogue = std::fs::read_to_string(root.join("docs/presets.md")).unwrap();
+    for p in sylva::presets::all() {
+        let dir = if p.name.starts_with("curves-") { "curves" } else { "presets" };
+        let png = root.join(format!("docs/{dir}/{}.png", p.name));
+        let len = std::fs::metadata(&png)
+            .unwrap_or_else(|_| panic!("{} missing: run tools/regen-previews.sh", png.display()))
+            .len();
+        // Tree previews stay under 200 KB; curves pictures are dense line art (hair).
+        let limit = if dir == "curves" { 400_000 } else { 200_000 };
+        assert!(len < limit, "{}: {len} bytes (limit {limit})", png.display());
+        assert!(catalogue.contains(&format!("`{}`", p.name)), "docs/presets.md does not list {}", p.name);
+    }
+}
