@@ -120,9 +120,11 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     let steps = g.iterations.unwrap_or(ls.derivation_length);
     // The file's `seed:` and the recipe's seed both matter (documented in docs/recipe.md).
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
+    let curves =
+        folder.iter().flat_map(|f| f.curves.iter()).map(|(_, c)| std::sync::Arc::new(c.clone())).collect();
     let (string, evaluator) = ls.derive_full(
         &DeriveOptions { steps, budget: g.max_modules, seed },
-        functions,
+        lsystem::expr::ModelFunctions { functions, curves },
         Some(&turtle_options(g, folder.as_ref())),
     )?;
     Ok(Derived { lsystem: ls, string, steps, seed, evaluator, folder, warnings })

@@ -17,7 +17,7 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[(
 )];
 
 /// The fewest models that must grow (regression floor; the goal is 90 % of 49).
-const MIN_GROWING: usize = 38;
+const MIN_GROWING: usize = 40;
 
 /// Corpus folders that are not models, with the reason.
 const NOT_MODELS: &[(&str, &str)] = &[(

@@ -10,7 +10,7 @@
 //! A module budget is enforced while writing each step, so an exploding grammar stops
 //! with a clear message instead of running out of memory.
 
-use super::expr::{EvalError, Evaluator, Expr, Function};
+use super::expr::{EvalError, Evaluator, Expr, ModelFunctions};
 use super::parse::{ContextItem, LSystem, ModuleTemplate, Production, RuleSet};
 use super::source::{ErrorKind, LsystemError};
 
@@ -123,7 +123,7 @@ fn bracket_partners(m: &ModuleString, open: Option<u16>, close: Option<u16>) -> 
 impl LSystem {
     /// An evaluator for a derivation: globals initialised, the `define:` and `Start:`
     /// blocks run, `functions` available to `func(id, x)`.
-    pub fn evaluator(&self, seed: u64, functions: Vec<Function>) -> Result<Evaluator, Box<LsystemError>> {
+    pub fn evaluator(&self, seed: u64, functions: ModelFunctions) -> Result<Evaluator, Box<LsystemError>> {
         let mut ev = Evaluator::new(seed);
         ev.globals = self.globals.init.clone();
         ev.functions = functions;
@@ -163,14 +163,14 @@ impl LSystem {
 
     /// Derives `opts.steps` steps from the axiom.
     pub fn derive(&self, opts: &DeriveOptions) -> Result<ModuleString, Box<LsystemError>> {
-        self.derive_with(opts, Vec::new())
+        self.derive_with(opts, ModelFunctions::default())
     }
 
     /// Derives with the model's functions (`func(id, x)`) available.
     pub fn derive_with(
         &self,
         opts: &DeriveOptions,
-        functions: Vec<Function>,
+        functions: ModelFunctions,
     ) -> Result<ModuleString, Box<LsystemError>> {
         self.derive_full(opts, functions, None).map(|(m, _)| m)
     }
@@ -182,7 +182,7 @@ impl LSystem {
     pub fn derive_full(
         &self,
         opts: &DeriveOptions,
-        functions: Vec<Function>,
+        functions: ModelFunctions,
         turtle: Option<&super::turtle::TurtleOptions>,
     ) -> Result<(ModuleString, Evaluator), Box<LsystemError>> {
         let queries = |m: &mut ModuleString| match turtle {

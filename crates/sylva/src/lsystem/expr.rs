@@ -87,6 +87,22 @@ impl<'a> Scope<'a> {
 /// A function of one variable from a cpfg function file, for `func(id, x)`.
 pub type Function = Arc<dyn Fn(f64) -> f64 + Send + Sync>;
 
+/// What a model folder's files give its expressions: functions for `func(id, x)` and
+/// curves for `curveX/Y/Z(id, t)` and `curveGAL(id)` (ids 1-based, in view-file order).
+#[derive(Clone, Default)]
+pub struct ModelFunctions {
+    /// `func(id, x)` is `functions[id - 1](x)`.
+    pub functions: Vec<Function>,
+    /// `curveX(id, t)` is `curves[id - 1].at(t).x`.
+    pub curves: Vec<Arc<crate::lsystem::files::curve::Curve>>,
+}
+
+impl From<Vec<Function>> for ModelFunctions {
+    fn from(functions: Vec<Function>) -> Self {
+        ModelFunctions { functions, curves: Vec::new() }
+    }
+}
+
 /// Built-in functions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Func {
@@ -140,6 +156,14 @@ pub enum Func {
     Srand,
     /// `func(id, x)`: function `id` (1-based) of the model's function files at x.
     UserFunc,
+    /// `curveX(id, t)`: x of curve `id` at normalised arc length t.
+    CurveX,
+    /// `curveY(id, t)`.
+    CurveY,
+    /// `curveZ(id, t)`.
+    CurveZ,
+    /// `curveGAL(id)`: the arc length of curve `id`.
+    CurveGal,
 }
 
 impl Func {
@@ -171,6 +195,10 @@ impl Func {
             "biran" => (Biran, 2),
             "srand" => (Srand, 1),
             "func" => (UserFunc, 2),
+            "curveX" => (CurveX, 2),
+            "curveY" => (CurveY, 2),
+            "curveZ" => (CurveZ, 2),
+            "curveGAL" => (CurveGal, 1),
             _ => return None,
         })
     }
@@ -324,8 +352,8 @@ pub struct Evaluator {
     pub rng: Pcg64,
     /// Current values of the global variables.
     pub globals: Vec<f64>,
-    /// Functions for `func(id, x)`, id 1-based.
-    pub functions: Vec<Function>,
+    /// Functions for `func(id, x)` and curves for `curveX(id, t)`, ids 1-based.
+    pub functions: ModelFunctions,
     loops: u64,
 }
 
@@ -333,7 +361,8 @@ impl std::fmt::Debug for Evaluator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Evaluator")
             .field("globals", &self.globals)
-            .field("functions", &self.functions.len())
+            .field("functions", &self.functions.functions.len())
+            .field("curves", &self.functions.curves.len())
             .finish()
     }
 }
@@ -345,7 +374,7 @@ impl Evaluator {
             stack: Vec::with_capacity(64),
             rng: Pcg64::seed_from_u64(seed),
             globals: Vec::new(),
-            functions: Vec::new(),
+            functions: ModelFunctions::default(),
             loops: 0,
         }
     }
@@ -559,7 +588,7 @@ fn gamma(k: f64, rng: &mut Pcg64) -> f64 {
 }
 
 /// Calls a built-in; `None` when `func` names a function the model does not have.
-fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, functions: &[Function]) -> Option<f64> {
+fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunctions) -> Option<f64> {
     use Func::*;
     let mut pop = || st.pop().unwrap_or(0.0);
     let d = std::f64::consts::PI / 180.0;
@@ -636,10 +665,21 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, functions: &[Function]) -> 
             let x = pop();
             let id = pop();
             let k = id as i64 - 1;
-            if k < 0 || k as usize >= functions.len() {
+            if k < 0 || k as usize >= ext.functions.len() {
                 return None;
             }
-            (functions[k as usize])(x)
+            (ext.functions[k as usize])(x)
+        }
+        CurveX | CurveY | CurveZ | CurveGal => {
+            let t = if f == CurveGal { 0.0 } else { pop() };
+            let id = pop() as i64 - 1;
+            let c = ext.curves.get(usize::try_from(id).ok()?)?;
+            match f {
+                CurveX => c.at(t).x,
+                CurveY => c.at(t).y,
+                CurveZ => c.at(t).z,
+                _ => c.length(),
+            }
         }
     })
 }
@@ -1357,9 +1397,8 @@ impl<'a> Parser<'a> {
             return Ok(());
         }
         const CPFG_ONLY: &[&str] = &[
-            "curveX", "curveY", "curveZ", "curveGAL", "curve", "tfunc", "inblob", "fopen", "fclose",
-            "fscanf", "fflush", "vvXmin", "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale",
-            "stop",
+            "curve", "tfunc", "inblob", "fopen", "fclose", "fscanf", "fflush", "vvXmin", "vvXmax", "vvYmin",
+            "vvYmax", "vvZmin", "vvZmax", "vvScale", "stop",
         ];
         if CPFG_ONLY.contains(&name) {
             return Err(self.src.error(

@@ -706,7 +706,7 @@ mod tests {
         let text = "Lsystem: 1\nAxiom: F(2)?P(0,0,0)+(90)?H(0,0,0)\n?P(x,y,z) : y > 1 --> A(y)\nendlsystem\n";
         let ls = LSystem::parse("q.l", text, &[]).unwrap();
         let opts = DeriveOptions { steps: 1, budget: 100, seed: 0 };
-        let (m, _) = ls.derive_full(&opts, Vec::new(), Some(&TurtleOptions::default())).unwrap();
+        let (m, _) = ls.derive_full(&opts, Default::default(), Some(&TurtleOptions::default())).unwrap();
         let s = ls.format(&m);
         assert!(s.starts_with("F(2)A(2)+(90)?H(0,"), "{s}");
         assert!(s.contains(",1)"), "heading turned toward +Z: {s}");

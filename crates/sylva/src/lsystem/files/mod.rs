@@ -10,6 +10,7 @@
 //! | `*.v` view file | [`view`] | angle, colour and width settings, tropisms, the surface, function and contour lists; viewing keys are listed as ignored |
 //! | `*.func` function, `*.fset` function set | [`func`] | the B-spline curve, evaluated as y(x) on \[0, 1\] |
 //! | `*.s` surface | [`surface`] | the bicubic Bézier patches, tessellated to a [`crate::Mesh`] |
+//! | `*.con` curve (`curve:` lines) | [`curve`] | the B-spline, tabulated by arc length for `curveX/Y/Z` and `curveGAL` |
 //! | `*.map` colour map, `*.mat` materials | [`colormap`] | one RGB colour per colour or material index |
 //!
 //! The formats follow cpfg's own readers (vlab 5, `interpret.c`, `movements.c`,
@@ -47,6 +48,7 @@
 //! the view file and in `specifications` are relative to the folder.
 
 pub mod colormap;
+pub mod curve;
 pub mod func;
 pub mod surface;
 pub mod view;
@@ -75,6 +77,9 @@ pub struct ModelFolder {
     /// The surfaces named in the view file, by their one-character id (`~l` draws
     /// surface `"l"`).
     pub surfaces: Vec<(String, Surface)>,
+    /// The curves of the view file's `curve:` lines, in order: `curveX(id, t)` reads
+    /// `curves[id - 1]`. Named by file stem.
+    pub curves: Vec<(String, curve::Curve)>,
     /// The colour map (`-m`) or material colours (`-M`), when one was found.
     pub colormap: Option<ColorMap>,
     /// The colour map or material files that were read, in load order.
@@ -102,6 +107,7 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         view_file: None,
         functions: Vec::new(),
         surfaces: Vec::new(),
+        curves: Vec::new(),
         colormap: None,
         colormap_files: Vec::new(),
         ignored: Vec::new(),
@@ -203,6 +209,19 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
             let text = read_text(&path)?;
             let set = func::parse_set(&display_name(&path), &text)?;
             folder.functions.extend(set.functions);
+        }
+    }
+
+    // 3b. Curves (`curve:` lines), for curveX/Y/Z and curveGAL.
+    let curve_refs = folder.view.as_ref().map(|v| v.curves.clone()).unwrap_or_default();
+    for r in curve_refs {
+        let path = dir.join(&r.file);
+        if path.is_file() {
+            let text = read_text(&path)?;
+            let c = curve::parse(&display_name(&path), &text)?;
+            folder.curves.push((file_stem(&r.file), c));
+        } else {
+            folder.ignored.push(format!("missing curve file {} (curve {})", r.file, folder.curves.len() + 1));
         }
     }
 

@@ -31,7 +31,7 @@
 //! | `line: c file scale [s t [texture]]` | the surface that replaces lines | [`View::line_surface`] |
 //! | `function: file [samples]` | a function `func(id, x)` | [`View::functions`] |
 //! | `function set: file` | a set of functions (replaces the ones before) | [`View::functions`] |
-//! | `curve: file [samples]` | a 3D curve (recorded, not read) | [`View::curves`] |
+//! | `curve: file [samples]` | a curve for `curveX/Y/Z` and `curveGAL` (read by [`super::load_folder`]) | [`View::curves`] |
 //!
 //! Every other key (`viewpoint`, `projection`, `render mode`, `light`, `z buffer`,
 //! `scale factor`, `box`, `texture`, …: cpfg has dozens that only affect viewing) is
