@@ -10,6 +10,7 @@
 pub mod hull;
 pub mod obj_read;
 pub mod organs;
+pub mod quad;
 pub mod tube;
 
 use glam::{Vec2, Vec3};
