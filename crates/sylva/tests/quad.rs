@@ -533,3 +533,39 @@ fn random_rate() {
     );
     assert!(bad.len() as f64 <= 0.01 * n as f64);
 }
+
+/// Diagnostic: why children of a preset detach (`QUAD_PRESET=name`).
+#[test]
+#[ignore]
+fn detach_reasons() {
+    let name = std::env::var("QUAD_PRESET").unwrap_or_else(|_| "lsys-abop-a".into());
+    let loaded = sylva::recipe::load(&name, &[]).unwrap();
+    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap();
+    let sk = &g.skeleton;
+    let q = quad_mesh(sk, &QuadOptions::default()).unwrap();
+    let ch = sk.children();
+    for f in q.fallbacks.iter().filter(|f| f.reason == FallbackReason::Detached).take(12) {
+        let k = f.node as usize;
+        let p = sk.parent[k] as usize;
+        let gp = sk.parent[p];
+        let dir = |a: usize, b: usize| (sk.position[b] - sk.position[a]).normalize_or_zero();
+        let din = if gp == NO_PARENT { Vec3::Y } else { dir(gp as usize, p) };
+        let sib: Vec<String> = ch
+            .of(p)
+            .iter()
+            .map(|&s| {
+                let s = s as usize;
+                format!(
+                    "{s}: r {:.4} len {:.4} ∠in {:.1}°",
+                    sk.radius[s],
+                    sk.position[s].distance(sk.position[p]),
+                    din.angle_between(dir(p, s)).to_degrees()
+                )
+            })
+            .collect();
+        let fb: Vec<_> =
+            q.fallbacks.iter().filter(|f| f.node as usize == p || f.node as usize == gp as usize).collect();
+        let gsib: Vec<u32> = if gp == NO_PARENT { vec![] } else { ch.of(gp as usize).to_vec() };
+        println!("detached {k} at {p} (r {:.4}) parent {gp} kids {gsib:?} fb {fb:?}: {sib:?}", sk.radius[p]);
+    }
+}

@@ -36,7 +36,8 @@
 //!   children go to the four side faces of the middle→end box.
 //! * **(d) Connect branches** (J §3.5) — two or more children, `∠(d, d₀) < 90°`: the end
 //!   ring `E` is built as in (b) but pulled back along `d` by `(l + x)/2` (the liver-data
-//!   variant of J §3.5, option [`QuadOptions::pull_back`]); the box top `T` is a ring of
+//!   variant of J §3.5, option [`QuadOptions::pull_back`]; less when the internode is
+//!   shorter, so `E` stays `min_length · ρ` ahead of the start ring); the box top `T` is a ring of
 //!   the first child's radius, perpendicular to `h`, at `E + h·(l + x)` with `l + x` from
 //!   Eq. 4 ([`box_length`]). The first child continues from `T`; the others are sorted
 //!   into the four side faces `[E_k, E_k+1, T_k+1, T_k]` by the largest dot product of
@@ -599,8 +600,9 @@ impl Builder<'_> {
         // (d) Connect branches (J §3.5): the end ring, pulled back by (l + x)/2.
         self.cases.boxes += 1;
         let lx = self.eq4(&kids, d, d0);
-        let back = if self.opts.pull_back { 0.5 * lx } else { 0.0 };
-        let e = if along - back >= min_len {
+        // Pull back by (l + x)/2, but never to within `min_len` of the start ring.
+        let back = if self.opts.pull_back { (0.5 * lx).min(along - min_len) } else { 0.0 };
+        let e = if back >= 0.0 {
             let c = p - d * back;
             let tv = Self::next_tex_v(&r, c, rho);
             let e = self.ring_miter(c, d, h, r.up, rho, tv);
