@@ -569,3 +569,28 @@ fn detach_reasons() {
         println!("detached {k} at {p} (r {:.4}) parent {gp} kids {gsib:?} fb {fb:?}: {sib:?}", sk.radius[p]);
     }
 }
+
+/// UVs: `u = k/4` around each ring with the seam at `u = 1`, `v` increasing along the
+/// branch by length over circumference.
+#[test]
+fn uvs_wrap_around_and_grow_along() {
+    let k = 4;
+    let pts: Vec<Vec3> = (0..=k).map(|i| Vec3::Y * i as f32).collect();
+    let q = quad_mesh(&chain(&pts, 0.1), &QuadOptions::default()).unwrap();
+    let uv = q.mesh.uvs.as_ref().unwrap();
+    let at = |c: usize| uv.values[uv.indices[c] as usize];
+    // Faces: root cap, 4 bands of 4 quads, tip cap.
+    for f in 1..=4 * k {
+        let c = q.mesh.corners(f);
+        let (a, b, t1, t0) = (at(c.start), at(c.start + 1), at(c.start + 2), at(c.start + 3));
+        let side = (f - 1) % 4;
+        assert!((a.x - side as f32 / 4.0).abs() < 1e-6 && (b.x - (side + 1) as f32 / 4.0).abs() < 1e-6);
+        assert_eq!((t0.x, t1.x), (a.x, b.x));
+        // One unit of length on a tube of corner distance 0.1: Δv = 1 / (2π·0.1).
+        let dv = 1.0 / (std::f32::consts::TAU * 0.1);
+        assert!((t0.y - a.y - dv).abs() < 1e-4, "face {f}: Δv {}", t0.y - a.y);
+        assert_eq!(a.y, b.y);
+    }
+    // The seam: u = 1 appears only on the last side of each band.
+    assert!(uv.values.iter().any(|v| v.x == 1.0));
+}
