@@ -594,3 +594,31 @@ fn uvs_wrap_around_and_grow_along() {
     // The seam: u = 1 appears only on the last side of each band.
     assert!(uv.values.iter().any(|v| v.x == 1.0));
 }
+
+/// `mesh.method = "quad"` through the recipe and the pipeline: the bark is an all-quad
+/// closed manifold after Catmull–Clark, and fallbacks become one warning.
+#[test]
+fn recipe_and_pipeline_select_the_quad_mesher() {
+    let s = |v: &str| toml::Value::String(v.into());
+    let sets = vec![
+        ("mesh.method".to_string(), s("quad")),
+        ("refine.scheme".to_string(), s("catmull-clark")),
+        ("refine.levels".to_string(), toml::Value::Integer(1)),
+    ];
+    let loaded = sylva::recipe::load("lsys-honda-c", &sets).unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    let bark = &grown.model.parts[0].mesh;
+    let t = check("honda-c pipeline", bark);
+    assert_eq!(t.components, 1);
+    let q = quad_mesh(&grown.skeleton, &QuadOptions::default()).unwrap();
+    assert_eq!(bark.face_count(), 4 * q.mesh.face_count());
+    assert!(!q.fallbacks.is_empty());
+    assert!(
+        grown.report.warnings.iter().any(|w| w.starts_with("quad mesher:")),
+        "{:?}",
+        grown.report.warnings
+    );
+    let bad = vec![("mesh.method".to_string(), s("quads"))];
+    let err = sylva::recipe::load("lsys-honda-c", &bad).err().expect("unknown mesher rejected").to_string();
+    assert!(err.contains("tube, hull, quad"), "{err}");
+}
