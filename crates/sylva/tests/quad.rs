@@ -356,7 +356,13 @@ fn hard_cases_are_closed_outward_manifolds() {
 
     for (name, sk) in &cases {
         let q = full_check(name, sk, &o);
-        println!("{name}: {} faces, cases {:?}, fallbacks {:?}", q.mesh.face_count(), q.cases, q.fallbacks);
+        println!(
+            "{name}: {} faces, {} intersecting face pairs, cases {:?}, fallbacks {:?}",
+            q.mesh.face_count(),
+            intersecting_faces(&q.mesh).len(),
+            q.cases,
+            q.fallbacks
+        );
     }
     // A thin child aligned with its thicker aligned sibling is detached and reported;
     // so is a child reversed onto its parent.
@@ -434,7 +440,7 @@ fn every_preset_meshes_into_a_closed_manifold() {
             by(FallbackReason::ChainLimit),
             by(FallbackReason::ShortBox),
             by(FallbackReason::Short),
-            q.merged
+            q.merged.len()
         );
         total_fallbacks += q.fallbacks.len();
         meshed += 1;
@@ -619,6 +625,91 @@ fn recipe_and_pipeline_select_the_quad_mesher() {
         grown.report.warnings
     );
     let bad = vec![("mesh.method".to_string(), s("quads"))];
-    let err = sylva::recipe::load("lsys-honda-c", &bad).err().expect("unknown mesher rejected").to_string();
-    assert!(err.contains("tube, hull, quad"), "{err}");
+    let Err(err) = sylva::recipe::load("lsys-honda-c", &bad) else { panic!("unknown mesher accepted") };
+    assert!(err.to_string().contains("tube, hull, quad"), "{err}");
+}
+
+/// Does segment `p → q` cross triangle `t` (Möller–Trumbore, strict interior)?
+fn segment_hits_triangle(p: glam::DVec3, q: glam::DVec3, t: [glam::DVec3; 3]) -> bool {
+    let dir = q - p;
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let h = dir.cross(e2);
+    let a = e1.dot(h);
+    if a.abs() < 1e-14 {
+        return false;
+    }
+    let f = 1.0 / a;
+    let s = p - t[0];
+    let u = f * s.dot(h);
+    let qv = s.cross(e1);
+    let v = f * dir.dot(qv);
+    let w = f * e2.dot(qv);
+    let eps = 1e-9;
+    u > eps && v > eps && u + v < 1.0 - eps && w > eps && w < 1.0 - eps
+}
+
+/// Pairs of faces that share no vertex and intersect (each quad as two triangles, an
+/// edge of one crossing the other).
+fn intersecting_faces(m: &Mesh) -> Vec<(usize, usize)> {
+    let tris = |f: usize| {
+        let q = m.face(f);
+        let p = |k: usize| m.positions[q[k] as usize].as_dvec3();
+        [[p(0), p(1), p(2)], [p(0), p(2), p(3)]]
+    };
+    let mut out = Vec::new();
+    for a in 0..m.face_count() {
+        for b in a + 1..m.face_count() {
+            if m.face(a).iter().any(|v| m.face(b).contains(v)) {
+                continue;
+            }
+            let hit = tris(a).iter().any(|ta| {
+                tris(b).iter().any(|tb| {
+                    (0..3).any(|k| segment_hits_triangle(ta[k], ta[(k + 1) % 3], *tb))
+                        || (0..3).any(|k| segment_hits_triangle(tb[k], tb[(k + 1) % 3], *ta))
+                })
+            });
+            if hit {
+                out.push((a, b));
+            }
+        }
+    }
+    out
+}
+
+/// Spec 003 property 10: forks that follow Da Vinci/Murray (α = 3, Murray's angles for
+/// each child) with children longer than their box give a cage whose non-adjacent faces
+/// do not intersect.
+#[test]
+fn murray_forks_do_not_self_intersect() {
+    let mut worst = Vec::new();
+    for i in 0..60 {
+        let d0 = 0.4f64;
+        let ratio = 0.25 + 0.75 * (i as f64 / 59.0); // d2 / d1
+                                                     // Murray (α = 3): d0³ = d1³ + d2³.
+        let d1 = d0 / (1.0 + ratio.powi(3)).cbrt();
+        let d2 = d1 * ratio;
+        let cx = (d0.powi(4) + d1.powi(4) - d2.powi(4)) / (2.0 * d0 * d0 * d1 * d1);
+        let cy = (d0.powi(4) + d2.powi(4) - d1.powi(4)) / (2.0 * d0 * d0 * d2 * d2);
+        let (x, y) = (cx.clamp(-1.0, 1.0).acos(), cy.clamp(-1.0, 1.0).acos());
+        let az = i as f64 * 0.7;
+        let plane = glam::DVec3::new(az.cos(), 0.0, az.sin());
+        let mut s = Skeleton::new();
+        let r = seg(&mut s, NO_PARENT, Vec3::ZERO, (d0 / 2.0) as f32);
+        let n = seg(&mut s, r, Vec3::Y * 4.0, (d0 / 2.0) as f32);
+        let dir1 = glam::DVec3::Y * x.cos() + plane * x.sin();
+        let dir2 = glam::DVec3::Y * y.cos() - plane * y.sin();
+        seg(&mut s, n, Vec3::Y * 4.0 + (dir1 * 4.0).as_vec3(), (d1 / 2.0) as f32);
+        seg(&mut s, n, Vec3::Y * 4.0 + (dir2 * 4.0).as_vec3(), (d2 / 2.0) as f32);
+        let q = full_check(&format!("Murray fork {i}"), &s, &QuadOptions::default());
+        let hits = intersecting_faces(&q.mesh);
+        if !hits.is_empty() {
+            worst.push((i, x.to_degrees(), y.to_degrees(), hits.len()));
+        }
+    }
+    assert!(worst.is_empty(), "self-intersecting Murray forks (case, x°, y°, pairs): {worst:?}");
+    // The check itself sees intersections: two crossing trees.
+    let mut s = chain(&[Vec3::new(-1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)], 0.1);
+    let r = seg(&mut s, NO_PARENT, Vec3::new(0.0, 1.0, -1.0), 0.1);
+    seg(&mut s, r, Vec3::new(0.0, 1.0, 1.0), 0.1);
+    assert!(!intersecting_faces(&quad_mesh(&s, &QuadOptions::default()).unwrap().mesh).is_empty());
 }

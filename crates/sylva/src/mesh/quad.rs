@@ -74,7 +74,12 @@
 //!   with one child the node is skipped (the tube runs on to the child), with several
 //!   the box sits directly on the start ring, a tip is extended to `min_length · ρ`.
 //!   Reported as [`FallbackReason::Short`] unless the internode itself is shorter than
-//!   that (then it is silently merged and counted in [`QuadMesh::merged`]).
+//!   that (then it is merged and listed in [`QuadMesh::merged`]).
+//! * A node with one child closer to its start ring than `ρ·(tan α_R + tan α_n) +
+//!   min_length · ρ` — `α_R` the start ring's tilt against the internode, `α_n` half the
+//!   bend at the node — is **merged**: its section would cross the start ring inside the
+//!   tube, so the tube runs on to the child. Listed in [`QuadMesh::merged`] (a chain of
+//!   tiny internodes thus becomes one tube).
 //! * Zero radii are raised to `min_radius · max radius` (or a fraction of the bounding
 //!   box when every radius is 0), so no face has zero area and nothing is NaN.
 //!
@@ -214,8 +219,9 @@ pub struct QuadMesh {
     pub fallbacks: Vec<QuadFallback>,
     /// Case statistics.
     pub cases: CaseCounts,
-    /// Internodes shorter than `min_length · ρ` merged into the next one.
-    pub merged: usize,
+    /// Nodes with one child skipped because their section would cross the previous one
+    /// (short internodes; see the module docs), in the order met.
+    pub merged: Vec<u32>,
     /// Closed pieces: one per tree with geometry plus one per detached subtree.
     pub components: usize,
 }
@@ -267,7 +273,7 @@ struct Builder<'a> {
     uv_indices: Vec<u32>,
     fallbacks: Vec<QuadFallback>,
     cases: CaseCounts,
-    merged: usize,
+    merged: Vec<u32>,
     components: usize,
     stack: Vec<Task>,
 }
@@ -318,7 +324,7 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
         uv_indices: Vec::with_capacity(n * 20),
         fallbacks: Vec::new(),
         cases: CaseCounts::default(),
-        merged: 0,
+        merged: Vec::new(),
         components: 0,
         stack: Vec::new(),
     };
@@ -531,7 +537,7 @@ impl Builder<'_> {
             if internode >= min_len {
                 self.fallback(node, FallbackReason::Short);
             } else {
-                self.merged += 1;
+                self.merged.push(node);
             }
             match kids.len() {
                 0 => {
@@ -556,6 +562,19 @@ impl Builder<'_> {
                 }
             }
             return;
+        }
+        if let [k] = kids[..] {
+            // Merge: a section at `node` would cross the start ring inside the tube when
+            // the internode is shorter than the two sections' tilts reach along it.
+            let d0 = unit_or(self.pos(k) - p, d);
+            let tilt = |c: f32| (1.0 - c * c).max(0.0).sqrt() / c.max(0.5);
+            let half = ((1.0 + d.dot(d0).max(0.0)) * 0.5).sqrt();
+            let reach = rho.max(r.rho) * (tilt(r.normal.dot(d)) + tilt(half)) + min_len;
+            if along < reach {
+                self.merged.push(node);
+                self.stack.push(Task::Segment { ring: r, node: k });
+                return;
+            }
         }
         let Some(&k0) = kids.first() else {
             // (a) End cap.
