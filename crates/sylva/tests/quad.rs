@@ -713,3 +713,27 @@ fn murray_forks_do_not_self_intersect() {
     seg(&mut s, r, Vec3::new(0.0, 1.0, 1.0), 0.1);
     assert!(!intersecting_faces(&quad_mesh(&s, &QuadOptions::default()).unwrap().mesh).is_empty());
 }
+
+/// Spec 003 property 5: children in non-increasing diameter order, the first child's
+/// subtree finished before any sibling (seen in the vertex order: the first child's end
+/// ring comes before the second child's).
+#[test]
+fn first_child_subtree_is_meshed_first() {
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 3.0], 0.2);
+    // Node 2 is thinner but listed first; node 3 is the first child by diameter.
+    let thin = seg(&mut s, 1, Vec3::new(-1.2, 5.2, 0.3), 0.1);
+    let thick = seg(&mut s, 1, Vec3::new(1.0, 5.5, 0.0), 0.15);
+    let grand = seg(&mut s, thick, Vec3::new(1.5, 7.5, 0.0), 0.12);
+    let q = quad_mesh(&s, &QuadOptions::default()).unwrap();
+    let ring_of = |node: u32| {
+        let p = s.position[node as usize];
+        (0..q.mesh.positions.len() / 4)
+            .min_by(|&a, &b| {
+                let c = |r: usize| (0..4).map(|k| q.mesh.positions[4 * r + k]).sum::<Vec3>() / 4.0;
+                c(a).distance(p).total_cmp(&c(b).distance(p))
+            })
+            .unwrap()
+    };
+    assert!(ring_of(thick) < ring_of(grand), "thick child before its child");
+    assert!(ring_of(grand) < ring_of(thin), "the thick child's subtree before the thin sibling");
+}
