@@ -67,7 +67,7 @@
 //!   `min(ρ_parent, ρ_child)` (the tube mesher's lateral convention). Reported as
 //!   [`FallbackReason::Detached`] or [`FallbackReason::ChainLimit`].
 //! * A first child shorter than its box (spec 003 property 8): the box is shortened to end
-//!   `min_length · ρ` before the child's node, down to a quarter of its Eq. 4 length.
+//!   `2 · min_length · ρ` before the child's node, down to a quarter of its Eq. 4 length.
 //!   Reported as [`FallbackReason::ShortBox`].
 //! * A node that lies behind (or less than `min_length · ρ` in front of) its start ring —
 //!   a child shorter than its box (spec 003 property 8) or a sharp kink — is **short**:
@@ -656,7 +656,8 @@ impl Builder<'_> {
         let mut lx = self.eq4(kids, base, d0).max(self.min_len(e.rho));
         // The first child must outrun its box (J §3.5); when it does not, shorten the box
         // to end before the child's node, down to a quarter of its Eq. 4 length.
-        let reach = (self.pos(k0) - e.center).dot(h) - self.min_len(rho0);
+        // Twice `min_len`: the child's tube then clears the short-node test with margin.
+        let reach = (self.pos(k0) - e.center).dot(h) - 2.0 * self.min_len(rho0);
         if reach < lx {
             let floor = (0.25 * lx).max(self.min_len(e.rho));
             if reach >= floor {
