@@ -300,6 +300,18 @@ pub fn mesh(
             ));
         }
         h.mesh
+    } else if recipe.mesh.method == "quad" {
+        use crate::mesh::quad::{quad_mesh, QuadOptions};
+        let q = quad_mesh(skeleton, &QuadOptions::default())?;
+        report.axes = q.components;
+        if !q.fallbacks.is_empty() {
+            let first: Vec<u32> = q.fallbacks.iter().take(8).map(|f| f.node).collect();
+            report.warnings.push(format!(
+                "quad mesher: {} node(s) fell back (detached capped cages or shortened junctions; first nodes {first:?})",
+                q.fallbacks.len()
+            ));
+        }
+        q.mesh
     } else {
         let tube =
             tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;

@@ -1,0 +1,740 @@
+//! The quad mesher (seed 003 junction paper, spec 003 §2 and §10 properties 1–4, 7, 9,
+//! 11): all-quad closed 2-manifold cages on the seed's cases and on hard cases, every
+//! embedded preset, Catmull–Clark refinement staying manifold, and a property test over
+//! random skeletons.
+
+use glam::Vec3;
+use proptest::prelude::*;
+use std::collections::{HashMap, HashSet};
+use sylva::mesh::quad::{quad_mesh, FallbackReason, QuadMesh, QuadOptions};
+use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+use sylva::{Mesh, Skeleton, NO_PARENT};
+
+// ---------------------------------------------------------------------------------------
+// Mesh checks
+
+/// What [`check`] measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Topo {
+    vertices: usize,
+    edges: usize,
+    faces: usize,
+    components: usize,
+}
+
+/// Checks a closed, consistently oriented 2-manifold of quads: every face has four
+/// distinct vertices and non-zero area, every directed edge is used once and its
+/// reverse once, every vertex star is a single cycle, no vertex is unused, and every
+/// component has χ = 2. Returns a description of the first problem.
+fn try_check(m: &Mesh) -> Result<Topo, String> {
+    m.validate()?;
+    let nv = m.positions.len();
+    let mut directed: HashSet<(u32, u32)> = HashSet::new();
+    let mut wedges: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nv];
+    for f in 0..m.face_count() {
+        let q = m.face(f);
+        if q.len() != 4 {
+            return Err(format!("face {f} has {} corners", q.len()));
+        }
+        for k in 0..4 {
+            let (a, b, c) = (q[k], q[(k + 1) % 4], q[(k + 3) % 4]);
+            if q[k + 1..].contains(&a) {
+                return Err(format!("face {f} repeats vertex {a}"));
+            }
+            if !directed.insert((a, b)) {
+                return Err(format!("directed edge {a}->{b} used twice (orientation or non-manifold)"));
+            }
+            wedges[a as usize].push((b, c));
+        }
+        let p: [glam::DVec3; 4] = std::array::from_fn(|k| m.positions[q[k] as usize].as_dvec3());
+        let area =
+            ((p[1] - p[0]).cross(p[3] - p[0]).length() + (p[3] - p[2]).cross(p[1] - p[2]).length()) * 0.5;
+        if area <= 0.0 {
+            return Err(format!("face {f} has zero area"));
+        }
+    }
+    let mut edges = HashSet::new();
+    for &(a, b) in &directed {
+        if !directed.contains(&(b, a)) {
+            return Err(format!("edge {a}->{b} has no opposite (boundary or flipped face)"));
+        }
+        edges.insert((a.min(b), a.max(b)));
+    }
+    for (v, ws) in wedges.iter().enumerate() {
+        if ws.is_empty() {
+            return Err(format!("vertex {v} is unused"));
+        }
+        // Wedge (next, prev) around v: the face after it is the one whose next is prev.
+        let by_next: HashMap<u32, u32> = ws.iter().copied().collect();
+        let start = ws[0].0;
+        let (mut at, mut seen) = (start, 0);
+        loop {
+            let Some(&p) = by_next.get(&at) else { return Err(format!("vertex {v} star is open")) };
+            seen += 1;
+            at = p;
+            if at == start || seen > ws.len() {
+                break;
+            }
+        }
+        if seen != ws.len() {
+            return Err(format!("vertex {v} star is not one cycle"));
+        }
+    }
+    let mut parent: Vec<u32> = (0..nv as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    for f in 0..m.face_count() {
+        let q = m.face(f);
+        for k in 1..4 {
+            let (a, b) = (find(&mut parent, q[0]), find(&mut parent, q[k]));
+            parent[a as usize] = b;
+        }
+    }
+    let components = (0..nv as u32).filter(|&v| find(&mut parent, v) == v).count();
+    let euler = nv as i64 - edges.len() as i64 + m.face_count() as i64;
+    if euler != 2 * components as i64 {
+        return Err(format!("χ = {euler} with {components} components (not genus 0 spheres)"));
+    }
+    Ok(Topo { vertices: nv, edges: edges.len(), faces: m.face_count(), components })
+}
+
+fn check(name: &str, m: &Mesh) -> Topo {
+    try_check(m).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// Signed volume of a closed quad mesh (each quad as two triangles).
+fn signed_volume(m: &Mesh) -> f64 {
+    (0..m.face_count())
+        .map(|f| {
+            let p = m.face(f).iter().map(|&i| m.positions[i as usize].as_dvec3()).collect::<Vec<_>>();
+            (1..p.len() - 1).map(|k| p[0].dot(p[k].cross(p[k + 1])) / 6.0).sum::<f64>()
+        })
+        .sum()
+}
+
+fn catmull_clark(m: &Mesh, levels: u32) -> Mesh {
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
+        ..Default::default()
+    };
+    subdivide(m, &[], &opts).expect("Catmull–Clark subdivision of the quad cage")
+}
+
+/// Components expected from the report: one per tree plus one per detached subtree.
+fn expected_components(sk: &Skeleton, q: &QuadMesh) -> usize {
+    let ch = sk.children();
+    let trees = (0..sk.len()).filter(|&i| sk.parent[i] == NO_PARENT && !ch.of(i).is_empty()).count();
+    let detached = q
+        .fallbacks
+        .iter()
+        .filter(|f| matches!(f.reason, FallbackReason::Detached | FallbackReason::ChainLimit))
+        .count();
+    trees + detached
+}
+
+/// Meshes, checks everything that holds for any input, refines one level and checks
+/// again; returns the result.
+fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
+    let q = quad_mesh(sk, opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let t = check(name, &q.mesh);
+    assert_eq!(t.components, q.components, "{name}: components vs report");
+    assert_eq!(t.components, expected_components(sk, &q), "{name}: unreported detached pieces");
+    assert!(signed_volume(&q.mesh) > 0.0, "{name}: inward-facing (volume ≤ 0)");
+    let uv = q.mesh.uvs.as_ref().expect("UVs");
+    assert_eq!(uv.indices.len(), q.mesh.face_indices.len());
+    assert!(uv.values.iter().all(|v| v.is_finite() && v.x >= 0.0 && v.x <= 1.0 && v.y >= 0.0));
+    let fine = catmull_clark(&q.mesh, 1);
+    let tf = check(&format!("{name} CC 1"), &fine);
+    // Spec 003 property 11: V′ = V + E + F, still closed and all-quad.
+    assert_eq!(tf.vertices, t.vertices + t.edges + t.faces, "{name}: V' = V + E + F");
+    assert_eq!(tf.faces, 4 * t.faces);
+    assert!(signed_volume(&fine) > 0.0, "{name}: refined volume");
+    q
+}
+
+// ---------------------------------------------------------------------------------------
+// Skeleton builders
+
+fn seg(s: &mut Skeleton, parent: u32, p: Vec3, r: f32) -> u32 {
+    let up = if parent == NO_PARENT {
+        Vec3::X
+    } else {
+        let d = p - s.position[parent as usize];
+        d.any_orthonormal_vector()
+    };
+    s.push(p, r, parent, up, 0)
+}
+
+fn chain(points: &[Vec3], r: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let mut at = NO_PARENT;
+    for &p in points {
+        at = seg(&mut s, at, p, r);
+    }
+    s
+}
+
+/// Trunk of height 2 with `n` children fanned around it at `tilt` from vertical; with
+/// `wobble` the children's tilts alternate (a non-planar whorl).
+fn whorl(n: usize, tilt: f32, r_child: f32, wobble: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let top = seg(&mut s, root, Vec3::Y * 2.0, 0.2);
+    for k in 0..n {
+        let a = k as f32 * std::f32::consts::TAU / n as f32;
+        let t = tilt + if k % 2 == 0 { wobble } else { -wobble };
+        let d = Vec3::new(t.sin() * a.cos(), t.cos(), t.sin() * a.sin());
+        seg(&mut s, top, Vec3::Y * 2.0 + d * 2.0, r_child);
+    }
+    s
+}
+
+fn y_fork() -> Skeleton {
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
+    seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), 0.15);
+    seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), 0.12);
+    s
+}
+
+// ---------------------------------------------------------------------------------------
+// The seed's counts (spec 003 §10 properties 2–4)
+
+#[test]
+fn unbranched_chain_has_4_k_plus_1_vertices() {
+    for k in 1..=8usize {
+        let pts: Vec<Vec3> = (0..=k)
+            .map(|i| Vec3::new((i as f32 * 0.9).sin() * 0.4, i as f32, (i as f32 * 0.5).cos() * 0.3))
+            .collect();
+        let q = full_check(&format!("chain {k}"), &chain(&pts, 0.1), &QuadOptions::default());
+        let t = check("chain", &q.mesh);
+        assert_eq!(t.vertices, 4 * (k + 1), "V = 4(k+1)");
+        assert_eq!(t.faces, 4 * k + 2, "F = 4k + 2");
+        assert_eq!(t.edges, 2 * t.faces, "E = 2F");
+        assert_eq!(t.vertices, t.faces + 2, "V = F + 2");
+        assert!(q.fallbacks.is_empty());
+    }
+}
+
+#[test]
+fn fork_and_backward_counts() {
+    // One fork with two leaf children (case d): V = 20, F = 18, E = 36.
+    let q = full_check("Y fork", &y_fork(), &QuadOptions::default());
+    let t = check("Y fork", &q.mesh);
+    assert_eq!((t.vertices, t.faces, t.edges), (20, 18, 36));
+    assert_eq!(q.cases.boxes, 1);
+    assert!(q.fallbacks.is_empty(), "{:?}", q.fallbacks);
+    // Without pull-back the counts are the same.
+    let q = full_check(
+        "Y fork, no pull-back",
+        &y_fork(),
+        &QuadOptions { pull_back: false, ..Default::default() },
+    );
+    assert_eq!(check("", &q.mesh).vertices, 20);
+    // A single backward child (case c): V = 16, F = 14.
+    for angle in [90.0f32, 90.1, 120.0, 135.0, 150.0] {
+        let a = angle.to_radians();
+        let s =
+            chain(&[Vec3::ZERO, Vec3::Y * 3.0, Vec3::Y * 3.0 + Vec3::new(a.sin(), a.cos(), 0.0) * 2.0], 0.2);
+        let q = full_check(&format!("backward {angle}"), &s, &QuadOptions::default());
+        let t = check("backward", &q.mesh);
+        assert_eq!((t.vertices, t.faces), (16, 14), "backward {angle}°");
+        assert_eq!(q.cases.backward, 1);
+        assert!(q.fallbacks.is_empty());
+    }
+}
+
+/// Spec 003 property 6: the case table.
+#[test]
+fn case_selection() {
+    for (angle, kids, want) in [
+        (0.0f32, 1usize, "b"),
+        (45.0, 1, "b"),
+        (89.9, 1, "b"),
+        (90.0, 1, "c"),
+        (90.1, 1, "c"),
+        (135.0, 1, "c"),
+        (0.0, 0, "a"),
+        (45.0, 3, "d"),
+        (89.9, 3, "d"),
+        (135.0, 3, "c"),
+    ] {
+        let mut s = Skeleton::new();
+        let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+        let n = seg(&mut s, r, Vec3::Y * 4.0, 0.2);
+        for k in 0..kids {
+            let a = angle.to_radians();
+            let az = k as f32 * 2.1;
+            let d = Vec3::new(a.sin() * az.cos(), a.cos(), a.sin() * az.sin());
+            // The first child is the thickest.
+            seg(&mut s, n, Vec3::Y * 4.0 + d * 3.0, 0.15 - 0.02 * k as f32);
+        }
+        let q = full_check(&format!("{angle}° × {kids}"), &s, &QuadOptions::default());
+        let c = q.cases;
+        let got = if c.backward > 0 {
+            "c"
+        } else if c.boxes > 0 {
+            "d"
+        } else if c.normal > 0 {
+            "b"
+        } else {
+            "a"
+        };
+        assert_eq!(got, want, "{angle}° with {kids} children: {c:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Hard cases: closed, outward, fallbacks reported
+
+#[test]
+fn hard_cases_are_closed_outward_manifolds() {
+    let o = QuadOptions::default();
+    let mut cases: Vec<(String, Skeleton)> = vec![
+        (
+            "single chain".into(),
+            chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(0.2, 2.0, 0.0), Vec3::new(0.5, 3.0, 0.1)], 0.1),
+        ),
+        ("Y fork".into(), y_fork()),
+    ];
+    for n in [3usize, 6, 8, 12] {
+        cases.push((format!("{n}-whorl"), whorl(n, 1.0, 0.1, 0.0)));
+        cases.push((format!("{n}-whorl non-planar"), whorl(n, 1.0, 0.1, 0.35)));
+    }
+    // A child aligned with the parent next to a thicker lateral.
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 2.0], 0.2);
+    seg(&mut s, 1, Vec3::new(1.5, 3.5, 0.0), 0.18);
+    seg(&mut s, 1, Vec3::Y * 4.0, 0.1);
+    cases.push(("aligned child".into(), s));
+    // Two children both aligned with the parent.
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 2.0], 0.2);
+    seg(&mut s, 1, Vec3::Y * 4.0, 0.15);
+    seg(&mut s, 1, Vec3::Y * 3.0, 0.1);
+    cases.push(("two aligned children".into(), s));
+    // A child thicker than its parent.
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 2.0], 0.1);
+    seg(&mut s, 1, Vec3::new(0.5, 4.0, 0.0), 0.3);
+    seg(&mut s, 1, Vec3::new(-1.5, 3.0, 0.0), 0.25);
+    cases.push(("thicker child".into(), s));
+    // Bends beyond 90°, and a full reversal.
+    for deg in [100.0f32, 150.0, 180.0] {
+        let a = deg.to_radians();
+        let mut s = chain(&[Vec3::ZERO, Vec3::Y * 2.0], 0.2);
+        seg(&mut s, 1, Vec3::Y * 2.0 + Vec3::new(a.sin(), a.cos(), 0.0) * 1.5, 0.15);
+        seg(&mut s, 1, Vec3::Y * 2.0 + Vec3::new(-a.sin(), a.cos(), 0.3) * 1.5, 0.1);
+        cases.push((format!("{deg}° bend with a sibling"), s));
+    }
+    // Very short internodes, zero-length internodes and zero radii.
+    let pts: Vec<Vec3> =
+        (0..40).map(|i| Vec3::new((i as f32 * 0.4).sin() * 0.02, i as f32 * 0.01, 0.0)).collect();
+    cases.push(("very short internodes".into(), chain(&pts, 0.1)));
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y, Vec3::Y, Vec3::Y * 2.0], 0.1);
+    seg(&mut s, 2, Vec3::Y, 0.05);
+    seg(&mut s, 2, Vec3::new(0.5, 1.2, 0.0), 0.0);
+    cases.push(("zero-length internodes".into(), s));
+    // A child shorter than its box.
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 2.0], 0.3);
+    seg(&mut s, 1, Vec3::new(0.05, 2.1, 0.0), 0.3);
+    seg(&mut s, 1, Vec3::new(0.6, 2.3, 0.0), 0.2);
+    cases.push(("child shorter than its box".into(), s));
+    // A branching root and two trees.
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    for k in 0..3 {
+        let a = k as f32 * 2.0;
+        seg(&mut s, r, Vec3::new(a.cos(), 2.0, a.sin()), 0.1);
+    }
+    let r2 = seg(&mut s, NO_PARENT, Vec3::X * 5.0, 0.2);
+    seg(&mut s, r2, Vec3::new(5.0, 2.0, 0.0), 0.1);
+    cases.push(("branching root and a second tree".into(), s));
+
+    for (name, sk) in &cases {
+        let q = full_check(name, sk, &o);
+        println!(
+            "{name}: {} faces, {} intersecting face pairs, cases {:?}, fallbacks {:?}",
+            q.mesh.face_count(),
+            intersecting_faces(&q.mesh).len(),
+            q.cases,
+            q.fallbacks
+        );
+    }
+    // A thin child aligned with its thicker aligned sibling is detached and reported;
+    // so is a child reversed onto its parent.
+    let q = quad_mesh(&cases.iter().find(|c| c.0 == "two aligned children").unwrap().1, &o).unwrap();
+    assert!(
+        q.fallbacks.iter().any(|f| f.node == 3 && f.reason == FallbackReason::Detached),
+        "{:?}",
+        q.fallbacks
+    );
+    let q = quad_mesh(&cases.iter().find(|c| c.0 == "180° bend with a sibling").unwrap().1, &o).unwrap();
+    assert!(
+        q.fallbacks.iter().any(|f| f.node == 2 && f.reason == FallbackReason::Detached),
+        "{:?}",
+        q.fallbacks
+    );
+    // A child shorter than its box is reported.
+    let q = quad_mesh(&cases.iter().find(|c| c.0 == "child shorter than its box").unwrap().1, &o).unwrap();
+    assert!(
+        q.fallbacks
+            .iter()
+            .any(|f| f.node == 2 && matches!(f.reason, FallbackReason::Short | FallbackReason::ShortBox)),
+        "{:?}",
+        q.fallbacks
+    );
+    // A whorl of 12 needs chained boxes.
+    let q = quad_mesh(&whorl(12, 1.0, 0.1, 0.0), &o).unwrap();
+    assert!(q.cases.chained > 0);
+}
+
+#[test]
+fn output_is_deterministic() {
+    let s = whorl(7, 0.9, 0.1, 0.2);
+    let a = quad_mesh(&s, &QuadOptions::default()).unwrap();
+    let b = quad_mesh(&s, &QuadOptions::default()).unwrap();
+    assert_eq!(a, b);
+}
+
+// ---------------------------------------------------------------------------------------
+// Every preset
+
+#[test]
+fn every_preset_meshes_into_a_closed_manifold() {
+    println!("| preset | nodes | vertices | faces | components | fallbacks (detached/chain/short box/short) | merged | ms |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut meshed = 0;
+    let mut total_fallbacks = 0;
+    for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
+        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
+        let mut report = sylva::pipeline::Report::default();
+        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut report) else { continue };
+        let sk = &g.skeleton;
+        if sk.len() > 30_000 {
+            println!("| {} | {} | skipped (large) |", p.name, sk.len());
+            continue;
+        }
+        let t0 = std::time::Instant::now();
+        let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t = check(p.name, &q.mesh);
+        assert_eq!(t.components, expected_components(sk, &q), "{}", p.name);
+        if t.faces > 0 {
+            assert!(signed_volume(&q.mesh) > 0.0, "{}: volume", p.name);
+            check(&format!("{} CC 1", p.name), &catmull_clark(&q.mesh, 1));
+        }
+        let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
+        println!(
+            "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}) | {} | {ms:.1} |",
+            p.name,
+            sk.len(),
+            t.vertices,
+            t.faces,
+            t.components,
+            q.fallbacks.len(),
+            by(FallbackReason::Detached),
+            by(FallbackReason::ChainLimit),
+            by(FallbackReason::ShortBox),
+            by(FallbackReason::Short),
+            q.merged.len()
+        );
+        total_fallbacks += q.fallbacks.len();
+        meshed += 1;
+    }
+    println!("{meshed} presets meshed, {total_fallbacks} fallbacks in all");
+    assert!(meshed > 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Random skeletons
+
+/// A random tree: branching angles 5°–170°, 1–8 children, radius ratios 0.1–1.2,
+/// internode lengths 0.2–20 radii.
+fn random_tree(seed: u64, max_nodes: usize) -> Skeleton {
+    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 33) as f64 / (1u64 << 31) as f64) as f32
+    };
+    let mut s = Skeleton::new();
+    let root = s.push(Vec3::ZERO, 0.2, NO_PARENT, Vec3::X, 0);
+    let first = s.push(Vec3::Y * (0.2 * (0.2 + rnd() * 19.8)), 0.2, root, Vec3::X, 0);
+    let mut open = vec![first];
+    while let Some(node) = open.pop() {
+        if s.len() >= max_nodes {
+            break;
+        }
+        let parent = s.parent[node as usize];
+        let p = s.position[node as usize];
+        let dir = (p - s.position[parent as usize]).try_normalize().unwrap_or(Vec3::Y);
+        let r = s.radius[node as usize];
+        let n = if rnd() < 0.25 { 0 } else { 1 + (rnd() * 8.0) as usize % 8 };
+        let side = dir.any_orthonormal_vector();
+        for _ in 0..n {
+            let angle = (5.0 + rnd() * 165.0).to_radians();
+            let az = rnd() * std::f32::consts::TAU;
+            let ortho = glam::Quat::from_axis_angle(dir, az) * side;
+            let d = dir * angle.cos() + ortho * angle.sin();
+            let rc = (r * (0.1 + rnd() * 1.1)).max(1e-3);
+            let len = rc * (0.2 + rnd() * 19.8);
+            let up = d.any_orthonormal_vector();
+            let c = s.push(p + d * len, rc, node, up, 1);
+            if s.len() >= max_nodes {
+                break;
+            }
+            open.push(c);
+        }
+    }
+    s
+}
+
+/// Checks one random skeleton; `Err` describes a case that is not a valid outward
+/// manifold with every detached piece reported. Panics (a test failure) on a panic or
+/// an error from the mesher.
+fn random_case(seed: u64) -> Result<(), String> {
+    let sk = random_tree(seed, 60);
+    let q = quad_mesh(&sk, &QuadOptions::default()).map_err(|e| format!("error: {e}"))?;
+    let t = try_check(&q.mesh)?;
+    if t.components != expected_components(&sk, &q) {
+        return Err(format!("{} components, {} expected", t.components, expected_components(&sk, &q)));
+    }
+    if signed_volume(&q.mesh) <= 0.0 {
+        return Err("volume ≤ 0".into());
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    /// Never panics, never errors on a valid skeleton, the cage is an all-quad closed
+    /// manifold and every detached piece is reported (≥ 99% asked; the topology holds
+    /// by construction, so any failure is shown). 256 cases keep CI fast; `random_rate`
+    /// with 1000 seeds was run by hand: 1000 of 1000 valid (and 20 000 of 20 000).
+    #[test]
+    fn random_skeletons_give_closed_manifolds(seed in any::<u64>()) {
+        let r = random_case(seed);
+        prop_assert!(r.is_ok(), "seed {}: {:?}", seed, r);
+    }
+}
+
+/// The ≥ 99% rate over many seeds: `QUAD_CASES=1000 cargo test -p sylva --test quad
+/// -- --ignored --nocapture random_rate`.
+#[test]
+#[ignore]
+fn random_rate() {
+    let n: u64 = std::env::var("QUAD_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1000);
+    let mut bad = Vec::new();
+    for seed in 0..n {
+        if let Err(e) = random_case(seed) {
+            bad.push((seed, e));
+        }
+    }
+    println!(
+        "{} of {n} random skeletons valid; failures: {:?}",
+        n as usize - bad.len(),
+        &bad[..bad.len().min(10)]
+    );
+    assert!(bad.len() as f64 <= 0.01 * n as f64);
+}
+
+/// Diagnostic: why children of a preset detach (`QUAD_PRESET=name`).
+#[test]
+#[ignore]
+fn detach_reasons() {
+    let name = std::env::var("QUAD_PRESET").unwrap_or_else(|_| "lsys-abop-a".into());
+    let loaded = sylva::recipe::load(&name, &[]).unwrap();
+    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap();
+    let sk = &g.skeleton;
+    let q = quad_mesh(sk, &QuadOptions::default()).unwrap();
+    let ch = sk.children();
+    for f in q.fallbacks.iter().filter(|f| f.reason == FallbackReason::Detached).take(12) {
+        let k = f.node as usize;
+        let p = sk.parent[k] as usize;
+        let gp = sk.parent[p];
+        let dir = |a: usize, b: usize| (sk.position[b] - sk.position[a]).normalize_or_zero();
+        let din = if gp == NO_PARENT { Vec3::Y } else { dir(gp as usize, p) };
+        let sib: Vec<String> = ch
+            .of(p)
+            .iter()
+            .map(|&s| {
+                let s = s as usize;
+                format!(
+                    "{s}: r {:.4} len {:.4} ∠in {:.1}°",
+                    sk.radius[s],
+                    sk.position[s].distance(sk.position[p]),
+                    din.angle_between(dir(p, s)).to_degrees()
+                )
+            })
+            .collect();
+        let fb: Vec<_> =
+            q.fallbacks.iter().filter(|f| f.node as usize == p || f.node as usize == gp as usize).collect();
+        let gsib: Vec<u32> = if gp == NO_PARENT { vec![] } else { ch.of(gp as usize).to_vec() };
+        println!("detached {k} at {p} (r {:.4}) parent {gp} kids {gsib:?} fb {fb:?}: {sib:?}", sk.radius[p]);
+    }
+}
+
+/// UVs: `u = k/4` around each ring with the seam at `u = 1`, `v` increasing along the
+/// branch by length over circumference.
+#[test]
+fn uvs_wrap_around_and_grow_along() {
+    let k = 4;
+    let pts: Vec<Vec3> = (0..=k).map(|i| Vec3::Y * i as f32).collect();
+    let q = quad_mesh(&chain(&pts, 0.1), &QuadOptions::default()).unwrap();
+    let uv = q.mesh.uvs.as_ref().unwrap();
+    let at = |c: usize| uv.values[uv.indices[c] as usize];
+    // Faces: root cap, 4 bands of 4 quads, tip cap.
+    for f in 1..=4 * k {
+        let c = q.mesh.corners(f);
+        let (a, b, t1, t0) = (at(c.start), at(c.start + 1), at(c.start + 2), at(c.start + 3));
+        let side = (f - 1) % 4;
+        assert!((a.x - side as f32 / 4.0).abs() < 1e-6 && (b.x - (side + 1) as f32 / 4.0).abs() < 1e-6);
+        assert_eq!((t0.x, t1.x), (a.x, b.x));
+        // One unit of length on a tube of corner distance 0.1: Δv = 1 / (2π·0.1).
+        let dv = 1.0 / (std::f32::consts::TAU * 0.1);
+        assert!((t0.y - a.y - dv).abs() < 1e-4, "face {f}: Δv {}", t0.y - a.y);
+        assert_eq!(a.y, b.y);
+    }
+    // The seam: u = 1 appears only on the last side of each band.
+    assert!(uv.values.iter().any(|v| v.x == 1.0));
+}
+
+/// `mesh.method = "quad"` through the recipe and the pipeline: the bark is an all-quad
+/// closed manifold after Catmull–Clark, and fallbacks become one warning.
+#[test]
+fn recipe_and_pipeline_select_the_quad_mesher() {
+    let s = |v: &str| toml::Value::String(v.into());
+    let sets = vec![
+        ("mesh.method".to_string(), s("quad")),
+        ("refine.scheme".to_string(), s("catmull-clark")),
+        ("refine.levels".to_string(), toml::Value::Integer(1)),
+    ];
+    let loaded = sylva::recipe::load("lsys-honda-c", &sets).unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    let bark = &grown.model.parts[0].mesh;
+    let t = check("honda-c pipeline", bark);
+    assert_eq!(t.components, 1);
+    let q = quad_mesh(&grown.skeleton, &QuadOptions::default()).unwrap();
+    assert_eq!(bark.face_count(), 4 * q.mesh.face_count());
+    assert!(!q.fallbacks.is_empty());
+    assert!(
+        grown.report.warnings.iter().any(|w| w.starts_with("quad mesher:")),
+        "{:?}",
+        grown.report.warnings
+    );
+    let bad = vec![("mesh.method".to_string(), s("quads"))];
+    let Err(err) = sylva::recipe::load("lsys-honda-c", &bad) else { panic!("unknown mesher accepted") };
+    assert!(err.to_string().contains("tube, hull, quad"), "{err}");
+}
+
+/// Does segment `p → q` cross triangle `t` (Möller–Trumbore, strict interior)?
+fn segment_hits_triangle(p: glam::DVec3, q: glam::DVec3, t: [glam::DVec3; 3]) -> bool {
+    let dir = q - p;
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let h = dir.cross(e2);
+    let a = e1.dot(h);
+    if a.abs() < 1e-14 {
+        return false;
+    }
+    let f = 1.0 / a;
+    let s = p - t[0];
+    let u = f * s.dot(h);
+    let qv = s.cross(e1);
+    let v = f * dir.dot(qv);
+    let w = f * e2.dot(qv);
+    let eps = 1e-9;
+    u > eps && v > eps && u + v < 1.0 - eps && w > eps && w < 1.0 - eps
+}
+
+/// Pairs of faces that share no vertex and intersect (each quad as two triangles, an
+/// edge of one crossing the other).
+fn intersecting_faces(m: &Mesh) -> Vec<(usize, usize)> {
+    let tris = |f: usize| {
+        let q = m.face(f);
+        let p = |k: usize| m.positions[q[k] as usize].as_dvec3();
+        [[p(0), p(1), p(2)], [p(0), p(2), p(3)]]
+    };
+    let mut out = Vec::new();
+    for a in 0..m.face_count() {
+        for b in a + 1..m.face_count() {
+            if m.face(a).iter().any(|v| m.face(b).contains(v)) {
+                continue;
+            }
+            let hit = tris(a).iter().any(|ta| {
+                tris(b).iter().any(|tb| {
+                    (0..3).any(|k| segment_hits_triangle(ta[k], ta[(k + 1) % 3], *tb))
+                        || (0..3).any(|k| segment_hits_triangle(tb[k], tb[(k + 1) % 3], *ta))
+                })
+            });
+            if hit {
+                out.push((a, b));
+            }
+        }
+    }
+    out
+}
+
+/// Spec 003 property 10: forks that follow Da Vinci/Murray (α = 3, Murray's angles for
+/// each child) with children longer than their box give a cage whose non-adjacent faces
+/// do not intersect.
+#[test]
+fn murray_forks_do_not_self_intersect() {
+    let mut worst = Vec::new();
+    for i in 0..60 {
+        let d0 = 0.4f64;
+        let ratio = 0.25 + 0.75 * (i as f64 / 59.0); // d2 / d1
+                                                     // Murray (α = 3): d0³ = d1³ + d2³.
+        let d1 = d0 / (1.0 + ratio.powi(3)).cbrt();
+        let d2 = d1 * ratio;
+        let cx = (d0.powi(4) + d1.powi(4) - d2.powi(4)) / (2.0 * d0 * d0 * d1 * d1);
+        let cy = (d0.powi(4) + d2.powi(4) - d1.powi(4)) / (2.0 * d0 * d0 * d2 * d2);
+        let (x, y) = (cx.clamp(-1.0, 1.0).acos(), cy.clamp(-1.0, 1.0).acos());
+        let az = i as f64 * 0.7;
+        let plane = glam::DVec3::new(az.cos(), 0.0, az.sin());
+        let mut s = Skeleton::new();
+        let r = seg(&mut s, NO_PARENT, Vec3::ZERO, (d0 / 2.0) as f32);
+        let n = seg(&mut s, r, Vec3::Y * 4.0, (d0 / 2.0) as f32);
+        let dir1 = glam::DVec3::Y * x.cos() + plane * x.sin();
+        let dir2 = glam::DVec3::Y * y.cos() - plane * y.sin();
+        seg(&mut s, n, Vec3::Y * 4.0 + (dir1 * 4.0).as_vec3(), (d1 / 2.0) as f32);
+        seg(&mut s, n, Vec3::Y * 4.0 + (dir2 * 4.0).as_vec3(), (d2 / 2.0) as f32);
+        let q = full_check(&format!("Murray fork {i}"), &s, &QuadOptions::default());
+        let hits = intersecting_faces(&q.mesh);
+        if !hits.is_empty() {
+            worst.push((i, x.to_degrees(), y.to_degrees(), hits.len()));
+        }
+    }
+    assert!(worst.is_empty(), "self-intersecting Murray forks (case, x°, y°, pairs): {worst:?}");
+    // The check itself sees intersections: two crossing trees.
+    let mut s = chain(&[Vec3::new(-1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)], 0.1);
+    let r = seg(&mut s, NO_PARENT, Vec3::new(0.0, 1.0, -1.0), 0.1);
+    seg(&mut s, r, Vec3::new(0.0, 1.0, 1.0), 0.1);
+    assert!(!intersecting_faces(&quad_mesh(&s, &QuadOptions::default()).unwrap().mesh).is_empty());
+}
+
+/// Spec 003 property 5: children in non-increasing diameter order, the first child's
+/// subtree finished before any sibling (seen in the vertex order: the first child's end
+/// ring comes before the second child's).
+#[test]
+fn first_child_subtree_is_meshed_first() {
+    let mut s = chain(&[Vec3::ZERO, Vec3::Y * 3.0], 0.2);
+    // Node 2 is thinner but listed first; node 3 is the first child by diameter.
+    let thin = seg(&mut s, 1, Vec3::new(-1.2, 5.2, 0.3), 0.1);
+    let thick = seg(&mut s, 1, Vec3::new(1.0, 5.5, 0.0), 0.15);
+    let grand = seg(&mut s, thick, Vec3::new(1.5, 7.5, 0.0), 0.12);
+    let q = quad_mesh(&s, &QuadOptions::default()).unwrap();
+    let ring_of = |node: u32| {
+        let p = s.position[node as usize];
+        (0..q.mesh.positions.len() / 4)
+            .min_by(|&a, &b| {
+                let c = |r: usize| (0..4).map(|k| q.mesh.positions[4 * r + k]).sum::<Vec3>() / 4.0;
+                c(a).distance(p).total_cmp(&c(b).distance(p))
+            })
+            .unwrap()
+    };
+    assert!(ring_of(thick) < ring_of(grand), "thick child before its child");
+    assert!(ring_of(grand) < ring_of(thin), "the thick child's subtree before the thin sibling");
+}
