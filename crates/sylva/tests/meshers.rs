@@ -14,6 +14,7 @@
 
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
+use sylva::mesh::quad::{quad_mesh, QuadOptions};
 use sylva::mesh::tube::{tube_mesh, TubeOptions};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton};
@@ -68,6 +69,10 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
             let h = hull_mesh(sk, &HullOptions { caps: true, max_segments, ..Default::default() })
                 .unwrap_or_else(|e| panic!("{preset} hull: {e}"));
             (h.mesh, 0, h.fallbacks.len(), Scheme::Loop)
+        }
+        "quad" => {
+            let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{preset} quad: {e}"));
+            (q.mesh, 0, q.fallbacks.len(), Scheme::CatmullClark)
         }
         _ => unreachable!(),
     };
@@ -130,7 +135,7 @@ fn every_preset_with_every_mesher() {
             continue;
         }
         let collisions = skeleton_collisions(sk, 0.01).len();
-        for mesher in ["tube", "hull"] {
+        for mesher in ["tube", "hull", "quad"] {
             let row = mesh_and_check(p.name, mesher, sk, collisions);
             println!(
                 "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",
