@@ -12,6 +12,8 @@
 //!
 //! `cargo test -p sylva --test meshers -- --nocapture` prints the table.
 
+mod common;
+
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
@@ -163,4 +165,34 @@ fn the_binary_tree_has_no_skeleton_collisions() {
     let loaded = sylva::recipe::load("lsys-binary-tree", &[]).unwrap();
     let g = sylva::pipeline::skeleton(&loaded, &mut Default::default()).unwrap();
     assert!(skeleton_collisions(&g.skeleton, 0.01).is_empty());
+}
+
+/// Every joint mesher through the whole pipeline (refined as its seed says, leaves
+/// included) to GLB, checked by the Khronos glTF validator, on one preset of each
+/// generator kind (issue 6: "meshes with every mesher … and the glTF validator").
+#[test]
+fn every_mesher_exports_valid_gltf() {
+    let dir = std::env::temp_dir().join(format!("sylva-meshers-gltf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut files = Vec::new();
+    for preset in ["lsys-binary-tree", "lsys-honda-b", "wp-palm", "colonize-shrub"] {
+        for (mesher, scheme) in [("tube", "none"), ("hull", "loop"), ("quad", "catmull-clark")] {
+            let sets = [
+                ("mesh.method".to_string(), toml::Value::String(mesher.into())),
+                ("refine.scheme".to_string(), toml::Value::String(scheme.into())),
+                ("refine.levels".to_string(), toml::Value::Integer(1)),
+            ];
+            let loaded = sylva::recipe::load(preset, &sets).unwrap();
+            let grown = sylva::pipeline::grow(&loaded).unwrap_or_else(|e| panic!("{preset} {mesher}: {e}"));
+            let bark = &grown.model.parts[0].mesh;
+            let r = check_mesh(bark, &CheckOptions { self_intersections: false, ..Default::default() });
+            assert!(r.is_valid(), "{preset} {mesher} refined: {r}");
+            let path = dir.join(format!("{preset}-{mesher}.glb"));
+            sylva::export::write(&grown.model, &path).unwrap();
+            files.push(path);
+        }
+    }
+    let refs: Vec<&std::path::Path> = files.iter().map(|p| p.as_path()).collect();
+    common::gltf_validator::assert_valid_gltf(&refs);
+    let _ = std::fs::remove_dir_all(&dir);
 }
