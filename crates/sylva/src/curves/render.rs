@@ -514,7 +514,10 @@ pub fn encode_png(raster: &Raster, w: &mut dyn std::io::Write) -> std::io::Resul
     if raster.opaque {
         enc.set_color(png::ColorType::Rgb);
         let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-        let rgb: Vec<u8> = raster.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        let mut rgb = vec![0u8; raster.rgba.len() / 4 * 3];
+        for (d, s) in rgb.chunks_exact_mut(3).zip(raster.rgba.chunks_exact(4)) {
+            d.copy_from_slice(&s[..3]);
+        }
         writer.write_image_data(&rgb).map_err(std::io::Error::other)?;
         writer.finish().map_err(std::io::Error::other)
     } else {
