@@ -501,3 +501,59 @@ fn graph_sizes_stay_compact() {
     assert!(g.bytes() <= 5000 * (12 + 4 + 8 * 4) + 8);
     let _ = graph::auto_spacing(1.0, 10, 3);
 }
+
+#[test]
+fn eq51_rotates_only_the_first_new_node_of_each_branch() {
+    let p = mgv_params(vec![]);
+    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 12).unwrap();
+    let mut st = MgvState::new(&g);
+    st.iterate(&g, &trunk(0.0), &p, 1, 0);
+    let it = MgvIteration {
+        endpoints: "surface".into(),
+        count: 200,
+        rotation: Rotation {
+            rule: "two-phase".into(),
+            alpha1: 30.0,
+            alpha2: 0.0,
+            h0: 1,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let old = st.in_tree.clone();
+    st.iterate(&g, &it, &p, 1, 1);
+    let s = st.last.as_ref().unwrap();
+    let (mut first, mut later) = (0, 0);
+    for &u in &st.nodes {
+        if old[u as usize] {
+            continue;
+        }
+        let par = st.parent[u as usize];
+        let a = st.guide[u as usize].angle_between(st.guide[par as usize]).to_degrees();
+        let (e, up) = (g.position[u as usize] - g.position[par as usize], Vec3::Y);
+        if s.hops[u as usize] == 1 {
+            if up.cross(e.normalize()).length() > 1e-3 {
+                assert!((a - 30.0).abs() < 0.01, "h = 1 gets α₁: {a}");
+            }
+            first += 1;
+        } else {
+            assert!(a < 0.01, "h > 1 gets α₂ = 0: {a}");
+            later += 1;
+        }
+    }
+    assert!(first > 0 && later > 0);
+}
+
+#[test]
+fn flat_trees_grow_in_2d() {
+    let p = LeastCostParams {
+        dims: 2,
+        sectors: 6,
+        nodes: 4000,
+        volume: vec![Primitive::Box { center: [0.0, 5.0, 0.0], size: [10.0, 10.0, 1.0] }],
+        ..Default::default()
+    };
+    let t = grow(&p, 2);
+    assert!(t.skeleton.position.iter().all(|q| q.z == 0.0));
+    assert!(t.report.tips > 10);
+}
