@@ -292,7 +292,11 @@ impl Primitive {
     /// approximation for the other shapes, good enough for inside tests and shells).
     pub fn sdf(&self, p: DVec3) -> f64 {
         let (o, q) = self.frame();
-        let l = q.inverse() * (p - o);
+        self.sdf_local(q.inverse() * (p - o))
+    }
+
+    /// [`Primitive::sdf`] of a point already in the primitive's local frame.
+    fn sdf_local(&self, l: DVec3) -> f64 {
         match self {
             Primitive::Box { size, .. } => {
                 let d = l.abs() - v3(*size) / 2.0;
@@ -362,27 +366,44 @@ fn ellipsoid_sdf(p: DVec3, r: DVec3) -> f64 {
     k0 * (k0 - 1.0) / k1
 }
 
-/// A union of primitives.
+/// A union of primitives (with their local frames cached).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Volume {
-    /// The primitives.
-    pub parts: Vec<Primitive>,
+    parts: Vec<Primitive>,
+    /// Per part: origin and world → local rotation.
+    frames: Vec<(DVec3, DQuat)>,
 }
 
 impl Volume {
     /// A volume of the given primitives.
     pub fn new(parts: Vec<Primitive>) -> Self {
-        Volume { parts }
+        let frames = parts
+            .iter()
+            .map(|p| {
+                let (o, q) = p.frame();
+                (o, q.inverse())
+            })
+            .collect();
+        Volume { parts, frames }
+    }
+
+    /// The primitives.
+    pub fn parts(&self) -> &[Primitive] {
+        &self.parts
     }
 
     /// Signed distance of the union (the minimum over the parts; +∞ when empty).
     pub fn sdf(&self, p: DVec3) -> f64 {
-        self.parts.iter().map(|q| q.sdf(p)).fold(f64::INFINITY, f64::min)
+        self.parts
+            .iter()
+            .zip(&self.frames)
+            .map(|(q, (o, r))| q.sdf_local(*r * (p - *o)))
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// True when `p` is inside (or on) the volume.
     pub fn contains(&self, p: DVec3) -> bool {
-        self.parts.iter().any(|q| q.sdf(p) <= 0.0)
+        self.parts.iter().zip(&self.frames).any(|(q, (o, r))| q.sdf_local(*r * (p - *o)) <= 0.0)
     }
 
     /// Bounding box of the union.
@@ -489,58 +510,71 @@ pub fn poisson(
             "the graph volume needs {cells} sampling cells at spacing {spacing}: make the volume smaller or the spacing larger"
         )));
     }
-    let mut grid = vec![NONE; cells];
+    // The grid is padded by two cells on every side (none along z in 2D), so the
+    // neighbour offsets never leave it.
+    let pz = if dims == 2 { 0 } else { 2 };
+    let (gx, gy) = (nx + 4, ny + 4);
+    let padded = gx * gy * (nz + 2 * pz);
+    // Each cell holds its node's position in f32 (a quick conservative test that
+    // avoids fetching the f64 node) and the node's id; `x = NaN` marks an empty cell.
+    let mut grid = vec![([f32::NAN; 3], NONE); padded];
     let mut pts: Vec<DVec3> = Vec::with_capacity(count);
-    let idx = |p: DVec3| -> (usize, usize, usize) {
+    let idx = |p: DVec3| -> usize {
         let c = |v: f64, m: usize| ((v / cell).floor().max(0.0) as usize).min(m - 1);
-        (c(p.x - lo.x, nx), c(p.y - lo.y, ny), if dims == 2 { 0 } else { c(p.z - lo.z, nz) })
+        let (x, y) = (c(p.x - lo.x, nx), c(p.y - lo.y, ny));
+        let z = if dims == 2 { 0 } else { c(p.z - lo.z, nz) };
+        ((z + pz) * gy + y + 2) * gx + x + 2
     };
     let d2 = spacing * spacing;
-    let reach: isize = 2;
-    let zr = if dims == 2 { 0 } else { reach };
+    // Neighbour cells that can hold a node closer than d (cell = d/√D: the squared gap
+    // Σ max(|δ|−1, 0)² cells must be below D), nearest first so conflicts are found early.
+    let zr = pz as isize;
+    let mut offsets: Vec<(isize, isize)> = Vec::new();
+    for dz in -zr..=zr {
+        for dy in -2isize..=2 {
+            for dx in -2isize..=2 {
+                let gap: isize = [dx, dy, dz].iter().map(|v| (v.abs() - 1).max(0).pow(2)).sum();
+                if (dx, dy, dz) != (0, 0, 0) && gap < dims as isize {
+                    let off = (dz * gy as isize + dy) * gx as isize + dx;
+                    offsets.push((dx * dx + dy * dy + dz * dz, off));
+                }
+            }
+        }
+    }
+    offsets.sort_unstable();
+    let offsets: Vec<isize> = offsets.into_iter().map(|o| o.1).collect();
     if let Some(r) = root {
-        let (x, y, z) = idx(r);
-        grid[(z * ny + y) * nx + x] = 0;
+        grid[idx(r)] = (r.as_vec3().to_array(), 0);
         pts.push(r);
     }
+    let (lo2, hi2) = ((d2 * (1.0 - 1e-5)) as f32, (d2 * (1.0 + 1e-5)) as f32);
     let cap = 40usize.saturating_mul(count).saturating_add(10_000);
     let mut attempts = 0usize;
     while pts.len() < count && attempts < cap {
         attempts += 1;
         let p = random_in(rng, lo, ext, dims);
-        if !volume.contains(p) {
+        let at = idx(p);
+        if grid[at].1 != NONE || !volume.contains(p) {
             continue;
         }
-        let (x, y, z) = idx(p);
-        if grid[(z * ny + y) * nx + x] != NONE {
-            continue;
-        }
-        let mut ok = true;
-        'search: for dz in -zr..=zr {
-            let zz = z as isize + dz;
-            if zz < 0 || zz >= nz as isize {
-                continue;
+        let pf = p.as_vec3();
+        let ok = offsets.iter().all(|&o| {
+            let (q, c) = grid[(at as isize + o) as usize];
+            if c == NONE {
+                return true;
             }
-            for dy in -reach..=reach {
-                let yy = y as isize + dy;
-                if yy < 0 || yy >= ny as isize {
-                    continue;
-                }
-                for dx in -reach..=reach {
-                    let xx = x as isize + dx;
-                    if xx < 0 || xx >= nx as isize {
-                        continue;
-                    }
-                    let c = grid[(zz as usize * ny + yy as usize) * nx + xx as usize];
-                    if c != NONE && pts[c as usize].distance_squared(p) < d2 {
-                        ok = false;
-                        break 'search;
-                    }
-                }
+            let d = Vec3::from_array(q).distance_squared(pf);
+            // Decide in f32 unless the distance is within rounding of d; then in f64.
+            if d < lo2 {
+                false
+            } else if d >= hi2 {
+                true
+            } else {
+                pts[c as usize].distance_squared(p) >= d2
             }
-        }
+        });
         if ok {
-            grid[(z * ny + y) * nx + x] = pts.len() as u32;
+            grid[at] = (pf.to_array(), pts.len() as u32);
             pts.push(p);
         }
     }
@@ -947,18 +981,39 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
                 }
             }
         }
-        // Close sectors.
-        let reach = s as f32 * grid.cell;
+        // Close sectors. An unseen node of sector j lies outside the visited cube of
+        // cells [c − s, c + s], beyond one of the cube's faces on the sides the
+        // sector's box reaches, so it is at least `bound` from p.
+        let rel = p - grid.lo;
         let mut any_open = false;
         for j in 0..ku {
             if !open[j] {
                 continue;
             }
-            if best[j].1 != NONE && best[j].0 <= reach * reach {
-                open[j] = false;
+            if best[j].1 != NONE {
+                let (blo, bhi) = boxes[j];
+                let mut bound = f32::INFINITY;
+                for a in 0..3 {
+                    if blo[a] < c[a] {
+                        bound = bound.min(rel[a] - (c[a] as f32 - s as f32) * grid.cell);
+                    }
+                    if bhi[a] > c[a] {
+                        bound = bound.min((c[a] + s + 1) as f32 * grid.cell - rel[a]);
+                    }
+                }
+                // Guard against rounding: never claim more than the cells guarantee.
+                let bound = bound.max(s as f32 * grid.cell) - 1e-6 * grid.cell;
+                if best[j].0 <= bound * bound {
+                    open[j] = false;
+                    continue;
+                }
+            }
+            // Nodes left in the sector's box outside the visited cube? (Only asked for
+            // sectors with no candidate yet, or far out, where it pays.)
+            if best[j].1 != NONE && s < 3 {
+                any_open = true;
                 continue;
             }
-            // Nodes left in the sector's box outside the visited cube?
             let (blo, bhi) = boxes[j];
             let total = grid.count(blo, bhi);
             let clo = [0, 1, 2].map(|a| blo[a].max(c[a].saturating_sub(s)));

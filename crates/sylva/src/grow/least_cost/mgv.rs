@@ -59,6 +59,7 @@ use glam::{DVec3, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -554,13 +555,36 @@ impl MgvState {
                     let m = crown.measure(g.dims, seed);
                     super::graph::auto_spacing(m, it.count.max(1), g.dims)
                 } as f32;
+                // Accepted endpoints hashed by cell of size dmin: only the 27 cells
+                // around a candidate can hold one closer than dmin (lookups only, so
+                // the map's order never matters).
+                let mut near: HashMap<(i32, i32, i32), Vec<u32>> = HashMap::new();
+                let key = |p: Vec3| {
+                    let c = (p / dmin.max(1e-9)).floor();
+                    (c.x as i32, c.y as i32, c.z as i32)
+                };
                 let mut out: Vec<u32> = Vec::new();
                 for v in cand {
                     if out.len() >= it.count {
                         break;
                     }
                     let pv = g.position[v as usize];
-                    if out.iter().all(|&o| g.position[o as usize].distance(pv) >= dmin) {
+                    let (kx, ky, kz) = key(pv);
+                    let mut ok = true;
+                    'cells: for dz in -1..=1 {
+                        for dy in -1..=1 {
+                            for dx in -1..=1 {
+                                if let Some(list) = near.get(&(kx + dx, ky + dy, kz + dz)) {
+                                    if list.iter().any(|&o| g.position[o as usize].distance(pv) < dmin) {
+                                        ok = false;
+                                        break 'cells;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if ok {
+                        near.entry((kx, ky, kz)).or_default().push(v);
                         out.push(v);
                     }
                 }
