@@ -20,8 +20,8 @@
 //! box, rejected outside the volume or within `d` of a node, until `K` nodes exist or an
 //! attempt cap (`40·K + 10 000` darts) is reached; the shortfall is reported. The root
 //! is inserted first, so it is always a node. When the spacing is not given it is
-//! chosen from the volume (estimated by Monte Carlo) as `d = (0.45·V/K)^{1/3}` in 3D
-//! (`(0.45·A/K)^{1/2}` in 2D), about 61 % (65 %) of the random-sequential-adsorption
+//! chosen from the volume (estimated by Monte Carlo) as `d = (0.35·V/K)^{1/3}` in 3D
+//! (`(0.45·A/K)^{1/2}` in 2D), about 48 % (65 %) of the random-sequential-adsorption
 //! jamming density, where darts still land quickly (inference). After sampling the
 //! nodes are renumbered in grid-cell order, which makes neighbour search and Dijkstra
 //! cache-friendly; the root's new id is kept.
@@ -466,13 +466,12 @@ fn random_in(rng: &mut Pcg64, lo: DVec3, ext: DVec3, dims: u8) -> DVec3 {
 }
 
 /// The spacing `d` that puts `count` nodes in a region of measure `measure` at about
-/// 61 % (3D) / 65 % (2D) of the dart-throwing jamming density (see the module docs).
+/// 48 % (3D) / 65 % (2D) of the dart-throwing jamming density (see the module docs).
 pub fn auto_spacing(measure: f64, count: usize, dims: u8) -> f64 {
-    let per = 0.45 * measure / count.max(1) as f64;
     if dims == 2 {
-        per.sqrt()
+        (0.45 * measure / count.max(1) as f64).sqrt()
     } else {
-        per.cbrt()
+        (0.35 * measure / count.max(1) as f64).cbrt()
     }
 }
 
@@ -908,6 +907,9 @@ fn sector_box(s: u32, k: u32, dims: u8, c: [usize; 3], n: [usize; 3]) -> ([usize
     ([r[0].0, r[1].0, r[2].0], [r[0].1, r[1].1, r[2].1])
 }
 
+/// Yao search cell size in units of the spacing (tuned: about one node per cell).
+const YAO_CELL: f32 = 1.0;
+
 /// Maximum Yao `k` (sectors).
 pub const MAX_SECTORS: usize = 32;
 
@@ -1038,7 +1040,7 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
 
 /// Builds the Yao-`k` graph over `position` (1G; see the module docs), in parallel.
 pub fn yao(position: Vec<Vec3>, k: u32, dims: u8, spacing: f32, root: u32) -> Graph {
-    let cell = if spacing > 0.0 { spacing } else { 1.0 };
+    let cell = if spacing > 0.0 { spacing * YAO_CELL } else { 1.0 };
     let grid = CellGrid::new(&position, cell);
     const CHUNK: usize = 2048;
     let parts: Vec<(Vec<u32>, Vec<u32>)> = (0..position.len().div_ceil(CHUNK))

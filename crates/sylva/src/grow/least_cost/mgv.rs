@@ -41,7 +41,7 @@
 //!
 //! - `point`: the reached node nearest `target` (the trunk of iteration 1);
 //! - `volume`: `count` random reached nodes inside `crown`, at least `min_distance`
-//!   apart (Poisson-disc spaced; 0 = `(0.45·V/count)^{1/3}` from the crown's volume);
+//!   apart (Poisson-disc spaced; 0 = `(0.35·V/count)^{1/3}` from the crown's volume);
 //! - `surface` (late endpoints): the reached nodes exactly `hops` edges from the tree
 //!   in this iteration's forest, ranked by hops from the root (tree depth of the
 //!   source + `hops`; ties by a seeded hash), the outermost `⌈outer_fraction·|S_k|⌉`
@@ -52,7 +52,7 @@
 //! (hanging branches, Fig. 5.12; upward ones, Table 6.1 f).
 
 use super::graph::{Graph, Primitive, Volume, NONE};
-use super::paths::{dijkstra, mgv_weight, Costs, Search};
+use super::paths::{dijkstra_until, mgv_weight, Costs, Search};
 use super::{bad, hash01, in_range, main_graph, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::Result;
 use glam::{DVec3, Vec3};
@@ -447,6 +447,8 @@ pub struct MgvState {
     pub endpoints: Vec<Vec<u32>>,
     /// The last iteration's search.
     pub last: Option<Search>,
+    /// Nodes reachable from the root through out-edges.
+    pub reachable: Vec<bool>,
 }
 
 impl MgvState {
@@ -461,6 +463,7 @@ impl MgvState {
             nodes: vec![g.root],
             endpoints: Vec::new(),
             last: None,
+            reachable: g.reachable(&[g.root]),
         };
         s.in_tree[g.root as usize] = true;
         s.guide[g.root as usize] = Vec3::Y;
@@ -486,7 +489,23 @@ impl MgvState {
             epsilon: p.epsilon as f32,
             axis: if p.axis == "guide" { AxisRule::Guide } else { AxisRule::Edge },
         };
-        let search = dijkstra(g, &self.nodes, None, &mut costs);
+        // A `point` endpoint is known before the search (the reachable non-tree node
+        // nearest the target), so the search can stop once it is settled.
+        let stop = if it.endpoints == "point" && it.direction == "any" {
+            let t = DVec3::from_array(it.target).as_vec3();
+            (0..g.len() as u32)
+                .filter(|&v| self.reachable[v as usize] && !self.in_tree[v as usize])
+                .min_by(|&a, &b| {
+                    g.position[a as usize]
+                        .distance_squared(t)
+                        .total_cmp(&g.position[b as usize].distance_squared(t))
+                        .then(a.cmp(&b))
+                })
+                .unwrap_or(NONE)
+        } else {
+            NONE
+        };
+        let search = dijkstra_until(g, &self.nodes, None, &mut costs, stop);
         let guide = costs.guide;
         let mut rng =
             Pcg64::seed_from_u64(seed ^ 0x656e_6470_6f69_6e74 ^ (index as u64).wrapping_mul(0x9e37_79b9));
@@ -647,7 +666,7 @@ pub fn grow(
         ));
     }
     let t = Instant::now();
-    report.unreachable = g.reachable(&[g.root]).iter().filter(|r| !**r).count();
+
     let defaults;
     let iters = if p.iterations.is_empty() {
         defaults = default_iterations();
@@ -656,6 +675,7 @@ pub fn grow(
         &p.iterations
     };
     let mut st = MgvState::new(&g);
+    report.unreachable = st.reachable.iter().filter(|r| !**r).count();
     for (i, it) in iters.iter().enumerate() {
         st.iterate(&g, it, p, seed, i);
     }

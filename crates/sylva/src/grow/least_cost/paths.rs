@@ -84,33 +84,50 @@ impl Search {
 /// Multi-source Dijkstra over out-edges (§3.1, Fig. 3.1): every source starts at cost 0
 /// with 0 hops. `allowed`, when given, restricts the search to the flagged nodes.
 pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mut impl Costs) -> Search {
+    dijkstra_until(g, sources, allowed, costs, NONE)
+}
+
+/// Per-node search state, packed so a relaxation touches one cache line.
+#[derive(Clone, Copy)]
+struct State {
+    dist: f32,
+    parent: u32,
+    hops: u32,
+    source: u32,
+}
+
+/// [`dijkstra`] that stops right after settling `stop` (`NONE`: never). Nodes not
+/// settled by then keep their tentative values.
+pub fn dijkstra_until(
+    g: &Graph,
+    sources: &[u32],
+    allowed: Option<&[bool]>,
+    costs: &mut impl Costs,
+    stop: u32,
+) -> Search {
     let n = g.len();
-    let mut s = Search {
-        dist: vec![f32::INFINITY; n],
-        parent: vec![NONE; n],
-        hops: vec![u32::MAX; n],
-        source: vec![NONE; n],
-        order: Vec::with_capacity(n),
-    };
+    let mut st = vec![State { dist: f32::INFINITY, parent: NONE, hops: u32::MAX, source: NONE }; n];
+    let mut order = Vec::with_capacity(n);
     let mut done = vec![false; n];
     let mut heap = BinaryHeap::with_capacity(n / 4 + 16);
     for &src in sources {
-        if (src as usize) < n && s.source[src as usize] == NONE {
-            s.dist[src as usize] = 0.0;
-            s.hops[src as usize] = 0;
-            s.source[src as usize] = src;
+        if (src as usize) < n && st[src as usize].source == NONE {
+            st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
             heap.push(Reverse((0u32, src)));
         }
     }
     while let Some(Reverse((bits, u))) = heap.pop() {
         let ui = u as usize;
-        if done[ui] || bits != s.dist[ui].to_bits() {
+        if done[ui] || bits != st[ui].dist.to_bits() {
             continue;
         }
         done[ui] = true;
-        s.order.push(u);
-        costs.settle(g, u, s.parent[ui], s.hops[ui], s.source[ui]);
-        let du = s.dist[ui];
+        order.push(u);
+        let su = st[ui];
+        costs.settle(g, u, su.parent, su.hops, su.source);
+        if u == stop {
+            break;
+        }
         let first = g.first_edge(u);
         for (i, &v) in g.out(u).iter().enumerate() {
             let vi = v as usize;
@@ -118,17 +135,21 @@ pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mu
                 continue;
             }
             let w = costs.weight(g, u, v, first + i).max(0.0);
-            let nd = du + w;
-            if nd < s.dist[vi] || (nd == s.dist[vi] && u < s.parent[vi]) {
-                s.dist[vi] = nd;
-                s.parent[vi] = u;
-                s.hops[vi] = s.hops[ui] + 1;
-                s.source[vi] = s.source[ui];
+            let nd = su.dist + w;
+            let sv = &mut st[vi];
+            if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
+                *sv = State { dist: nd, parent: u, hops: su.hops + 1, source: su.source };
                 heap.push(Reverse((nd.to_bits(), v)));
             }
         }
     }
-    s
+    Search {
+        dist: st.iter().map(|s| s.dist).collect(),
+        parent: st.iter().map(|s| s.parent).collect(),
+        hops: st.iter().map(|s| s.hops).collect(),
+        source: st.iter().map(|s| s.source).collect(),
+        order,
+    }
 }
 
 /// BCM global variation (§3.3.1, Fig. 3.8): `W = 1 + v^β` per edge with `v` uniform in
