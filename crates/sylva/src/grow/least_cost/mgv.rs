@@ -244,7 +244,7 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
                 format!("is `{}`; use point, volume, surface or none", it.endpoints),
             );
         }
-        if it.count > p.nodes {
+        if it.count > p.nodes && ["volume", "surface"].contains(&it.endpoints.as_str()) {
             return bad(
                 &format!("{k}.count"),
                 format!("is {}, more than the graph's {} nodes", it.count, p.nodes),

@@ -75,6 +75,9 @@ impl Default for MigLevel {
 
 /// Checks the MIG keys.
 pub fn validate(p: &LeastCostParams) -> Result<()> {
+    if p.dims != 3 {
+        return bad("dims", "must be 3 with method = \"mig\" (flat trees need method = \"mgv\")");
+    }
     if p.endpoints == 0 || p.endpoints > p.nodes {
         return bad(
             "endpoints",
