@@ -243,6 +243,30 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
             );
             Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
         }
+        Generator::LeastCost(p) => {
+            let base = match &loaded.origin {
+                Origin::Folder(d) => Some(d.as_path()),
+                Origin::Preset(_) => None,
+            };
+            let mut tree = crate::grow::least_cost::grow(p, loaded.recipe.seed, base)?;
+            let r = &tree.report;
+            report.interpret_time = r.elapsed;
+            report.summary = format!(
+                "least-cost ({}): {} graph nodes, {} endpoints, {} tips, {} skeleton nodes in {:.1} ms (graph {:.1}, paths {:.1}, skeleton {:.1}){}",
+                p.method,
+                r.graph_nodes,
+                r.endpoints,
+                r.tips,
+                r.nodes,
+                r.elapsed.as_secs_f64() * 1e3,
+                r.graph_time.as_secs_f64() * 1e3,
+                r.path_time.as_secs_f64() * 1e3,
+                r.skeleton_time.as_secs_f64() * 1e3,
+                if r.cache.is_empty() { String::new() } else { format!(", graph file {}", r.cache) }
+            );
+            report.warnings.append(&mut tree.report.warnings);
+            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
+        }
         Generator::Import(g) => {
             let t = Instant::now();
             let path = match &loaded.origin {

@@ -53,6 +53,8 @@ pub enum Generator {
     WeberPenn(Box<crate::grow::weber_penn::WeberPennParams>),
     /// Space colonization, Runions, Lane & Prusinkiewicz 2007 (`docs/colonize.md`).
     SpaceColonization(crate::grow::colonize::ColonizeParams),
+    /// Least-cost-path trees, MIG and MGV (seed 004; `docs/least-cost.md`).
+    LeastCost(Box<crate::grow::least_cost::LeastCostParams>),
 }
 
 /// `generator.type = "import"`.
@@ -447,6 +449,7 @@ impl Recipe {
             // Both generators validate their own parameters (naming the key) when they run.
             Generator::SpaceColonization(g) => g.validate()?,
             Generator::WeberPenn(g) => g.validate()?,
+            Generator::LeastCost(g) => g.validate()?,
             Generator::Import(g) => {
                 if !["bridge", "strict", "new-root"].contains(&g.gap.as_str()) {
                     return bad("generator.gap", format!("is `{}`; use bridge, strict or new-root", g.gap));

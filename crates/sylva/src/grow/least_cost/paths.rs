@@ -1,0 +1,245 @@
+//! Least-cost paths: multi-source Dijkstra over out-edges with lazily computed weights,
+//! and the edge weights of the three systems (seed 004 §3.1, §3.3.1, §4.2, §5.2.2;
+//! spec 004 §2.3–§2.4).
+//!
+//! The search keeps `dist`, `parent`, `hops` (edges from the source) and `source` (the
+//! source a node's path starts at) per node. A [`Costs`] implementation is told when a
+//! node is **settled** (popped with its final distance), before its out-edges are
+//! relaxed, and is then asked the weight of each out-edge. That is where MGV sets a
+//! node's guiding vector and hence its out-edge weights (§5.2.2): the weights are fixed
+//! before they are used, so the search is exact for these self-consistent weights.
+//!
+//! The heap is a binary heap of `(distance bits, node)`: non-negative `f32` distances
+//! order like their bit patterns, and ties go to the smaller node id, so the settle
+//! order — and every output — is deterministic.
+
+use super::graph::{Graph, NONE};
+use glam::Vec3;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// Edge weights, asked lazily by [`dijkstra`].
+pub trait Costs {
+    /// Called once when `u` is settled, with its parent (`NONE` for a source), its hop
+    /// count and its source, before `u`'s out-edges are relaxed.
+    fn settle(&mut self, _g: &Graph, _u: u32, _parent: u32, _hops: u32, _source: u32) {}
+    /// Weight of the out-edge `edge` (an index into `g.targets`) from `u` to `v`; must be
+    /// finite and ≥ 0.
+    fn weight(&self, g: &Graph, u: u32, v: u32, edge: usize) -> f32;
+}
+
+/// Euclidean edge length (MIG, Fig. 4.2 step 1H).
+pub struct Length;
+
+impl Costs for Length {
+    fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
+        g.position[u as usize].distance(g.position[v as usize])
+    }
+}
+
+/// Per-edge weights stored in an array (BCM).
+pub struct Stored<'a>(pub &'a [f32]);
+
+impl Costs for Stored<'_> {
+    fn weight(&self, _g: &Graph, _u: u32, _v: u32, edge: usize) -> f32 {
+        self.0[edge]
+    }
+}
+
+/// The result of [`dijkstra`].
+#[derive(Debug, Clone, Default)]
+pub struct Search {
+    /// Least cost from the nearest source (`f32::INFINITY` when unreached).
+    pub dist: Vec<f32>,
+    /// Parent on the least-cost path (`NONE` for sources and unreached nodes).
+    pub parent: Vec<u32>,
+    /// Edges from the source (`u32::MAX` when unreached).
+    pub hops: Vec<u32>,
+    /// The source the path starts at (`NONE` when unreached).
+    pub source: Vec<u32>,
+    /// Nodes in settle order.
+    pub order: Vec<u32>,
+}
+
+impl Search {
+    /// True when `v` was reached.
+    pub fn reached(&self, v: u32) -> bool {
+        self.source[v as usize] != NONE
+    }
+
+    /// The path from `v` back to its source (`v` first).
+    pub fn path(&self, v: u32) -> Vec<u32> {
+        let mut p = vec![v];
+        let mut u = v;
+        while self.parent[u as usize] != NONE {
+            u = self.parent[u as usize];
+            p.push(u);
+        }
+        p
+    }
+}
+
+/// Multi-source Dijkstra over out-edges (§3.1, Fig. 3.1): every source starts at cost 0
+/// with 0 hops. `allowed`, when given, restricts the search to the flagged nodes.
+pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mut impl Costs) -> Search {
+    dijkstra_until(g, sources, allowed, costs, NONE)
+}
+
+/// Per-node search state, packed so a relaxation touches one cache line.
+#[derive(Clone, Copy)]
+struct State {
+    dist: f32,
+    parent: u32,
+    hops: u32,
+    source: u32,
+}
+
+/// [`dijkstra`] that stops right after settling `stop` (`NONE`: never). Nodes not
+/// settled by then keep their tentative values.
+pub fn dijkstra_until(
+    g: &Graph,
+    sources: &[u32],
+    allowed: Option<&[bool]>,
+    costs: &mut impl Costs,
+    stop: u32,
+) -> Search {
+    let n = g.len();
+    let mut st = vec![State { dist: f32::INFINITY, parent: NONE, hops: u32::MAX, source: NONE }; n];
+    let mut order = Vec::with_capacity(n);
+    let mut done = vec![false; n];
+    let mut heap = BinaryHeap::with_capacity(n / 4 + 16);
+    for &src in sources {
+        if (src as usize) < n && st[src as usize].source == NONE {
+            st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
+            heap.push(Reverse((0u32, src)));
+        }
+    }
+    while let Some(Reverse((bits, u))) = heap.pop() {
+        let ui = u as usize;
+        if done[ui] || bits != st[ui].dist.to_bits() {
+            continue;
+        }
+        done[ui] = true;
+        order.push(u);
+        let su = st[ui];
+        costs.settle(g, u, su.parent, su.hops, su.source);
+        if u == stop {
+            break;
+        }
+        let first = g.first_edge(u);
+        for (i, &v) in g.out(u).iter().enumerate() {
+            let vi = v as usize;
+            if done[vi] || allowed.is_some_and(|a| !a[vi]) {
+                continue;
+            }
+            let w = costs.weight(g, u, v, first + i).max(0.0);
+            let nd = su.dist + w;
+            let sv = &mut st[vi];
+            if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
+                *sv = State { dist: nd, parent: u, hops: su.hops + 1, source: su.source };
+                heap.push(Reverse((nd.to_bits(), v)));
+            }
+        }
+    }
+    Search {
+        dist: st.iter().map(|s| s.dist).collect(),
+        parent: st.iter().map(|s| s.parent).collect(),
+        hops: st.iter().map(|s| s.hops).collect(),
+        source: st.iter().map(|s| s.source).collect(),
+        order,
+    }
+}
+
+/// BCM global variation (§3.3.1, Fig. 3.8): `W = 1 + v^β` per edge with `v` uniform in
+/// `(lo, range)`; `lo = 0`, `range = 100` by default (spec 004 §7.3).
+pub fn bcm_random_weights(g: &Graph, beta: f64, lo: f64, range: f64, seed: u64) -> Vec<f32> {
+    let mut rng = Pcg64::seed_from_u64(seed ^ 0x6263_6d5f_7765_6967);
+    (0..g.edge_count())
+        .map(|_| {
+            let v = lo + (range - lo) * rng.random::<f64>();
+            (1.0 + v.powf(beta)) as f32
+        })
+        .collect()
+}
+
+/// BCM spatial variation (§3.3.1, Fig. 3.7): where the edge midpoint is cheap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Spatial {
+    /// Horizontal distance to the left side (x = min): paths bend left.
+    Left,
+    /// Horizontal distance to the right side (x = max): paths bend right.
+    Right,
+    /// Horizontal distance to the vertical axis through the root: paths bend inward.
+    Axis,
+    /// Height above the bottom: paths bend down.
+    Height,
+}
+
+/// Spatial-variation weights: the midpoint's distance (see [`Spatial`]) plus a floor of
+/// 1 % of the graph spacing, so every weight is positive.
+pub fn bcm_spatial_weights(g: &Graph, kind: Spatial) -> Vec<f32> {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in &g.position {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let root = g.position.get(g.root as usize).copied().unwrap_or(Vec3::ZERO);
+    let floor = 0.01 * g.spacing.max(1e-6);
+    let mut w = Vec::with_capacity(g.edge_count());
+    for u in 0..g.len() as u32 {
+        for &v in g.out(u) {
+            let m = (g.position[u as usize] + g.position[v as usize]) / 2.0;
+            let d = match kind {
+                Spatial::Left => m.x - lo.x,
+                Spatial::Right => hi.x - m.x,
+                Spatial::Axis => ((m.x - root.x).powi(2) + (m.z - root.z).powi(2)).sqrt(),
+                Spatial::Height => m.y - lo.y,
+            };
+            w.push(d.max(0.0) + floor);
+        }
+    }
+    w
+}
+
+/// MGV weight (§5.2.2): `w = d_E·(1 − ê_E·v̂)` plus an optional floor `ε·d_E`, for the
+/// edge vector `e` and the unit guiding vector `guide`. In `[0, 2·d_E]` (+ the floor).
+#[inline]
+pub fn mgv_weight(e: Vec3, guide: Vec3, epsilon: f32) -> f32 {
+    let d = e.length();
+    if d <= 0.0 {
+        return 0.0;
+    }
+    // seed 004, §5.2.2: d_E (1 − e_E · v_E)
+    let c = (e.dot(guide) / d).clamp(-1.0, 1.0);
+    d * (1.0 - c) + epsilon * d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grow::least_cost::graph::{poisson_yao, Primitive, Volume};
+
+    #[test]
+    fn mgv_weight_values() {
+        let up = Vec3::Y;
+        assert_eq!(mgv_weight(Vec3::new(0.0, 2.0, 0.0), up, 0.0), 0.0);
+        assert!((mgv_weight(Vec3::new(2.0, 0.0, 0.0), up, 0.0) - 2.0).abs() < 1e-6);
+        assert!((mgv_weight(Vec3::new(0.0, -2.0, 0.0), up, 0.0) - 4.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bcm_weights_in_range() {
+        let v = Volume::new(vec![Primitive::Box { center: [0.0, 0.5, 0.0], size: [1.0; 3] }]);
+        let g = poisson_yao(&v, 200, None, None, 8, 3, 2).unwrap();
+        let w = bcm_random_weights(&g, 0.0, 0.0, 100.0, 1);
+        assert!(w.iter().all(|&x| x == 2.0));
+        let w = bcm_random_weights(&g, 1.5, 0.0, 100.0, 1);
+        assert!(w.iter().all(|&x| (1.0..=1.0 + 1000.0 + 1e-3).contains(&x)));
+        for k in [Spatial::Left, Spatial::Right, Spatial::Axis, Spatial::Height] {
+            assert!(bcm_spatial_weights(&g, k).iter().all(|&x| x > 0.0 && x.is_finite()));
+        }
+    }
+}

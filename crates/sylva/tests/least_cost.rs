@@ -1,0 +1,559 @@
+//! Least-cost-path trees (seed 004, spec 004 §8): graph properties against brute-force
+//! oracles, Dijkstra against Bellman–Ford, MGV rules, thickness, determinism, graph
+//! reuse and the mig-/mgv- presets.
+
+use glam::{DVec3, Vec3};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+use std::collections::HashMap;
+use sylva::grow::least_cost::graph::{
+    self, lattice, poisson, poisson_yao, sector, Graph, Primitive, Volume, NONE,
+};
+use sylva::grow::least_cost::mgv::{self, MgvIteration, MgvState, Rotation};
+use sylva::grow::least_cost::paths::{dijkstra, mgv_weight, Costs, Length, Search};
+use sylva::grow::least_cost::{self as lc, LeastCostParams};
+use sylva::recipe;
+
+fn cube(s: f64) -> Volume {
+    Volume::new(vec![Primitive::Box { center: [0.0, s / 2.0, 0.0], size: [s, s, s] }])
+}
+
+fn small_graph(n: usize, k: u32, dims: u8, seed: u64) -> Graph {
+    let v = if dims == 2 {
+        Volume::new(vec![Primitive::Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 }])
+    } else {
+        Volume::new(vec![
+            Primitive::Cylinder { base: [0.0; 3], height: 1.0, radius: 0.3, axis: [0.2, 1.0, 0.0] },
+            Primitive::Sphere { center: [0.0, 1.6, 0.0], radius: 0.8 },
+        ])
+    };
+    poisson_yao(&v, n, None, None, k, dims, seed).unwrap()
+}
+
+#[test]
+fn poisson_nodes_keep_the_minimum_distance_and_stay_inside() {
+    let v = Volume::new(vec![
+        Primitive::Cone { base: [0.0; 3], height: 2.0, radius: 1.0, axis: [0.0, 1.0, 0.0] },
+        Primitive::Ellipsoid { center: [0.0, 2.0, 0.0], radii: [1.0, 0.5, 1.0], axis: [0.0, 1.0, 0.0] },
+    ]);
+    let mut rng = Pcg64::seed_from_u64(5);
+    let s = poisson(&v, 1500, 0.07, None, 3, &mut rng).unwrap();
+    assert_eq!(s.points.len(), 1500);
+    for (i, p) in s.points.iter().enumerate() {
+        assert!(v.contains(*p));
+        for q in &s.points[..i] {
+            assert!(p.distance(*q) >= 0.07, "{p} {q}");
+        }
+    }
+    let g = poisson_yao(&v, 2000, None, None, 8, 3, 1).unwrap();
+    let d = g.spacing;
+    for i in 0..g.len() {
+        for j in 0..i {
+            assert!(g.position[i].distance(g.position[j]) >= d * 0.9999);
+        }
+    }
+}
+
+/// Brute-force Yao oracle: for every node, the nearest other node in each sector.
+fn brute_yao(g: &Graph, k: u32) -> Vec<Vec<u32>> {
+    (0..g.len())
+        .map(|u| {
+            let p = g.position[u];
+            let mut best = vec![(f32::INFINITY, NONE); k as usize];
+            for (q, &pq) in g.position.iter().enumerate() {
+                if q == u {
+                    continue;
+                }
+                let d = pq - p;
+                let s = sector(d, k, g.dims) as usize;
+                let d2 = d.length_squared();
+                if d2 < best[s].0 || (d2 == best[s].0 && (q as u32) < best[s].1) {
+                    best[s] = (d2, q as u32);
+                }
+            }
+            let mut v: Vec<u32> = best.into_iter().filter(|b| b.1 != NONE).map(|b| b.1).collect();
+            v.sort_unstable();
+            v
+        })
+        .collect()
+}
+
+#[test]
+fn yao_edges_are_the_nearest_node_per_sector() {
+    for (k, dims, n) in [(8, 3, 1500), (16, 3, 800), (6, 2, 1200), (5, 2, 600)] {
+        let g = small_graph(n, k, dims, 11);
+        let oracle = brute_yao(&g, k);
+        for u in 0..g.len() as u32 {
+            let out = g.out(u);
+            assert!(out.len() <= k as usize);
+            assert!(!out.contains(&u), "self-loop");
+            let mut got = out.to_vec();
+            got.sort_unstable();
+            let mut dedup = got.clone();
+            dedup.dedup();
+            assert_eq!(dedup.len(), got.len(), "duplicate edge");
+            assert_eq!(got, oracle[u as usize], "node {u}, k = {k}, dims = {dims}");
+            let mut seen = vec![false; k as usize];
+            for &v in out {
+                let s = sector(g.position[v as usize] - g.position[u as usize], k, dims) as usize;
+                assert!(!seen[s], "two edges in one sector");
+                seen[s] = true;
+            }
+        }
+    }
+}
+
+#[test]
+fn yao_edge_directions_are_near_isotropic_unlike_a_jittered_lattice() {
+    // Chi-square of edge directions over 8 octants × 4 latitude bands of equal area.
+    fn chi2(g: &Graph) -> f64 {
+        let mut h = [0f64; 32];
+        let mut n = 0.0;
+        for u in 0..g.len() as u32 {
+            for &v in g.out(u) {
+                let d = (g.position[v as usize] - g.position[u as usize]).normalize();
+                let band = (((d.y + 1.0) / 2.0 * 4.0) as usize).min(3);
+                let az = ((d.z.atan2(d.x) + std::f32::consts::PI) / std::f32::consts::TAU * 8.0) as usize;
+                h[band * 8 + az.min(7)] += 1.0;
+                n += 1.0;
+            }
+        }
+        let e = n / 32.0;
+        h.iter().map(|o| (o - e) * (o - e) / e).sum()
+    }
+    let y = poisson_yao(&cube(1.0), 8000, None, None, 8, 3, 3).unwrap();
+    let l = lattice(&cube(1.0), 0.05, 0.5, 3, 3).unwrap();
+    let (cy, cl) = (chi2(&y), chi2(&l));
+    assert!(cy < cl / 10.0, "yao χ² {cy} vs jittered lattice {cl}");
+    // Lattice: 6-connected, symmetric.
+    for u in 0..l.len() as u32 {
+        assert!(l.out(u).len() <= 6);
+        for &v in l.out(u) {
+            assert!(l.out(v).contains(&u));
+        }
+    }
+}
+
+/// Bellman–Ford over out-edges with MIG length weights.
+fn bellman_ford(g: &Graph, src: u32) -> Vec<f64> {
+    let mut d = vec![f64::INFINITY; g.len()];
+    d[src as usize] = 0.0;
+    loop {
+        let mut changed = false;
+        for u in 0..g.len() as u32 {
+            if d[u as usize].is_infinite() {
+                continue;
+            }
+            for &v in g.out(u) {
+                let w = g.position[u as usize].distance(g.position[v as usize]) as f64;
+                if d[u as usize] + w < d[v as usize] - 1e-9 {
+                    d[v as usize] = d[u as usize] + w;
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            return d;
+        }
+    }
+}
+
+#[test]
+fn dijkstra_matches_bellman_ford_and_parents_are_tight() {
+    let g = small_graph(700, 8, 3, 21);
+    let s = dijkstra(&g, &[g.root], None, &mut Length);
+    let bf = bellman_ford(&g, g.root);
+    let reach = g.reachable(&[g.root]);
+    for v in 0..g.len() {
+        assert_eq!(s.reached(v as u32), reach[v]);
+        if reach[v] {
+            assert!(
+                (s.dist[v] as f64 - bf[v]).abs() < 1e-4 * (1.0 + bf[v]),
+                "node {v}: {} vs {}",
+                s.dist[v],
+                bf[v]
+            );
+            let p = s.parent[v];
+            if p != NONE {
+                let w = g.position[p as usize].distance(g.position[v]);
+                assert!((s.dist[p as usize] + w - s.dist[v]).abs() < 1e-5);
+                assert_eq!(s.hops[v], s.hops[p as usize] + 1);
+            } else {
+                assert_eq!(v as u32, g.root);
+                assert_eq!(s.dist[v], 0.0);
+            }
+        }
+    }
+    // Multi-source: every source at 0, every node's cost ≤ each single-source cost.
+    let srcs = [g.root, (g.len() / 2) as u32];
+    let m = dijkstra(&g, &srcs, None, &mut Length);
+    let other = bellman_ford(&g, srcs[1]);
+    for v in 0..g.len() {
+        let want = bf[v].min(other[v]);
+        if want.is_finite() {
+            assert!((m.dist[v] as f64 - want).abs() < 1e-4 * (1.0 + want));
+        }
+    }
+}
+
+/// Records MGV-style lazy weights to check optimality afterwards.
+struct Recorded {
+    guide: Vec<Vec3>,
+}
+
+impl Costs for Recorded {
+    fn settle(&mut self, g: &Graph, u: u32, parent: u32, _h: u32, _s: u32) {
+        if parent != NONE {
+            let e = (g.position[u as usize] - g.position[parent as usize]).as_dvec3();
+            let r = mgv::rotate_guide(
+                self.guide[parent as usize].as_dvec3(),
+                e,
+                e,
+                0.2,
+                DVec3::Y,
+                mgv::AxisRule::Edge,
+            );
+            self.guide[u as usize] = r.as_vec3();
+        }
+    }
+    fn weight(&self, g: &Graph, u: u32, v: u32, _e: usize) -> f32 {
+        mgv_weight(g.position[v as usize] - g.position[u as usize], self.guide[u as usize], 0.0)
+    }
+}
+
+#[test]
+fn lazy_mgv_weights_are_in_range_and_the_search_is_exact_for_them() {
+    let g = small_graph(900, 8, 3, 4);
+    let mut c = Recorded { guide: vec![Vec3::Y; g.len()] };
+    let s: Search = dijkstra(&g, &[g.root], None, &mut c);
+    for &u in &s.order {
+        for &v in g.out(u) {
+            let e = g.position[v as usize] - g.position[u as usize];
+            let w = c.weight(&g, u, v, 0);
+            assert!(w >= 0.0 && w <= 2.0 * e.length() + 1e-6);
+            // Dijkstra optimality for the self-consistent weights (spec 004 §8.7).
+            assert!(s.dist[v as usize] <= s.dist[u as usize] + w + 1e-4);
+        }
+        assert!((c.guide[u as usize].length() - 1.0).abs() < 1e-5);
+    }
+}
+
+fn mgv_params(iters: Vec<MgvIteration>) -> LeastCostParams {
+    LeastCostParams {
+        method: "mgv".into(),
+        nodes: 6000,
+        volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [4.0, 4.0, 4.0] }],
+        iterations: iters,
+        ..Default::default()
+    }
+}
+
+fn trunk(alpha: f64) -> MgvIteration {
+    MgvIteration {
+        endpoints: "point".into(),
+        target: [0.0, 2.0, 0.0],
+        rotation: Rotation { rule: "constant".into(), alpha, ..Default::default() },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn guides_stay_vertical_when_alpha_is_zero_and_iterations_nest() {
+    let p = mgv_params(vec![]);
+    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 7).unwrap();
+    let mut st = MgvState::new(&g);
+    st.iterate(&g, &trunk(0.0), &p, 1, 0);
+    let zero = MgvIteration {
+        endpoints: "surface".into(),
+        count: 50,
+        rotation: Rotation { rule: "constant".into(), alpha: 0.0, ..Default::default() },
+        ..Default::default()
+    };
+    let before: Vec<u32> = st.nodes.clone();
+    st.iterate(&g, &zero, &p, 1, 1);
+    for &u in &st.nodes {
+        assert_eq!(st.guide[u as usize], Vec3::Y, "node {u}");
+    }
+    // Each iteration's tree contains the previous one, parents are tree nodes, and the
+    // union is a tree rooted at the graph root.
+    assert!(before.iter().all(|&u| st.in_tree[u as usize]));
+    let mut edges = 0;
+    for &u in &st.nodes {
+        let par = st.parent[u as usize];
+        if u == g.root {
+            assert_eq!(par, NONE);
+        } else {
+            assert!(st.in_tree[par as usize]);
+            assert_eq!(st.depth[u as usize], st.depth[par as usize] + 1);
+            edges += 1;
+        }
+    }
+    assert_eq!(edges, st.nodes.len() - 1);
+}
+
+#[test]
+fn late_endpoints_follow_hops_fraction_and_direction_rules() {
+    let p = mgv_params(vec![]);
+    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 8).unwrap();
+    let mut st = MgvState::new(&g);
+    st.iterate(&g, &trunk(0.0), &p, 1, 0);
+    for (t, dir) in [(0.3, "any"), (1.0, "any"), (1.0, "lower"), (0.6, "higher")] {
+        let it = MgvIteration {
+            endpoints: "surface".into(),
+            count: 100_000,
+            hops: 4,
+            outer_fraction: t,
+            direction: dir.into(),
+            rotation: Rotation {
+                rule: "two-phase".into(),
+                alpha1: 30.0,
+                alpha2: 0.0,
+                h0: 1,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut s2 = st.clone();
+        s2.iterate(&g, &it, &p, 2, 1);
+        let search = s2.last.as_ref().unwrap();
+        let ends = s2.endpoints.last().unwrap();
+        let ring: Vec<u32> = (0..g.len() as u32)
+            .filter(|&v| search.reached(v) && !st.in_tree[v as usize] && search.hops[v as usize] == 4)
+            .collect();
+        let rank = |v: u32| st.depth[search.source[v as usize] as usize] + 4;
+        let mut ranks: Vec<u32> = ring.iter().map(|&v| rank(v)).collect();
+        ranks.sort_unstable_by(|a, b| b.cmp(a));
+        let keep = (t * ring.len() as f64).ceil() as usize;
+        let cutoff = ranks[keep - 1];
+        assert!(!ends.is_empty(), "t = {t}, {dir}: ring {} nodes, tree {} nodes", ring.len(), st.nodes.len());
+        for &e in ends {
+            assert_eq!(search.hops[e as usize], 4, "exactly k hops from the tree");
+            assert!(rank(e) >= cutoff, "in the outer fraction");
+            let (y, sy) = (g.position[e as usize].y, g.position[search.source[e as usize] as usize].y);
+            match dir {
+                "lower" => assert!(y < sy),
+                "higher" => assert!(y > sy),
+                _ => {}
+            }
+        }
+        if t == 1.0 && dir == "any" {
+            assert_eq!(ends.len(), ring.len(), "t = 1 keeps every surface node");
+        }
+    }
+}
+
+fn grow(p: &LeastCostParams, seed: u64) -> lc::LeastCostTree {
+    lc::grow(p, seed, None).unwrap()
+}
+
+#[test]
+fn thickness_never_decreases_towards_the_root() {
+    for thickness in ["power", "pipe"] {
+        let p = LeastCostParams { thickness: thickness.into(), ..mgv_params(vec![]) };
+        let t = grow(&p, 3);
+        let sk = &t.skeleton;
+        sk.validate().unwrap();
+        let kids = sk.children();
+        for i in 0..sk.len() {
+            let par = sk.parent[i];
+            if par != sylva::NO_PARENT {
+                assert!(sk.radius[par as usize] >= sk.radius[i] - 1e-7, "{thickness}: node {i}");
+            }
+            if kids.of(i).is_empty() {
+                assert!((sk.radius[i] - p.min_radius as f32).abs() < 1e-7, "tips get min_radius");
+            }
+        }
+        assert_eq!(sk.parent.iter().filter(|&&q| q == sylva::NO_PARENT).count(), 1, "one root");
+    }
+}
+
+#[test]
+fn trees_are_deterministic_in_the_seed() {
+    let p = mgv_params(vec![]);
+    let a = grow(&p, 9);
+    let b = grow(&p, 9);
+    let c = grow(&p, 10);
+    assert_eq!(a.skeleton, b.skeleton);
+    assert_ne!(a.skeleton, c.skeleton);
+    let m = LeastCostParams {
+        method: "mig".into(),
+        nodes: 3000,
+        endpoints: 6,
+        sub_nodes: 80,
+        sub_radius: 1.0,
+        volume: vec![
+            Primitive::Cylinder { base: [0.0; 3], height: 2.0, radius: 0.3, axis: [0.0, 1.0, 0.0] },
+            Primitive::Sector {
+                center: [0.0, 2.0, 0.0],
+                radius: 2.0,
+                half_angle: 54.0,
+                axis: [0.0, 1.0, 0.0],
+            },
+        ],
+        levels: vec![lc::mig::MigLevel { endpoints: 3, repeat: 2, ..Default::default() }],
+        ..Default::default()
+    };
+    let a = grow(&m, 1);
+    assert_eq!(a.skeleton, grow(&m, 1).skeleton);
+    assert_ne!(a.skeleton, grow(&m, 2).skeleton);
+    assert_eq!(a.report.subgraphs, 6 + 18);
+    assert_eq!(a.report.endpoints, 6 + 18 + 54);
+}
+
+#[test]
+fn mig_subgraphs_stay_in_their_cones() {
+    let e = DVec3::new(1.0, 2.0, 0.0);
+    let l = lc::mig::MigLevel { half_angle: 40.0, ..Default::default() };
+    let v = lc::mig::guide_direction(e, DVec3::ZERO, &l);
+    let region = lc::mig::sub_region(e, v, 0.8, &l);
+    let g = poisson_yao(&Volume::new(vec![region]), 300, None, Some(e), 8, 3, 2).unwrap();
+    assert!(g.position[g.root as usize].as_dvec3().distance(e) < 1e-5);
+    for p in &g.position {
+        let d = p.as_dvec3() - e;
+        if d.length() > 1e-5 {
+            assert!(d.length() <= 0.8 + 1e-5);
+            assert!(d.angle_between(v) <= 40f64.to_radians() + 1e-5);
+        }
+    }
+}
+
+#[test]
+fn a_reused_graph_file_gives_the_identical_tree() {
+    let dir = std::env::temp_dir().join(format!("sylva-lc-cache-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = LeastCostParams { graph_cache: "g.bin".into(), ..mgv_params(vec![]) };
+    let first = lc::grow(&p, 4, Some(&dir)).unwrap();
+    assert_eq!(first.report.cache, "saved");
+    let second = lc::grow(&p, 4, Some(&dir)).unwrap();
+    assert_eq!(second.report.cache, "loaded");
+    assert_eq!(first.skeleton, second.skeleton);
+    // Other graph parameters: rebuilt, with a warning.
+    let q = LeastCostParams { nodes: 5000, ..p.clone() };
+    let third = lc::grow(&q, 4, Some(&dir)).unwrap();
+    assert_eq!(third.report.cache, "saved");
+    assert!(!third.report.warnings.is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_parameters_are_named_errors() {
+    for (set, key) in [
+        ("generator.method=\"bcm\"", "generator.method"),
+        ("generator.nodes=9000000", "generator.nodes"),
+        ("generator.zeta=-1", "generator.zeta"),
+        ("generator.sectors=7", "generator.sectors"),
+        ("generator.iterations[0]", ""),
+    ] {
+        if key.is_empty() {
+            continue;
+        }
+        let sets = vec![recipe::parse_set(set).unwrap()];
+        let e = recipe::load("mgv-a", &sets).unwrap_err().to_string();
+        assert!(e.contains(key), "{set}: {e}");
+    }
+    let e = recipe::load("mgv-a", &[recipe::parse_set("generator.nodes=9000000").unwrap()]).unwrap_err();
+    assert!(e.to_string().contains("max_nodes"), "{e}");
+    let p = LeastCostParams {
+        volume: vec![Primitive::Sphere { center: [0.0; 3], radius: f64::NAN }],
+        ..Default::default()
+    };
+    assert!(p.validate().unwrap_err().to_string().contains("generator.volume[0].radius"));
+}
+
+/// Directed-edge check of a closed, consistently oriented manifold (as in presets.rs).
+fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for f in 0..mesh.face_count() {
+        let face = mesh.face(f);
+        for k in 0..face.len() {
+            *directed.entry((face[k], face[(k + 1) % face.len()])).or_default() += 1;
+        }
+    }
+    for (&(a, b), &n) in &directed {
+        assert_eq!(n, 1, "{name}: directed edge {a}->{b} used {n} times");
+        assert_eq!(directed.get(&(b, a)), Some(&1), "{name}: edge {a}-{b} has one face");
+    }
+}
+
+#[test]
+fn every_least_cost_preset_grows_a_closed_tube_mesh() {
+    let names: Vec<_> = sylva::presets::all()
+        .into_iter()
+        .filter(|p| p.name.starts_with("mig-") || p.name.starts_with("mgv-"))
+        .collect();
+    assert!(names.len() >= 6, "mig-/mgv- presets exist");
+    for p in names {
+        let t = std::time::Instant::now();
+        let loaded = recipe::load(p.name, &[]).unwrap();
+        let grown = sylva::pipeline::grow(&loaded).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+        grown.skeleton.validate().unwrap();
+        let bark = &grown.model.parts[0].mesh;
+        bark.validate().unwrap();
+        check_closed_manifold(p.name, bark);
+        assert!(grown.report.skeleton.tips >= 2, "{}", p.name);
+        eprintln!("{}: {} in {:.2} s", p.name, grown.report.summary, t.elapsed().as_secs_f64());
+    }
+}
+
+#[test]
+fn graph_sizes_stay_compact() {
+    let g = small_graph(5000, 8, 3, 1);
+    assert!(g.bytes() <= 5000 * (12 + 4 + 8 * 4) + 8);
+    let _ = graph::auto_spacing(1.0, 10, 3);
+}
+
+#[test]
+fn eq51_rotates_only_the_first_new_node_of_each_branch() {
+    let p = mgv_params(vec![]);
+    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 12).unwrap();
+    let mut st = MgvState::new(&g);
+    st.iterate(&g, &trunk(0.0), &p, 1, 0);
+    let it = MgvIteration {
+        endpoints: "surface".into(),
+        count: 200,
+        rotation: Rotation {
+            rule: "two-phase".into(),
+            alpha1: 30.0,
+            alpha2: 0.0,
+            h0: 1,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let old = st.in_tree.clone();
+    st.iterate(&g, &it, &p, 1, 1);
+    let s = st.last.as_ref().unwrap();
+    let (mut first, mut later) = (0, 0);
+    for &u in &st.nodes {
+        if old[u as usize] {
+            continue;
+        }
+        let par = st.parent[u as usize];
+        let a = st.guide[u as usize].angle_between(st.guide[par as usize]).to_degrees();
+        let (e, up) = (g.position[u as usize] - g.position[par as usize], Vec3::Y);
+        if s.hops[u as usize] == 1 {
+            if up.cross(e.normalize()).length() > 1e-3 {
+                assert!((a - 30.0).abs() < 0.01, "h = 1 gets α₁: {a}");
+            }
+            first += 1;
+        } else {
+            assert!(a < 0.01, "h > 1 gets α₂ = 0: {a}");
+            later += 1;
+        }
+    }
+    assert!(first > 0 && later > 0);
+}
+
+#[test]
+fn flat_trees_grow_in_2d() {
+    let p = LeastCostParams {
+        dims: 2,
+        sectors: 6,
+        nodes: 4000,
+        volume: vec![Primitive::Box { center: [0.0, 5.0, 0.0], size: [10.0, 10.0, 1.0] }],
+        ..Default::default()
+    };
+    let t = grow(&p, 2);
+    assert!(t.skeleton.position.iter().all(|q| q.z == 0.0));
+    assert!(t.report.tips > 10);
+}
