@@ -463,8 +463,11 @@ impl Recipe {
                 }
             }
         }
-        if !["tube", "hull"].contains(&self.mesh.method.as_str()) {
-            return bad("mesh.method", format!("is `{}`; known methods: tube, hull", self.mesh.method));
+        if !["tube", "hull", "sweep"].contains(&self.mesh.method.as_str()) {
+            return bad(
+                "mesh.method",
+                format!("is `{}`; known methods: tube, hull, sweep", self.mesh.method),
+            );
         }
         if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
             return bad(

@@ -14,6 +14,7 @@
 
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
+use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
 use sylva::mesh::tube::{tube_mesh, TubeOptions};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton};
@@ -68,6 +69,11 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
             let h = hull_mesh(sk, &HullOptions { caps: true, max_segments, ..Default::default() })
                 .unwrap_or_else(|e| panic!("{preset} hull: {e}"));
             (h.mesh, 0, h.fallbacks.len(), Scheme::Loop)
+        }
+        "sweep" => {
+            let w = sweep_mesh(sk, &SweepOptions { caps: true, ..Default::default() })
+                .unwrap_or_else(|e| panic!("{preset} sweep: {e}"));
+            (w.mesh, 0, w.fallbacks.len(), Scheme::Loop)
         }
         _ => unreachable!(),
     };
@@ -130,7 +136,7 @@ fn every_preset_with_every_mesher() {
             continue;
         }
         let collisions = skeleton_collisions(sk, 0.01).len();
-        for mesher in ["tube", "hull"] {
+        for mesher in ["tube", "hull", "sweep"] {
             let row = mesh_and_check(p.name, mesher, sk, collisions);
             println!(
                 "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",

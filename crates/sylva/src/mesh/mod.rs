@@ -11,6 +11,7 @@ pub mod check;
 pub mod hull;
 pub mod obj_read;
 pub mod organs;
+pub mod sweep;
 pub mod tube;
 
 use glam::{Vec2, Vec3};
