@@ -944,17 +944,27 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
         );
         let mut bad: HashSet<u32> = HashSet::new();
-        let faces = rep
-            .intersections
-            .iter()
-            .flat_map(|p| p.iter().copied())
-            .chain(rep.degenerate_faces.iter().copied());
-        for f in faces {
+        let mut mark = |f: usize, bad: &mut HashSet<u32>| {
             for &o in &owner[f] {
                 if o != NONE && !fallback[o as usize] {
                     bad.insert(o);
                 }
             }
+        };
+        // An intersection is the mesher's own when the two faces belong to the same or
+        // to neighbouring nodes; others are branches passing through each other in the
+        // skeleton, which no fallback can separate.
+        let near = |a: u32, b: u32| a == b || plan.par[a as usize] == b || plan.par[b as usize] == a;
+        for &[f, g] in &rep.intersections {
+            let local =
+                owner[f].iter().any(|&a| a != NONE && owner[g].iter().any(|&b| b != NONE && near(a, b)));
+            if local {
+                mark(f, &mut bad);
+                mark(g, &mut bad);
+            }
+        }
+        for &f in &rep.degenerate_faces {
+            mark(f, &mut bad);
         }
         if bad.is_empty() {
             break (mesh, twist, loops);
