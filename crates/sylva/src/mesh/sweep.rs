@@ -944,7 +944,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
         );
         let mut bad: HashSet<u32> = HashSet::new();
-        let mut mark = |f: usize, bad: &mut HashSet<u32>| {
+        let mark = |f: usize, bad: &mut HashSet<u32>| {
             for &o in &owner[f] {
                 if o != NONE && !fallback[o as usize] {
                     bad.insert(o);
