@@ -250,12 +250,13 @@ fn whorls_aligned_thick_and_short_cases_stay_valid() {
             s
         }),
     ];
-    for (name, sk) in cases {
+    for (name, sk) in &cases {
+        let name = *name;
         // Children overlapping their partner for longer than the internode allows:
         // the fallback keeps the manifold but cannot separate the surfaces.
         let overlapping = name == "aligned child" || name == "short internodes";
         for caps in [false, true] {
-            let s = sweep(&sk, caps);
+            let s = sweep(sk, caps);
             let r = report(&s.mesh);
             let problems: Vec<String> = r
                 .problems()
@@ -273,7 +274,19 @@ fn whorls_aligned_thick_and_short_cases_stay_valid() {
             assert_eq!(r.boundary_loops, s.open_loops, "{name}");
         }
     }
-    // The 6-child fan and the decussate whorl cannot be templated: they are reported.
+    // What is templated and what falls back (and is reported).
+    let outcome = |name: &str| {
+        let sk = &cases.iter().find(|c| c.0 == name).unwrap().1;
+        let s = sweep(sk, true);
+        (s.junctions, s.fallbacks)
+    };
+    assert_eq!(outcome("4-child coplanar whorl"), (vec![1], vec![]));
+    assert_eq!(outcome("thick child"), (vec![1], vec![]));
+    assert_eq!(outcome("short internodes"), (vec![1], vec![]));
+    assert_eq!(outcome("root with three children"), (vec![0], vec![]));
+    assert_eq!(outcome("decussate whorl"), (vec![], vec![1]), "non-coplanar input detected");
+    assert_eq!(outcome("aligned child"), (vec![], vec![1]));
+    assert_eq!(outcome("6 children"), (vec![], vec![1]));
     let six = fork(
         &[(-75.0, 0.05), (-45.0, 0.05), (-15.0, 0.05), (15.0, 0.05), (45.0, 0.05), (75.0, 0.05)],
         0.1,
