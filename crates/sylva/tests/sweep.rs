@@ -471,3 +471,24 @@ fn throughput() {
         }
     }
 }
+
+/// `mesh.method = "sweep"` runs through the pipeline, with Loop refinement.
+#[test]
+fn pipeline_mesh_method_sweep() {
+    let sets = [
+        ("mesh.method".to_string(), toml::Value::String("sweep".into())),
+        ("refine.scheme".to_string(), toml::Value::String("loop".into())),
+        ("refine.levels".to_string(), toml::Value::Integer(1)),
+    ];
+    let loaded = sylva::recipe::load("lsys-binary-tree", &sets).unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    let bark = &grown.model.parts[0].mesh;
+    let r = report(bark);
+    assert!(r.is_valid(), "{:?}", r.problems());
+    assert!(bark.face_count() > 0);
+    let bad = sylva::recipe::load(
+        "lsys-binary-tree",
+        &[("mesh.method".into(), toml::Value::String("nope".into()))],
+    );
+    assert!(bad.is_err_and(|e| e.to_string().contains("sweep")));
+}
