@@ -336,6 +336,19 @@ pub fn mesh(
             ));
         }
         q.mesh
+    } else if recipe.mesh.method == "sweep" {
+        use crate::mesh::sweep::{sweep_mesh, SweepOptions};
+        let sw =
+            sweep_mesh(skeleton, &SweepOptions { caps: recipe.mesh.tips != "open", ..Default::default() })?;
+        report.axes = sw.junctions.len() + sw.fallbacks.len();
+        if !sw.fallbacks.is_empty() {
+            report.warnings.push(format!(
+                "sweep mesher: {} node(s) fell back to separately capped tubes (first nodes {:?})",
+                sw.fallbacks.len(),
+                &sw.fallbacks[..sw.fallbacks.len().min(8)]
+            ));
+        }
+        sw.mesh
     } else {
         let tube =
             tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;

@@ -466,8 +466,8 @@ impl Recipe {
                 }
             }
         }
-        if !["tube", "hull", "quad"].contains(&self.mesh.method.as_str()) {
-            return bad("mesh.method", format!("is `{}`; known methods: tube, hull, quad", self.mesh.method));
+        if !["tube", "hull", "sweep", "quad"].contains(&self.mesh.method.as_str()) {
+            return bad("mesh.method", format!("is `{}`; known methods: tube, hull, sweep, quad", self.mesh.method));
         }
         if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
             return bad(

@@ -17,6 +17,7 @@ mod common;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
+use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
 use sylva::mesh::tube::{tube_mesh, TubeOptions};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton};
@@ -75,6 +76,11 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
         "quad" => {
             let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{preset} quad: {e}"));
             (q.mesh, 0, q.fallbacks.len(), Scheme::CatmullClark)
+        }
+        "sweep" => {
+            let w = sweep_mesh(sk, &SweepOptions { caps: true, ..Default::default() })
+                .unwrap_or_else(|e| panic!("{preset} sweep: {e}"));
+            (w.mesh, 0, w.fallbacks.len(), Scheme::Loop)
         }
         _ => unreachable!(),
     };
@@ -137,7 +143,7 @@ fn every_preset_with_every_mesher() {
             continue;
         }
         let collisions = skeleton_collisions(sk, 0.01).len();
-        for mesher in ["tube", "hull", "quad"] {
+        for mesher in ["tube", "hull", "sweep", "quad"] {
             let row = mesh_and_check(p.name, mesher, sk, collisions);
             println!(
                 "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",

@@ -12,6 +12,7 @@ pub mod hull;
 pub mod obj_read;
 pub mod organs;
 pub mod quad;
+pub mod sweep;
 pub mod tube;
 
 use glam::{Vec2, Vec3};

@@ -1,0 +1,1015 @@
+//! The sweep mesher: a triangle control mesh for Loop subdivision made of hexagonal
+//! cross-sections swept along every internode and joined at branch points by junction
+//! templates, after seed 001 §5.2–§5.5.3 and §A.3 as distilled by spec 001 §2.2–§2.8.
+//!
+//! # Construction
+//!
+//! 1. **Graph.** Internodes shorter than float noise are collapsed into their parent
+//!    node (reported in [`SweepMesh::collapsed`]). A *junction* is a node with two or
+//!    more children, or a root with several children. A *chain node* has a parent and
+//!    one child; a *tip* has none. No axis bookkeeping is needed: every internode is
+//!    swept on its own, and `v` comes from the path length (step 6).
+//! 2. **Segment-length adjustment** (seed 001 §5.2, Eq 5.1/5.2, [`pair_offsets`]). At a
+//!    junction every pair of branches (the trunk counts, with outward axis `−H`) gets
+//!    `d₁ = (r₂ + r₁ cos θ)/sin θ`, `d₂ = (r₁ + r₂ cos θ)/sin θ`; each branch keeps the
+//!    largest over its partners. Guards ([`guarded_offsets`]): `θ → π` skips the pair,
+//!    every offset is at least the minimum gap `0.25 r` (this also covers `d < 0`), and
+//!    the two ends of one internode share at most 90% of its length (the spec's "≤ 0.5
+//!    segment length" when both ends need room; one end alone may take 0.9). Where an
+//!    internode next to a junction is too short, a chain node at its end is removed
+//!    (its child re-attaches to its parent, as the hull mesher's simplification does;
+//!    listed in [`SweepMesh::collapsed`]) and the offsets are recomputed; what is still
+//!    clamped is listed in [`SweepMesh::clamped`]. Never NaN or ∞.
+//! 3. **Hexagonal rings** (§5.5.1): ring vertex `k = C + r(cos(kπ/3) u + sin(kπ/3) w)`,
+//!    `w = d × u`, counter-clockwise about the direction of travel `d`. A child's ring
+//!    radius is `min(r_parent, r_child)` (a child thicker than its parent is narrowed at
+//!    its base, as in the tube mesher). Rings at chain nodes are shared by both
+//!    internodes, with the bisector of the two headings as axis.
+//! 4. **Twist** (§5.5.2, default mode). Every ring's reference `u` comes from a
+//!    rotation-minimising transport of the previous ring's, except junction rings,
+//!    which are turned to be vertex-forward (step 5). Consecutive rings are connected
+//!    with the vertex offset `o ∈ {0..5}` that minimises the twist, so the residual is
+//!    ≤ 30° ([`SweepMesh::max_twist_deg`]). Each internode is a strip of 12 triangles
+//!    with consistent diagonals.
+//! 5. **Junctions** (§5.5.3; our own triangulation, the spec's "Reference
+//!    construction"). The branching plane is fitted to the trunk and child axes (its
+//!    normal `N` is the least-variance direction, oriented toward the node's `up`),
+//!    children are sorted by their signed angle about `N` from the trunk heading. Every
+//!    junction ring is rotated about its own axis so that vertex 0 lies on `+N` and
+//!    vertex 3 on `−N`: **all junction rings are vertex-forward** (the choice the spec
+//!    allows by designing our own templates), so the bitmask is always 0, no ring is
+//!    ever pinched and one template covers 2…n children. The left half of a ring is
+//!    `[0, 1, 2, 3]`, the right half `[0, 5, 4, 3]` (front to back). Outside strips
+//!    join trunk-left ↔ first child's left and trunk-right ↔ last child's right, crotch
+//!    strips child `i` right ↔ child `i+1` left; each strip zips two 4-vertex chains
+//!    from front to back, choosing the shorter diagonal (6 triangles). The front hole
+//!    (trunk vertex 0 and every child's vertex 0) and the back hole (vertices 3) are
+//!    polygons of `n + 1` corners triangulated maximising the minimum angle. No new
+//!    vertices (G9); each ring edge is used once (G2); the construction depends only on
+//!    geometry, so child order does not matter (G8).
+//! 6. **Asymmetric rule** (§5.5.3, Figs 5.20–5.22): a junction where a child's radius
+//!    is ≤ 1/3 of its largest partner's (tolerance 1e-6 relative, so exactly 1/3 counts)
+//!    is listed in [`SweepMesh::asymmetric`]. The extra-ring template is **not built**:
+//!    these junctions use the symmetric construction (what the spec infers the seed
+//!    does for its 14 missing cases).
+//! 7. **Fallbacks.** A junction with more than [`SweepOptions::max_children`] children,
+//!    children out of the fitted plane by more than [`SweepOptions::coplanar_deg`], or
+//!    two axes closer than [`SweepOptions::aligned_deg`] is not templated. Neither is any
+//!    junction or chain node (bend, very short internode, skeleton collision) whose
+//!    faces the final check finds intersecting or degenerate: the mesh is rebuilt with
+//!    those nodes falling back (at most [`SweepOptions::repair_rounds`] rounds). A
+//!    fallback node ends its incoming internode with a flat cap at the trunk offset and
+//!    starts every child as its own tube with a flat cap at its offset: closed pieces
+//!    separated by the Eq 5.1 gap. All are listed in [`SweepMesh::fallbacks`].
+//! 8. **Ends** (§A.3). Tips: a cone whose apex lies `tip_size × width` beyond the last
+//!    ring, fanned to it (6 triangles, 1 vertex). Bases: open (one 6-edge boundary loop
+//!    per root) or, with [`SweepOptions::caps`], a flat fan of 4 triangles with its ring
+//!    edges tagged as infinitely sharp creases ("Cap Back").
+//! 9. **UVs.** `u = k/6` around each ring, the seam column duplicated (`u = 1`) in the
+//!    face-varying channel; `v` is the path length from the root divided by the longest
+//!    root-to-tip path (0 at the base, 1 at the end of the longest path, increasing along
+//!    every base-to-tip path). Junction corners take their own ring's coordinates; caps
+//!    map their disc to `[0, 1]²`; a cone apex gets the middle `u` of its triangle.
+//!
+//! Output: triangles only, counter-clockwise seen from outside, a 2-manifold.
+//! Deterministic; every valid skeleton gives a mesh, never a panic.
+
+use crate::error::{Error, Result};
+use crate::mesh::check::{check_mesh, CheckOptions};
+use crate::mesh::{Crease, FaceVarying, Mesh};
+use crate::skeleton::{Skeleton, NO_PARENT};
+use glam::{DQuat, DVec3, Vec2};
+use std::collections::HashSet;
+use std::f64::consts::{FRAC_PI_3, PI};
+
+const NONE: u32 = u32::MAX;
+/// Vertices per ring (the seed's hexagon).
+pub const SIDES: usize = 6;
+
+/// Options of [`sweep_mesh`] (spec 001 §3 "Sweep tab").
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepOptions {
+    /// Close every root base with a flat creased cap ("Cap Back"; default false: the
+    /// base is open, one 6-edge boundary loop per root).
+    pub caps: bool,
+    /// Tip cone height divided by the tip width (seed "Tip Size", `/A`; default 1).
+    pub tip_size: f64,
+    /// Most children a junction template takes (default 4); more fall back.
+    pub max_children: usize,
+    /// Largest angle in degrees between a branch axis and the fitted branching plane
+    /// (default 20°); beyond it the junction falls back.
+    pub coplanar_deg: f64,
+    /// Two branch axes closer than this angle in degrees are aligned (default 3°): the
+    /// junction falls back.
+    pub aligned_deg: f64,
+    /// A child whose radius is at most this fraction of its largest partner's makes the
+    /// junction asymmetric (default 1/3, the seed's rule).
+    pub asymmetric_ratio: f64,
+    /// Rounds of "check, then fall back where faces intersect" (default 4; 0 disables
+    /// the check).
+    pub repair_rounds: u32,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            caps: false,
+            tip_size: 1.0,
+            max_children: 4,
+            coplanar_deg: 20.0,
+            aligned_deg: 3.0,
+            asymmetric_ratio: 1.0 / 3.0,
+            repair_rounds: 4,
+        }
+    }
+}
+
+impl SweepOptions {
+    fn check(&self) -> Result<()> {
+        let bad = |why: String| Err(Error::InvalidGeometry { what: "sweep mesher".into(), why });
+        if !(self.tip_size.is_finite() && (0.0..=100.0).contains(&self.tip_size)) {
+            return bad(format!("tip_size = {}; it must be in 0..=100", self.tip_size));
+        }
+        if !(2..=64).contains(&self.max_children) {
+            return bad(format!("max_children = {}; it must be in 2..=64", self.max_children));
+        }
+        if !(self.coplanar_deg.is_finite() && (0.0..90.0).contains(&self.coplanar_deg)) {
+            return bad(format!("coplanar_deg = {}; it must be in [0, 90)", self.coplanar_deg));
+        }
+        if !(self.aligned_deg.is_finite() && (0.0..90.0).contains(&self.aligned_deg)) {
+            return bad(format!("aligned_deg = {}; it must be in [0, 90)", self.aligned_deg));
+        }
+        if !(self.asymmetric_ratio.is_finite() && (0.0..=1.0).contains(&self.asymmetric_ratio)) {
+            return bad(format!("asymmetric_ratio = {}; it must be in 0..=1", self.asymmetric_ratio));
+        }
+        Ok(())
+    }
+}
+
+/// What [`sweep_mesh`] made.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SweepMesh {
+    /// The triangle control mesh with face-varying UVs (and base-cap creases).
+    pub mesh: Mesh,
+    /// Junction nodes meshed with the template.
+    pub junctions: Vec<u32>,
+    /// Nodes (junctions or chain nodes) that fell back to separately capped pieces.
+    pub fallbacks: Vec<u32>,
+    /// Junction nodes where the asymmetric rule holds (meshed symmetrically).
+    pub asymmetric: Vec<u32>,
+    /// Internodes (named by their end node) whose Eq 5.1 offsets had to be clamped.
+    pub clamped: Vec<u32>,
+    /// Nodes removed: zero-length internodes and chain nodes too close to a junction.
+    pub collapsed: Vec<u32>,
+    /// Largest twist between connected ring vertices, in degrees (≤ 30).
+    pub max_twist_deg: f64,
+    /// Designed boundary loops: one per open root base.
+    pub open_loops: usize,
+}
+
+/// Seed 001, Eq. 5.1 and 5.2: the offsets `(d₁, d₂)` of two branches of radii `r1`,
+/// `r2` whose axes meet at angle `theta` (radians, in `(0, π)`). Not guarded: `θ = 0`
+/// divides by zero; use [`guarded_offsets`] for meshing.
+pub fn pair_offsets(r1: f64, r2: f64, theta: f64) -> (f64, f64) {
+    let (s, c) = theta.sin_cos();
+    // seed 001, Eq. 5.1 and Eq. 5.2
+    ((r2 + r1 * c) / s, (r1 + r2 * c) / s)
+}
+
+/// [`pair_offsets`] with the spec 001 §2.2 guards: `None` for a straight continuation
+/// (`θ` within 1e-3 of π, the pair is skipped); otherwise `(d₁, d₂, clamped)` with each
+/// offset at least the minimum gap `0.25 r` and at most `max1` / `max2` (`clamped` says a
+/// maximum applied, as it does when `θ → 0`). Always finite and non-negative for finite
+/// non-negative input.
+pub fn guarded_offsets(r1: f64, r2: f64, theta: f64, max1: f64, max2: f64) -> Option<(f64, f64, bool)> {
+    let theta = if theta.is_finite() { theta.clamp(0.0, PI) } else { 0.0 };
+    if theta > PI - 1e-3 {
+        return None;
+    }
+    let (mut d1, mut d2) =
+        if theta.sin() < 1e-9 { (f64::MAX, f64::MAX) } else { pair_offsets(r1, r2, theta) };
+    d1 = d1.max(0.25 * r1);
+    d2 = d2.max(0.25 * r2);
+    let mut clamped = false;
+    if d1 > max1 {
+        d1 = max1.max(0.0);
+        clamped = true;
+    }
+    if d2 > max2 {
+        d2 = max2.max(0.0);
+        clamped = true;
+    }
+    Some((d1, d2, clamped))
+}
+
+/// One hexagonal ring.
+#[derive(Debug, Clone, Copy)]
+struct Ring {
+    c: DVec3,
+    d: DVec3,
+    u: DVec3,
+    r: f64,
+    v: f64,
+    first: u32,
+}
+
+impl Ring {
+    fn w(&self) -> DVec3 {
+        self.d.cross(self.u)
+    }
+    fn vertex(&self, k: usize) -> DVec3 {
+        let a = k as f64 * FRAC_PI_3;
+        self.c + self.r * (a.cos() * self.u + a.sin() * self.w())
+    }
+    fn index(&self, k: usize) -> u32 {
+        self.first + (k % SIDES) as u32
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Root,
+    Tip,
+    Chain,
+    Junction,
+}
+
+/// Everything that does not depend on which nodes fall back.
+struct Plan {
+    pos: Vec<DVec3>,
+    rad: Vec<f64>,
+    up: Vec<DVec3>,
+    live: Vec<bool>,
+    par: Vec<u32>,
+    kids: Vec<Vec<u32>>,
+    kind: Vec<Kind>,
+    dir: Vec<DVec3>,
+    len: Vec<f64>,
+    path: Vec<f64>,
+    vmax: f64,
+    /// Offset of a child's start ring from its parent node.
+    off_start: Vec<f64>,
+    /// Offset of a node's trunk ring back from the node.
+    off_end: Vec<f64>,
+    /// Branching-plane normal of a junction (zero when none).
+    normal: Vec<DVec3>,
+    /// Heading of the trunk into a junction.
+    h_in: Vec<DVec3>,
+    /// Children sorted by signed angle about the normal.
+    sorted: Vec<Vec<u32>>,
+    /// Junctions that cannot be templated at all.
+    forced: Vec<bool>,
+    clamped: Vec<u32>,
+    collapsed: Vec<u32>,
+    asymmetric: Vec<u32>,
+}
+
+fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
+    let l = v.length();
+    if l > 1e-12 && l.is_finite() {
+        v / l
+    } else {
+        fallback
+    }
+}
+
+fn perpendicular(seed: DVec3, d: DVec3) -> DVec3 {
+    let u = seed - d * seed.dot(d);
+    if u.length_squared() > 1e-12 {
+        u.normalize()
+    } else {
+        d.any_orthonormal_vector()
+    }
+}
+
+/// Least-variance direction of a set of unit vectors (the normal of the fitted plane).
+fn fit_normal(axes: &[DVec3]) -> DVec3 {
+    let mut m = [[0.0f64; 3]; 3];
+    for a in axes {
+        let v = a.to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += v[i] * v[j];
+            }
+        }
+    }
+    // Shift by the trace so the smallest eigenvalue becomes the largest, then iterate.
+    let t = m[0][0] + m[1][1] + m[2][2];
+    let apply = |x: DVec3| {
+        let a = x.to_array();
+        DVec3::new(
+            t * a[0] - (m[0][0] * a[0] + m[0][1] * a[1] + m[0][2] * a[2]),
+            t * a[1] - (m[1][0] * a[0] + m[1][1] * a[1] + m[1][2] * a[2]),
+            t * a[2] - (m[2][0] * a[0] + m[2][1] * a[1] + m[2][2] * a[2]),
+        )
+    };
+    // Start from the largest row-pair cross product (exact for coplanar axes).
+    let rows = [DVec3::from(m[0]), DVec3::from(m[1]), DVec3::from(m[2])];
+    let cands = [rows[0].cross(rows[1]), rows[1].cross(rows[2]), rows[2].cross(rows[0])];
+    let mut x =
+        cands
+            .iter()
+            .copied()
+            .fold(DVec3::ZERO, |b, c| if c.length_squared() > b.length_squared() { c } else { b });
+    if x.length_squared() < 1e-24 {
+        return DVec3::ZERO;
+    }
+    x = x.normalize();
+    for _ in 0..32 {
+        x = unit_or(apply(x), x);
+    }
+    x
+}
+
+impl Plan {
+    fn new(s: &Skeleton, opts: &SweepOptions) -> Plan {
+        let n = s.len();
+        let pos: Vec<DVec3> = s.position.iter().map(|p| p.as_dvec3()).collect();
+        let rmax = s.radius.iter().fold(0.0f32, |a, &b| a.max(b)) as f64;
+        let scale = pos.iter().fold(0.0f64, |a, p| a.max(p.abs().max_element()));
+        let rmin = if rmax > 0.0 { 1e-3 * rmax } else { 1e-3 * scale.max(1e-3) };
+        let rad: Vec<f64> = s.radius.iter().map(|&r| (r as f64).max(rmin)).collect();
+        let up: Vec<DVec3> = s.up.iter().map(|u| u.as_dvec3()).collect();
+        // Collapse zero-length internodes.
+        let mut rep: Vec<u32> = (0..n as u32).collect();
+        let mut collapsed = Vec::new();
+        for i in 0..n {
+            let p = s.parent[i];
+            if p == NO_PARENT {
+                continue;
+            }
+            let rp = rep[p as usize] as usize;
+            let d = (pos[i] - pos[rp]).length();
+            let tiny = 1e-6 * (pos[i].abs().max_element().max(pos[rp].abs().max_element())) + 1e-12;
+            if d <= tiny.max(1e-3 * rad[i].min(rad[rp])) {
+                rep[i] = rp as u32;
+                collapsed.push(i as u32);
+            }
+        }
+        let mut live: Vec<bool> = (0..n).map(|i| rep[i] == i as u32).collect();
+        let mut par: Vec<u32> = (0..n)
+            .map(|i| if live[i] && s.parent[i] != NO_PARENT { rep[s.parent[i] as usize] } else { NONE })
+            .collect();
+        let mut plan = Plan {
+            pos,
+            rad,
+            up,
+            live: Vec::new(),
+            par: Vec::new(),
+            kids: Vec::new(),
+            kind: Vec::new(),
+            dir: Vec::new(),
+            len: Vec::new(),
+            path: Vec::new(),
+            vmax: 1.0,
+            off_start: Vec::new(),
+            off_end: Vec::new(),
+            normal: Vec::new(),
+            h_in: Vec::new(),
+            sorted: Vec::new(),
+            forced: Vec::new(),
+            clamped: Vec::new(),
+            collapsed,
+            asymmetric: Vec::new(),
+        };
+        // Offsets; where an internode is too short for them, a chain node at one of its
+        // ends is removed (its child re-attaches to its parent; end points never move)
+        // and the offsets are computed again.
+        for _round in 0..64 {
+            let removed = plan.layout(&live, &par, opts);
+            if removed.is_empty() {
+                break;
+            }
+            for &r in &removed {
+                live[r as usize] = false;
+                plan.collapsed.push(r);
+            }
+            for i in 0..n {
+                while par[i] != NONE && !live[par[i] as usize] {
+                    par[i] = par[par[i] as usize];
+                }
+            }
+        }
+        plan.collapsed.sort_unstable();
+        plan
+    }
+
+    /// Graph, offsets and junction set-up for the live nodes; returns the chain nodes to
+    /// remove because an internode next to them is too short for its offsets.
+    fn layout(&mut self, live: &[bool], par: &[u32], opts: &SweepOptions) -> Vec<u32> {
+        let n = live.len();
+        let pos = &self.pos;
+        let mut kids = vec![Vec::new(); n];
+        for i in 0..n {
+            if live[i] && par[i] != NONE {
+                kids[par[i] as usize].push(i as u32);
+            }
+        }
+        let mut dir = vec![DVec3::ZERO; n];
+        let mut len = vec![0.0; n];
+        let mut path = vec![0.0; n];
+        let mut vmax = 0.0f64;
+        for i in 0..n {
+            if live[i] && par[i] != NONE {
+                let p = par[i] as usize;
+                let e = pos[i] - pos[p];
+                len[i] = e.length();
+                dir[i] = unit_or(e, DVec3::Y);
+                path[i] = path[p] + len[i];
+                vmax = vmax.max(path[i]);
+            }
+        }
+        self.kind = (0..n)
+            .map(|i| match (par[i] == NONE, kids[i].len()) {
+                (_, k) if k >= 2 => Kind::Junction,
+                (true, _) => Kind::Root,
+                (false, 0) => Kind::Tip,
+                (false, _) => Kind::Chain,
+            })
+            .collect();
+        self.live = live.to_vec();
+        self.par = par.to_vec();
+        self.kids = kids;
+        self.dir = dir;
+        self.len = len;
+        self.path = path;
+        self.vmax = if vmax > 0.0 { vmax } else { 1.0 };
+        self.off_start = vec![0.0; n];
+        self.off_end = vec![0.0; n];
+        self.normal = vec![DVec3::ZERO; n];
+        self.h_in = vec![DVec3::ZERO; n];
+        self.sorted = vec![Vec::new(); n];
+        self.forced = vec![false; n];
+        self.clamped.clear();
+        self.asymmetric.clear();
+        for j in 0..n {
+            if self.live[j] && matches!(self.kind[j], Kind::Junction | Kind::Chain) {
+                self.node(j, opts);
+            }
+        }
+        // Both ends of an internode share 90% of its length (spec 001 §2.2 guard).
+        for c in 0..n {
+            let sum = self.off_start[c] + self.off_end[c];
+            if self.live[c] && self.par[c] != NONE && sum > 0.9 * self.len[c] {
+                let f = 0.9 * self.len[c] / sum;
+                self.off_start[c] *= f;
+                self.off_end[c] *= f;
+                self.clamped.push(c as u32);
+            }
+        }
+        self.clamped.sort_unstable();
+        self.clamped.dedup();
+        // Clamped internodes next to a junction: remove a chain node to make room.
+        let mut remove = Vec::new();
+        for &c in &self.clamped {
+            let c = c as usize;
+            let p = self.par[c];
+            let near_junction =
+                self.kind[c] == Kind::Junction || (p != NONE && self.kind[p as usize] == Kind::Junction);
+            if !near_junction {
+                continue;
+            }
+            if self.kind[c] == Kind::Chain {
+                remove.push(c as u32);
+            } else if p != NONE && self.kind[p as usize] == Kind::Chain {
+                remove.push(p);
+            }
+        }
+        remove.sort_unstable();
+        remove.dedup();
+        remove
+    }
+
+    /// Offsets, plane, order and template checks at a junction or chain node.
+    fn node(&mut self, j: usize, opts: &SweepOptions) {
+        let kids = self.kids[j].clone();
+        let has_trunk = self.par[j] != NONE;
+        let h_in = if has_trunk {
+            self.dir[j]
+        } else {
+            let sum: DVec3 = kids.iter().map(|&c| self.dir[c as usize]).sum();
+            unit_or(sum, self.dir[kids[0] as usize])
+        };
+        self.h_in[j] = h_in;
+        let rj = self.rad[j];
+        // Participants: trunk first (outward axis −H), then the children.
+        let mut axes = vec![-h_in];
+        let mut radii = vec![rj];
+        let mut maxes = vec![if has_trunk { 0.9 * self.len[j] } else { 0.0 }];
+        for &c in &kids {
+            axes.push(self.dir[c as usize]);
+            radii.push(rj.min(self.rad[c as usize]));
+            maxes.push(0.9 * self.len[c as usize]);
+        }
+        let k = axes.len();
+        let mut off: Vec<f64> = (0..k).map(|i| (0.25 * radii[i]).min(maxes[i])).collect();
+        let mut clamped = false;
+        let mut aligned = false;
+        let cos_aligned = opts.aligned_deg.to_radians().cos();
+        for a in 0..k {
+            for b in a + 1..k {
+                let c = axes[a].dot(axes[b]).clamp(-1.0, 1.0);
+                if c > cos_aligned {
+                    aligned = true;
+                }
+                if let Some((da, db, cl)) = guarded_offsets(radii[a], radii[b], c.acos(), maxes[a], maxes[b])
+                {
+                    off[a] = off[a].max(da);
+                    off[b] = off[b].max(db);
+                    clamped |= cl;
+                }
+            }
+        }
+        if !has_trunk {
+            off[0] = 0.0;
+        }
+        if clamped {
+            for (i, &d) in off.iter().enumerate() {
+                if d >= maxes[i] && maxes[i] > 0.0 {
+                    self.clamped.push(if i == 0 { j as u32 } else { kids[i - 1] });
+                }
+            }
+        }
+        self.off_end[j] = off[0];
+        for (i, &c) in kids.iter().enumerate() {
+            self.off_start[c as usize] = off[i + 1];
+        }
+        if kids.len() < 2 {
+            return;
+        }
+        // Branching plane (spec 001 §2.3): least-variance normal, toward the node's up.
+        let mut n = fit_normal(&axes);
+        let mut force = aligned || kids.len() > opts.max_children;
+        if n == DVec3::ZERO {
+            force = true;
+            n = perpendicular(self.up[j], h_in);
+        }
+        let refv = perpendicular(self.up[j], h_in);
+        let sgn = n.dot(refv);
+        if sgn < 0.0 || (sgn == 0.0 && n.dot(DVec3::new(0.31, 0.57, 0.76)) < 0.0) {
+            n = -n;
+        }
+        let tol = opts.coplanar_deg.to_radians().sin();
+        if axes.iter().any(|a| a.dot(n).abs() > tol) {
+            force = true;
+        }
+        self.normal[j] = n;
+        // Children by increasing signed angle about N from the trunk heading.
+        let mut by: Vec<(f64, u32)> = kids
+            .iter()
+            .map(|&c| {
+                let h = self.dir[c as usize];
+                (n.dot(h_in.cross(h)).atan2(h_in.dot(h)), c)
+            })
+            .collect();
+        by.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        self.sorted[j] = by.iter().map(|x| x.1).collect();
+        self.forced[j] = force;
+        // Asymmetric rule (seed 001 §5.5.3): r ≤ ratio × the largest partner's radius.
+        for i in 1..k {
+            let other = (0..k).filter(|&m| m != i).map(|m| radii[m]).fold(0.0, f64::max);
+            if radii[i] <= opts.asymmetric_ratio * other * (1.0 + 1e-6) {
+                self.asymmetric.push(j as u32);
+                break;
+            }
+        }
+    }
+}
+
+/// Mesh under construction.
+struct Build<'a> {
+    plan: &'a Plan,
+    opts: &'a SweepOptions,
+    mesh: Mesh,
+    uv: FaceVarying<Vec2>,
+    owner: Vec<[u32; 2]>,
+    max_twist: f64,
+    open_loops: usize,
+}
+
+impl Build<'_> {
+    fn ring(&mut self, c: DVec3, d: DVec3, u: DVec3, r: f64, v: f64) -> Ring {
+        let first = self.mesh.positions.len() as u32;
+        let ring = Ring { c, d, u: perpendicular(u, d), r, v, first };
+        for k in 0..SIDES {
+            self.mesh.positions.push(ring.vertex(k).as_vec3());
+        }
+        ring
+    }
+
+    fn tri(&mut self, v: [u32; 3], uv: [Vec2; 3], owner: [u32; 2]) {
+        self.mesh.push_face(&v);
+        for t in uv {
+            self.uv.indices.push(self.uv.values.len() as u32);
+            self.uv.values.push(t);
+        }
+        self.owner.push(owner);
+    }
+
+    fn ring_uv(&self, ring: &Ring, k: usize) -> Vec2 {
+        Vec2::new((k % SIDES) as f32 / SIDES as f32, (ring.v / self.plan.vmax) as f32)
+    }
+
+    /// UV of global vertex `g` on one of `rings`.
+    fn vertex_uv(&self, rings: &[Ring], g: u32) -> Vec2 {
+        for r in rings {
+            if g >= r.first && g < r.first + SIDES as u32 {
+                return self.ring_uv(r, (g - r.first) as usize);
+            }
+        }
+        Vec2::ZERO
+    }
+
+    /// The 12-triangle strip from `a` (start) to `b` (end) with the least twist.
+    fn strip(&mut self, a: &Ring, b: &Ring, owner: [u32; 2]) {
+        let t = DQuat::from_rotation_arc(a.d, b.d) * a.u;
+        let alpha = t.dot(b.w()).atan2(t.dot(b.u));
+        let o = (alpha / FRAC_PI_3).round();
+        self.max_twist = self.max_twist.max((alpha - o * FRAC_PI_3).abs().to_degrees());
+        let o = o.rem_euclid(6.0) as usize;
+        let (va, vb) = ((a.v / self.plan.vmax) as f32, (b.v / self.plan.vmax) as f32);
+        for k in 0..SIDES {
+            let (a0, a1) = (a.index(k), a.index(k + 1));
+            let (b0, b1) = (b.index(k + o), b.index(k + 1 + o));
+            let (u0, u1) = (k as f32 / 6.0, (k + 1) as f32 / 6.0);
+            let (ua0, ua1, ub0, ub1) =
+                (Vec2::new(u0, va), Vec2::new(u1, va), Vec2::new(u0, vb), Vec2::new(u1, vb));
+            self.tri([a0, a1, b1], [ua0, ua1, ub1], owner);
+            self.tri([a0, b1, b0], [ua0, ub1, ub0], owner);
+        }
+    }
+
+    /// Flat fan over a ring without new vertices; `start` caps the start of a tube.
+    fn flat_cap(&mut self, ring: &Ring, start: bool, owner: [u32; 2], crease: bool) {
+        let disc = |k: usize| {
+            let a = k as f32 * std::f32::consts::FRAC_PI_3;
+            Vec2::new(0.5 + 0.5 * a.cos(), 0.5 + 0.5 * a.sin())
+        };
+        for k in 1..SIDES - 1 {
+            let (x, y) = if start { (k + 1, k) } else { (k, k + 1) };
+            self.tri([ring.index(0), ring.index(x), ring.index(y)], [disc(0), disc(x), disc(y)], owner);
+        }
+        if crease {
+            for k in 0..SIDES {
+                self.mesh.creases.push(Crease {
+                    a: ring.index(k),
+                    b: ring.index(k + 1),
+                    sharpness: f32::INFINITY,
+                });
+            }
+        }
+    }
+
+    /// Cone cap at the end of a tube (seed §A.3 "Cap Front").
+    fn cone(&mut self, ring: &Ring, owner: [u32; 2]) {
+        let h = self.opts.tip_size * 2.0 * ring.r;
+        let h = h.max(0.05 * ring.r);
+        let apex = self.mesh.positions.len() as u32;
+        self.mesh.positions.push((ring.c + ring.d * h).as_vec3());
+        let va = ((ring.v + h) / self.plan.vmax) as f32;
+        for k in 0..SIDES {
+            let (u0, u1) = (self.ring_uv(ring, k), Vec2::new((k + 1) as f32 / 6.0, self.ring_uv(ring, k).y));
+            let ua = Vec2::new((k as f32 + 0.5) / 6.0, va);
+            self.tri([ring.index(k), ring.index(k + 1), apex], [u0, u1, ua], owner);
+        }
+    }
+
+    /// Start-of-tube base at a root: open or capped.
+    fn base(&mut self, ring: &Ring, owner: [u32; 2]) {
+        if self.opts.caps {
+            self.flat_cap(ring, true, owner, true);
+        } else {
+            self.open_loops += 1;
+        }
+    }
+
+    /// The junction template at node `j` (module docs, step 5). `trunk` ends the
+    /// incoming tube (or is the base ring of a root junction); `kids` are the children's
+    /// start rings in sorted order.
+    fn junction(&mut self, j: u32, trunk: &Ring, kids: &[Ring]) {
+        let owner = [j, NONE];
+        let mut rings = vec![*trunk];
+        rings.extend_from_slice(kids);
+        let mut tris: Vec<[u32; 3]> = Vec::new();
+        // Zip chain `p` of ring `rp` with chain `q` of ring `rq`, front to back.
+        let mut zip = |rp: &Ring, p: [usize; 4], p_trunk: bool, rq: &Ring, q: [usize; 4], q_trunk: bool| {
+            let (mut i, mut k) = (0, 0);
+            let dist = |a: DVec3, b: DVec3| (a - b).length_squared();
+            while i < 3 || k < 3 {
+                let adv_p = if i == 3 {
+                    false
+                } else if k == 3 {
+                    true
+                } else {
+                    dist(rp.vertex(p[i + 1]), rq.vertex(q[k])) <= dist(rp.vertex(p[i]), rq.vertex(q[k + 1]))
+                };
+                let (ring, trunk_ring, x, y, apex) = if adv_p {
+                    let t = (rp, p_trunk, p[i], p[i + 1], rq.index(q[k]));
+                    i += 1;
+                    t
+                } else {
+                    let t = (rq, q_trunk, q[k], q[k + 1], rp.index(p[i]));
+                    k += 1;
+                    t
+                };
+                // Trunk ring edges run k → k+1, child ring edges k+1 → k (opposite to
+                // their tubes).
+                let forward = (x + 1) % SIDES == y % SIDES;
+                let (from, to) = if forward == trunk_ring { (x, y) } else { (y, x) };
+                tris.push([ring.index(from), ring.index(to), apex]);
+            }
+        };
+        const LEFT: [usize; 4] = [0, 1, 2, 3];
+        const RIGHT: [usize; 4] = [0, 5, 4, 3];
+        let n = kids.len();
+        zip(trunk, LEFT, true, &kids[0], LEFT, false);
+        for i in 0..n - 1 {
+            zip(&kids[i], RIGHT, false, &kids[i + 1], LEFT, false);
+        }
+        zip(trunk, RIGHT, true, &kids[n - 1], RIGHT, false);
+        // Front (vertex 0) and back (vertex 3) holes.
+        for side in [0usize, 3] {
+            let mut cycle: Vec<u32> = vec![trunk.index(side)];
+            cycle.extend(kids.iter().map(|r| r.index(side)));
+            let (a, b) = (cycle[0], cycle[1]);
+            let used = tris.iter().any(|t| (0..3).any(|e| t[e] == a && t[(e + 1) % 3] == b));
+            if used {
+                cycle[1..].reverse();
+            }
+            let pts: Vec<DVec3> = cycle.iter().map(|&g| self.mesh.positions[g as usize].as_dvec3()).collect();
+            for [x, y, z] in max_min_angle(&pts) {
+                tris.push([cycle[x], cycle[y], cycle[z]]);
+            }
+        }
+        for t in tris {
+            let uv =
+                [self.vertex_uv(&rings, t[0]), self.vertex_uv(&rings, t[1]), self.vertex_uv(&rings, t[2])];
+            self.tri(t, uv, owner);
+        }
+    }
+}
+
+/// Triangulates the polygon `pts` (in order) into `len − 2` triangles maximising the
+/// smallest angle (dynamic programming over diagonals); corners keep the polygon order.
+fn max_min_angle(pts: &[DVec3]) -> Vec<[usize; 3]> {
+    let m = pts.len();
+    if m < 3 {
+        return Vec::new();
+    }
+    let min_angle = |a: usize, b: usize, c: usize| {
+        let ang = |p: DVec3, q: DVec3, r: DVec3| {
+            let (u, v) = (q - p, r - p);
+            let d = u.length() * v.length();
+            if d > 0.0 {
+                (u.dot(v) / d).clamp(-1.0, 1.0).acos()
+            } else {
+                0.0
+            }
+        };
+        ang(pts[a], pts[b], pts[c]).min(ang(pts[b], pts[c], pts[a])).min(ang(pts[c], pts[a], pts[b]))
+    };
+    let mut best = vec![vec![f64::INFINITY; m]; m];
+    let mut split = vec![vec![0usize; m]; m];
+    for gap in 2..m {
+        for i in 0..m - gap {
+            let j = i + gap;
+            best[i][j] = f64::NEG_INFINITY;
+            for k in i + 1..j {
+                let q = best[i][k].min(best[k][j]).min(min_angle(i, k, j));
+                if q > best[i][j] {
+                    best[i][j] = q;
+                    split[i][j] = k;
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(m - 2);
+    let mut stack = vec![(0, m - 1)];
+    while let Some((i, j)) = stack.pop() {
+        if j < i + 2 {
+            continue;
+        }
+        let k = split[i][j];
+        out.push([i, k, j]);
+        stack.push((i, k));
+        stack.push((k, j));
+    }
+    out
+}
+
+fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32; 2]>, f64, usize) {
+    let n = plan.pos.len();
+    let mut b = Build {
+        plan,
+        opts,
+        mesh: Mesh::new(),
+        uv: FaceVarying::default(),
+        owner: Vec::new(),
+        max_twist: 0.0,
+        open_loops: 0,
+    };
+    // Start ring of each internode (indexed by its child node).
+    let mut start: Vec<Option<Ring>> = vec![None; n];
+    let nodeown =
+        |j: usize| if matches!(plan.kind[j], Kind::Junction | Kind::Chain) { j as u32 } else { NONE };
+    for i in 0..n {
+        if !plan.live[i] {
+            continue;
+        }
+        let fb = fallback[i];
+        let kind = plan.kind[i];
+        let r = plan.rad[i];
+        // End ring of the internode into i, and its tube.
+        let mut end: Option<Ring> = None;
+        if plan.par[i] != NONE {
+            let Some(a) = start[i] else { continue };
+            let owner = [nodeown(plan.par[i] as usize), nodeown(i)];
+            let d = plan.dir[i];
+            let ut = DQuat::from_rotation_arc(a.d, d) * a.u;
+            let e = match kind {
+                Kind::Tip => b.ring(plan.pos[i], d, ut, r, plan.path[i]),
+                Kind::Chain if !fb => {
+                    let c = plan.kids[i][0] as usize;
+                    let axis = unit_or(d + plan.dir[c], d);
+                    let ua = DQuat::from_rotation_arc(a.d, axis) * a.u;
+                    b.ring(plan.pos[i], axis, ua, r, plan.path[i])
+                }
+                Kind::Junction if !fb => {
+                    let off = plan.off_end[i];
+                    b.ring(plan.pos[i] - d * off, d, plan.normal[i], r, plan.path[i] - off)
+                }
+                _ => {
+                    let off = plan.off_end[i];
+                    b.ring(plan.pos[i] - d * off, d, ut, r, plan.path[i] - off)
+                }
+            };
+            b.strip(&a, &e, owner);
+            if kind == Kind::Tip {
+                b.cone(&e, owner);
+            } else if fb {
+                b.flat_cap(&e, false, [i as u32, NONE], false);
+            }
+            end = Some(e);
+        }
+        // Start rings of the children.
+        let kids = &plan.kids[i];
+        if kids.is_empty() {
+            continue;
+        }
+        let own = [nodeown(i), NONE];
+        match kind {
+            Kind::Root => {
+                let c = kids[0] as usize;
+                let d = plan.dir[c];
+                let ring = b.ring(plan.pos[i], d, plan.up[i], r.min(plan.rad[c]), 0.0);
+                b.base(&ring, [NONE, NONE]);
+                start[c] = Some(ring);
+            }
+            Kind::Chain if !fb => start[kids[0] as usize] = end,
+            Kind::Junction if !fb => {
+                let h = plan.h_in[i];
+                let nrm = plan.normal[i];
+                let trunk = match end {
+                    Some(e) => e,
+                    None => {
+                        let ring = b.ring(plan.pos[i], h, nrm, r, 0.0);
+                        b.base(&ring, [NONE, NONE]);
+                        ring
+                    }
+                };
+                let mut rings = Vec::with_capacity(kids.len());
+                for &c in &plan.sorted[i] {
+                    let c = c as usize;
+                    let off = plan.off_start[c];
+                    let ring = b.ring(
+                        plan.pos[i] + plan.dir[c] * off,
+                        plan.dir[c],
+                        nrm,
+                        r.min(plan.rad[c]),
+                        plan.path[i] + off,
+                    );
+                    start[c] = Some(ring);
+                    rings.push(ring);
+                }
+                b.junction(i as u32, &trunk, &rings);
+            }
+            _ => {
+                // Fallback: every child its own tube, capped at its offset.
+                let seed = end.map(|e| e.u).unwrap_or(plan.up[i]);
+                let from = end.map(|e| e.d).unwrap_or(plan.h_in[i]);
+                for &c in kids {
+                    let c = c as usize;
+                    let off = plan.off_start[c];
+                    let d = plan.dir[c];
+                    let u = DQuat::from_rotation_arc(unit_or(from, d), d) * seed;
+                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
+                    b.flat_cap(&ring, true, own, false);
+                    start[c] = Some(ring);
+                }
+            }
+        }
+    }
+    let mut mesh = b.mesh;
+    mesh.uvs = Some(b.uv);
+    (mesh, b.owner, b.max_twist, b.open_loops)
+}
+
+/// Meshes `skeleton` with hexagonal sweeps and junction templates (see the module docs).
+///
+/// Errors: [`Error::InvalidGeometry`] for options out of range or a mesh beyond `u32`
+/// indices; [`Error::Skeleton`] when the skeleton fails [`Skeleton::validate`].
+/// Junctions that cannot be templated fall back locally and are reported, never an
+/// error.
+pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh> {
+    opts.check()?;
+    skeleton.validate()?;
+    if skeleton.len() > (u32::MAX as usize - 16) / 16 {
+        return Err(Error::InvalidGeometry {
+            what: "sweep mesher".into(),
+            why: format!("{} nodes exceed u32 vertex indices", skeleton.len()),
+        });
+    }
+    let plan = Plan::new(skeleton, opts);
+    let n = skeleton.len();
+    let mut fallback: Vec<bool> = plan.forced.clone();
+    let mut round = 0;
+    let (mesh, max_twist, open_loops) = loop {
+        let (mesh, owner, twist, loops) = build(&plan, opts, &fallback);
+        if round >= opts.repair_rounds || mesh.face_count() == 0 {
+            break (mesh, twist, loops);
+        }
+        round += 1;
+        let rep = check_mesh(
+            &mesh,
+            &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
+        );
+        let mut bad: HashSet<u32> = HashSet::new();
+        let mark = |f: usize, bad: &mut HashSet<u32>| {
+            for &o in &owner[f] {
+                if o != NONE && !fallback[o as usize] {
+                    bad.insert(o);
+                }
+            }
+        };
+        // An intersection is the mesher's own when the two faces belong to the same or
+        // to neighbouring nodes; others are branches passing through each other in the
+        // skeleton, which no fallback can separate.
+        let near = |a: u32, b: u32| a == b || plan.par[a as usize] == b || plan.par[b as usize] == a;
+        for &[f, g] in &rep.intersections {
+            let local =
+                owner[f].iter().any(|&a| a != NONE && owner[g].iter().any(|&b| b != NONE && near(a, b)));
+            if local {
+                mark(f, &mut bad);
+                mark(g, &mut bad);
+            }
+        }
+        for &f in &rep.degenerate_faces {
+            mark(f, &mut bad);
+        }
+        if bad.is_empty() {
+            break (mesh, twist, loops);
+        }
+        for o in bad {
+            fallback[o as usize] = true;
+        }
+    };
+    let kind_is = |k: Kind| (0..n).filter(move |&i| plan.live[i] && plan.kind[i] == k);
+    let fallbacks: Vec<u32> = (0..n).filter(|&i| fallback[i]).map(|i| i as u32).collect();
+    let junctions: Vec<u32> = kind_is(Kind::Junction).filter(|&i| !fallback[i]).map(|i| i as u32).collect();
+    Ok(SweepMesh {
+        mesh,
+        junctions,
+        fallbacks,
+        asymmetric: plan.asymmetric.clone(),
+        clamped: plan.clamped.clone(),
+        collapsed: plan.collapsed.clone(),
+        max_twist_deg: max_twist,
+        open_loops,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eq_5_1_values() {
+        let (d1, d2) = pair_offsets(0.3, 0.7, PI / 2.0);
+        assert!((d1 - 0.7).abs() < 1e-12 && (d2 - 0.3).abs() < 1e-12);
+        let (d, _) = pair_offsets(1.0, 1.0, PI / 3.0);
+        assert!((d - 3f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn hole_triangulation_counts() {
+        let pts: Vec<DVec3> = (0..5).map(|k| DVec3::new((k as f64).cos(), (k as f64).sin(), 0.0)).collect();
+        assert_eq!(max_min_angle(&pts).len(), 3);
+        assert_eq!(max_min_angle(&pts[..3]).len(), 1);
+    }
+
+    #[test]
+    fn fitted_normal_of_a_plane() {
+        let n = fit_normal(&[DVec3::X, DVec3::new(0.6, 0.8, 0.0), DVec3::new(-0.6, 0.8, 0.0)]);
+        assert!(n.z.abs() > 1.0 - 1e-9);
+    }
+}

@@ -1,0 +1,494 @@
+//! The sweep mesher (seed 001 §5.2–§5.5.3, spec 001 §2.2–§2.8): Eq 5.1/5.2 values and
+//! guards, and the control mesh of hand-made skeletons (chain, forks, whorls, the
+//! awkward cases) checked with `sylva::mesh::check` (spec 001 §7 properties 1, 3–5,
+//! 12–16, 18–19, 23), plus a property test over random skeletons.
+
+use glam::{DVec3, Vec3};
+use proptest::prelude::*;
+use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
+use sylva::mesh::sweep::{guarded_offsets, pair_offsets, sweep_mesh, SweepMesh, SweepOptions};
+use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+use sylva::skeleton::NO_PARENT;
+use sylva::{Mesh, Skeleton};
+
+fn report(m: &Mesh) -> MeshReport {
+    check_mesh(m, &CheckOptions::default())
+}
+
+fn sweep(sk: &Skeleton, caps: bool) -> SweepMesh {
+    sweep_mesh(sk, &SweepOptions { caps, ..Default::default() }).expect("sweep")
+}
+
+/// Asserts the mesh is a valid manifold of triangles with the designed boundary loops.
+fn assert_valid(name: &str, s: &SweepMesh, roots: usize, caps: bool) -> MeshReport {
+    let m = &s.mesh;
+    m.validate().unwrap();
+    assert!((0..m.face_count()).all(|f| m.face(f).len() == 3), "{name}: not all triangles");
+    let r = report(m);
+    assert!(r.is_valid(), "{name}: {:?}\n{r}", r.problems());
+    assert_eq!(r.boundary_loops, if caps { 0 } else { roots }, "{name}: boundary loops\n{r}");
+    assert_eq!(s.open_loops, r.boundary_loops, "{name}: designed loops");
+    r
+}
+
+fn signed_volume(m: &Mesh) -> f64 {
+    (0..m.face_count())
+        .map(|f| {
+            let v = m.face(f);
+            let p = |i: usize| m.positions[v[i] as usize].as_dvec3();
+            p(0).dot(p(1).cross(p(2))) / 6.0
+        })
+        .sum()
+}
+
+/// A trunk of `trunk_len` from the origin up +Y, then one child per `(angle°, radius)`
+/// turned about +Z, each two internodes of length `len`.
+fn fork(kids: &[(f64, f32)], r: f32, len: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let root = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
+    let j = s.push(Vec3::Y * 2.0, r, root, Vec3::Z, 0);
+    for (i, &(a, rc)) in kids.iter().enumerate() {
+        let a = a.to_radians() as f32;
+        let h = Vec3::new(-a.sin(), a.cos(), 0.0);
+        let order = if i == 0 { 0 } else { 1 };
+        let c1 = s.push(s.position[j as usize] + h * len, rc, j, Vec3::Z, order);
+        s.push(s.position[c1 as usize] + h * len, rc * 0.8, c1, Vec3::Z, order);
+    }
+    s
+}
+
+#[test]
+fn eq_5_1_and_5_2() {
+    // θ = 90° gives d1 = r2, d2 = r1 (property 12).
+    let (d1, d2) = pair_offsets(0.2, 0.5, std::f64::consts::FRAC_PI_2);
+    assert!((d1 - 0.5).abs() < 1e-12 && (d2 - 0.2).abs() < 1e-12);
+    // Equal radii: d = r cot(θ/2); r√3 at 60°.
+    for deg in [20.0f64, 45.0, 60.0, 100.0, 150.0] {
+        let t = deg.to_radians();
+        let (a, b) = pair_offsets(0.3, 0.3, t);
+        let want = 0.3 / (t / 2.0).tan();
+        assert!((a - want).abs() < 1e-12 && (b - want).abs() < 1e-12, "{deg}");
+    }
+    let (a, _) = pair_offsets(1.0, 1.0, 60f64.to_radians());
+    assert!((a - 3f64.sqrt()).abs() < 1e-12);
+    // Symmetry: d1(r1, r2) = d2(r2, r1).
+    for (r1, r2, deg) in [(0.1, 0.4, 30.0f64), (1.0, 0.2, 120.0), (0.5, 0.5, 75.0)] {
+        let t = deg.to_radians();
+        assert!((pair_offsets(r1, r2, t).0 - pair_offsets(r2, r1, t).1).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn offsets_are_finite_and_non_negative_near_0_and_pi() {
+    for t in [0.0, 1e-300, 1e-12, 1e-6, 1e-3, std::f64::consts::PI - 1e-2, std::f64::consts::PI - 1e-9] {
+        for (r1, r2) in [(1.0, 1.0), (1.0, 0.1), (0.1, 1.0), (0.0, 1.0)] {
+            if let Some((d1, d2, _)) = guarded_offsets(r1, r2, t, 2.0, 3.0) {
+                assert!(d1.is_finite() && d2.is_finite() && d1 >= 0.0 && d2 >= 0.0, "{t} {r1} {r2}");
+                assert!(d1 <= 2.0 && d2 <= 3.0);
+                assert!(d1 >= (0.25 * r1).min(2.0) - 1e-15);
+            }
+        }
+    }
+    // θ → 0 clamps and says so; θ = π skips.
+    assert!(guarded_offsets(1.0, 1.0, 1e-9, 0.5, 0.5).unwrap().2);
+    assert!(guarded_offsets(1.0, 1.0, std::f64::consts::PI, 0.5, 0.5).is_none());
+    // Obtuse with r1 cos θ < −r2: minimum gap 0.25 r.
+    let (d1, _, _) = guarded_offsets(1.0, 0.1, 170f64.to_radians(), 9.0, 9.0).unwrap();
+    assert!((d1 - 0.25).abs() < 1e-12);
+}
+
+#[test]
+fn a_chain_open_and_capped() {
+    let mut s = Skeleton::new();
+    let mut p = s.push(Vec3::ZERO, 0.2, NO_PARENT, Vec3::Z, 0);
+    for i in 1..8 {
+        let q = Vec3::new((i as f32 * 0.7).sin() * 0.5, i as f32, 0.0);
+        p = s.push(q, 0.2 - 0.02 * i as f32, p, Vec3::Z, 0);
+    }
+    let open = sweep(&s, false);
+    let r = assert_valid("chain", &open, 1, false);
+    assert_eq!(r.euler, 1);
+    // 8 rings and an apex; 7 strips of 12, a cone of 6.
+    assert_eq!(open.mesh.vertex_count(), 8 * 6 + 1);
+    assert_eq!(open.mesh.face_count(), 7 * 12 + 6);
+    let capped = sweep(&s, true);
+    let r = assert_valid("chain capped", &capped, 1, true);
+    assert_eq!(r.euler, 2);
+    assert!(signed_volume(&capped.mesh) > 0.0);
+    assert_eq!(capped.mesh.creases.len(), 6);
+    assert!(open.max_twist_deg <= 30.0 + 1e-9);
+}
+
+#[test]
+fn y_forks_20_to_160_degrees_ratios_and_trifurcations() {
+    // Property 19: no coarse intersections over θ 20°–160°, ratios 0.2–1, 2–3 children.
+    let mut fallbacks = 0;
+    let mut total = 0;
+    for deg in (20..=160).step_by(20) {
+        let t = deg as f64;
+        for ratio in [0.2f32, 0.4, 0.6, 0.8, 1.0] {
+            let r = 0.1;
+            // θ is the angle between neighbouring children.
+            let side = if t <= 80.0 { t } else { t / 2.0 };
+            for kids in [
+                vec![(-t / 2.0, r), (t / 2.0, r * ratio)],
+                vec![(0.0, r), (t, r * ratio)],
+                vec![(-side, r * ratio), (0.0, r), (side, r * ratio)],
+            ] {
+                let sk = fork(&kids, r, 1.0);
+                for caps in [false, true] {
+                    let s = sweep(&sk, caps);
+                    assert_valid(&format!("fork {deg}° ratio {ratio} {kids:?}"), &s, 1, caps);
+                    assert!(s.max_twist_deg <= 30.0 + 1e-9);
+                    total += 1;
+                    fallbacks += s.fallbacks.len();
+                }
+            }
+        }
+    }
+    println!("{total} forks, {fallbacks} fallbacks");
+    assert!(fallbacks * 10 <= total, "{fallbacks} fallbacks in {total} forks");
+}
+
+#[test]
+fn symmetric_junction_adds_no_vertices_and_is_templated() {
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let s = sweep(&sk, true);
+    assert_valid("symmetric", &s, 1, true);
+    assert_eq!(s.junctions, vec![1]);
+    assert!(s.fallbacks.is_empty() && s.asymmetric.is_empty());
+    // Rings: base, trunk end, 2 × (start, middle, tip); 2 apexes.
+    assert_eq!(s.mesh.vertex_count(), 8 * 6 + 2);
+    // Junction: 3 strips of 6 + 2 hole triangles; tubes 5 × 12; 2 cones; base cap 4.
+    assert_eq!(s.mesh.face_count(), 3 * 6 + 2 + 5 * 12 + 2 * 6 + 4);
+    assert!(signed_volume(&s.mesh) > 0.0);
+}
+
+#[test]
+fn child_order_does_not_matter() {
+    let a = sweep(&fork(&[(30.0, 0.1), (-30.0, 0.08)], 0.1, 1.0), false);
+    let b = sweep(&fork(&[(-30.0, 0.08), (30.0, 0.1)], 0.1, 1.0), false);
+    let key = |m: &Mesh| {
+        let mut v: Vec<[i64; 3]> = m
+            .positions
+            .iter()
+            .map(|p| [(p.x * 1e4).round() as i64, (p.y * 1e4).round() as i64, (p.z * 1e4).round() as i64])
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(key(&a.mesh), key(&b.mesh));
+    assert_eq!(a.mesh.face_count(), b.mesh.face_count());
+    // Mirrored input (x → −x) gives the mirrored vertex set.
+    let mirror = |m: &Mesh| {
+        let mut m = m.clone();
+        for p in &mut m.positions {
+            p.x = -p.x;
+        }
+        m
+    };
+    let c = sweep(&fork(&[(-30.0, 0.1), (30.0, 0.08)], 0.1, 1.0), false);
+    assert_eq!(key(&mirror(&a.mesh)), key(&c.mesh));
+}
+
+#[test]
+fn monopodial_lateral_is_asymmetric_at_exactly_one_third() {
+    for (ratio, asym) in [(0.2f32, true), (0.33, true), (1.0 / 3.0, true), (0.34, false), (0.5, false)] {
+        let sk = fork(&[(0.0, 0.3), (50.0, 0.3 * ratio)], 0.3, 2.0);
+        let s = sweep(&sk, false);
+        assert_valid(&format!("lateral {ratio}"), &s, 1, false);
+        assert_eq!(!s.asymmetric.is_empty(), asym, "ratio {ratio}");
+    }
+}
+
+#[test]
+fn whorls_aligned_thick_and_short_cases_stay_valid() {
+    let cases: Vec<(&str, Skeleton)> = vec![
+        (
+            "4-child coplanar whorl",
+            fork(&[(-60.0, 0.08), (-20.0, 0.08), (20.0, 0.08), (60.0, 0.08)], 0.1, 1.0),
+        ),
+        (
+            "6 children",
+            fork(
+                &[(-75.0, 0.05), (-45.0, 0.05), (-15.0, 0.05), (15.0, 0.05), (45.0, 0.05), (75.0, 0.05)],
+                0.1,
+                1.0,
+            ),
+        ),
+        ("aligned child", fork(&[(0.0, 0.1), (0.5, 0.03)], 0.1, 1.0)),
+        ("thick child", fork(&[(-40.0, 0.1), (40.0, 0.3)], 0.1, 2.0)),
+        ("short internodes", fork(&[(-40.0, 0.1), (40.0, 0.1)], 0.1, 0.05)),
+        ("decussate whorl", {
+            let mut s = fork(&[(-50.0, 0.05), (50.0, 0.05)], 0.1, 1.0);
+            for a in [-50.0f32, 50.0] {
+                let a = a.to_radians();
+                let h = Vec3::new(0.0, a.cos(), a.sin());
+                s.push(Vec3::Y * 2.0 + h, 0.05, 1, Vec3::Z, 1);
+            }
+            s
+        }),
+        ("root with three children", {
+            let mut s = Skeleton::new();
+            let root = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::Z, 0);
+            for a in [-40.0f32, 0.0, 40.0] {
+                let a = a.to_radians();
+                s.push(Vec3::new(-a.sin(), a.cos(), 0.0), 0.08, root, Vec3::Z, 0);
+            }
+            s
+        }),
+        ("sharp bend", {
+            let mut s = Skeleton::new();
+            let a = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::Z, 0);
+            let b = s.push(Vec3::Y, 0.1, a, Vec3::Z, 0);
+            s.push(Vec3::new(0.3, 0.2, 0.0), 0.1, b, Vec3::Z, 0);
+            s
+        }),
+        ("zero-length internode", {
+            let mut s = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+            s.push(Vec3::Y * 2.0, 0.1, 1, Vec3::Z, 1);
+            s
+        }),
+    ];
+    for (name, sk) in &cases {
+        let name = *name;
+        // Children overlapping their partner for longer than the internode allows:
+        // the fallback keeps the manifold but cannot separate the surfaces.
+        let overlapping = name == "aligned child" || name == "short internodes";
+        for caps in [false, true] {
+            let s = sweep(sk, caps);
+            let r = report(&s.mesh);
+            let problems: Vec<String> = r
+                .problems()
+                .into_iter()
+                .filter(|p| !(overlapping && p.contains("self-intersecting")))
+                .collect();
+            assert!(problems.is_empty(), "{name}: {problems:?}");
+            if r.intersection_count.unwrap_or(0) > 0 {
+                assert!(!s.fallbacks.is_empty() && !s.clamped.is_empty(), "{name}: not reported");
+            }
+            println!(
+                "{name}: fallbacks {:?}, junctions {:?}, loops {}",
+                s.fallbacks, s.junctions, r.boundary_loops
+            );
+            assert_eq!(r.boundary_loops, s.open_loops, "{name}");
+        }
+    }
+    // What is templated and what falls back (and is reported).
+    let outcome = |name: &str| {
+        let sk = &cases.iter().find(|c| c.0 == name).unwrap().1;
+        let s = sweep(sk, true);
+        (s.junctions, s.fallbacks)
+    };
+    assert_eq!(outcome("4-child coplanar whorl"), (vec![1], vec![]));
+    assert_eq!(outcome("thick child"), (vec![1], vec![]));
+    assert_eq!(outcome("short internodes"), (vec![1], vec![]));
+    assert_eq!(outcome("root with three children"), (vec![0], vec![]));
+    assert_eq!(outcome("decussate whorl"), (vec![], vec![1]), "non-coplanar input detected");
+    assert_eq!(outcome("aligned child"), (vec![], vec![1]));
+    assert_eq!(outcome("6 children"), (vec![], vec![1]));
+    let six = fork(
+        &[(-75.0, 0.05), (-45.0, 0.05), (-15.0, 0.05), (15.0, 0.05), (45.0, 0.05), (75.0, 0.05)],
+        0.1,
+        1.0,
+    );
+    assert_eq!(sweep(&six, false).fallbacks, vec![1]);
+}
+
+#[test]
+fn loop_level_2_stays_valid() {
+    let sk = fork(&[(-35.0, 0.1), (0.0, 0.1), (35.0, 0.06)], 0.1, 1.0);
+    for caps in [false, true] {
+        let s = sweep(&sk, caps);
+        let opts = SubdivideOptions {
+            refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
+            ..Default::default()
+        };
+        let fine = subdivide(&s.mesh, &[], &opts).unwrap();
+        let r = report(&fine);
+        assert!(r.is_valid(), "{:?}", r.problems());
+        assert_eq!(fine.face_count(), 16 * s.mesh.face_count());
+        assert_eq!(r.euler, report(&s.mesh).euler);
+    }
+}
+
+#[test]
+fn stem_uvs() {
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let s = sweep(&sk, false);
+    let uv = s.mesh.uvs.as_ref().unwrap();
+    assert_eq!(uv.indices.len(), s.mesh.face_indices.len());
+    let vmax = uv.values.iter().fold(0.0f32, |a, v| a.max(v.y));
+    assert!(vmax > 0.99 && vmax < 1.2, "{vmax}");
+    // Along every tube strip, v grows from the start ring to the end ring.
+    for f in 0..s.mesh.face_count() {
+        for c in s.mesh.corners(f) {
+            let t = uv.values[uv.indices[c] as usize];
+            assert!((0.0..=1.0).contains(&t.x) && t.y >= 0.0);
+        }
+    }
+}
+
+/// A random skeleton: a trunk, then up to `depth` levels of junctions with 1–8 children
+/// at 5°–170° from the parent, radius ratios 0.1–1.2 and lengths 0.2–20 radii.
+fn random_skeleton(seed: u64) -> Skeleton {
+    let mut st = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        (st >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut s = Skeleton::new();
+    let root = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::Z, 0);
+    let top = s.push(Vec3::Y, 0.1, root, Vec3::Z, 0);
+    let mut frontier = vec![top];
+    for _ in 0..2 {
+        let mut next = Vec::new();
+        for &j in &frontier {
+            let (pj, rj) = (s.position[j as usize].as_dvec3(), s.radius[j as usize] as f64);
+            let h = (pj - s.position[s.parent[j as usize] as usize].as_dvec3()).normalize();
+            let side = h.any_orthonormal_vector();
+            let kids = 1 + (rnd() * 8.0) as usize;
+            let planar = rnd() < 0.5;
+            for k in 0..kids {
+                let ang = (5.0 + rnd() * 165.0f64).to_radians();
+                let az = if planar {
+                    if k % 2 == 0 {
+                        0.0
+                    } else {
+                        std::f64::consts::PI
+                    }
+                } else {
+                    rnd() * std::f64::consts::TAU
+                };
+                let axis = glam::DQuat::from_axis_angle(h, az) * side;
+                let d = glam::DQuat::from_axis_angle(axis, ang) * h;
+                let rc = rj * (0.1 + rnd() * 1.1);
+                let l = rc.max(1e-3) * (0.2 + rnd() * 19.8);
+                let c = s.push((pj + d * l).as_vec3(), rc as f32, j, axis.as_vec3(), 1);
+                next.push(c);
+            }
+        }
+        frontier = next;
+    }
+    s
+}
+
+/// Counts of one property run, checked after all cases.
+#[derive(Default)]
+struct Tally {
+    cases: usize,
+    valid: usize,
+}
+
+fn one_random_case(seed: u64) -> (bool, bool) {
+    let sk = random_skeleton(seed);
+    let s = sweep_mesh(&sk, &SweepOptions { caps: true, ..Default::default() }).unwrap();
+    let r = report(&s.mesh);
+    // Structure always holds; intersections only count where the skeleton has none.
+    let structural = r.bad_face_count == 0
+        && r.non_finite_count == 0
+        && r.non_manifold_edge_count == 0
+        && r.non_manifold_vertex_count == 0
+        && r.flipped_edge_count == 0
+        && r.boundary_loops == 0
+        && s.mesh.positions.iter().all(|p| p.is_finite());
+    let collision_free = skeleton_collisions(&sk, 0.01).is_empty();
+    let valid = structural && (!collision_free || r.is_valid());
+    if !valid {
+        println!("seed {seed}: {:?} fallbacks {:?} clamped {:?}", r.problems(), s.fallbacks, s.clamped);
+    }
+    (structural, valid)
+}
+
+#[test]
+fn random_skeletons_mostly_valid() {
+    let mut t = Tally::default();
+    use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
+    let config = ProptestConfig { cases: 128, ..Default::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    let tally = std::cell::RefCell::new(&mut t);
+    runner
+        .run(&any::<u64>(), |seed| {
+            let (structural, valid) = one_random_case(seed);
+            prop_assert!(structural, "seed {seed}: not a manifold");
+            let mut t = tally.borrow_mut();
+            t.cases += 1;
+            t.valid += valid as usize;
+            Ok(())
+        })
+        .unwrap();
+    println!("{} of {} random skeletons valid", t.valid, t.cases);
+    assert!(t.valid * 100 >= t.cases * 99, "{} of {} valid", t.valid, t.cases);
+}
+
+#[test]
+fn twist_bound_on_a_twisting_chain() {
+    // Rings turned by the junction's vertex-forward rule never twist by more than 30°.
+    let mut s = Skeleton::new();
+    let mut p = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::Z, 0);
+    let mut pos = DVec3::ZERO;
+    for i in 0..6 {
+        let a = (i as f64 * 37.0).to_radians();
+        let h = DVec3::new(0.3 * a.cos(), 1.0, 0.3 * a.sin()).normalize();
+        pos += h;
+        let j = s.push(pos.as_vec3(), 0.1, p, Vec3::new(a.cos() as f32, 0.0, a.sin() as f32), 0);
+        let side = DVec3::new(-a.sin(), 0.0, a.cos()) * 0.7 + h * 0.7;
+        s.push((pos + side).as_vec3(), 0.05, j, Vec3::Z, 1);
+        p = j;
+    }
+    let m = sweep(&s, false);
+    assert!(m.max_twist_deg <= 30.0 + 1e-9, "{}", m.max_twist_deg);
+    assert!(report(&m.mesh).is_valid());
+}
+
+/// Throughput on a ~10 k-node preset (`cargo test -p sylva --test sweep -- --ignored
+/// --nocapture`; the figure in BENCHMARKS.md).
+#[test]
+#[ignore]
+fn throughput() {
+    for preset in ["wp-balsam-fir", "lsys-honda-f"] {
+        let loaded = sylva::recipe::load(preset, &[]).unwrap();
+        let g = sylva::pipeline::skeleton(&loaded, &mut Default::default()).unwrap();
+        let sk = &g.skeleton;
+        for rounds in [0, 4] {
+            let opts = SweepOptions { caps: true, repair_rounds: rounds, ..Default::default() };
+            let _ = sweep_mesh(sk, &opts).unwrap();
+            let runs = 5;
+            let t = std::time::Instant::now();
+            let mut faces = 0;
+            for _ in 0..runs {
+                faces = sweep_mesh(sk, &opts).unwrap().mesh.face_count();
+            }
+            let dt = t.elapsed().as_secs_f64() / runs as f64;
+            println!(
+                "{preset}: {} nodes, repair_rounds {rounds}: {:.1} ms, {:.0} nodes/s, {faces} faces",
+                sk.len(),
+                dt * 1e3,
+                sk.len() as f64 / dt
+            );
+        }
+    }
+}
+
+/// `mesh.method = "sweep"` runs through the pipeline, with Loop refinement.
+#[test]
+fn pipeline_mesh_method_sweep() {
+    let sets = [
+        ("mesh.method".to_string(), toml::Value::String("sweep".into())),
+        ("refine.scheme".to_string(), toml::Value::String("loop".into())),
+        ("refine.levels".to_string(), toml::Value::Integer(1)),
+    ];
+    let loaded = sylva::recipe::load("lsys-binary-tree", &sets).unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    let bark = &grown.model.parts[0].mesh;
+    let r = report(bark);
+    assert!(r.is_valid(), "{:?}", r.problems());
+    assert!(bark.face_count() > 0);
+    let bad = sylva::recipe::load(
+        "lsys-binary-tree",
+        &[("mesh.method".into(), toml::Value::String("nope".into()))],
+    );
+    assert!(bad.is_err_and(|e| e.to_string().contains("sweep")));
+}
