@@ -467,7 +467,10 @@ impl Recipe {
             }
         }
         if !["tube", "hull", "sweep", "quad"].contains(&self.mesh.method.as_str()) {
-            return bad("mesh.method", format!("is `{}`; known methods: tube, hull, sweep, quad", self.mesh.method));
+            return bad(
+                "mesh.method",
+                format!("is `{}`; known methods: tube, hull, sweep, quad", self.mesh.method),
+            );
         }
         if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
             return bad(

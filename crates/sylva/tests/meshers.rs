@@ -182,7 +182,9 @@ fn every_mesher_exports_valid_gltf() {
     std::fs::create_dir_all(&dir).unwrap();
     let mut files = Vec::new();
     for preset in ["lsys-binary-tree", "lsys-honda-b", "wp-palm", "colonize-shrub"] {
-        for (mesher, scheme) in [("tube", "none"), ("hull", "loop"), ("quad", "catmull-clark")] {
+        for (mesher, scheme) in
+            [("tube", "none"), ("hull", "loop"), ("sweep", "loop"), ("quad", "catmull-clark")]
+        {
             let sets = [
                 ("mesh.method".to_string(), toml::Value::String(mesher.into())),
                 ("refine.scheme".to_string(), toml::Value::String(scheme.into())),

@@ -5,7 +5,8 @@
 //! file. [`check_mesh`] reports, for any polygon mesh:
 //!
 //! - **references**: face indices out of range, faces with fewer than 3 corners or a
-//!   repeated vertex, vertices no face uses;
+//!   repeated vertex, vertices no face uses (a defect in a control mesh: it breaks
+//!   subdivision and OBJ round trips);
 //! - **non-finite** positions (NaN, ∞);
 //! - **manifoldness**: edges used by more than two faces, and vertices whose faces form
 //!   more than one fan (a "bow-tie");
@@ -131,6 +132,7 @@ impl MeshReport {
             && self.non_manifold_vertex_count == 0
             && self.flipped_edge_count == 0
             && self.degenerate_face_count == 0
+            && self.unused_vertices == 0
             && self.intersection_count.unwrap_or(0) == 0
     }
 
@@ -165,6 +167,7 @@ impl MeshReport {
             listed(&self.flipped_edges, "edges"),
         );
         add(self.degenerate_face_count, "degenerate face(s)", listed(&self.degenerate_faces, "faces"));
+        add(self.unused_vertices, "vertex(es) used by no face", String::new());
         add(
             self.intersection_count.unwrap_or(0),
             "self-intersecting triangle pair(s)",
@@ -190,9 +193,6 @@ impl fmt::Display for MeshReport {
             self.vertices, self.faces, self.edges, self.components, self.euler
         )?;
         writeln!(f, "{} boundary edge(s) in {} loop(s)", self.boundary_edges, self.boundary_loops)?;
-        if self.unused_vertices > 0 {
-            writeln!(f, "{} vertex(es) used by no face", self.unused_vertices)?;
-        }
         match self.intersection_count {
             Some(n) => writeln!(
                 f,

@@ -277,6 +277,17 @@ fn build_axes(s: &Skeleton) -> Axes {
             }
             k = next[ku]; // always > k, so this ends
         }
+        // A run of point stations at either end would leave all but one of its vertices
+        // unused (a cone needs one apex): keep only the point next to the last ring.
+        while stations.len() - begin >= 2
+            && stations[stations.len() - 1].is_point()
+            && stations[stations.len() - 2].is_point()
+        {
+            stations.pop();
+        }
+        while stations.len() - begin >= 2 && stations[begin].is_point() && stations[begin + 1].is_point() {
+            stations.remove(begin);
+        }
         if stations.len() - begin >= 2 {
             offsets.push(stations.len() as u32);
         } else {
@@ -1033,6 +1044,25 @@ pub(crate) mod tests {
         let s = chain(&[Vec3::ZERO, Vec3::Y], &[0.0], &[Vec3::X]);
         let t = mesh(&s, &TubeOptions::default());
         assert_eq!((t.axes, t.triangles), (0, 0));
+    }
+
+    #[test]
+    fn runs_of_point_stations_leave_no_unused_vertex() {
+        // Radii taper below f32 resolution over the last two nodes (and start at 0).
+        let s = chain(
+            &[
+                Vec3::ZERO,
+                Vec3::Y,
+                Vec3::new(0.0, 2.0, 0.0),
+                Vec3::new(0.0, 3.0, 0.0),
+                Vec3::new(0.0, 4.0, 0.0),
+            ],
+            &[0.0, 0.1, 1e-9, 0.0],
+            &[Vec3::X],
+        );
+        let t = mesh(&s, &TubeOptions::default());
+        let r = crate::mesh::check::check_mesh(&t.mesh, &Default::default());
+        assert!(r.is_closed_manifold(), "{r}");
     }
 
     #[test]
