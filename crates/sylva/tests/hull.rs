@@ -2,6 +2,9 @@
 //! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
 //! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
 
+#[path = "common/random_tree.rs"]
+mod random_tree;
+
 use glam::{DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
 use sylva::mesh::hull::{hull_mesh, pair_offsets, simplify, HullMesh, HullOptions, JointKind};
@@ -797,4 +800,61 @@ fn fallback_reasons() {
         *ks.entry(j.loops).or_default() += 1;
     }
     println!("{name}: {} fallbacks, {a} aligned; others by k: {ks:?}", m.fallbacks.len());
+}
+
+// ---------------------------------------------------------------------------------------
+// Random skeletons (issue 5 acceptance: ≥ 99 % valid, every fallback reported)
+
+/// One random tree (see `common/random_tree.rs`) meshed with caps: `Err` when the mesh is
+/// not a valid closed manifold; `Ok((fallbacks, intersects))` otherwise, where
+/// `intersects` says the mesh crosses itself although the skeleton does not.
+fn random_case(seed: u64) -> Result<(usize, bool), String> {
+    use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
+    let sk = random_tree::random_tree(seed, 60);
+    let h = hull_mesh(&sk, &HullOptions { caps: true, ..Default::default() })
+        .map_err(|e| format!("error: {e}"))?;
+    let r = check_mesh(&h.mesh, &CheckOptions::default());
+    let structural: Vec<String> =
+        r.problems().into_iter().filter(|p| !p.contains("self-intersecting")).collect();
+    if !structural.is_empty() || r.boundary_edges > 0 {
+        return Err(format!("{structural:?}, {} boundary edges", r.boundary_edges));
+    }
+    let intersects = r.intersection_count.unwrap_or(0) > 0 && skeleton_collisions(&sk, 0.01).is_empty();
+    Ok((h.fallbacks.len(), intersects))
+}
+
+/// 128 random trees in CI (`HULL_CASES=1000 cargo test -p sylva --test hull
+/// random_skeletons -- --nocapture` for more): at least 99 % valid closed manifolds, no
+/// panic, no error. Self-intersections that the skeleton does not explain are counted
+/// and bounded separately (≤ 2 %): 1000 cases gave 1000 valid meshes, 13 of them with
+/// such intersections (docs/meshers.md).
+#[test]
+fn random_skeletons_give_valid_meshes() {
+    let n: u64 = std::env::var("HULL_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(128);
+    let mut bad = Vec::new();
+    let (mut fallbacks, mut intersecting) = (0, Vec::new());
+    for seed in 0..n {
+        match random_case(seed) {
+            Ok((f, i)) => {
+                fallbacks += f;
+                if i {
+                    intersecting.push(seed);
+                }
+            }
+            Err(e) => bad.push((seed, e)),
+        }
+    }
+    println!("hull: {} intersect without skeleton collisions: {intersecting:?}", intersecting.len());
+    assert!(intersecting.len() as f64 <= 0.02 * n as f64, "{} of {n} intersect", intersecting.len());
+    println!(
+        "hull: {} of {n} random trees valid, {fallbacks} reported fallbacks; failures {:?}",
+        n as usize - bad.len(),
+        &bad[..bad.len().min(5)]
+    );
+    assert!(
+        bad.len() as f64 <= 0.01 * n as f64,
+        "{} of {n} failed: {:?}",
+        bad.len(),
+        &bad[..bad.len().min(5)]
+    );
 }
