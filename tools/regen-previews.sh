@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates the preset catalogue pictures: docs/presets/<preset>.png for every grown
-# preset (320 px, default mesher) and docs/curves/<preset>.png (480 px) for every curves preset.
+# preset (320 px, default mesher), docs/curves/<preset>.png (480 px) for every curves
+# preset, and docs/meshers/<tree>-<mesher>.png: two trees with each mesher.
 # Usage: tools/regen-previews.sh            (from the repository root; release build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,3 +19,12 @@ trap 'rm -rf "$tmp"' EXIT
     echo "$name"
 done
 cargo test -p sylva --release --test curves -- --ignored regenerate_docs_pngs --nocapture
+# The same tree with every mesher (docs/meshers.md), each refined as its seed says.
+mkdir -p docs/meshers
+for m in "tube none 0" "hull loop 2" "sweep loop 2" "quad catmull-clark 2"; do
+    set -- $m
+    for tree in lsys-ternary-tree lsys-honda-a; do
+        "$bin" grow "$tree" -o "$tmp/$tree-$1.glb" --preview "docs/meshers/$tree-$1.png" --preview-size 480 \
+            --set mesh.method="$1" --set refine.scheme="$2" --set refine.levels="$3" >/dev/null
+    done
+done
