@@ -458,49 +458,69 @@ pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
     Ok((width_px, h as u32))
 }
 
+/// Horizontal bands rasterized in parallel. A fixed count, so the pixels never depend on
+/// the number of threads.
+const BANDS: u32 = 4;
+
 /// Rasterizes `picture` `width_px` pixels wide with anti-aliasing (tiny-skia, non-zero
-/// fill rule).
+/// fill rule). The canvas is cut into [`BANDS`] horizontal bands drawn in parallel
+/// (rayon), each with every path shifted up by the band's first row; coverage is
+/// computed per pixel, so the bands meet seamlessly.
 pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {
-    use tiny_skia::{Color, FillRule, Paint as SkPaint, PathBuilder, Pixmap, Transform};
+    use rayon::prelude::*;
+    use tiny_skia::{Color, FillRule, Paint as SkPaint, Path, PathBuilder, Pixmap, Transform};
     let (w, h) = pixel_size(picture, width_px)?;
-    let mut pixmap = Pixmap::new(w, h).ok_or_else(|| Error::InvalidGeometry {
-        what: "curves raster".into(),
-        why: format!("cannot allocate {w} × {h} pixels"),
-    })?;
-    if let Some([r, g, b, a]) = picture.background {
-        pixmap.fill(Color::from_rgba8(r, g, b, a));
-    }
     let sx = w as f32 / picture.width as f32;
     let sy = h as f32 / picture.height as f32;
-    let transform = Transform::from_scale(sx, sy);
-    let mut paint = SkPaint { anti_alias: true, ..Default::default() };
-    for s in &picture.shapes {
-        if s.polygon.len() < 3 {
-            continue;
-        }
-        let mut pb = PathBuilder::with_capacity(s.polygon.len() + 1, s.polygon.len());
-        pb.move_to(s.polygon[0].x, s.polygon[0].y);
-        for p in &s.polygon[1..] {
-            pb.line_to(p.x, p.y);
-        }
-        pb.close();
-        let Some(path) = pb.finish() else { continue };
-        let [r, g, b, a] = s.color;
-        paint.set_color_rgba8(r, g, b, a);
-        pixmap.fill_path(&path, &paint, FillRule::Winding, transform, None);
-    }
+    let paths: Vec<(Path, [u8; 4])> = picture
+        .shapes
+        .iter()
+        .filter(|s| s.polygon.len() >= 3)
+        .filter_map(|s| {
+            let mut pb = PathBuilder::with_capacity(s.polygon.len() + 1, s.polygon.len());
+            pb.move_to(s.polygon[0].x, s.polygon[0].y);
+            for p in &s.polygon[1..] {
+                pb.line_to(p.x, p.y);
+            }
+            pb.close();
+            Some((pb.finish()?, s.color))
+        })
+        .collect();
+    let band_h = h.div_ceil(BANDS).max(1);
+    let bands: Vec<(u32, u32)> = (0..h).step_by(band_h as usize).map(|y0| (y0, band_h.min(h - y0))).collect();
+    let drawn: Vec<Option<Pixmap>> = bands
+        .par_iter()
+        .map(|&(y0, bh)| {
+            let mut pixmap = Pixmap::new(w, bh)?;
+            if let Some([r, g, b, a]) = picture.background {
+                pixmap.fill(Color::from_rgba8(r, g, b, a));
+            }
+            let transform = Transform::from_scale(sx, sy).post_translate(0.0, -(y0 as f32));
+            let mut paint = SkPaint { anti_alias: true, ..Default::default() };
+            for (path, [r, g, b, a]) in &paths {
+                paint.set_color_rgba8(*r, *g, *b, *a);
+                pixmap.fill_path(path, &paint, FillRule::Winding, transform, None);
+            }
+            Some(pixmap)
+        })
+        .collect();
     // Over an opaque background every pixel is opaque, and premultiplied equals straight.
     let opaque = picture.background.is_some_and(|c| c[3] == 255);
-    let rgba = if opaque {
-        pixmap.take()
-    } else {
-        let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
-        for px in pixmap.pixels() {
-            let c = px.demultiply();
-            rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+    let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
+    for band in drawn {
+        let band = band.ok_or_else(|| Error::InvalidGeometry {
+            what: "curves raster".into(),
+            why: format!("cannot allocate {w} × {band_h} pixels"),
+        })?;
+        if opaque {
+            rgba.extend_from_slice(band.data());
+        } else {
+            for px in band.pixels() {
+                let c = px.demultiply();
+                rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+            }
         }
-        rgba
-    };
+    }
     Ok(Raster { width: w, height: h, rgba, opaque })
 }
 
@@ -572,6 +592,48 @@ mod tests {
                 depth: 0,
             }],
         }
+    }
+
+    #[test]
+    fn bands_meet_without_seams() {
+        // A vertical stroke through every band: each row of pixels must be the same,
+        // including the rows on either side of a band boundary.
+        let mut d = line(false);
+        d.curves[0].points = vec![DVec2::new(50.3, -5.0), DVec2::new(50.3, 25.0), DVec2::new(50.3, 55.0)];
+        d.curves[0].outline = None;
+        let r = rasterize(&picture(&d, 0.0), 100).unwrap();
+        assert_eq!((r.width, r.height), (100, 50));
+        let row = |y: usize| &r.rgba[y * 400..(y + 1) * 400];
+        assert!(row(0).chunks_exact(4).any(|p| p[1] < 128), "the stroke is drawn");
+        for y in 1..50 {
+            assert_eq!(row(y), row(0), "row {y} differs (band height {})", 50u32.div_ceil(BANDS));
+        }
+    }
+
+    #[test]
+    fn bands_place_shapes_at_their_rows() {
+        // Band height 13 for a 50-row image: a stroke centred on the band boundary y = 13
+        // covers rows 11..15 symmetrically, and one at y = 37.5 lands in its own rows.
+        let mut d = line(false);
+        d.curves[0].outline = None;
+        d.curves[0].widths = vec![4.0; 3];
+        d.curves[0].points = vec![DVec2::new(10.0, 13.0), DVec2::new(50.0, 13.0), DVec2::new(90.0, 13.0)];
+        let mut low = d.curves[0].clone();
+        low.points.iter_mut().for_each(|p| p.y = 37.5);
+        d.curves.push(low);
+        let r = rasterize(&picture(&d, 0.0), 100).unwrap();
+        let px = |x: usize, y: usize| &r.rgba[(y * 100 + x) * 4..(y * 100 + x) * 4 + 4];
+        // Pixel centres sit at half-integers, so the stroke at 13 covers [10.5, 14.5]: rows
+        // 11–13 fully (across the boundary), rows 10 and 14 half.
+        let green: Vec<u8> = (0..50).map(|y| px(50, y)[1]).collect();
+        assert_eq!(&green[11..14], &[0, 0, 0], "{green:?}");
+        assert!(
+            (green[10] as i32 - green[14] as i32).abs() <= 1 && (100..156).contains(&green[10]),
+            "{green:?}"
+        );
+        // The lower stroke, [35.5, 39.5], lands in its own rows, not one band up.
+        assert_eq!(&green[35..39], &[0, 0, 0, 0], "{green:?}");
+        assert!(green[15..35].iter().all(|&g| g == 255), "{green:?}");
     }
 
     #[test]
