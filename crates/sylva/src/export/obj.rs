@@ -12,6 +12,12 @@
 //! formats (whitespace becomes `_`); two different materials with one name get
 //! distinct names (`leaf`, `leaf_2`).
 //!
+//! Crease edges of a mesh (`Mesh::creases`) are written after its faces as OpenSubdiv
+//! shape tags, `t crease 2/1 a b sharpness`, with 0-based vertex indices into the whole
+//! file's `v` list and infinite sharpness written as 10 (OpenSubdiv's "infinitely
+//! sharp", which the refiner treats the same); `sylva subdivide` and
+//! `mesh::obj_read` read them back.
+//!
 //! Numbers use Rust's shortest round-trip formatting of `f32`.
 
 use super::{validate_io, GENERATOR};
@@ -98,6 +104,11 @@ pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: 
                 }
             }
             buf.push(b'\n');
+            flush_if_full(&mut buf, out)?;
+        }
+        for c in mesh.creases.iter().filter(|c| c.sharpness > 0.0) {
+            let s = c.sharpness.min(crate::refine::crease::INFINITE);
+            writeln!(buf, "t crease 2/1 {} {} {s}", c.a as usize + v_base - 1, c.b as usize + v_base - 1)?;
             flush_if_full(&mut buf, out)?;
         }
         v_base += mesh.positions.len();
@@ -218,6 +229,27 @@ mod tests {
         let text = String::from_utf8(out).unwrap();
         assert!(text.contains("mtllib t.mtl\ng a_b\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
         assert!(text.ends_with("g c\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 4 5 6\n"), "{text}");
+    }
+
+    #[test]
+    fn creases_round_trip_as_opensubdiv_tags() {
+        use crate::mesh::Crease;
+        let mut first = tri_part("a", Material::bark());
+        first.mesh.creases.push(Crease { a: 0, b: 1, sharpness: 2.5 });
+        let mut second = tri_part("b", Material::leaf());
+        second.mesh.creases.push(Crease { a: 1, b: 2, sharpness: f32::INFINITY });
+        second.mesh.creases.push(Crease { a: 0, b: 2, sharpness: 0.0 }); // smooth: not written
+        let mut out = Vec::new();
+        write_obj_unchecked(&Model { parts: vec![first, second] }, &mut out, "m.mtl").unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.contains("t crease 2/1 0 1 2.5\n"), "{text}");
+        assert!(text.contains("t crease 2/1 4 5 10\n"), "{text}");
+        assert_eq!(text.matches("t crease").count(), 2);
+        let back = crate::mesh::obj_read::parse_obj(&text).unwrap();
+        assert_eq!(
+            back.mesh.creases,
+            vec![Crease { a: 0, b: 1, sharpness: 2.5 }, Crease { a: 4, b: 5, sharpness: 10.0 }]
+        );
     }
 
     #[test]
