@@ -650,13 +650,7 @@ pub fn grow(
     base: Option<&Path>,
     report: &mut LeastCostReport,
 ) -> Result<PathTree> {
-    let t = Instant::now();
     let g = main_graph(p, seed, base, report)?;
-    report.graph_time = t.elapsed();
-    report.graph_nodes = g.len();
-    report.graph_edges = g.edge_count();
-    report.graph_bytes = g.bytes();
-    report.shortfall = g.shortfall;
     if g.shortfall > 0 {
         report.warnings.push(format!(
             "the graph volume holds only {} of the {} nodes at spacing {:.4}",

@@ -467,8 +467,25 @@ impl PathTree {
     }
 }
 
-/// Builds (or loads from `graph_cache`) the MGV / level-1 graph.
+/// Builds (or loads from `graph_cache`) the MGV / level-1 graph and records its time,
+/// size and shortfall in `report`.
 pub(crate) fn main_graph(
+    p: &LeastCostParams,
+    seed: u64,
+    base: Option<&Path>,
+    report: &mut LeastCostReport,
+) -> Result<Graph> {
+    let t = Instant::now();
+    let g = build_or_load_graph(p, seed, base, report)?;
+    report.graph_time += t.elapsed();
+    report.graph_nodes = g.len();
+    report.graph_edges = g.edge_count();
+    report.graph_bytes = g.bytes();
+    report.shortfall = g.shortfall;
+    Ok(g)
+}
+
+fn build_or_load_graph(
     p: &LeastCostParams,
     seed: u64,
     base: Option<&Path>,
