@@ -86,11 +86,8 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
     };
     let r = report(&mesh);
     let known = KNOWN_DEGENERATE.contains(&(preset, mesher));
-    let structural: Vec<String> = r
-        .problems()
-        .into_iter()
-        .filter(|p| !(p.contains("self-intersecting") || known && p.contains("degenerate")))
-        .collect();
+    let structural: Vec<String> =
+        r.structural_problems().into_iter().filter(|p| !(known && p.contains("degenerate"))).collect();
     assert!(structural.is_empty(), "{preset} {mesher}: {structural:?}\n{r}");
     assert_eq!(r.boundary_loops, designed_loops, "{preset} {mesher}: boundary loops\n{r}");
     let refined_intersections =
@@ -98,9 +95,9 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
             let fine = refine2(&mesh, scheme);
             let rr = report(&fine);
             let structural: Vec<String> = rr
-                .problems()
+                .structural_problems()
                 .into_iter()
-                .filter(|p| !(p.contains("self-intersecting") || known && p.contains("degenerate")))
+                .filter(|p| !(known && p.contains("degenerate")))
                 .collect();
             assert!(structural.is_empty(), "{preset} {mesher} level 2: {structural:?}");
             rr.intersection_count.unwrap_or(0)

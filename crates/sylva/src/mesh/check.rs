@@ -143,6 +143,20 @@ impl MeshReport {
 
     /// The problems as short lines (empty when valid).
     pub fn problems(&self) -> Vec<String> {
+        let mut out = self.structural_problems();
+        if let Some(n) = self.intersection_count.filter(|&n| n > 0) {
+            out.push(format!(
+                "{n} self-intersecting triangle pair(s){}",
+                listed(&self.intersections, "faces")
+            ));
+        }
+        out
+    }
+
+    /// [`MeshReport::problems`] without self-intersections: what is wrong with the
+    /// mesh's structure (references, finiteness, manifoldness, orientation, degenerate
+    /// faces, unused vertices), for callers that judge intersections separately.
+    pub fn structural_problems(&self) -> Vec<String> {
         let mut out = Vec::new();
         let mut add = |n: usize, what: &str, list: String| {
             if n > 0 {
@@ -168,11 +182,6 @@ impl MeshReport {
         );
         add(self.degenerate_face_count, "degenerate face(s)", listed(&self.degenerate_faces, "faces"));
         add(self.unused_vertices, "vertex(es) used by no face", String::new());
-        add(
-            self.intersection_count.unwrap_or(0),
-            "self-intersecting triangle pair(s)",
-            listed(&self.intersections, "faces"),
-        );
         out
     }
 }
