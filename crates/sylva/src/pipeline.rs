@@ -122,12 +122,51 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
     let curves =
         folder.iter().flat_map(|f| f.curves.iter()).map(|(_, c)| std::sync::Arc::new(c.clone())).collect();
+    let env = environment(g, folder.as_ref(), &ls)?;
+    if ls.writes_files {
+        warnings.push(
+            "the model writes files (fopen/fprintf): sylva discards file output, as it discards printf"
+                .into(),
+        );
+    }
     let (string, evaluator) = ls.derive_full(
         &DeriveOptions { steps, budget: g.max_modules, seed },
         lsystem::expr::ModelFunctions { functions, curves },
         Some(&turtle_options(g, folder.as_ref())),
+        env.as_ref(),
     )?;
+    let steps = evaluator.steps_done;
     Ok(Derived { lsystem: ls, string, steps, seed, evaluator, folder, warnings })
+}
+
+/// The environmental program for the model's `?E` modules: the recipe's
+/// `[generator.environment]`, else the program the model folder's `.e` file names.
+/// `None` when neither gives one (the derivation then reports `?E` as unsupported).
+fn environment(
+    g: &LsystemGenerator,
+    folder: Option<&ModelFolder>,
+    ls: &LSystem,
+) -> Result<Option<lsystem::environment::Environment>> {
+    use lsystem::environment::{Environment, PROGRAMS};
+    let (program, radius) = match (&g.environment, folder.and_then(|f| f.environment_program.as_deref())) {
+        (Some(c), _) => (c.program.as_str(), c.radius),
+        (None, Some(p)) => (p, None),
+        (None, None) => return Ok(None),
+    };
+    if !PROGRAMS.contains(&program) {
+        // An unknown program is an unsupported feature of the model, named at its `?E`.
+        let m =
+            format!("unsupported: environmental program `{program}` (sylva has: {})", PROGRAMS.join(", "));
+        return Err(match ls.environment_at {
+            Some(at) => {
+                ls.source.error(lsystem::ErrorKind::Unsupported, at, 2, &m, "communication module").into()
+            }
+            None => Error::Recipe(format!("generator.environment: {m}")),
+        });
+    }
+    Environment::by_name(program, radius)
+        .map(Some)
+        .map_err(|m| Error::Recipe(format!("generator.environment: {m}")))
 }
 
 /// Turtle options from the recipe, with the model folder's view file filling in every

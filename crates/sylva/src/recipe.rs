@@ -110,10 +110,25 @@ pub struct LsystemGenerator {
     /// the L-system's folder (files on disk only), `none` ignores them.
     #[serde(default = "default_view")]
     pub view: String,
+    /// The environmental program that answers the model's `?E` modules
+    /// (`[generator.environment]`); without it, the model folder's `.e` file names it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub environment: Option<EnvironmentConfig>,
     /// The `generator` keys the recipe (or `--set`) gave explicitly; a view file's
     /// settings apply only to the others.
     #[serde(skip)]
     pub explicit: Vec<String>,
+}
+
+/// `[generator.environment]`: an environmental program for open L-systems (`?E`
+/// modules), built into sylva (`crate::lsystem::environment`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EnvironmentConfig {
+    /// The program's name, as a cpfg `.e` file's `executable:` gives it: `honda81`.
+    pub program: String,
+    /// Collision radius of `honda81` in model units (default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
 }
 
 fn default_view() -> String {

@@ -172,21 +172,44 @@ impl LSystem {
         opts: &DeriveOptions,
         functions: ModelFunctions,
     ) -> Result<ModuleString, Box<LsystemError>> {
-        self.derive_full(opts, functions, None).map(|(m, _)| m)
+        self.derive_full(opts, functions, None, None).map(|(m, _)| m)
     }
 
     /// Derives and also returns the evaluator (global variables as the derivation left
-    /// them, the generator's state), which the homomorphism then uses. With `turtle`,
-    /// query modules (`?P`, `?H`, `?U`, `?L`) are answered after the axiom and after
-    /// every step by interpreting the string (without the homomorphism).
+    /// them, the generator's state, [`Evaluator::steps_done`]), which the homomorphism
+    /// then uses. With `turtle`, query modules (`?P`, `?H`, `?U`, `?L`) are answered
+    /// after the axiom and after every step by interpreting the string (without the
+    /// homomorphism), and so are communication modules `?E`, by `env`. A model that uses
+    /// `?E` without an environment is an `unsupported` error at its first `?E`. The
+    /// derivation ends early after a step in which `stop(x)` was called with x ≠ 0.
     pub fn derive_full(
         &self,
         opts: &DeriveOptions,
         functions: ModelFunctions,
         turtle: Option<&super::turtle::TurtleOptions>,
+        env: Option<&super::environment::Environment>,
     ) -> Result<(ModuleString, Evaluator), Box<LsystemError>> {
+        if let (Some(at), None) = (self.environment_at, env) {
+            return Err(self
+                .source
+                .error(
+                    ErrorKind::Unsupported,
+                    at,
+                    2,
+                    "unsupported: `?E` without an environmental program",
+                    "communication module",
+                )
+                .with_help(format!(
+                    "give one with `[generator.environment] program = \"…\"` (sylva has: {}), or put the \
+                     model's `.e` file (`executable: …`) next to it",
+                    super::environment::PROGRAMS.join(", ")
+                )));
+        }
+        let env = if self.environment_at.is_some() { env } else { None };
         let queries = |m: &mut ModuleString| match turtle {
-            Some(t) if self.has_queries => super::turtle::answer_queries(&self.symbols, m, t, &self.source),
+            Some(t) if self.has_queries || env.is_some() => {
+                super::turtle::answer_queries(&self.symbols, m, t, &self.source, env)
+            }
             _ => Ok(()),
         };
         let mut ev = self.evaluator(opts.seed, functions)?;
@@ -202,6 +225,10 @@ impl LSystem {
             std::mem::swap(&mut cur, &mut next);
             queries(&mut cur)?;
             self.run_block(&self.end_each, &mut ev, "the EndEach: block")?;
+            ev.steps_done = step;
+            if ev.stopped {
+                break;
+            }
         }
         self.run_block(&self.end, &mut ev, "the End: block")?;
         Ok((cur, ev))
@@ -233,6 +260,8 @@ impl LSystem {
             Vec::new()
         };
         let decompose = !self.decomposition.productions.is_empty();
+        let (open, close) = (self.symbols.get("["), self.symbols.get("]"));
+        let cut = self.symbols.get("%").filter(|&c| self.by_symbol[c as usize].is_empty());
         let mut args: Vec<f64> = Vec::with_capacity(16);
         let mut buf: Vec<f64> = Vec::with_capacity(32);
         let mut tmp = ModuleString::new();
@@ -242,6 +271,24 @@ impl LSystem {
             let i = next;
             next += 1;
             let (sym, params) = cur.module(i);
+            if Some(sym) == cut {
+                // cpfg's cut: `%` and the rest of its branch are erased (the closing
+                // `]` stays), one step after the `%` appeared.
+                let mut depth = 0usize;
+                while next < cur.len() {
+                    let s = cur.syms[next];
+                    if Some(s) == open {
+                        depth += 1;
+                    } else if Some(s) == close {
+                        if depth == 0 {
+                            break;
+                        }
+                        depth -= 1;
+                    }
+                    next += 1;
+                }
+                continue;
+            }
             let prods = &self.by_symbol[sym as usize];
             let chosen = if prods.is_empty() {
                 None

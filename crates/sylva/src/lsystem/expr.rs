@@ -6,8 +6,10 @@
 //! `asin acos atan atan2` return degrees), `sqrt exp log log10 pow floor ceil trunc abs
 //! fabs sign min max`, and the random functions `ran(x)` (uniform in [0, x)) and
 //! `nran(mean, sd)` (normal), `bran(a, b)` (beta), `biran(n, p)` (binomial), `srand(s)`,
-//! drawn from the derivation's seeded generator, `func(id, x)` (cpfg function files)
-//! and `printf(...)` (accepted, prints nothing).
+//! drawn from the derivation's seeded generator, `func(id, x)` (cpfg function files),
+//! `stop(x)` (ends the derivation after the current step when x ≠ 0), and `printf(...)`
+//! (accepted, prints nothing); file output (`fopen`, `fprintf`, `fflush`, `fclose`) is
+//! accepted and discarded the same way.
 //!
 //! Statements (cpfg's `{ ... }` blocks) compile to the same bytecode: assignments to
 //! parameters or global variables (`x = e;`, `a[i][j] = e;`, `+= -= *= /=`),
@@ -164,6 +166,8 @@ pub enum Func {
     CurveZ,
     /// `curveGAL(id)`: the arc length of curve `id`.
     CurveGal,
+    /// `stop(x)`: when x ≠ 0, the derivation ends after the current step; returns 0.
+    Stop,
 }
 
 impl Func {
@@ -199,6 +203,7 @@ impl Func {
             "curveY" => (CurveY, 2),
             "curveZ" => (CurveZ, 2),
             "curveGAL" => (CurveGal, 1),
+            "stop" => (Stop, 1),
             _ => return None,
         })
     }
@@ -354,6 +359,10 @@ pub struct Evaluator {
     pub globals: Vec<f64>,
     /// Functions for `func(id, x)` and curves for `curveX(id, t)`, ids 1-based.
     pub functions: ModelFunctions,
+    /// Set by `stop(x)` with x ≠ 0: the derivation ends after the current step.
+    pub stopped: bool,
+    /// Derivation steps applied so far.
+    pub steps_done: u32,
     loops: u64,
 }
 
@@ -375,6 +384,8 @@ impl Evaluator {
             rng: Pcg64::seed_from_u64(seed),
             globals: Vec::new(),
             functions: ModelFunctions::default(),
+            stopped: false,
+            steps_done: 0,
             loops: 0,
         }
     }
@@ -487,6 +498,12 @@ impl Evaluator {
                 Op::Jump(t) => {
                     pc = t as usize;
                     continue;
+                }
+                Op::Call(Func::Stop, _) => {
+                    if st.pop().unwrap_or(0.0) != 0.0 {
+                        self.stopped = true;
+                    }
+                    st.push(0.0);
                 }
                 Op::Call(f, at) => {
                     let v = call(f, st, &mut self.rng, &self.functions)
@@ -681,6 +698,11 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunctions) -> Op
                 _ => c.length(),
             }
         }
+        // Handled by the evaluator (it sets a flag); never reaches here.
+        Stop => {
+            pop();
+            0.0
+        }
     })
 }
 
@@ -814,7 +836,13 @@ fn fold_constants(e: &mut Expr) {
                 | Op::LoadGlobal(_)
                 | Op::LoadGlobalAt { .. }
                 | Op::Call(
-                    Func::Ran | Func::Nran | Func::Bran | Func::Biran | Func::Srand | Func::UserFunc,
+                    Func::Ran
+                        | Func::Nran
+                        | Func::Bran
+                        | Func::Biran
+                        | Func::Srand
+                        | Func::UserFunc
+                        | Func::Stop,
                     _
                 )
         )
@@ -1396,9 +1424,19 @@ impl<'a> Parser<'a> {
             self.ops.push(Op::Const(0.0));
             return Ok(());
         }
+        if matches!(name, "fopen" | "fclose" | "fflush") {
+            // File output is discarded like printf's (the pipeline warns that the model
+            // writes files): `fopen` returns a non-zero handle, the others 0.
+            let n = self.arguments(name)?;
+            for _ in 0..n {
+                self.ops.push(Op::Pop);
+            }
+            self.ops.push(Op::Const(if name == "fopen" { 1.0 } else { 0.0 }));
+            return Ok(());
+        }
         const CPFG_ONLY: &[&str] = &[
-            "curve", "tfunc", "inblob", "fopen", "fclose", "fscanf", "fflush", "vvXmin", "vvXmax", "vvYmin",
-            "vvYmax", "vvZmin", "vvZmax", "vvScale", "stop",
+            "curve", "tfunc", "inblob", "fscanf", "vvXmin", "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax",
+            "vvScale",
         ];
         if CPFG_ONLY.contains(&name) {
             return Err(self.src.error(

@@ -10,6 +10,7 @@
 //! conventions). The language reference is `docs/lsystem.md`.
 
 pub mod derive;
+pub mod environment;
 pub mod expr;
 pub mod files;
 pub mod parse;

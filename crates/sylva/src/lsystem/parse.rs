@@ -181,6 +181,12 @@ pub struct LSystem {
     /// True when the L-system uses query modules (`?P`, `?H`, `?U`, `?L`), which the
     /// turtle answers after every derivation step.
     pub has_queries: bool,
+    /// Byte offset (in the preprocessed source) of the first communication module `?E`,
+    /// when the L-system uses them: the derivation then needs an environmental program.
+    pub environment_at: Option<usize>,
+    /// True when the model opens files (`fopen`): sylva discards file output like
+    /// `printf` output, and the pipeline says so.
+    pub writes_files: bool,
     /// Derivation length from the file (`derivation length:`), 0 when absent.
     pub derivation_length: u32,
     /// Seed from the file (`seed:`), if given.
@@ -334,6 +340,8 @@ impl LSystem {
             has_context: false,
             ring: false,
             has_queries: false,
+            environment_at: None,
+            writes_files: false,
             derivation_length: 0,
             seed: None,
             define_block: None,
@@ -359,6 +367,7 @@ impl LSystem {
         ls.context_skip.resize(n, false);
         ls.has_context = ls.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
         ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
+        ls.writes_files = ls.source.text.contains("fopen");
         Ok(ls)
     }
 
@@ -1103,22 +1112,13 @@ impl LSystem {
         })
     }
 
-    /// Rejects module names of cpfg features sylva does not implement.
-    fn check_symbol(&self, name: &str, at: usize) -> PResult<()> {
-        let unsupported = match name {
-            "?E" => Some("environmental program communication module `?E`"),
-            _ => None,
-        };
-        match unsupported {
-            Some(what) => Err(self.source.error(
-                ErrorKind::Unsupported,
-                at,
-                name.len(),
-                &format!("unsupported: {what}"),
-                "not supported",
-            )),
-            None => Ok(()),
+    /// Notes the first communication module `?E` (every module name cpfg has is
+    /// accepted; the derivation asks for an environmental program when `?E` is used).
+    fn check_symbol(&mut self, name: &str, at: usize) -> PResult<()> {
+        if name == "?E" && self.environment_at.is_none() {
+            self.environment_at = Some(at);
         }
+        Ok(())
     }
 
     /// Parses a module string (axiom or successor) on `text[start..end]`.
@@ -1322,9 +1322,9 @@ mod tests {
         let ls = LSystem::parse("s.l", text, &[]).unwrap();
         let names: Vec<&str> = ls.axiom.iter().map(|m| ls.symbols.name(m.sym)).collect();
         assert_eq!(names, vec!["@Ts", "@O", "~l", "F"]);
-        let e = LSystem::parse("s.l", "Lsystem: 1\nAxiom: F?E(1)\nendlsystem\n", &[]).unwrap_err();
-        assert_eq!(e.kind, ErrorKind::Unsupported);
-        assert!(e.message.contains("s.l:2:9: unsupported: environmental"), "{}", e.message);
+        let ls = LSystem::parse("s.l", "Lsystem: 1\nAxiom: F?E(1)\nendlsystem\n", &[]).unwrap();
+        let e = ls.source.error(ErrorKind::Unsupported, ls.environment_at.unwrap(), 2, "here", "");
+        assert!(e.message.starts_with("s.l:2:9: "), "{}", e.message);
     }
 
     #[test]

@@ -44,6 +44,7 @@
 //! with `f` between control points (cpfg's contour-swept stems) still get an axis.
 
 use super::derive::ModuleString;
+use super::environment::{Environment, Sensor};
 use super::parse::Symbols;
 use super::source::{ErrorKind, LsystemError, Source};
 use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
@@ -108,7 +109,6 @@ enum Cmd {
     RollHorizontal,
     Push,
     Pop,
-    Cut,
     Width,
     WidthUp,
     Material(i32),
@@ -205,7 +205,6 @@ fn command(name: &str) -> Cmd {
         "$" => Cmd::RollHorizontal,
         "[" => Cmd::Push,
         "]" => Cmd::Pop,
-        "%" => Cmd::Cut,
         "!" => Cmd::Width,
         "#" => Cmd::WidthUp,
         ";" => Cmd::Material(1),
@@ -220,7 +219,7 @@ fn command(name: &str) -> Cmd {
         "." => Cmd::Vertex,
         "@O" => Cmd::Sphere,
         "@o" | "@c" => Cmd::Disc,
-        "?P" | "?H" | "?U" | "?L" => Cmd::Query,
+        "?P" | "?H" | "?U" | "?L" | "?E" => Cmd::Query,
         "@Gs" => Cmd::CylinderStart,
         "@Gc" => Cmd::CylinderPoint,
         "@Ge" => Cmd::CylinderEnd,
@@ -259,27 +258,50 @@ pub type QueryState = [DVec3; 4];
 /// Answers cpfg's query modules (`?P` position, `?H` heading, `?U` up, `?L` left): runs
 /// the turtle over `string` and writes the turtle's state at each query module into its
 /// parameters (x, y, z, as many as the module has). cpfg does this after every
-/// derivation step, so productions can react to where a module is.
+/// derivation step, so productions can react to where a module is. With `env`, the
+/// same run also collects the communication modules `?E` and lets the environmental
+/// program answer them (their parameters are overwritten with its responses).
 pub fn answer_queries(
     symbols: &Symbols,
     string: &mut ModuleString,
     opts: &TurtleOptions,
     source: &Source,
+    env: Option<&Environment>,
 ) -> Result<(), Box<LsystemError>> {
-    let names = ["?P", "?H", "?U", "?L"];
+    let names = ["?P", "?H", "?U", "?L", "?E"];
     let which: Vec<Option<usize>> =
         (0..symbols.len()).map(|i| names.iter().position(|n| *n == symbols.name(i as u16))).collect();
-    if which.iter().all(Option::is_none) {
+    if which.iter().all(|w| w.is_none() || (env.is_none() && *w == Some(4))) {
         return Ok(());
     }
     let mut found: Vec<(usize, QueryState)> = Vec::new();
     run(symbols, string, opts, source, &mut |_, _| {}, &mut |i, st| found.push((i, st)))?;
+    let mut sensors: Vec<(usize, Sensor)> = Vec::new();
     for (i, st) in found {
-        let Some(k) = which[string.syms[i] as usize] else { continue };
-        let v = st[k];
         let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
-        for (slot, c) in string.params[range].iter_mut().zip([v.x, v.y, v.z]) {
-            *slot = c;
+        match which[string.syms[i] as usize] {
+            Some(4) if env.is_some() => {
+                sensors.push((i, Sensor { position: st[0], values: string.params[range].to_vec() }));
+            }
+            Some(4) => {}
+            Some(k) => {
+                let v = st[k];
+                for (slot, c) in string.params[range].iter_mut().zip([v.x, v.y, v.z]) {
+                    *slot = c;
+                }
+            }
+            None => {}
+        }
+    }
+    if let Some(env) = env {
+        let mut list: Vec<Sensor> = sensors.iter().map(|(_, s)| s.clone()).collect();
+        env.respond(&mut list);
+        for ((i, _), s) in sensors.iter().zip(list) {
+            let range = string.pofs[*i] as usize..string.pofs[*i + 1] as usize;
+            // The module keeps its arity: answers beyond it are dropped.
+            for (slot, v) in string.params[range].iter_mut().zip(s.values) {
+                *slot = v;
+            }
         }
     }
     Ok(())
@@ -417,22 +439,6 @@ fn run(
                     ))
                 }
             },
-            Cmd::Cut => {
-                // Skip to the `]` closing the current branch (or the end of the string).
-                let mut depth = 0usize;
-                let mut j = i + 1;
-                while j < n {
-                    match cmds[string.syms[j] as usize] {
-                        Cmd::Push => depth += 1,
-                        Cmd::Pop if depth == 0 => break,
-                        Cmd::Pop => depth -= 1,
-                        _ => {}
-                    }
-                    j += 1;
-                }
-                i = j;
-                continue;
-            }
             Cmd::Width => {
                 st.width = arg.unwrap_or(match opts.width_increment {
                     Some(d) => (st.width - d).max(0.0),
@@ -636,8 +642,15 @@ mod tests {
     }
 
     #[test]
-    fn cut_skips_rest_of_branch() {
-        let s = run("F[F%FF[F]F]F");
+    fn cut_is_erased_by_the_next_step_not_by_the_turtle() {
+        // cpfg: `%` erases the rest of its branch in the derivation step after it
+        // appears; the turtle draws a string that still holds it unchanged.
+        assert_eq!(run("F[F%FF[F]F]F").stats().segments, 7);
+        let text = "Lsystem: 1\nAxiom: F[F%FF[F]F]F\nendlsystem\n";
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 1, budget: 100, seed: 0 }).unwrap();
+        assert_eq!(ls.format(&m), "F[F]F");
+        let s = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap();
         assert_eq!(s.stats().segments, 3);
     }
 
@@ -706,7 +719,8 @@ mod tests {
         let text = "Lsystem: 1\nAxiom: F(2)?P(0,0,0)+(90)?H(0,0,0)\n?P(x,y,z) : y > 1 --> A(y)\nendlsystem\n";
         let ls = LSystem::parse("q.l", text, &[]).unwrap();
         let opts = DeriveOptions { steps: 1, budget: 100, seed: 0 };
-        let (m, _) = ls.derive_full(&opts, Default::default(), Some(&TurtleOptions::default())).unwrap();
+        let (m, _) =
+            ls.derive_full(&opts, Default::default(), Some(&TurtleOptions::default()), None).unwrap();
         let s = ls.format(&m);
         assert!(s.starts_with("F(2)A(2)+(90)?H(0,"), "{s}");
         assert!(s.contains(",1)"), "heading turned toward +Z: {s}");

@@ -43,8 +43,12 @@
 //! 4. reads the surfaces the view file names (`surface:` and `line:` lines); a missing
 //!    surface file is skipped, as cpfg skips it.
 //!
-//! Everything found but not used (the animation file, environment files, contour
-//! files, viewing keys, missing files) is listed in [`ModelFolder::ignored`]. Paths in
+//! The environment file (`-e file.e`) is read for the program its `executable:` line
+//! starts, which answers the model's `?E` modules when sylva has it built in
+//! ([`crate::lsystem::environment`]).
+//!
+//! Everything found but not used (the animation file, contour files, viewing keys,
+//! missing files) is listed in [`ModelFolder::ignored`]. Paths in
 //! the view file and in `specifications` are relative to the folder.
 
 pub mod colormap;
@@ -84,6 +88,11 @@ pub struct ModelFolder {
     pub colormap: Option<ColorMap>,
     /// The colour map or material files that were read, in load order.
     pub colormap_files: Vec<PathBuf>,
+    /// The environment file of the cpfg command line (`-e file.e`), when it names one.
+    pub environment_file: Option<PathBuf>,
+    /// The environmental program that file starts (its `executable:` line's command,
+    /// without path or arguments), when the file exists and names one.
+    pub environment_program: Option<String>,
     /// What was found but not used, one human-readable note each.
     pub ignored: Vec<String>,
 }
@@ -110,6 +119,8 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         curves: Vec::new(),
         colormap: None,
         colormap_files: Vec::new(),
+        environment_file: None,
+        environment_program: None,
         ignored: Vec::new(),
     };
     let listing = list_dir(&dir);
@@ -135,6 +146,18 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         }
         for other in &cmd.other_files {
             folder.ignored.push(format!("{other} (named on the cpfg command line; not used)"));
+        }
+        if let Some(e) = &cmd.environment {
+            let path = dir.join(e);
+            if path.is_file() {
+                folder.environment_program = environment_program(&read_text(&path)?);
+                if folder.environment_program.is_none() {
+                    folder.ignored.push(format!("{e}: no `executable:` line, so no environmental program"));
+                }
+            } else {
+                folder.ignored.push(format!("missing environment file {e} (its program is unknown)"));
+            }
+            folder.environment_file = Some(path);
         }
     } else {
         view_name = pick(&listing, &stem, "v");
@@ -279,7 +302,17 @@ struct CpfgCommand {
     /// Colour maps with the colour index they start at.
     maps: Vec<(usize, String)>,
     materials: Option<String>,
+    environment: Option<String>,
     other_files: Vec<String>,
+}
+
+/// The program an environment file (`.e`) starts: the first word of its
+/// `executable:` line, without directories (`executable: /bin/honda81 -e x.spec` →
+/// `honda81`).
+fn environment_program(text: &str) -> Option<String> {
+    let line = text.lines().find_map(|l| l.trim().strip_prefix("executable:"))?;
+    let word = line.split_whitespace().next()?;
+    Path::new(word).file_name().map(|n| n.to_string_lossy().into_owned())
 }
 
 /// Parses the `cpfg …` lines of a vlab `specifications` file and returns the first
@@ -317,9 +350,7 @@ fn find_cpfg_command(spec: &str, lsystem: &str) -> Option<CpfgCommand> {
                         k += 2;
                     }
                     "e" => {
-                        if let Some(a) = arg {
-                            cmd.other_files.push(a);
-                        }
+                        cmd.environment = arg;
                         k += 2;
                     }
                     "w" | "wp" | "wr" => k += 3,
@@ -511,7 +542,13 @@ mod tests {
         let c = find_cpfg_command(spec, "plant.l").unwrap();
         assert_eq!(c.view.as_deref(), Some("plant.v"));
         assert_eq!(c.maps, vec![(0, "plant.map".to_string())]);
-        assert_eq!(c.other_files, vec!["plant.e".to_string(), "plant.a".to_string()]);
+        assert_eq!(c.environment.as_deref(), Some("plant.e"));
+        assert_eq!(c.other_files, vec!["plant.a".to_string()]);
+        assert_eq!(
+            environment_program("# x\nexecutable: /usr/bin/honda81 -e d.spec\n").as_deref(),
+            Some("honda81")
+        );
+        assert_eq!(environment_program("communication type: pipes\n"), None);
         assert!(find_cpfg_command(spec, "other.l").is_none());
         let sedge = "\t\tcpfg -m1 sedge.map -m2 sedge.map2 sedge.l sedge.v sedge.a\n\t\tcpfg -m2 sedge.map2 male.l male.v male.a\n";
         let c = find_cpfg_command(sedge, "male.l").unwrap();
