@@ -254,14 +254,15 @@ impl LSystem {
         out.pofs.reserve(estimate);
         let ratio = if cur.is_empty() { 1 } else { cur.params.len().div_ceil(cur.len()).max(1) };
         out.params.reserve(estimate.saturating_mul(ratio).min(opts.budget.saturating_mul(4)));
-        let brackets = if self.has_context {
+        let context = self.has_context || self.subsystems.iter().any(|s| s.lsystem.has_context);
+        let brackets = if context {
             bracket_partners(cur, self.symbols.get("["), self.symbols.get("]"))
         } else {
             Vec::new()
         };
-        let decompose = !self.decomposition.productions.is_empty();
+        let owner = self.owners(cur)?;
         let (open, close) = (self.symbols.get("["), self.symbols.get("]"));
-        let cut = self.symbols.get("%").filter(|&c| self.by_symbol[c as usize].is_empty());
+        let cut = self.symbols.get("%");
         let mut args: Vec<f64> = Vec::with_capacity(16);
         let mut buf: Vec<f64> = Vec::with_capacity(32);
         let mut tmp = ModuleString::new();
@@ -271,7 +272,14 @@ impl LSystem {
             let i = next;
             next += 1;
             let (sym, params) = cur.module(i);
-            if Some(sym) == cut {
+            // The L-system whose rules apply here: a sub-L-system between `?(n, s)`
+            // and its `$`, else this one.
+            let sys = match owner.get(i) {
+                Some(&k) if k > 0 => &self.subsystems[k as usize - 1].lsystem,
+                _ => self,
+            };
+            let decompose = !sys.decomposition.productions.is_empty();
+            if Some(sym) == cut && sys.by_symbol[sym as usize].is_empty() {
                 // cpfg's cut: `%` and the rest of its branch are erased (the closing
                 // `]` stays), one step after the `%` appeared.
                 let mut depth = 0usize;
@@ -289,19 +297,19 @@ impl LSystem {
                 }
                 continue;
             }
-            let prods = &self.by_symbol[sym as usize];
+            let prods = &sys.by_symbol[sym as usize];
             let chosen = if prods.is_empty() {
                 None
             } else {
-                self.select(&self.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
+                sys.select(&sys.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
             };
             match chosen {
                 None if decompose => {
-                    self.expand(&self.decomposition, "decomposition", sym, params, 0, out, ev, &mut scratch)?
+                    sys.expand(&sys.decomposition, "decomposition", sym, params, 0, out, ev, &mut scratch)?
                 }
                 None => out.push(sym, params),
                 Some((k, uses_buf)) => {
-                    let p = &self.productions[k];
+                    let p = &sys.productions[k];
                     // A multi-module predecessor consumes its following modules too.
                     next = i + 1 + p.rest.len();
                     let locals = if uses_buf { &buf[..] } else { params };
@@ -310,11 +318,11 @@ impl LSystem {
                         tmp.params.clear();
                         tmp.pofs.clear();
                         tmp.pofs.push(0);
-                        self.emit(p, locals, &mut tmp, ev, &mut args)?;
+                        sys.emit(p, locals, &mut tmp, ev, &mut args)?;
                         for j in 0..tmp.len() {
                             let (s2, p2) = tmp.module(j);
-                            self.expand(
-                                &self.decomposition,
+                            sys.expand(
+                                &sys.decomposition,
                                 "decomposition",
                                 s2,
                                 p2,
@@ -325,7 +333,7 @@ impl LSystem {
                             )?;
                         }
                     } else {
-                        self.emit(p, locals, out, ev, &mut args)?;
+                        sys.emit(p, locals, out, ev, &mut args)?;
                     }
                 }
             }
@@ -334,6 +342,42 @@ impl LSystem {
             }
         }
         Ok(())
+    }
+
+    /// For every module of `m`, which L-system rewrites it: 0 for this one, k for
+    /// `self.subsystems[k - 1]`. Empty when there are no sub-L-systems. A `?(n, s)`
+    /// module belongs to the L-system around it and opens sub-L-system n; the `$` that
+    /// closes it belongs to the sub-L-system. A `$` with no sub-L-system open is the
+    /// turtle's roll-to-horizontal and belongs to whatever is around it.
+    pub fn owners(&self, m: &ModuleString) -> Result<Vec<u16>, Box<LsystemError>> {
+        if self.subsystems.is_empty() {
+            return Ok(Vec::new());
+        }
+        let (call, end) = (self.symbols.get("?"), self.symbols.get("$"));
+        let mut stack: Vec<u16> = Vec::new();
+        let mut out = Vec::with_capacity(m.len());
+        for i in 0..m.len() {
+            let (sym, params) = m.module(i);
+            out.push(stack.last().copied().unwrap_or(0));
+            if Some(sym) == call && !params.is_empty() {
+                let n = params[0];
+                let Some(k) = self.subsystems.iter().position(|s| s.number as f64 == n) else {
+                    let have: Vec<String> = self.subsystems.iter().map(|s| s.number.to_string()).collect();
+                    return Err(self.source.error_nowhere(
+                        ErrorKind::UndefinedName,
+                        &format!(
+                            "module {i} of the derived string, `?({n}, …)`, calls sub-L-system {n}, \
+                             but the file's sub-L-systems are {}",
+                            if have.is_empty() { "none".to_string() } else { have.join(", ") }
+                        ),
+                    ));
+                };
+                stack.push(k as u16 + 1);
+            } else if Some(sym) == end && !stack.is_empty() {
+                stack.pop();
+            }
+        }
+        Ok(out)
     }
 
     /// Upper bound of the next string's length (before decomposition).
@@ -770,14 +814,20 @@ impl LSystem {
         ev: &mut Evaluator,
         budget: usize,
     ) -> Result<std::borrow::Cow<'m, ModuleString>, Box<LsystemError>> {
-        if self.homomorphism.productions.is_empty() {
+        let empty = |l: &LSystem| l.homomorphism.productions.is_empty();
+        if empty(self) && self.subsystems.iter().all(|s| empty(&s.lsystem)) {
             return Ok(std::borrow::Cow::Borrowed(m));
         }
+        let owner = self.owners(m)?;
         let mut out = ModuleString::with_capacity(m.len(), m.params.len());
         let mut scratch = Vec::new();
         for i in 0..m.len() {
             let (sym, params) = m.module(i);
-            self.expand(&self.homomorphism, "homomorphism", sym, params, 0, &mut out, ev, &mut scratch)?;
+            let sys = match owner.get(i) {
+                Some(&k) if k > 0 => &self.subsystems[k as usize - 1].lsystem,
+                _ => self,
+            };
+            sys.expand(&sys.homomorphism, "homomorphism", sym, params, 0, &mut out, ev, &mut scratch)?;
             if out.len() > budget {
                 let e = self.source.error_nowhere(
                     ErrorKind::Budget,
@@ -833,6 +883,40 @@ mod tests {
     }
 
     const BINARY: &str = "Lsystem: 1\nAxiom: a\na --> b[a]a\nb --> bb\nendlsystem\n";
+
+    /// A main L-system calling sub-L-system 2 (scale 0.5); both have rules for `B` and
+    /// `A`, and each applies only to its own modules.
+    const SUBS: &str = "Lsystem: 1\nderivation length: 2\nAxiom: A\nA --> F?(2,0.5)B$A\nB --> Z\n\
+                        endlsystem\n\nLsystem: 2\nAxiom: B\nB --> BC\nA --> X\nhomomorphism\nC --> F\n\
+                        endlsystem\n";
+
+    #[test]
+    fn sub_lsystems_rewrite_their_own_segments() {
+        let (ls, m) = derive(SUBS, 2);
+        assert_eq!(ls.subsystems.len(), 1);
+        assert_eq!(ls.subsystems[0].number, 2);
+        assert_eq!(ls.format(&m), "F?(2,0.5)BC$F?(2,0.5)B$A");
+        // The sub-L-system's homomorphism applies inside its segments only.
+        let mut ev = Evaluator::new(0);
+        let shown = ls.interpretation(&m, &mut ev, 1000).unwrap();
+        assert_eq!(ls.format(&shown), "F?(2,0.5)BF$F?(2,0.5)B$A");
+        // The turtle: `?(2, 0.5)` saves the state and halves lengths until `$`.
+        let sk = crate::lsystem::interpret(&ls.symbols, &shown, &Default::default(), &ls.source).unwrap();
+        let top = sk.position.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+        assert_eq!(top, 2.0, "the sub-L-system's F is half a step and does not move the main axis");
+        assert!((sk.stats().total_length - 2.5).abs() < 1e-5);
+    }
+
+    #[test]
+    fn sub_lsystem_errors() {
+        let bad = SUBS.replace("?(2,0.5)", "?(7,0.5)");
+        let ls = LSystem::parse("t.l", &bad, &[]).unwrap();
+        let e = ls.derive(&DeriveOptions { steps: 2, budget: 1000, seed: 0 }).unwrap_err();
+        assert!(e.message.contains("calls sub-L-system 7") && e.message.contains("are 2"), "{}", e.message);
+        let twice = SUBS.replace("Lsystem: 2", "Lsystem: 1");
+        let e = LSystem::parse("t.l", &twice, &[]).unwrap_err();
+        assert!(e.message.contains("two `Lsystem: 1` blocks"), "{}", e.message);
+    }
 
     #[test]
     fn binary_tree_strings() {

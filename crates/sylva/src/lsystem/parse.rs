@@ -201,6 +201,36 @@ pub struct LSystem {
     pub end_each: Option<Expr>,
     /// `End:` block, run after the derivation.
     pub end: Option<Expr>,
+    /// The number of this L-system's `Lsystem: n` line (1 when it gave none).
+    pub number: i64,
+    /// The file's further `Lsystem: n` blocks, the sub-L-systems that `?(n, scale)` …
+    /// `$` calls (empty for a sub-L-system itself).
+    pub subsystems: Vec<SubLsystem>,
+}
+
+/// A sub-L-system: an `Lsystem: n` block after the file's first one. The modules
+/// between a `?(n, scale)` and its `$` are rewritten with its productions,
+/// decomposition and homomorphism; its axiom and derivation length only matter when
+/// it is grown on its own. It shares the main L-system's symbols, globals and source.
+#[derive(Debug, Clone)]
+pub struct SubLsystem {
+    /// The `n` of its `Lsystem: n` line.
+    pub number: i64,
+    /// Its rules (`subsystems` is empty).
+    pub lsystem: LSystem,
+}
+
+/// What one `Lsystem:` … `endlsystem` block declared, before symbol indexing.
+struct Block {
+    number: i64,
+    axiom: Vec<ModuleTemplate>,
+    productions: Vec<Production>,
+    decomposition: RuleSet,
+    homomorphism: RuleSet,
+    derivation_length: u32,
+    seed: Option<u64>,
+    ring: bool,
+    ignore: Option<(Vec<String>, bool, usize)>,
 }
 
 /// Modules that have a fixed maximum number of parameters in the turtle.
@@ -349,11 +379,60 @@ impl LSystem {
             start_each: None,
             end_each: None,
             end: None,
+            number: 1,
+            subsystems: Vec::new(),
         };
         let items = ls.items()?;
         ls.declare_globals(&items)?;
-        ls.compile_items(&items)?;
-        let n = ls.symbols.len();
+        let mut blocks = ls.compile_items(&items)?.into_iter();
+        let main = blocks.next().expect("compile_items returns the main block");
+        ls.install(main);
+        let mut subsystems: Vec<SubLsystem> = Vec::new();
+        for b in blocks {
+            if b.number == ls.number || subsystems.iter().any(|s| s.number == b.number) {
+                return Err(ls.source.error_nowhere(
+                    ErrorKind::Syntax,
+                    &format!("two `Lsystem: {}` blocks: sub-L-system numbers must differ", b.number),
+                ));
+            }
+            let mut sub = ls.clone();
+            sub.install(b);
+            subsystems.push(SubLsystem { number: sub.number, lsystem: sub });
+        }
+        ls.subsystems = subsystems;
+        ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
+        ls.writes_files = ls.source.text.contains("fopen");
+        Ok(ls)
+    }
+
+    /// Takes the current block's declarations out of `self` (leaving it blank for the
+    /// next block).
+    fn take_block(&mut self, number: i64, ignore: Option<(Vec<String>, bool, usize)>) -> Block {
+        let blank = || RuleSet { max_depth: 1, ..Default::default() };
+        Block {
+            number,
+            axiom: std::mem::take(&mut self.axiom),
+            productions: std::mem::take(&mut self.productions),
+            decomposition: std::mem::replace(&mut self.decomposition, blank()),
+            homomorphism: std::mem::replace(&mut self.homomorphism, blank()),
+            derivation_length: std::mem::take(&mut self.derivation_length),
+            seed: self.seed.take(),
+            ring: std::mem::take(&mut self.ring),
+            ignore,
+        }
+    }
+
+    /// Makes `b` this L-system's rules and indexes them by symbol.
+    fn install(&mut self, b: Block) {
+        self.number = b.number;
+        self.axiom = b.axiom;
+        self.productions = b.productions;
+        self.decomposition = b.decomposition;
+        self.homomorphism = b.homomorphism;
+        self.derivation_length = b.derivation_length;
+        self.seed = b.seed;
+        self.ring = b.ring;
+        let n = self.symbols.len();
         let index = |prods: &[Production]| {
             let mut by = vec![Vec::new(); n];
             for (k, p) in prods.iter().enumerate() {
@@ -361,14 +440,18 @@ impl LSystem {
             }
             by
         };
-        ls.by_symbol = index(&ls.productions);
-        ls.decomposition.by_symbol = index(&ls.decomposition.productions);
-        ls.homomorphism.by_symbol = index(&ls.homomorphism.productions);
-        ls.context_skip.resize(n, false);
-        ls.has_context = ls.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
-        ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
-        ls.writes_files = ls.source.text.contains("fopen");
-        Ok(ls)
+        self.by_symbol = index(&self.productions);
+        self.decomposition.by_symbol = index(&self.decomposition.productions);
+        self.homomorphism.by_symbol = index(&self.homomorphism.productions);
+        self.context_skip = vec![false; n];
+        if let Some((names, is_ignore, _)) = b.ignore {
+            for i in 0..n {
+                let name = self.symbols.name(i as u16);
+                let listed = names.iter().any(|s| s == name);
+                self.context_skip[i] = name != "[" && name != "]" && listed == is_ignore;
+            }
+        }
+        self.has_context = self.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
     }
 
     /// Groups the preprocessed text into keyword lines, blocks and productions.
@@ -654,7 +737,10 @@ impl LSystem {
         names
     }
 
-    fn compile_items(&mut self, items: &[Item]) -> PResult<()> {
+    /// Compiles every `Lsystem:` block; returns them in file order (the first is the
+    /// main L-system, the others its sub-L-systems). Statement blocks (`Start:` …) of
+    /// sub-L-systems are compiled but only the main L-system's run.
+    fn compile_items(&mut self, items: &[Item]) -> PResult<Vec<Block>> {
         #[derive(PartialEq)]
         enum State {
             Before,
@@ -665,6 +751,9 @@ impl LSystem {
         let mut section = Section::Productions;
         let mut seen_axiom = false;
         let mut ignore: Option<(Vec<String>, bool, usize)> = None;
+        let mut blocks: Vec<Block> = Vec::new();
+        let mut number = 1i64;
+        let mut main_blocks: [Option<Expr>; 5] = Default::default();
         for it in items {
             let (at, kw) = match *it {
                 Item::Keyword { at, kw, .. } | Item::Block { at, kw, .. } => (at, Some(kw)),
@@ -674,17 +763,44 @@ impl LSystem {
                     continue;
                 }
             };
-            if kw == Some(Kw::Lsystem) {
-                if state != State::Before {
+            if let (Some(Kw::Lsystem), Item::Keyword { value, end, .. }) = (kw, it) {
+                if state == State::Inside {
                     return Err(self.source.error(
-                        ErrorKind::Unsupported,
+                        ErrorKind::Syntax,
                         at,
                         8,
-                        "unsupported: a second `Lsystem:` block (sub-L-systems)",
-                        "second L-system",
+                        "a second `Lsystem:` before the previous one's `endlsystem`",
+                        "here",
                     ));
                 }
+                number = if value < end && !self.source.text[*value..*end].trim().is_empty() {
+                    let n = self.constant(*value, *end, "L-system number")?;
+                    if n.fract() != 0.0 || n.abs() > 1e9 {
+                        return Err(self.source.error(
+                            ErrorKind::Syntax,
+                            *value,
+                            end - value,
+                            &format!("an L-system number must be a whole number, got {n}"),
+                            "bad number",
+                        ));
+                    }
+                    n as i64
+                } else {
+                    1
+                };
+                if blocks.len() == 1 && main_blocks.iter().all(Option::is_none) {
+                    // Keep the main L-system's statement blocks apart from the subs'.
+                    main_blocks = [
+                        self.define_block.take(),
+                        self.start.take(),
+                        self.start_each.take(),
+                        self.end_each.take(),
+                        self.end.take(),
+                    ];
+                }
                 state = State::Inside;
+                section = Section::Productions;
+                seen_axiom = false;
                 continue;
             }
             if state != State::Inside {
@@ -720,7 +836,15 @@ impl LSystem {
                 Item::Keyword { kw, value, end, at } => {
                     let (value, end, at) = (*value, *end, *at);
                     match kw {
-                        Kw::EndLsystem => state = State::After,
+                        Kw::EndLsystem => {
+                            if blocks.is_empty() && !seen_axiom {
+                                return Err(self
+                                    .source
+                                    .error_nowhere(ErrorKind::Syntax, "the L-system has no `Axiom:`"));
+                            }
+                            blocks.push(self.take_block(number, ignore.take()));
+                            state = State::After;
+                        }
                         Kw::DerivationLength => {
                             let n = self.constant(value, end, "derivation length")?;
                             if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
@@ -789,27 +913,16 @@ impl LSystem {
         if state == State::Before {
             return Err(self.source.error_nowhere(ErrorKind::Syntax, "no `Lsystem:` block found"));
         }
-        if !seen_axiom {
-            return Err(self.source.error_nowhere(ErrorKind::Syntax, "the L-system has no `Axiom:`"));
+        if state == State::Inside {
+            if blocks.is_empty() && !seen_axiom {
+                return Err(self.source.error_nowhere(ErrorKind::Syntax, "the L-system has no `Axiom:`"));
+            }
+            blocks.push(self.take_block(number, ignore.take()));
         }
-        if let Some((names, is_ignore, _)) = ignore {
-            let n = self.symbols.len();
-            let listed: Vec<bool> =
-                (0..n).map(|i| names.iter().any(|s| s == self.symbols.name(i as u16))).collect();
-            self.context_skip = (0..n)
-                .map(|i| {
-                    let name = self.symbols.name(i as u16);
-                    if name == "[" || name == "]" {
-                        false
-                    } else if is_ignore {
-                        listed[i]
-                    } else {
-                        !listed[i]
-                    }
-                })
-                .collect();
+        if blocks.len() > 1 {
+            [self.define_block, self.start, self.start_each, self.end_each, self.end] = main_blocks;
         }
-        Ok(())
+        Ok(blocks)
     }
 
     /// Symbols listed after `ignore:` / `consider:` (module names, no parameters).
@@ -1389,6 +1502,10 @@ mod tests {
         let e = LSystem::parse("e.l", "Lsystem: 1\nA --> B\n", &[]).unwrap_err();
         assert!(e.message.contains("no `Axiom:`"));
         let e = LSystem::parse("e.l", "Lsystem: 1\nAxiom: A\nLsystem: 2\n", &[]).unwrap_err();
-        assert_eq!(e.kind, ErrorKind::Unsupported);
+        assert_eq!(e.kind, ErrorKind::Syntax);
+        assert!(e.message.starts_with("e.l:3:1: a second `Lsystem:` before the previous"), "{}", e.message);
+        let ok =
+            LSystem::parse("e.l", "Lsystem: 1\nAxiom: A\nendlsystem\nLsystem: 2\nAxiom: B\n", &[]).unwrap();
+        assert_eq!(ok.subsystems[0].lsystem.number, 2, "the last block may end without `endlsystem`");
     }
 }

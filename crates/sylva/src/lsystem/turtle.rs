@@ -107,6 +107,10 @@ enum Cmd {
     Roll(f64),
     TurnAround,
     RollHorizontal,
+    /// `$`: closes the innermost open sub-L-system, else rolls to horizontal.
+    Dollar,
+    /// `?(n, scale)`: opens a sub-L-system (saves the state, scales lengths).
+    SubStart,
     Push,
     Pop,
     Width,
@@ -141,6 +145,8 @@ struct State {
     elasticity: [f64; MAX_TROPISMS],
     /// Last node of the open generalized cylinder (`@Gs` … `@Ge`), if any.
     gc: u32,
+    /// Length scale of the open sub-L-systems (`?(n, scale)`), 1 outside them.
+    scale: f64,
 }
 
 /// True for the moves that record a polygon vertex (`F`, `f`; not `G`, `g`).
@@ -202,7 +208,8 @@ fn command(name: &str) -> Cmd {
         "/" => Cmd::Roll(1.0),
         "\\" => Cmd::Roll(-1.0),
         "|" => Cmd::TurnAround,
-        "$" => Cmd::RollHorizontal,
+        "$" => Cmd::Dollar,
+        "?" => Cmd::SubStart,
         "[" => Cmd::Push,
         "]" => Cmd::Pop,
         "!" => Cmd::Width,
@@ -350,6 +357,7 @@ fn run(
         material: 0,
         elasticity: [0.0; MAX_TROPISMS],
         gc: NO_PARENT,
+        scale: 1.0,
     };
     for (k, t) in opts.tropisms.iter().enumerate() {
         st.elasticity[k] = t.elasticity;
@@ -360,6 +368,8 @@ fn run(
         .map(|t| (DVec3::from_array(t.direction).normalize_or_zero(), t.angle.map(f64::to_radians)))
         .collect();
     let mut stack: Vec<State> = Vec::new();
+    // Stack depths at which the open sub-L-systems saved their state.
+    let mut subs: Vec<usize> = Vec::new();
     // Open polygons (a stack: `{` inside `{`), each a list of vertices.
     let mut polygons: Vec<Vec<DVec3>> = Vec::new();
     let mut i = 0;
@@ -371,7 +381,7 @@ fn run(
             Cmd::None => {}
             Cmd::Draw | Cmd::Move if !polygons.is_empty() => {
                 // Inside a polygon, moves trace its outline instead of branches.
-                st.pos += st.h * arg.unwrap_or(opts.step);
+                st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 if sym_is_recording(symbols.name(sym)) {
                     polygons.last_mut().expect("non-empty").push(st.pos);
                 }
@@ -388,7 +398,7 @@ fn run(
                     *sk.material.last_mut().expect("just pushed") = st.material;
                 }
                 let start = st.pos;
-                st.pos += st.h * arg.unwrap_or(opts.step);
+                st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 on_draw(start, st.pos);
                 st.node =
                     sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
@@ -398,7 +408,7 @@ fn run(
                 }
             }
             Cmd::Move => {
-                st.pos += st.h * arg.unwrap_or(opts.step);
+                st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 st.node = NO_PARENT;
             }
             Cmd::Turn(sign) | Cmd::Pitch(sign) | Cmd::Roll(sign) => {
@@ -418,7 +428,31 @@ fn run(
                 st.h = -st.h;
                 st.l = -st.l;
             }
-            Cmd::RollHorizontal => {
+            Cmd::SubStart if !p.is_empty() => {
+                // A sub-L-system is drawn like a branch, its lengths scaled.
+                subs.push(stack.len());
+                stack.push(st);
+                let s = p.get(1).copied().unwrap_or(1.0);
+                if !(s.is_finite() && s > 0.0) {
+                    return Err(fail(format!(
+                        "module {i} (`?`) calls a sub-L-system with scale {s}; it must be > 0"
+                    )));
+                }
+                st.scale *= s;
+            }
+            Cmd::SubStart => {}
+            Cmd::Dollar if !subs.is_empty() => {
+                let depth = subs.pop().expect("non-empty");
+                if stack.len() <= depth {
+                    return Err(source.error_nowhere(
+                        ErrorKind::Syntax,
+                        &format!("module {i} of the derived string (`$`) closes a sub-L-system across a `]`"),
+                    ));
+                }
+                stack.truncate(depth + 1);
+                st = stack.pop().expect("depth < len");
+            }
+            Cmd::RollHorizontal | Cmd::Dollar => {
                 let l = DVec3::Y.cross(st.h);
                 if l.length_squared() > 1e-24 {
                     st.l = l.normalize();
@@ -557,6 +591,7 @@ fn run(
                     Cmd::Sphere => (OrganKind::Sphere, arg.unwrap_or(st.width) * 0.5),
                     _ => (OrganKind::Disc, arg.unwrap_or(st.width) * 0.5),
                 };
+                let size = size * st.scale;
                 if !size.is_finite() || size < 0.0 {
                     return Err(fail(format!(
                         "module {i} (`{name}`) has a negative or non-finite size {size}"
