@@ -26,13 +26,6 @@ use sylva::{Mesh, Skeleton};
 /// and meshes refined to level 2 only below a quarter of it (CI time).
 const INTERSECT_FACES: usize = 250_000;
 
-/// Known hull-mesher defects, kept visible: in these planar plants (every branch in one
-/// plane, so the joint points lie on two parallel planes) a joint's hull has runs of
-/// collinear loop vertices and the triangulation keeps zero-area slivers along them.
-/// They are counted in the table's "degenerate" column; every other structural check
-/// still holds for them.
-const KNOWN_DEGENERATE: &[(&str, &str)] = &[("lsys-abop-a", "hull")];
-
 struct Row {
     vertices: usize,
     faces: usize,
@@ -85,20 +78,14 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
         _ => unreachable!(),
     };
     let r = report(&mesh);
-    let known = KNOWN_DEGENERATE.contains(&(preset, mesher));
-    let structural: Vec<String> =
-        r.structural_problems().into_iter().filter(|p| !(known && p.contains("degenerate"))).collect();
+    let structural = r.structural_problems();
     assert!(structural.is_empty(), "{preset} {mesher}: {structural:?}\n{r}");
     assert_eq!(r.boundary_loops, designed_loops, "{preset} {mesher}: boundary loops\n{r}");
     let refined_intersections =
         (mesh.face_count() * 4 <= INTERSECT_FACES / 4 && mesh.face_count() > 0).then(|| {
             let fine = refine2(&mesh, scheme);
             let rr = report(&fine);
-            let structural: Vec<String> = rr
-                .structural_problems()
-                .into_iter()
-                .filter(|p| !(known && p.contains("degenerate")))
-                .collect();
+            let structural = rr.structural_problems();
             assert!(structural.is_empty(), "{preset} {mesher} level 2: {structural:?}");
             rr.intersection_count.unwrap_or(0)
         });

@@ -913,7 +913,8 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
                     let lr = loops[l as usize];
                     geo[lr.slot as usize].loop_vertex(lr.at_end, j, s)
                 };
-                let faces: Vec<[u32; 3]> = tris.iter().map(|t| t.map(vid)).collect();
+                let mut faces: Vec<[u32; 3]> = tris.iter().map(|t| t.map(vid)).collect();
+                flip_slivers(&mut faces, &e.positions);
                 let uvs = joint_uvs(&mut e, &geo, loops, &faces, s);
                 for (f, uv) in faces.iter().zip(uvs) {
                     e.tri(*f, uv);
@@ -1077,6 +1078,75 @@ fn hull_joint(geo: &[Geo], loops: &[LoopRef], s: u32, eps: f64) -> Option<Vec<[(
         }
     }
     Some(out)
+}
+
+/// Twice the area and the longest edge's squared length of triangle `f`.
+fn tri_shape(f: [u32; 3], pos: &[Vec3]) -> (f64, f64) {
+    let [a, b, c] = f.map(|v| pos[v as usize].as_dvec3());
+    let area2 = (b - a).cross(c - a).length();
+    let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+    (area2, longest)
+}
+
+/// True for a sliver by the mesh checker's rule (area ≤ 1e-7 · longest edge²).
+fn is_sliver(f: [u32; 3], pos: &[Vec3]) -> bool {
+    let (area2, longest) = tri_shape(f, pos);
+    !(0.5 * area2 > 1e-7 * longest)
+}
+
+/// Removes slivers from a joint's triangles by edge flips. A hull face on the sphere
+/// can become a sliver when its vertices move back to their loops: on a planar tree
+/// every loop has a vertex in the same plane, and the vertices of loops along one
+/// straight axis end up collinear. For a sliver (a, b, c) with longest edge ab and c on
+/// it, the joint face across ab, (b, a, d), is replaced together with it by (b, c, d) and
+/// (c, a, d): the same surface, the orientation kept, ab gone. A flip is made only when
+/// both new faces are proper (not slivers, facing like the old neighbour) and cd is not
+/// already an edge; loop edges (one joint face) are never flipped. At most 4 flips per
+/// face, so it always ends.
+fn flip_slivers(faces: &mut [[u32; 3]], pos: &[Vec3]) {
+    let mut budget = 4 * faces.len();
+    'outer: while budget > 0 {
+        let mut edge: HashMap<(u32, u32), usize> = HashMap::with_capacity(faces.len() * 3);
+        for (i, f) in faces.iter().enumerate() {
+            for e in 0..3 {
+                edge.insert((f[e], f[(e + 1) % 3]), i);
+            }
+        }
+        for i in 0..faces.len() {
+            if !is_sliver(faces[i], pos) {
+                continue;
+            }
+            let f = faces[i];
+            // Rotate so (a, b) is the longest edge.
+            let len = |x: u32, y: u32| pos[x as usize].distance_squared(pos[y as usize]);
+            let r = (0..3).max_by(|&x, &y| len(f[x], f[(x + 1) % 3]).total_cmp(&len(f[y], f[(y + 1) % 3])));
+            let r = r.unwrap_or(0);
+            let (a, b, c) = (f[r], f[(r + 1) % 3], f[(r + 2) % 3]);
+            let Some(&g) = edge.get(&(b, a)) else { continue };
+            let Some(d) = faces[g].into_iter().find(|&v| v != a && v != b) else { continue };
+            if d == c || edge.contains_key(&(c, d)) || edge.contains_key(&(d, c)) {
+                continue;
+            }
+            let (t1, t2) = ([b, c, d], [c, a, d]);
+            let normal = |t: [u32; 3]| {
+                let [p, q, s] = t.map(|v| pos[v as usize].as_dvec3());
+                (q - p).cross(s - p)
+            };
+            let old = normal(faces[g]);
+            if is_sliver(t1, pos)
+                || is_sliver(t2, pos)
+                || normal(t1).dot(old) <= 0.0
+                || normal(t2).dot(old) <= 0.0
+            {
+                continue;
+            }
+            faces[i] = t1;
+            faces[g] = t2;
+            budget -= 1;
+            continue 'outer;
+        }
+        break;
+    }
 }
 
 /// UV corners for a hull joint's faces by propagation (seed 000 §4.3.3): each face takes
@@ -1263,6 +1333,34 @@ mod tests {
         let c = DVec3::new(-1.0, 1.0, 0.0).normalize();
         let (oa, ob) = pair_offsets(a, 0.5, c, 0.5, 1e-6).unwrap();
         assert!((oa - ob).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slivers_are_flipped_away_and_the_surface_kept() {
+        // a, b, d a proper triangle (normal +z) and c on ab: the sliver (b, a, c) and
+        // (a, b, d) share ab; a third face (c, a, e) below keeps c's other side.
+        let pos = [
+            Vec3::new(0.0, 0.0, 0.0),  // a
+            Vec3::new(2.0, 0.0, 0.0),  // b
+            Vec3::new(1.0, 0.0, 0.0),  // c
+            Vec3::new(1.0, 1.0, 0.0),  // d
+            Vec3::new(0.5, -1.0, 0.0), // e
+        ];
+        let mut faces = vec![[1, 0, 2], [0, 1, 3], [2, 0, 4]];
+        assert!(is_sliver(faces[0], &pos));
+        let area = |fs: &[[u32; 3]]| fs.iter().map(|&f| tri_shape(f, &pos).0).sum::<f64>();
+        let before = area(&faces);
+        flip_slivers(&mut faces, &pos);
+        assert!(faces.iter().all(|&f| !is_sliver(f, &pos)), "{faces:?}");
+        assert!((area(&faces) - before).abs() < 1e-9);
+        let has = |x: u32, y: u32| faces.iter().any(|f| (0..3).any(|e| f[e] == x && f[(e + 1) % 3] == y));
+        assert!(!has(0, 1) && !has(1, 0), "ab is gone: {faces:?}");
+        assert!(has(0, 2) && has(2, 1), "c splits the old ab in the same direction");
+        // Collinear everything: nothing proper to flip to, left alone, no loop.
+        let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::X * 3.0];
+        let mut flat = vec![[0, 1, 2], [1, 0, 3]];
+        flip_slivers(&mut flat, &line);
+        assert_eq!(flat, vec![[0, 1, 2], [1, 0, 3]]);
     }
 
     #[test]
