@@ -1091,7 +1091,7 @@ fn tri_shape(f: [u32; 3], pos: &[Vec3]) -> (f64, f64) {
 /// True for a sliver by the mesh checker's rule (area ≤ 1e-7 · longest edge²).
 fn is_sliver(f: [u32; 3], pos: &[Vec3]) -> bool {
     let (area2, longest) = tri_shape(f, pos);
-    !(0.5 * area2 > 1e-7 * longest)
+    area2.is_nan() || 0.5 * area2 <= 1e-7 * longest
 }
 
 /// Removes slivers from a joint's triangles by edge flips. A hull face on the sphere
