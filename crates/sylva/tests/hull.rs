@@ -2,8 +2,11 @@
 //! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
 //! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
 
+#[path = "common/det_tree.rs"]
+mod det_tree;
 #[path = "common/random_tree.rs"]
 mod random_tree;
+use det_tree::tree;
 
 use glam::{DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
@@ -208,38 +211,6 @@ fn y_fork() -> Skeleton {
     let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
     seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), 0.12);
     seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), 0.15);
-    s
-}
-
-/// A random-ish tree of `depth` levels (deterministic), with bends and short
-/// internodes.
-fn tree(depth: u32, segs: u32) -> Skeleton {
-    let mut s = Skeleton::new();
-    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.3);
-    let mut stack = vec![(root, Vec3::Y, 2.0f32, 0.3f32, 0u32)];
-    let mut h = 1u32;
-    while let Some((node, dir, len, r, level)) = stack.pop() {
-        let mut at = node;
-        let mut p = s.position[node as usize];
-        let mut d = dir;
-        for k in 0..segs {
-            h = h.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            let wob =
-                Vec3::new(((h >> 8) % 100) as f32 / 500.0 - 0.1, 0.0, ((h >> 16) % 100) as f32 / 500.0 - 0.1);
-            d = (d + wob).normalize();
-            p += d * (len / segs as f32);
-            let rr = r * (1.0 - 0.25 * (k + 1) as f32 / segs as f32);
-            at = seg(&mut s, at, p, rr);
-        }
-        if level + 1 < depth {
-            let side = d.any_orthonormal_vector();
-            let other = d.cross(side);
-            for (k, w) in [0.8f32, -0.7, 0.3].iter().enumerate() {
-                let nd = (d + side * *w + other * (k as f32 - 1.0) * 0.5).normalize();
-                stack.push((at, nd, len * 0.75, r * 0.65, level + 1));
-            }
-        }
-    }
     s
 }
 
