@@ -1146,6 +1146,16 @@ fn agrees_with_opensubdiv() {
     bark.normals = None;
     agree(&osd, "tree-tube-loop", &bark, &[], Scheme::Loop, false);
     agree(&osd, "tree-tube-cc", &bark, &[], Scheme::CatmullClark, false);
+    // ... and from every other mesher: hull and sweep (triangles, the sweep's caps
+    // creased) with both schemes, quad (an all-quad cage) with Catmull–Clark.
+    for method in ["hull", "sweep", "quad"] {
+        let mut m = tree_mesh(method);
+        m.normals = None;
+        if method != "quad" {
+            agree(&osd, &format!("tree-{method}-loop"), &m, &[], Scheme::Loop, false);
+        }
+        agree(&osd, &format!("tree-{method}-cc"), &m, &[], Scheme::CatmullClark, false);
+    }
 }
 
 /// Every face-varying mode against the OpenSubdiv rule it claims to match
@@ -1183,7 +1193,16 @@ fn uv_modes_agree_with_opensubdiv() {
 
 /// The bark of the default preset, a few derivation steps deep (the tube mesher's output).
 fn tree_bark() -> Mesh {
-    let sets = [("generator.iterations".to_string(), toml::Value::Integer(3))];
+    tree_mesh("tube")
+}
+
+/// The bark of the default preset, a few derivation steps deep, from mesher `method`
+/// (`tube`, `hull`, `sweep` or `quad`), with its creases.
+fn tree_mesh(method: &str) -> Mesh {
+    let sets = [
+        ("generator.iterations".to_string(), toml::Value::Integer(3)),
+        ("mesh.method".to_string(), toml::Value::String(method.to_string())),
+    ];
     let loaded = sylva::recipe::load(sylva::presets::DEFAULT_PRESET, &sets).unwrap();
     let grown = sylva::pipeline::grow(&loaded).unwrap();
     grown.model.parts.into_iter().find(|p| p.name == "bark").unwrap().mesh
