@@ -7,9 +7,12 @@
 //   osd_refine IN.obj loop|catmark LEVELS OUT.txt    -> "V F U" header, "v x y z" lines, "vt u v" lines
 //   osd_refine IN.obj loop|catmark LEVELS --time N   -> times N runs of create + refine +
 //                                                       interpolate positions and UVs (one thread)
+//   ... [--fvar none|corners-only|corners-plus1|corners-plus2|boundaries|all]
 //
 // Options match sylva's defaults: boundary EDGE_AND_CORNER, uniform creasing, face-varying
-// FVAR_LINEAR_ALL (sylva --uv linear). Build: g++ -O2 -std=c++14 osd_refine.cpp -losdCPU
+// FVAR_LINEAR_ALL (sylva --uv linear). `--fvar` picks Sdc::Options::FVarLinearInterpolation
+// (FVAR_LINEAR_NONE ... FVAR_LINEAR_ALL) for the UV channel; docs/subdivision.md lists the
+// sylva mode that matches each. Build: g++ -O2 -std=c++14 osd_refine.cpp -losdCPU
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 
@@ -43,6 +46,7 @@ struct Obj {
     std::vector<float> creaseWeights, cornerWeights;
     Sdc::Options::VtxBoundaryInterpolation boundary = Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER;
     Sdc::Options::CreasingMethod creasing = Sdc::Options::CREASE_UNIFORM;
+    Sdc::Options::FVarLinearInterpolation fvar = Sdc::Options::FVAR_LINEAR_ALL;
 };
 
 static int fail(std::string const &msg) {
@@ -129,7 +133,7 @@ static bool refine(Obj const &obj, Sdc::SchemeType scheme, int levels, Result &o
     Sdc::Options options;
     options.SetVtxBoundaryInterpolation(obj.boundary);
     options.SetCreasingMethod(obj.creasing);
-    options.SetFVarLinearInterpolation(Sdc::Options::FVAR_LINEAR_ALL);
+    options.SetFVarLinearInterpolation(obj.fvar);
 
     Descriptor desc;
     desc.numVertices = (int)obj.positions.size();
@@ -182,13 +186,43 @@ static bool refine(Obj const &obj, Sdc::SchemeType scheme, int levels, Result &o
     return true;
 }
 
+static bool parseFvar(std::string const &name, Sdc::Options::FVarLinearInterpolation &out) {
+    static const struct { char const *name; Sdc::Options::FVarLinearInterpolation value; } modes[] = {
+        {"none", Sdc::Options::FVAR_LINEAR_NONE},
+        {"corners-only", Sdc::Options::FVAR_LINEAR_CORNERS_ONLY},
+        {"corners-plus1", Sdc::Options::FVAR_LINEAR_CORNERS_PLUS1},
+        {"corners-plus2", Sdc::Options::FVAR_LINEAR_CORNERS_PLUS2},
+        {"boundaries", Sdc::Options::FVAR_LINEAR_BOUNDARIES},
+        {"all", Sdc::Options::FVAR_LINEAR_ALL},
+    };
+    for (auto const &m : modes) {
+        if (name == m.name) { out = m.value; return true; }
+    }
+    return false;
+}
+
 int main(int argc, char **argv) {
+    // Take `--fvar MODE` out of the arguments, wherever it is.
+    Sdc::Options::FVarLinearInterpolation fvar = Sdc::Options::FVAR_LINEAR_ALL;
+    std::vector<char *> args(argv, argv + argc);
+    for (size_t i = 1; i < args.size(); ++i) {
+        if (std::string(args[i]) == "--fvar") {
+            if (i + 1 >= args.size() || !parseFvar(args[i + 1], fvar)) {
+                return fail("--fvar needs none|corners-only|corners-plus1|corners-plus2|boundaries|all");
+            }
+            args.erase(args.begin() + i, args.begin() + i + 2);
+            break;
+        }
+    }
+    argc = (int)args.size();
+    argv = args.data();
     if (argc != 5 && argc != 6) {
-        return fail("usage: osd_refine IN.obj loop|catmark LEVELS (OUT.txt | --time N)");
+        return fail("usage: osd_refine IN.obj loop|catmark LEVELS (OUT.txt | --time N) [--fvar MODE]");
     }
     Obj obj;
     std::string err;
     if (!readObj(argv[1], obj, err)) return fail(err);
+    obj.fvar = fvar;
     std::string s = argv[2];
     if (s != "loop" && s != "catmark") return fail("scheme must be loop or catmark");
     Sdc::SchemeType scheme = s == "loop" ? Sdc::SCHEME_LOOP : Sdc::SCHEME_CATMARK;

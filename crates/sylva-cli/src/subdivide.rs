@@ -28,7 +28,7 @@ pub struct SubdivideArgs {
     /// Move the vertices to the limit surface and write exact limit normals.
     #[arg(long)]
     pub limit: bool,
-    /// UV interpolation: linear everywhere, or smooth inside with linear seams and borders.
+    /// UV interpolation (OpenSubdiv's face-varying rules; docs/subdivision.md lists them).
     #[arg(long, value_enum, default_value_t = UvArg::Linear)]
     pub uv: UvArg,
     /// Semi-sharp crease decay: uniform (OpenSubdiv's default) or Chaikin.
@@ -218,12 +218,26 @@ pub enum SchemeArg {
 /// `--uv`.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum UvArg {
-    /// Linear everywhere (UVs never shrink).
+    /// Linear everywhere (UVs never shrink; OpenSubdiv FVAR_LINEAR_ALL).
+    #[value(alias = "all")]
     Linear,
-    /// Smooth inside each UV chart; seams and borders linear with their corners pinned.
+    /// Smooth inside each UV chart; seams and borders linear with their corners pinned
+    /// (FVAR_LINEAR_BOUNDARIES).
+    #[value(alias = "boundaries")]
     Smooth,
-    /// Smooth inside; seams and borders as smooth curves with chart corners pinned.
+    /// Smooth inside; seams and borders as smooth curves with chart corners and
+    /// junctions of three or more charts pinned (FVAR_LINEAR_CORNERS_PLUS1).
+    #[value(alias = "corners-plus1")]
     SmoothCurves,
+    /// As smooth-curves, also pinning seam ends and two-chart corners
+    /// (FVAR_LINEAR_CORNERS_PLUS2).
+    CornersPlus2,
+    /// Smooth inside; seams and borders as smooth curves, only chart corners pinned
+    /// (FVAR_LINEAR_CORNERS_ONLY).
+    CornersOnly,
+    /// Smooth everywhere; only mesh corners pinned (FVAR_LINEAR_NONE).
+    #[value(alias = "none")]
+    SmoothAll,
 }
 
 /// `--creasing`.
@@ -270,6 +284,9 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
             UvArg::Linear => FvarInterpolation::Linear,
             UvArg::Smooth => FvarInterpolation::Boundaries,
             UvArg::SmoothCurves => FvarInterpolation::CornersPlus,
+            UvArg::CornersPlus2 => FvarInterpolation::CornersPlus2,
+            UvArg::CornersOnly => FvarInterpolation::CornersOnly,
+            UvArg::SmoothAll => FvarInterpolation::Smooth,
         },
     };
     if args.adaptive.is_some() {

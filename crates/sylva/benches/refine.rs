@@ -6,7 +6,13 @@
 //! interpolate positions and UVs.
 //!
 //! Run with `cargo bench -p sylva --bench refine`; `bench/compare-opensubdiv.sh` runs
-//! OpenSubdiv on the same meshes. Reference (spec anchors): OpenSubdiv 3.6 `Far`, one
+//! OpenSubdiv on the same meshes.
+//!
+//! The `adaptive` group (issue 4 item 6; `cargo bench -p sylva --bench refine -- adaptive`)
+//! compares adaptive Loop refinement (seed 001's flatness 0.25 rad, size 2e-5) with uniform
+//! Loop refinement to the same deepest level on a tree control mesh — the bark of
+//! `lsys-honda-a` (40,944 triangles, with UVs) — one thread, positions + UVs and the output
+//! mesh in both cases. Reference (spec anchors): OpenSubdiv 3.6 `Far`, one
 //! thread, ~6.5–7 M faces/s Catmull–Clark, ~5–12 M faces/s Loop.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -101,5 +107,38 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The bark of `lsys-honda-a` (the tube mesher's triangles and UVs), as grown by the preset.
+fn honda_bark() -> Mesh {
+    let loaded = sylva::recipe::load("lsys-honda-a", &[]).expect("preset");
+    let grown = sylva::pipeline::grow(&loaded).expect("grows");
+    let mut m = grown.model.parts.into_iter().find(|p| p.name == "bark").expect("bark part").mesh;
+    m.normals = None;
+    m
+}
+
+fn bench_adaptive(c: &mut Criterion) {
+    use sylva::refine::adaptive::{adaptive_loop, AdaptiveOptions};
+    use sylva::refine::{subdivide, SubdivideOptions};
+    let bark = honda_bark();
+    let mut g = c.benchmark_group("adaptive");
+    g.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(4));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("thread pool");
+    for levels in [2u32, 3] {
+        let uniform = SubdivideOptions {
+            refine: RefineOptions { scheme: Scheme::Loop, levels, ..Default::default() },
+            ..Default::default()
+        };
+        let adaptive =
+            AdaptiveOptions { max_levels: levels, flatness: 0.25, min_area: 2e-5, ..Default::default() };
+        g.bench_function(BenchmarkId::new("honda-bark/uniform", format!("level{levels}")), |b| {
+            b.iter(|| pool.install(|| black_box(subdivide(&bark, &[], &uniform).expect("refines"))))
+        });
+        g.bench_function(BenchmarkId::new("honda-bark/adaptive", format!("level{levels}")), |b| {
+            b.iter(|| pool.install(|| black_box(adaptive_loop(&bark, &[], &adaptive).expect("refines"))))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_adaptive);
 criterion_main!(benches);

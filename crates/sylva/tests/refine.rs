@@ -683,7 +683,7 @@ fn cylinder_with_seam(around: u32, along: u32) -> Mesh {
 #[test]
 fn uv_seams_stay_exact_in_every_mode() {
     let m = cylinder_with_seam(6, 3);
-    for uv in [FvarInterpolation::Linear, FvarInterpolation::Boundaries, FvarInterpolation::CornersPlus] {
+    for uv in FvarInterpolation::ALL {
         for scheme in [Scheme::CatmullClark] {
             let o = SubdivideOptions { refine: opts(scheme, 3), uv, ..Default::default() };
             let r = subdivide(&m, &[], &o).unwrap();
@@ -907,17 +907,33 @@ fn diagonal(p: &[[f32; 3]]) -> f32 {
 /// Refines `m` with both engines at levels 1–3 and compares positions (and linear UVs)
 /// as point sets: counts equal, every point within 1e-5 of the bounding-box diagonal.
 fn agree(osd: &std::path::Path, name: &str, m: &Mesh, corners: &[Corner], scheme: Scheme, chaikin: bool) {
+    agree_uv(osd, name, m, corners, scheme, chaikin, FvarInterpolation::Linear);
+}
+
+/// [`agree`] with the UVs interpolated by `uv` in sylva and by the matching
+/// `FVarLinearInterpolation` rule in OpenSubdiv.
+fn agree_uv(
+    osd: &std::path::Path,
+    name: &str,
+    m: &Mesh,
+    corners: &[Corner],
+    scheme: Scheme,
+    chaikin: bool,
+    uv: FvarInterpolation,
+) {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
     let obj = dir.join(format!("osd-{name}.obj"));
     write_osd_obj(m, corners, chaikin, &obj);
+    let name = &format!("{name} --uv {uv:?}");
     for levels in 1..=3 {
-        let out = dir.join(format!("osd-{name}-{levels}.txt"));
+        let out = dir.join(format!("osd-{name}-{levels}.txt").replace([' ', ':'], "_"));
         let scheme_arg = if scheme == Scheme::Loop { "loop" } else { "catmark" };
         let status = std::process::Command::new(osd)
             .arg(&obj)
             .arg(scheme_arg)
             .arg(levels.to_string())
             .arg(&out)
+            .args(["--fvar", uv.opensubdiv_name()])
             .status()
             .unwrap();
         assert!(status.success(), "{name}: osd_refine failed");
@@ -940,6 +956,7 @@ fn agree(osd: &std::path::Path, name: &str, m: &Mesh, corners: &[Corner], scheme
                 creasing: if chaikin { sylva::refine::CreasingMethod::Chaikin } else { Default::default() },
                 ..Default::default()
             },
+            uv,
             ..Default::default()
         };
         let r = subdivide(m, corners, &o).unwrap();
@@ -967,6 +984,81 @@ fn agree(osd: &std::path::Path, name: &str, m: &Mesh, corners: &[Corner], scheme
             );
         }
     }
+}
+
+/// `m` with each polygon fanned into triangles from its first corner, keeping UVs and
+/// creases.
+fn triangulate_uv(m: &Mesh) -> Mesh {
+    let mut t = triangulate(m);
+    t.creases = m.creases.clone();
+    if let Some(uv) = &m.uvs {
+        let mut idx = Vec::new();
+        for f in 0..m.face_count() {
+            let r: Vec<u32> = m.corners(f).map(|c| uv.indices[c]).collect();
+            for k in 1..r.len() - 1 {
+                idx.extend_from_slice(&[r[0], r[k], r[k + 1]]);
+            }
+        }
+        t.uvs = Some(FaceVarying { values: uv.values.clone(), indices: idx });
+    }
+    t
+}
+
+/// Gives `m` UVs with a seam wherever `chart_of` differs across an edge: the corners of a
+/// vertex share a value when their faces are in the same chart. Values are an arbitrary
+/// per-chart projection, so the charts do not overlap in UV space.
+fn with_charts(mut m: Mesh, chart_of: impl Fn(usize) -> u32) -> Mesh {
+    let mut key_to_value = std::collections::HashMap::new();
+    let (mut values, mut indices) = (Vec::new(), Vec::new());
+    for f in 0..m.face_count() {
+        let chart = chart_of(f);
+        for c in m.corners(f) {
+            let v = m.face_indices[c];
+            let p = m.positions[v as usize];
+            let value = *key_to_value.entry((chart, v)).or_insert_with(|| {
+                values.push(Vec2::new(4.0 * chart as f32 + p.x + 0.3 * p.z, p.y - 0.2 * p.z));
+                values.len() as u32 - 1
+            });
+            indices.push(value);
+        }
+    }
+    m.uvs = Some(FaceVarying { values, indices });
+    m
+}
+
+/// A 6×5 quad grid cut by two UV seams along x = 2: one across the whole grid (two
+/// charts), and one along x = 4 from the border to the middle, ending inside the mesh (a
+/// "dart": the seam's last vertex has a single value).
+fn grid_with_seams() -> Mesh {
+    let bumpy =
+        |i: u32, j: u32| Vec3::new(i as f32 + 0.2 * noise(i + 11 * j), j as f32, 0.4 * noise(7 * i + j + 1));
+    let mut m = grid_quads(6, 5, bumpy);
+    let (mut values, mut indices) = (Vec::new(), Vec::new());
+    let mut key_to_value = std::collections::HashMap::new();
+    for f in 0..m.face_count() {
+        let (fi, fj) = (f as u32 % 6, f as u32 / 6);
+        for c in m.corners(f) {
+            let v = m.face_indices[c];
+            let (i, j) = (v % 7, v / 7);
+            // Which side of a seam this corner is on (0 where the vertex is not split).
+            let side = if i == 2 {
+                u32::from(fi >= 2)
+            } else if i == 4 && j < 3 {
+                u32::from(fi >= 4) + 2
+            } else {
+                0
+            };
+            let p = m.positions[v as usize];
+            let value = *key_to_value.entry((side, v)).or_insert_with(|| {
+                let shift = if side % 2 == 1 { 0.5 } else { 0.0 };
+                values.push(Vec2::new(p.x + shift + 0.1 * fj as f32, p.y - 0.1 * p.z));
+                values.len() as u32 - 1
+            });
+            indices.push(value);
+        }
+    }
+    m.uvs = Some(FaceVarying { values, indices });
+    m
 }
 
 fn triangulate(m: &Mesh) -> Mesh {
@@ -1054,11 +1146,63 @@ fn agrees_with_opensubdiv() {
     bark.normals = None;
     agree(&osd, "tree-tube-loop", &bark, &[], Scheme::Loop, false);
     agree(&osd, "tree-tube-cc", &bark, &[], Scheme::CatmullClark, false);
+    // ... and from every other mesher: hull and sweep (triangles, the sweep's caps
+    // creased) with both schemes, quad (an all-quad cage) with Catmull–Clark.
+    for method in ["hull", "sweep", "quad"] {
+        let mut m = tree_mesh(method);
+        m.normals = None;
+        if method != "quad" {
+            agree(&osd, &format!("tree-{method}-loop"), &m, &[], Scheme::Loop, false);
+        }
+        agree(&osd, &format!("tree-{method}-cc"), &m, &[], Scheme::CatmullClark, false);
+    }
+}
+
+/// Every face-varying mode against the OpenSubdiv rule it claims to match
+/// ([`FvarInterpolation::opensubdiv_name`]), Loop and Catmull–Clark, levels 1–3, on meshes
+/// with UV seams, darts, three-chart junctions, chart corners, borders and a crease
+/// crossing a seam.
+#[test]
+fn uv_modes_agree_with_opensubdiv() {
+    let Some(osd) = osd_refine() else { return };
+    // Cube: top+front+right in one chart, back+left in another, bottom alone: seams meet
+    // in three-chart junctions and two-chart vertices, some chart corners have one face.
+    let cube_uv = with_charts(cube(), |f| [0, 1, 0, 1, 1, 2][f]);
+    let mut creased_grid = grid_with_seams();
+    for i in 0..6 {
+        // An infinitely sharp crease along y = 2 crossing both seams.
+        creased_grid.creases.push(Crease { a: 2 * 7 + i, b: 2 * 7 + i + 1, sharpness: f32::INFINITY });
+    }
+    let mut bark = tree_bark();
+    bark.normals = None;
+    let meshes = [
+        ("uv-cylinder", cylinder_with_seam(6, 3)),
+        ("uv-cube", cube_uv),
+        ("uv-grid-seams", grid_with_seams()),
+        ("uv-grid-crease", creased_grid),
+        ("uv-tree-tube", bark),
+    ];
+    for (name, m) in &meshes {
+        let tris = triangulate_uv(m);
+        for uv in FvarInterpolation::ALL {
+            agree_uv(&osd, &format!("{name}-cc"), m, &[], Scheme::CatmullClark, false, uv);
+            agree_uv(&osd, &format!("{name}-loop"), &tris, &[], Scheme::Loop, false, uv);
+        }
+    }
 }
 
 /// The bark of the default preset, a few derivation steps deep (the tube mesher's output).
 fn tree_bark() -> Mesh {
-    let sets = [("generator.iterations".to_string(), toml::Value::Integer(3))];
+    tree_mesh("tube")
+}
+
+/// The bark of the default preset, a few derivation steps deep, from mesher `method`
+/// (`tube`, `hull`, `sweep` or `quad`), with its creases.
+fn tree_mesh(method: &str) -> Mesh {
+    let sets = [
+        ("generator.iterations".to_string(), toml::Value::Integer(3)),
+        ("mesh.method".to_string(), toml::Value::String(method.to_string())),
+    ];
     let loaded = sylva::recipe::load(sylva::presets::DEFAULT_PRESET, &sets).unwrap();
     let grown = sylva::pipeline::grow(&loaded).unwrap();
     grown.model.parts.into_iter().find(|p| p.name == "bark").unwrap().mesh

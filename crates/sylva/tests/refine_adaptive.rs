@@ -109,18 +109,45 @@ fn euler(t: &Topology) -> i64 {
     t.vertex_count() as i64 - t.edge_count() as i64 + t.face_count() as i64
 }
 
-/// Conforming: manifold and consistently oriented, same Euler characteristic and the same
-/// number of boundary loops as the input (a T-junction or crack opens an extra hole).
-fn assert_conforming(input: &Mesh, out: &Mesh) {
-    let (t0, t) = (topology(input), topology(out));
-    assert_eq!(euler(&t), euler(&t0), "Euler characteristic");
-    assert_eq!(boundary_loops(&t), boundary_loops(&t0), "boundary loops (a crack adds one)");
-    if boundary_edges(&t0) == 0 {
-        assert_eq!(boundary_edges(&t), 0, "closed input gives closed output: every edge has two faces");
+/// Why `out` is not a crack-free refinement of `input` (empty when it is): it must be
+/// manifold and consistently oriented, with the same Euler characteristic and the same
+/// number of boundary loops as the input (a T-junction or crack opens an extra hole), and
+/// closed when the input is closed (every edge has the same two vertices on both sides).
+fn conforming_problems(input: &Mesh, out: &Mesh) -> Vec<String> {
+    let t0 = topology(input);
+    let t = match Topology::from_faces(out.vertex_count(), &out.face_offsets, &out.face_indices) {
+        Ok(t) => t,
+        Err(e) => return vec![format!("not manifold and oriented: {e}")],
+    };
+    let mut problems = Vec::new();
+    if euler(&t) != euler(&t0) {
+        problems.push(format!("Euler characteristic {} ≠ {}", euler(&t), euler(&t0)));
+    }
+    if boundary_loops(&t) != boundary_loops(&t0) {
+        problems.push(format!(
+            "{} boundary loops ≠ {} (a crack adds one)",
+            boundary_loops(&t),
+            boundary_loops(&t0)
+        ));
+    }
+    if boundary_edges(&t0) == 0 && boundary_edges(&t) != 0 {
+        problems.push(format!("closed input, but {} edges have one face", boundary_edges(&t)));
     }
     // No vertex is unused (every vertex belongs to a face).
     let used: HashSet<u32> = out.face_indices.iter().copied().collect();
-    assert_eq!(used.len(), out.vertex_count());
+    if used.len() != out.vertex_count() {
+        problems.push(format!(
+            "{} of {} vertices unused",
+            out.vertex_count() - used.len(),
+            out.vertex_count()
+        ));
+    }
+    problems
+}
+
+fn assert_conforming(input: &Mesh, out: &Mesh) {
+    let problems = conforming_problems(input, out);
+    assert!(problems.is_empty(), "not crack-free: {problems:?}");
 }
 
 fn loop_uniform(m: &Mesh, levels: u32, limit: bool) -> Mesh {
@@ -244,6 +271,40 @@ fn closed_mesh_stays_closed_without_t_junctions() {
             assert!(lo < hi, "a stretched octahedron refines unevenly: levels {lo}..{hi}");
         }
     }
+}
+
+/// The crack check used by every adaptive test catches a T-junction: a square of two
+/// triangles where one triangle is split at the midpoint of the shared diagonal and the
+/// other is not (so the diagonal has a vertex on one side only), on a closed mesh too.
+#[test]
+fn crack_check_detects_a_t_junction() {
+    let square =
+        mesh_from(vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y], &[[0, 1, 2], [0, 2, 3]]);
+    let mut cracked = square.clone();
+    cracked.positions.push(Vec3::new(0.5, 0.5, 0.0));
+    cracked.face_offsets.clear();
+    cracked.face_indices.clear();
+    for f in [[0, 1, 2], [0, 4, 3], [4, 2, 3]] {
+        cracked.push_face(&f);
+    }
+    assert!(conforming_problems(&square, &square).is_empty());
+    // The hole along the diagonal leaves vertex 0 with two separate fans of faces.
+    assert!(!conforming_problems(&square, &cracked).is_empty());
+    // On a closed mesh: the octahedron with one face split green on one side only.
+    let o = octahedron();
+    let mut t = o.clone();
+    let [a, b, c] = [o.face(0)[0], o.face(0)[1], o.face(0)[2]];
+    let m = t.positions.len() as u32;
+    t.positions.push((o.positions[a as usize] + o.positions[b as usize]) * 0.5);
+    t.face_offsets.clear();
+    t.face_indices.clear();
+    t.push_face(&[a, m, c]);
+    t.push_face(&[m, b, c]);
+    for f in 1..o.face_count() {
+        t.push_face(o.face(f));
+    }
+    let problems = conforming_problems(&o, &t);
+    assert!(problems.iter().any(|p| p.contains("edges have one face")), "{problems:?}");
 }
 
 #[test]

@@ -141,7 +141,37 @@ pub fn adaptive_loop_levels(
         refiner.interpolate_level(l, &pos[l], &mut next);
         pos.push(next);
     }
-    let h = Hierarchy { refiner: &refiner, pos: &pos, options };
+    // Per level below the finest: face normals (area-weighted) and which edges are sharp,
+    // computed once instead of on every query.
+    let normals: Vec<Vec<Vec3>> = (0..n)
+        .map(|l| {
+            let t = &refiner.levels[l].topo;
+            let p = &pos[l];
+            t.face_verts
+                .chunks_exact(3)
+                .map(|v| {
+                    let (a, b, c) = (p[v[0] as usize], p[v[1] as usize], p[v[2] as usize]);
+                    (b - a).cross(c - a)
+                })
+                .collect()
+        })
+        .collect();
+    let sharp: Vec<Vec<bool>> = (0..n)
+        .map(|l| {
+            let feat = &refiner.levels[l].features;
+            let mut s = vec![false; refiner.levels[l].topo.edge_count()];
+            for &e in &feat.boundary {
+                s[e as usize] = true;
+            }
+            for &(e, x) in &feat.creases {
+                s[e as usize] |= x > 0.0;
+            }
+            s
+        })
+        .collect();
+    // angle(a, b) > flatness  ⇔  a·b < cos(flatness)·|a||b| for flatness in [0, π).
+    let cos_flatness = if options.flatness < std::f32::consts::PI { options.flatness.cos() } else { -2.0 };
+    let h = Hierarchy { refiner: &refiner, pos: &pos, options, normals, sharp, cos_flatness };
     let refined = h.select();
     Ok(h.emit(mesh, &refined))
 }
@@ -151,6 +181,12 @@ struct Hierarchy<'a> {
     refiner: &'a Refiner,
     pos: &'a [Vec<Vec3>],
     options: &'a AdaptiveOptions,
+    /// Unnormalized face normals of each level below the finest.
+    normals: Vec<Vec<Vec3>>,
+    /// Whether each edge of each level below the finest is sharp (crease or boundary).
+    sharp: Vec<Vec<bool>>,
+    /// cos of the flatness tolerance (−2 when no angle exceeds it).
+    cos_flatness: f32,
 }
 
 /// 0 unknown, 1 no, 2 yes.
@@ -174,14 +210,6 @@ impl Hierarchy<'_> {
         (other != NONE).then_some(other as usize / 3)
     }
 
-    fn face_normal(&self, l: usize, f: usize) -> Vec3 {
-        let t = self.topo(l);
-        let p = &self.pos[l];
-        let v = &t.face_verts[3 * f..3 * f + 3];
-        let (a, b, c) = (p[v[0] as usize], p[v[1] as usize], p[v[2] as usize]);
-        (b - a).cross(c - a)
-    }
-
     /// The turn (radians) at `v` between sharp edge `e` and the one other sharp edge at
     /// `v`; 0 when `v` has no single continuation (an end, a dart or a corner).
     fn sharp_turn(&self, l: usize, e: u32, v: u32) -> f32 {
@@ -198,7 +226,7 @@ impl Hierarchy<'_> {
         let mut other = None;
         for &c in t.vertex_corners(v as usize) {
             for x in [t.face_edges[c as usize], t.face_edges[t.prev(c) as usize]] {
-                if x != e && feat.edge_sharpness(x) > 0.0 && other != Some(x) {
+                if x != e && self.sharp[l][x as usize] && other != Some(x) {
                     if other.is_some() {
                         return 0.0; // three or more sharp edges: a corner
                     }
@@ -221,24 +249,30 @@ impl Hierarchy<'_> {
         if self.options.flatness == f32::INFINITY {
             return false;
         }
-        let nf = self.face_normal(l, f);
-        if 0.5 * nf.length() <= self.options.min_area {
+        let nf = self.normals[l][f];
+        let len_f = nf.length();
+        if 0.5 * len_f <= self.options.min_area {
             return false;
         }
         let t = self.topo(l);
-        let feat = &self.refiner.levels[l].features;
         for j in 0..3 {
             let e = t.face_edges[3 * f + j];
-            let bend = if feat.edge_sharpness(e) > 0.0 {
+            let bends = if self.sharp[l][e as usize] {
                 let [a, b] = t.edge_verts[e as usize];
-                self.sharp_turn(l, e, a).max(self.sharp_turn(l, e, b))
+                self.sharp_turn(l, e, a).max(self.sharp_turn(l, e, b)) > self.options.flatness
             } else {
                 match self.neighbour(l, f, j) {
-                    Some(g) => angle(nf, self.face_normal(l, g)),
-                    None => 0.0,
+                    Some(g) => {
+                        // The angle between the normals exceeds the tolerance (degenerate
+                        // normals never bend).
+                        let ng = self.normals[l][g];
+                        let d = len_f * ng.length();
+                        d > 0.0 && d.is_finite() && nf.dot(ng) < self.cos_flatness * d
+                    }
+                    None => false,
                 }
             };
-            if bend > self.options.flatness {
+            if bends {
                 return true;
             }
         }
@@ -372,7 +406,10 @@ impl Hierarchy<'_> {
         if let Some(uv) = &mesh.uvs {
             let mut values: Vec<Vec2> = Vec::new();
             let mut indices = Vec::with_capacity(3 * tris.len());
-            let mut seen: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
+            // A vertex has one UV value except on seams: remember the first value of each
+            // output vertex and hash only the others.
+            let mut first = vec![u32::MAX; out.positions.len()];
+            let mut others: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
             for (vs, ws, root, _) in &tris {
                 let r = 3 * *root as usize;
                 let c = [
@@ -383,11 +420,21 @@ impl Hierarchy<'_> {
                 for k in 0..3 {
                     let w = ws[k];
                     let value = c[0] * w[0] + c[1] * w[1] + c[2] * w[2];
-                    let key = (index[vs[k] as usize], [value.x.to_bits(), value.y.to_bits()]);
-                    let i = *seen.entry(key).or_insert_with(|| {
+                    let vi = index[vs[k] as usize];
+                    let bits = [value.x.to_bits(), value.y.to_bits()];
+                    let f = first[vi as usize];
+                    let i = if f == u32::MAX {
                         values.push(value);
+                        first[vi as usize] = values.len() as u32 - 1;
                         values.len() as u32 - 1
-                    });
+                    } else if [values[f as usize].x.to_bits(), values[f as usize].y.to_bits()] == bits {
+                        f
+                    } else {
+                        *others.entry((vi, bits)).or_insert_with(|| {
+                            values.push(value);
+                            values.len() as u32 - 1
+                        })
+                    };
                     indices.push(i);
                 }
             }

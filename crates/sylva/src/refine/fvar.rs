@@ -8,11 +8,12 @@
 //! triples — corners around a mesh vertex are merged across an edge only when both faces
 //! agree on the values at both ends — so a UV seam is a boundary of that topology. The
 //! channel is then refined by the same scheme with
-//! [`FvarInterpolation`](super::FvarInterpolation) deciding how boundaries behave:
-//! everything linear, linear boundaries with pinned control vertices, or B-spline
-//! boundaries with pinned chart corners. Interior edges inherit the mesh's crease
-//! sharpness. Both sides of a seam are computed from the same values by the same rule, so
-//! seams stay exact.
+//! [`FvarInterpolation`](super::FvarInterpolation) deciding how boundaries behave —
+//! OpenSubdiv's six `FVarLinearInterpolation` rules: everything linear, linear boundaries
+//! with pinned control vertices, or B-spline boundaries with more or fewer pinned chart
+//! corners (the pinning rules are those of OpenSubdiv's `Vtr::FVarLevel`). Interior edges
+//! inherit the mesh's crease sharpness. Both sides of a seam are computed from the same
+//! values by the same rule, so seams stay exact.
 
 use super::crease::{self, Features, Rules, INFINITE};
 use super::topology::{Detail, Topology, NONE};
@@ -102,12 +103,20 @@ impl FaceVaryingRefiner {
             .collect();
         let top = Topology::from_faces(value_of.len(), &offsets, &ids)?;
         let linear = interpolation == FvarInterpolation::Linear;
+        let opts = refiner.options();
         let features = if linear {
             Features::default()
         } else {
-            initial_features(mesh, mesh_features, &top, &mesh_vertex, interpolation)
+            initial_features(mesh, mesh_features, &top, &mesh_vertex, interpolation, opts.boundary)
         };
-        let opts = refiner.options();
+        // Chart corners (a boundary vertex with one face in its chart) are pinned at every
+        // level in every mode but `Smooth`, whatever the mesh's own boundary rule; in
+        // `Smooth` only the mesh's corners are, and `initial_features` pins those.
+        let fvar_boundary = if interpolation == FvarInterpolation::Smooth {
+            BoundaryInterpolation::EdgeOnly
+        } else {
+            BoundaryInterpolation::EdgeAndCorner
+        };
         let mut levels = vec![top];
         let mut rules = Vec::new();
         let mut feats = features;
@@ -120,8 +129,7 @@ impl FaceVaryingRefiner {
                 (false, false) => Detail::Full,
             };
             if !linear {
-                let (r, child) =
-                    crease::refine_features(p, &feats, opts.creasing, BoundaryInterpolation::EdgeAndCorner);
+                let (r, child) = crease::refine_features(p, &feats, opts.creasing, fvar_boundary);
                 rules.push(r);
                 feats = child;
             }
@@ -194,16 +202,23 @@ impl FaceVaryingRefiner {
 }
 
 /// Sharp features of the control level of a smooth face-varying channel: the mesh's
-/// creases and corners, plus pinned vertices on the channel's boundaries.
+/// creases and corners, plus the chart-boundary vertices that `interpolation` pins
+/// (OpenSubdiv `Vtr::FVarLevel::completeTopologyFromFaceValues`; "values" there are our
+/// face-varying vertices, "siblings" the values of one mesh vertex).
 fn initial_features(
     mesh: &Topology,
     mesh_features: &Features,
     top: &Topology,
     mesh_vertex: &[u32],
     interpolation: FvarInterpolation,
+    mesh_boundary_rule: BoundaryInterpolation,
 ) -> Features {
     let boundary = top.boundary_edges();
     let mut creases = Vec::new();
+    // A chart with an infinitely sharp crease running into its vertex is "disjoint" in
+    // OpenSubdiv's terms: it is a corner there, and with CORNERS_PLUS1/2 so are the other
+    // values of a two-chart vertex.
+    let mut disjoint = vec![false; top.vertex_count()];
     for fe in 0..top.edge_count() {
         let [c0, c1] = top.edge_corners[fe];
         if c1 == NONE {
@@ -213,6 +228,11 @@ fn initial_features(
         if s > 0.0 {
             creases.push((fe as u32, s));
         }
+        if s >= INFINITE {
+            for v in top.edge_verts[fe] {
+                disjoint[v as usize] = true;
+            }
+        }
     }
     let mut on_boundary = vec![false; top.vertex_count()];
     for &e in &boundary {
@@ -220,9 +240,21 @@ fn initial_features(
             on_boundary[v as usize] = true;
         }
     }
+    let mut mesh_on_boundary = vec![false; mesh.vertex_count()];
+    for e in mesh.boundary_edges() {
+        for v in mesh.edge_verts[e as usize] {
+            mesh_on_boundary[v as usize] = true;
+        }
+    }
+    // Per mesh vertex: number of values, and whether any of its values is disjoint or a
+    // chart corner (one face).
     let mut siblings = vec![0u32; mesh.vertex_count()];
-    for &v in mesh_vertex {
+    let mut any_disjoint = vec![false; mesh.vertex_count()];
+    let mut any_chart_corner = vec![false; mesh.vertex_count()];
+    for (fv, &v) in mesh_vertex.iter().enumerate() {
         siblings[v as usize] += 1;
+        any_disjoint[v as usize] |= disjoint[fv];
+        any_chart_corner[v as usize] |= on_boundary[fv] && top.vertex_corners(fv).len() == 1;
     }
     let mut corners = Vec::new();
     for (fv, &v) in mesh_vertex.iter().enumerate() {
@@ -230,11 +262,26 @@ fn initial_features(
             Ok(i) => mesh_features.corners[i].1,
             Err(_) => 0.0,
         };
+        let vi = v as usize;
+        let two_charts_sharp = siblings[vi] == 2 && any_disjoint[vi];
+        let dart = siblings[vi] == 1 && !mesh_on_boundary[vi];
         let pinned = on_boundary[fv]
             && match interpolation {
-                FvarInterpolation::Boundaries => true,
-                FvarInterpolation::CornersPlus => siblings[v as usize] >= 3,
-                FvarInterpolation::Linear => true,
+                FvarInterpolation::Linear | FvarInterpolation::Boundaries => true,
+                FvarInterpolation::CornersPlus => siblings[vi] >= 3 || two_charts_sharp,
+                FvarInterpolation::CornersPlus2 => {
+                    siblings[vi] >= 3
+                        || two_charts_sharp
+                        || dart
+                        || (siblings[vi] == 2 && any_chart_corner[vi])
+                }
+                FvarInterpolation::CornersOnly => false,
+                // The mesh's own corners keep the mesh's (corner) rule.
+                FvarInterpolation::Smooth => {
+                    mesh_boundary_rule == BoundaryInterpolation::EdgeAndCorner
+                        && mesh_on_boundary[vi]
+                        && mesh.vertex_corners(vi).len() == 1
+                }
             };
         let s = if pinned { INFINITE } else { inherited };
         if s > 0.0 {

@@ -200,21 +200,70 @@ pub enum CreasingMethod {
     Chaikin,
 }
 
-/// How face-varying values (UVs) are interpolated.
+/// How face-varying values (UVs) are interpolated: OpenSubdiv's six
+/// `Sdc::Options::FVarLinearInterpolation` rules, each refined exactly as OpenSubdiv 3
+/// refines it (checked against OpenSubdiv `Far` by `uv_modes_agree_with_opensubdiv` in
+/// `tests/refine.rs`).
+///
+/// Inside a UV chart every mode except [`Linear`](FvarInterpolation::Linear) applies the
+/// scheme's masks, the mesh's creases included; the modes differ only on chart boundaries
+/// (UV seams and mesh borders), whose edges always take the midpoint of their two values.
+/// A boundary vertex is either *pinned* (keeps its value) or follows the cubic B-spline
+/// curve rule `¾ v + ⅛ (a + b)` along its chart's boundary. Tagged corners and, with
+/// [`BoundaryInterpolation::EdgeAndCorner`], mesh corners (a border vertex with one face)
+/// are pinned in every mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FvarInterpolation {
     /// Linear everywhere: face centroids and edge midpoints of the UV polygons (seed 000
     /// §2.9; OpenSubdiv `FVAR_LINEAR_ALL`). UVs never shrink, seams are exact.
     #[default]
     Linear,
-    /// Smooth (the scheme's masks) inside each UV chart; seams and boundaries stay the
-    /// linear UV polyline with their control vertices pinned (OpenSubdiv
-    /// `FVAR_LINEAR_BOUNDARIES`). Removes the UV shrinkage seed 001 §6.3 reports.
+    /// Smooth inside each UV chart; every chart-boundary vertex is pinned, so seams and
+    /// borders stay the linear UV polyline (OpenSubdiv `FVAR_LINEAR_BOUNDARIES`). Removes
+    /// the UV shrinkage seed 001 §6.3 reports.
     Boundaries,
-    /// Smooth inside; seams and boundaries refine as cubic B-spline curves with corners
-    /// (single-face chart corners and junctions of three or more charts) pinned — like
-    /// OpenSubdiv's `FVAR_LINEAR_CORNERS_PLUS1`.
+    /// Smooth inside; chart boundaries are B-spline curves. Pinned: chart corners (a
+    /// boundary vertex with one face in its chart) and every value of a vertex where three
+    /// or more charts meet, or where two meet and one of them has an infinitely sharp
+    /// crease running into the vertex (OpenSubdiv `FVAR_LINEAR_CORNERS_PLUS1`).
     CornersPlus,
+    /// As [`CornersPlus`](FvarInterpolation::CornersPlus), and also the end of a seam inside
+    /// the mesh (a "dart") and both values of a two-chart vertex where either chart has a
+    /// corner (OpenSubdiv `FVAR_LINEAR_CORNERS_PLUS2`).
+    CornersPlus2,
+    /// Smooth inside; chart boundaries are B-spline curves and only chart corners (a
+    /// boundary vertex with one face in its chart) are pinned (OpenSubdiv
+    /// `FVAR_LINEAR_CORNERS_ONLY`).
+    CornersOnly,
+    /// Smooth everywhere: chart boundaries are B-spline curves and no chart corner is
+    /// pinned; only mesh corners and tagged corners stay put (OpenSubdiv
+    /// `FVAR_LINEAR_NONE`). UVs shrink at chart corners (seed 001 §6.3).
+    Smooth,
+}
+
+impl FvarInterpolation {
+    /// Every mode, from the most linear to the smoothest.
+    pub const ALL: [FvarInterpolation; 6] = [
+        FvarInterpolation::Linear,
+        FvarInterpolation::Boundaries,
+        FvarInterpolation::CornersPlus2,
+        FvarInterpolation::CornersPlus,
+        FvarInterpolation::CornersOnly,
+        FvarInterpolation::Smooth,
+    ];
+
+    /// The name of OpenSubdiv's matching `FVarLinearInterpolation` rule, as
+    /// `bench/opensubdiv/osd_refine.cpp --fvar` takes it.
+    pub fn opensubdiv_name(self) -> &'static str {
+        match self {
+            FvarInterpolation::Linear => "all",
+            FvarInterpolation::Boundaries => "boundaries",
+            FvarInterpolation::CornersPlus => "corners-plus1",
+            FvarInterpolation::CornersPlus2 => "corners-plus2",
+            FvarInterpolation::CornersOnly => "corners-only",
+            FvarInterpolation::Smooth => "none",
+        }
+    }
 }
 
 /// Options of a [`Refiner`].
