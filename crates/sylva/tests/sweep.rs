@@ -380,6 +380,27 @@ fn non_coplanar_whorls_get_a_general_junction() {
     assert_eq!(key(&a.mesh), key(&b.mesh));
 }
 
+#[test]
+fn a_failing_coplanar_template_becomes_a_general_junction() {
+    // lsys-ternary-tree's junction: three children 19° off the trunk, 120° apart. All
+    // axes lie within 20° of one plane, so the coplanar template is tried; it
+    // self-intersects, and the repair round turns the junction into a general one.
+    let sk = whorl(&[(19.0, 0.0, 0.1), (19.0, 120.0, 0.1), (19.0, 240.0, 0.1)], 0.1, 1.0);
+    let s = sweep(&sk, true);
+    let r = assert_valid("narrow ternary", &s, 1, true);
+    assert_eq!(r.intersection_count, Some(0));
+    assert_eq!((s.junctions.clone(), s.general.clone(), s.fallbacks.clone()), (vec![1], vec![1], vec![]));
+    assert!(level2(&s.mesh).is_valid());
+    // Without the general junction (or without repair rounds) it is the template's or
+    // a fallback's: the fallback is reported, the template's intersections are visible.
+    let off = sweep_mesh(&sk, &SweepOptions { caps: true, general_junctions: false, ..Default::default() })
+        .unwrap();
+    assert!(off.fallbacks.contains(&1) && off.general.is_empty());
+    let raw = sweep_mesh(&sk, &SweepOptions { caps: true, repair_rounds: 0, ..Default::default() }).unwrap();
+    assert!(raw.general.is_empty());
+    assert!(report(&raw.mesh).intersection_count.unwrap_or(0) > 0);
+}
+
 /// Property test: random non-coplanar whorls (2–8 children, 15°–120° from the trunk,
 /// radius ratios 0.1–1, lengths 1–20 radii) always give a 2-manifold, intersect only
 /// where a fallback is reported, and, when siblings are at least 20° apart and no offset

@@ -467,37 +467,52 @@ impl Plan {
     fn general_joints(&mut self, opts: &SweepOptions) {
         let n = self.live.len();
         self.general_faces = vec![Vec::new(); n];
-        let eps = 1.0 - opts.aligned_deg.to_radians().cos();
         for j in 0..n {
-            if !(self.live[j] && self.general[j]) || self.forced[j] {
-                continue;
+            if self.live[j] && self.general[j] && !self.forced[j] && !self.make_general(j, opts) {
+                self.forced[j] = true;
             }
-            let h = self.h_in[j];
-            let u = perpendicular(self.normal[j], h);
-            let r = self.rad[j];
-            let mut loops = vec![CapLoop {
-                axis: -h,
-                radius: r,
-                offset: if self.par[j] != NONE { self.off_end[j] } else { 0.0 },
-                u,
-                w: h.cross(u),
-                at_end: true,
-            }];
-            for &c in &self.sorted[j] {
-                let c = c as usize;
-                let d = self.dir[c];
-                let uc = perpendicular(self.kid_u[c], d);
-                let (radius, offset) = if self.collar[c] > 0.0 {
-                    (self.collar[c], self.off_collar[c])
-                } else {
-                    (r.min(self.rad[c]), self.off_start[c])
-                };
-                loops.push(CapLoop { axis: d, radius, offset, u: uc, w: d.cross(uc), at_end: false });
+        }
+    }
+
+    /// Turns junction `j` into a general junction: children's ring frames transported
+    /// from the trunk's, hull faces computed. False (and `j` unchanged) when the hull
+    /// fails its checks.
+    fn make_general(&mut self, j: usize, opts: &SweepOptions) -> bool {
+        let eps = 1.0 - opts.aligned_deg.to_radians().cos();
+        let h = self.h_in[j];
+        let u = perpendicular(self.normal[j], h);
+        let r = self.rad[j];
+        let mut loops = vec![CapLoop {
+            axis: -h,
+            radius: r,
+            offset: if self.par[j] != NONE { self.off_end[j] } else { 0.0 },
+            u,
+            w: h.cross(u),
+            at_end: true,
+        }];
+        let mut frames = Vec::with_capacity(self.sorted[j].len());
+        for &c in &self.sorted[j] {
+            let c = c as usize;
+            let d = self.dir[c];
+            let uc = perpendicular(DQuat::from_rotation_arc(h, d) * u, d);
+            frames.push((c, uc));
+            let (radius, offset) = if self.collar[c] > 0.0 {
+                (self.collar[c], self.off_collar[c])
+            } else {
+                (r.min(self.rad[c]), self.off_start[c])
+            };
+            loops.push(CapLoop { axis: d, radius, offset, u: uc, w: d.cross(uc), at_end: false });
+        }
+        match cap_hull(&loops, SIDES as u32, eps) {
+            Some(f) => {
+                self.general_faces[j] = f;
+                self.general[j] = true;
+                for (c, uc) in frames {
+                    self.kid_u[c] = uc;
+                }
+                true
             }
-            match cap_hull(&loops, SIDES as u32, eps) {
-                Some(f) => self.general_faces[j] = f,
-                None => self.forced[j] = true,
-            }
+            None => false,
         }
     }
 
@@ -705,15 +720,10 @@ impl Plan {
         self.normal[j] = n;
         self.general[j] = general && !force;
         // Children's ring frames: vertex-forward (vertex 0 on +N) for the coplanar
-        // template; for the general junction the trunk frame transported to each child.
-        let u_trunk = perpendicular(n, h_in);
+        // template (a general junction replaces them in `make_general`).
         for &c in &kids {
             let d = self.dir[c as usize];
-            self.kid_u[c as usize] = if general {
-                perpendicular(DQuat::from_rotation_arc(h_in, d) * u_trunk, d)
-            } else {
-                perpendicular(n, d)
-            };
+            self.kid_u[c as usize] = perpendicular(n, d);
         }
         // Children by increasing signed angle about N from the trunk heading.
         let mut by: Vec<(f64, u32)> = kids
@@ -1102,7 +1112,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             why: format!("{} nodes exceed u32 vertex indices", skeleton.len()),
         });
     }
-    let plan = Plan::new(skeleton, opts);
+    let mut plan = Plan::new(skeleton, opts);
     let n = skeleton.len();
     let mut fallback: Vec<bool> = plan.forced.clone();
     let mut round = 0;
@@ -1142,8 +1152,27 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         if bad.is_empty() {
             break (mesh, twist, loops);
         }
-        for o in bad {
-            fallback[o as usize] = true;
+        // A coplanar template that fails is tried once as a general junction (module
+        // docs, step 7); the other nodes fall back, but only once no junction changed
+        // in this round (a neighbour's faces may have been the culprit).
+        let mut bad: Vec<u32> = bad.into_iter().collect();
+        bad.sort_unstable();
+        let mut escalated = false;
+        for &o in &bad {
+            let o = o as usize;
+            if opts.general_junctions
+                && plan.kind[o] == Kind::Junction
+                && !plan.general[o]
+                && !plan.forced[o]
+                && plan.make_general(o, opts)
+            {
+                escalated = true;
+            }
+        }
+        if !escalated {
+            for o in bad {
+                fallback[o as usize] = true;
+            }
         }
     };
     let plan = &plan;
