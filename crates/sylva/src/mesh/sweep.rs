@@ -78,12 +78,16 @@
 //!    symmetric junctions add none (property 16). A thin child whose internode has no
 //!    room for the ring (the ring would break the 90 % rule) keeps the symmetric
 //!    template. Children with an extra ring are listed in [`SweepMesh::collars`].
-//! 7. **Fallbacks.** A junction with two axes closer than [`SweepOptions::aligned_deg`]
-//!    (or, with [`SweepOptions::general_junctions`] off, a non-coplanar one or one with
-//!    more than `max_children` children) is not templated. Neither is any
-//!    junction or chain node (bend, very short internode, skeleton collision) whose
-//!    faces the final check finds intersecting or degenerate: the mesh is rebuilt with
-//!    those nodes falling back (at most [`SweepOptions::repair_rounds`] rounds). A
+//! 7. **Repair and fallbacks.** The finished mesh is checked ([`check_mesh`]); faces
+//!    that intersect faces of the same or a neighbouring node, or are degenerate, mark
+//!    their nodes. A marked coplanar-template junction is first rebuilt as a general
+//!    junction (this is what meshes narrow whorls that fit a plane within
+//!    `coplanar_deg` but whose template folds, e.g. every junction of
+//!    `lsys-ternary-tree`); in a round where no junction changed that way, the marked
+//!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). A junction with
+//!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
+//!    [`SweepOptions::general_junctions`] off, a non-coplanar one or one with more than
+//!    `max_children` children) falls back from the start. A
 //!    fallback node ends its incoming internode with a flat cap at the trunk offset and
 //!    starts every child as its own tube with a flat cap at its offset: closed pieces
 //!    separated by the Eq 5.1 gap. All are listed in [`SweepMesh::fallbacks`].
