@@ -10,6 +10,7 @@ use det_tree::tree;
 
 use glam::{DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
+use sylva::mesh::check::{check_mesh, CheckOptions};
 use sylva::mesh::hull::{hull_mesh, pair_offsets, simplify, HullMesh, HullOptions, JointKind};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton, NO_PARENT};
@@ -28,93 +29,34 @@ struct Topo {
     euler: i64,
 }
 
-/// Asserts a valid, consistently oriented 2-manifold of triangles (each directed edge
-/// once, every vertex star one fan, no NaN, no unused vertex) of genus 0 in every
-/// component (χ = 2·C − B); returns its counts.
+/// Asserts a valid, consistently oriented 2-manifold of triangles (each edge in one or
+/// two faces run opposite ways, every vertex star one fan, finite positions, no unused
+/// vertex) of genus 0 in every component, with `sylva::mesh::check`; returns its counts.
+/// Degenerate faces are judged where a test cares (the hull's known slivers on planar
+/// plants, see `tests/meshers.rs`), not here.
 fn check(name: &str, m: &Mesh) -> Topo {
     m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
-    let nv = m.positions.len();
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut wedges: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nv];
-    for f in 0..m.face_count() {
-        let t = m.face(f);
-        assert_eq!(t.len(), 3, "{name}: face {f} is not a triangle");
-        for k in 0..3 {
-            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-            assert_ne!(a, b, "{name}: face {f} repeats vertex {a}");
-            let n = directed.entry((a, b)).or_default();
-            *n += 1;
-            assert_eq!(*n, 1, "{name}: directed edge {a}->{b} used twice (orientation or non-manifold)");
-            wedges[a as usize].push((b, c));
-        }
-    }
-    let mut edges = HashSet::new();
-    let mut boundary_next: HashMap<u32, u32> = HashMap::new();
-    for &(a, b) in directed.keys() {
-        edges.insert((a.min(b), a.max(b)));
-        if !directed.contains_key(&(b, a)) {
-            // Boundary edge b→a missing: the hole runs b → a.
-            assert!(boundary_next.insert(b, a).is_none(), "{name}: two boundary edges leave vertex {b}");
-        }
-    }
-    // Vertex stars: wedges (next, prev) chain into one fan.
-    for (v, ws) in wedges.iter().enumerate() {
-        assert!(!ws.is_empty(), "{name}: vertex {v} is unused");
-        let by_next: HashMap<u32, u32> = ws.iter().copied().collect();
-        let mut start = ws[0].0;
-        // On a boundary vertex, start at the wedge nobody continues into.
-        let prevs: HashSet<u32> = ws.iter().map(|w| w.1).collect();
-        if let Some(w) = ws.iter().find(|w| !prevs.contains(&w.0)) {
-            start = w.0;
-        }
-        let mut seen = 0;
-        let mut at = start;
-        while let Some(&p) = by_next.get(&at) {
-            seen += 1;
-            at = p;
-            if at == start || seen > ws.len() {
-                break;
-            }
-        }
-        assert_eq!(seen, ws.len(), "{name}: vertex {v} star is not one fan");
-    }
-    // Boundary loops.
-    let mut visited = HashSet::new();
-    let mut boundary_loops = 0;
-    for &s in boundary_next.keys() {
-        if visited.contains(&s) {
-            continue;
-        }
-        boundary_loops += 1;
-        let mut at = s;
-        while visited.insert(at) {
-            at = boundary_next[&at];
-        }
-    }
-    // Components (union–find over face vertices).
-    let mut parent: Vec<u32> = (0..nv as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            p[x as usize] = p[p[x as usize] as usize];
-            x = p[x as usize];
-        }
-        x
-    }
-    for f in 0..m.face_count() {
-        let t = m.face(f);
-        for k in 1..3 {
-            let (a, b) = (find(&mut parent, t[0]), find(&mut parent, t[k]));
-            parent[a as usize] = b;
-        }
-    }
-    let components = (0..nv as u32).filter(|&v| find(&mut parent, v) == v).count();
-    let euler = nv as i64 - edges.len() as i64 + m.face_count() as i64;
+    assert!((0..m.face_count()).all(|f| m.face(f).len() == 3), "{name}: not all triangles");
+    let r = check_mesh(m, &CheckOptions { self_intersections: false, ..Default::default() });
+    let problems: Vec<String> =
+        r.structural_problems().into_iter().filter(|p| !p.contains("degenerate")).collect();
+    assert!(problems.is_empty(), "{name}: {problems:?}");
     assert_eq!(
-        euler,
-        2 * components as i64 - boundary_loops as i64,
-        "{name}: not genus 0 (χ {euler}, {components} components, {boundary_loops} holes)"
+        r.total_genus(),
+        0,
+        "{name}: not genus 0 (χ {}, {} components, {} holes)",
+        r.euler,
+        r.components,
+        r.boundary_loops
     );
-    Topo { vertices: nv, edges: edges.len(), faces: m.face_count(), boundary_loops, components, euler }
+    Topo {
+        vertices: r.vertices,
+        edges: r.edges,
+        faces: r.faces,
+        boundary_loops: r.boundary_loops,
+        components: r.components,
+        euler: r.euler,
+    }
 }
 
 fn signed_volume(m: &Mesh) -> f64 {

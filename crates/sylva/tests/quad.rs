@@ -9,7 +9,7 @@ mod random_tree;
 use glam::Vec3;
 use proptest::prelude::*;
 use random_tree::random_tree;
-use std::collections::{HashMap, HashSet};
+use sylva::mesh::check::{check_mesh, CheckOptions};
 use sylva::mesh::quad::{quad_mesh, FallbackReason, QuadMesh, QuadOptions};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton, NO_PARENT};
@@ -26,85 +26,28 @@ struct Topo {
     components: usize,
 }
 
-/// Checks a closed, consistently oriented 2-manifold of quads: every face has four
-/// distinct vertices and non-zero area, every directed edge is used once and its
-/// reverse once, every vertex star is a single cycle, no vertex is unused, and every
-/// component has χ = 2. Returns a description of the first problem.
+/// Checks a closed, consistently oriented 2-manifold of quads with
+/// `sylva::mesh::check`: every face has four distinct vertices and is not degenerate,
+/// every edge has two faces run opposite ways (no boundary), every vertex star is a
+/// single cycle, no vertex is unused, and every component has genus 0. Returns a
+/// description of the first problem.
 fn try_check(m: &Mesh) -> Result<Topo, String> {
     m.validate()?;
-    let nv = m.positions.len();
-    let mut directed: HashSet<(u32, u32)> = HashSet::new();
-    let mut wedges: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nv];
-    for f in 0..m.face_count() {
-        let q = m.face(f);
-        if q.len() != 4 {
-            return Err(format!("face {f} has {} corners", q.len()));
-        }
-        for k in 0..4 {
-            let (a, b, c) = (q[k], q[(k + 1) % 4], q[(k + 3) % 4]);
-            if q[k + 1..].contains(&a) {
-                return Err(format!("face {f} repeats vertex {a}"));
-            }
-            if !directed.insert((a, b)) {
-                return Err(format!("directed edge {a}->{b} used twice (orientation or non-manifold)"));
-            }
-            wedges[a as usize].push((b, c));
-        }
-        let p: [glam::DVec3; 4] = std::array::from_fn(|k| m.positions[q[k] as usize].as_dvec3());
-        let area =
-            ((p[1] - p[0]).cross(p[3] - p[0]).length() + (p[3] - p[2]).cross(p[1] - p[2]).length()) * 0.5;
-        if area <= 0.0 {
-            return Err(format!("face {f} has zero area"));
-        }
+    if let Some(f) = (0..m.face_count()).find(|&f| m.face(f).len() != 4) {
+        return Err(format!("face {f} has {} corners", m.face(f).len()));
     }
-    let mut edges = HashSet::new();
-    for &(a, b) in &directed {
-        if !directed.contains(&(b, a)) {
-            return Err(format!("edge {a}->{b} has no opposite (boundary or flipped face)"));
-        }
-        edges.insert((a.min(b), a.max(b)));
+    let r = check_mesh(m, &CheckOptions { self_intersections: false, ..Default::default() });
+    let problems = r.structural_problems();
+    if !problems.is_empty() {
+        return Err(problems.join("; "));
     }
-    for (v, ws) in wedges.iter().enumerate() {
-        if ws.is_empty() {
-            return Err(format!("vertex {v} is unused"));
-        }
-        // Wedge (next, prev) around v: the face after it is the one whose next is prev.
-        let by_next: HashMap<u32, u32> = ws.iter().copied().collect();
-        let start = ws[0].0;
-        let (mut at, mut seen) = (start, 0);
-        loop {
-            let Some(&p) = by_next.get(&at) else { return Err(format!("vertex {v} star is open")) };
-            seen += 1;
-            at = p;
-            if at == start || seen > ws.len() {
-                break;
-            }
-        }
-        if seen != ws.len() {
-            return Err(format!("vertex {v} star is not one cycle"));
-        }
+    if r.boundary_edges > 0 {
+        return Err(format!("{} boundary edge(s) (open or flipped faces)", r.boundary_edges));
     }
-    let mut parent: Vec<u32> = (0..nv as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            p[x as usize] = p[p[x as usize] as usize];
-            x = p[x as usize];
-        }
-        x
+    if r.total_genus() != 0 {
+        return Err(format!("χ = {} with {} components (not genus 0 spheres)", r.euler, r.components));
     }
-    for f in 0..m.face_count() {
-        let q = m.face(f);
-        for k in 1..4 {
-            let (a, b) = (find(&mut parent, q[0]), find(&mut parent, q[k]));
-            parent[a as usize] = b;
-        }
-    }
-    let components = (0..nv as u32).filter(|&v| find(&mut parent, v) == v).count();
-    let euler = nv as i64 - edges.len() as i64 + m.face_count() as i64;
-    if euler != 2 * components as i64 {
-        return Err(format!("χ = {euler} with {components} components (not genus 0 spheres)"));
-    }
-    Ok(Topo { vertices: nv, edges: edges.len(), faces: m.face_count(), components })
+    Ok(Topo { vertices: r.vertices, edges: r.edges, faces: r.faces, components: r.components })
 }
 
 fn check(name: &str, m: &Mesh) -> Topo {

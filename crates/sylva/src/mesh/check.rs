@@ -27,7 +27,8 @@
 //!   reported. Cost: O(n log n) to build, about O(n log n) to query on a mesh without
 //!   large overlaps; parallel over triangles with rayon.
 //!
-//! Plus the components and the Euler characteristic, so a caller can check genus.
+//! Plus the components and the Euler characteristic, so a caller can check genus
+//! ([`MeshReport::total_genus`] sums the components' genera).
 
 use crate::mesh::Mesh;
 use glam::{DVec3, Vec3};
@@ -134,6 +135,22 @@ impl MeshReport {
             && self.degenerate_face_count == 0
             && self.unused_vertices == 0
             && self.intersection_count.unwrap_or(0) == 0
+    }
+
+    /// Sum of the genera of the components, `(2C − B − χ) / 2`, meaningful when
+    /// [`MeshReport::structural_problems`] is empty (an orientable 2-manifold, possibly
+    /// with boundary). Every component satisfies `χᵢ = 2 − 2gᵢ − Bᵢ` with `gᵢ ≥ 0`, so
+    /// the sum is 0 exactly when **every** component is a sphere or a sphere with holes
+    /// (the per-component genus check the meshers' tests need).
+    pub fn total_genus(&self) -> i64 {
+        (2 * self.components as i64 - self.boundary_loops as i64 - self.euler) / 2
+    }
+
+    /// True when the structure is sound ([`MeshReport::structural_problems`] empty) and
+    /// every component has genus 0 ([`MeshReport::total_genus`]).
+    pub fn is_genus_zero_manifold(&self) -> bool {
+        self.structural_problems().is_empty()
+            && 2 * self.components as i64 - self.boundary_loops as i64 == self.euler
     }
 
     /// True when [`MeshReport::is_valid`] holds and there is no boundary at all.
@@ -730,6 +747,43 @@ mod tests {
         assert!(r.is_closed_manifold(), "{r}");
         assert_eq!((r.vertices, r.edges, r.faces, r.euler, r.components), (8, 12, 6, 2, 1));
         assert_eq!(r.intersection_count, Some(0));
+    }
+
+    /// A quad torus of `n × n` vertices (genus 1).
+    fn torus(n: u32) -> Mesh {
+        use std::f32::consts::TAU;
+        let mut m = Mesh::new();
+        for i in 0..n {
+            for j in 0..n {
+                let (a, b) = (TAU * i as f32 / n as f32, TAU * j as f32 / n as f32);
+                let r = 2.0 + 0.7 * b.cos();
+                m.positions.push(Vec3::new(r * a.cos(), 0.7 * b.sin(), r * a.sin()));
+            }
+        }
+        let id = |i: u32, j: u32| (i % n) * n + (j % n);
+        for i in 0..n {
+            for j in 0..n {
+                m.push_face(&[id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j)]);
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn genus_is_counted_over_every_component() {
+        let r = check_mesh(&cube(Vec3::ZERO), &CheckOptions::default());
+        assert_eq!(r.total_genus(), 0);
+        assert!(r.is_genus_zero_manifold());
+        let t = check_mesh(&torus(6), &CheckOptions::default());
+        assert!(t.is_closed_manifold(), "{t}");
+        assert_eq!((t.euler, t.total_genus()), (0, 1));
+        assert!(!t.is_genus_zero_manifold());
+        // A torus next to two cubes: three components, genera 0 + 0 + 1.
+        let three =
+            merge(&merge(&cube(Vec3::new(9.0, 0.0, 0.0)), &cube(Vec3::new(-9.0, 0.0, 0.0))), &torus(6));
+        let r = check_mesh(&three, &CheckOptions::default());
+        assert_eq!((r.components, r.euler, r.total_genus()), (3, 4, 1));
+        assert!(!r.is_genus_zero_manifold());
     }
 
     #[test]

@@ -986,20 +986,61 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
 /// the unit sphere about the joint node, hull, caps removed, checked. `None` when the
 /// joint cannot be meshed this way.
 fn hull_joint(geo: &[Geo], loops: &[LoopRef], s: u32, eps: f64) -> Option<Vec<[(u32, u32); 3]>> {
-    let k = loops.len();
-    let su = s as usize;
-    // Outward axis, angular radius of the loop seen from O (central projection), frame.
-    let mut ax = Vec::with_capacity(k);
-    let mut th = Vec::with_capacity(k);
+    let mut caps = Vec::with_capacity(loops.len());
     for l in loops {
         let g = &geo[l.slot as usize];
         let (a, off) = if l.at_end { (-g.d, g.off_e) } else { (g.d, g.off_s) };
         let (_, r) = g.end_loop(l.at_end);
-        let t = r.atan2(off).min(1.3);
-        if t.is_nan() || t <= 1e-9 {
+        caps.push(CapLoop { axis: a, radius: r, offset: off, u: g.u, w: g.w, at_end: l.at_end });
+    }
+    cap_hull(&caps, s, eps)
+}
+
+/// One loop of `s` vertices taking part in a [`cap_hull`] joint about a node `O`: its
+/// vertex `j` lies at `O + offset·axis' + radius·(cos φⱼ u + sin φⱼ w)` with
+/// `φⱼ = 2πj/s`, where `axis'` is `axis` for a loop that starts a tube and `−axis` is
+/// its direction of travel for one that ends a tube (`at_end`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CapLoop {
+    /// Unit axis pointing away from the node.
+    pub axis: DVec3,
+    /// Loop radius.
+    pub radius: f64,
+    /// Distance of the loop's centre from the node along `axis` (0 allowed).
+    pub offset: f64,
+    /// First in-plane unit vector (vertex 0).
+    pub u: DVec3,
+    /// Second in-plane unit vector (vertex at a quarter turn).
+    pub w: DVec3,
+    /// The loop ends its tube (its tube uses the loop's edges `j+1 → j`, the joint
+    /// `j → j+1`); otherwise it starts one (the joint uses `j+1 → j`).
+    pub at_end: bool,
+}
+
+/// The convex-hull joint of seed 000 §4.2.3 for any loops about one node, shared by the
+/// hull and the sweep meshers: every loop vertex is centrally projected onto the unit
+/// sphere (each loop a small circle about its axis, shrunk so that no two circles come
+/// closer than 20 % of their axes' angle), the exact hull of [`convex`] is built, the
+/// caps (faces with all three corners on one loop, `s − 2` each) are removed and the
+/// rest is checked: every point on the hull, `k(s + 2) − 4` faces, each directed edge
+/// once and every loop edge in the orientation its tube needs. Faces are
+/// `(loop index, vertex index)` triples, counter-clockwise seen from outside. `None`
+/// when two axes are within `eps` (`1 − cos`) of each other or a check fails.
+pub(crate) fn cap_hull(loops: &[CapLoop], s: u32, eps: f64) -> Option<Vec<[(u32, u32); 3]>> {
+    let k = loops.len();
+    let su = s as usize;
+    if k < 2 || s < 3 {
+        return None;
+    }
+    // Outward axis and angular radius of the loop seen from O (central projection).
+    let mut ax = Vec::with_capacity(k);
+    let mut th = Vec::with_capacity(k);
+    for l in loops {
+        let t = l.radius.atan2(l.offset).min(1.3);
+        if t.is_nan() || t <= 1e-9 || !l.axis.is_finite() {
             return None;
         }
-        ax.push(a);
+        ax.push(l.axis);
         th.push(t);
     }
     for x in 0..k {
@@ -1025,11 +1066,10 @@ fn hull_joint(geo: &[Geo], loops: &[LoopRef], s: u32, eps: f64) -> Option<Vec<[(
     }
     let mut pts = Vec::with_capacity(k * su);
     for (x, l) in loops.iter().enumerate() {
-        let g = &geo[l.slot as usize];
         let (st, ct) = theta[x].sin_cos();
         for j in 0..s {
             let ph = TAU * j as f64 / s as f64;
-            pts.push(ax[x] * ct + (g.u * ph.cos() + g.w * ph.sin()) * st);
+            pts.push(ax[x] * ct + (l.u * ph.cos() + l.w * ph.sin()) * st);
         }
     }
     let tris = convex::convex_hull(&pts).ok()?;

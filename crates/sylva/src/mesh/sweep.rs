@@ -47,17 +47,47 @@
 //!    polygons of `n + 1` corners triangulated maximising the minimum angle. No new
 //!    vertices (G9); each ring edge is used once (G2); the construction depends only on
 //!    geometry, so child order does not matter (G8).
-//! 6. **Asymmetric rule** (§5.5.3, Figs 5.20–5.22): a junction where a child's radius
-//!    is ≤ 1/3 of its largest partner's (tolerance 1e-6 relative, so exactly 1/3 counts)
-//!    is listed in [`SweepMesh::asymmetric`]. The extra-ring template is **not built**:
-//!    these junctions use the symmetric construction (what the spec infers the seed
-//!    does for its 14 missing cases).
-//! 7. **Fallbacks.** A junction with more than [`SweepOptions::max_children`] children,
-//!    children out of the fitted plane by more than [`SweepOptions::coplanar_deg`], or
-//!    two axes closer than [`SweepOptions::aligned_deg`] is not templated. Neither is any
-//!    junction or chain node (bend, very short internode, skeleton collision) whose
-//!    faces the final check finds intersecting or degenerate: the mesh is rebuilt with
-//!    those nodes falling back (at most [`SweepOptions::repair_rounds`] rounds). A
+//!
+//!    **5b. General junction** (beyond the seed, spec 001 §5 "non-planar junctions …
+//!    a convex hull of the rings"). A junction whose axes leave the fitted plane by
+//!    more than [`SweepOptions::coplanar_deg`] (decussate pairs, ternary whorls), or
+//!    that has more than [`SweepOptions::max_children`] children, keeps its trunk ring
+//!    (vertex 0 toward `N`) and gives each child ring the trunk frame transported along
+//!    the rotation from the trunk heading to the child's. Every ring vertex is projected
+//!    centrally from the node onto the unit sphere, where each ring is a small circle
+//!    about its axis (shrunk so circles keep a 20 % gap), and the exact convex hull of
+//!    those points is built (the hull mesher's joint, `hull::cap_hull`, seed 000
+//!    §4.2.3); the faces inside a ring (4 per hexagon) are removed and the rest map back
+//!    to the ring vertices: `8(n + 1) − 4` triangles, no new vertices, each ring edge
+//!    once in its tube's orientation (checked; a junction whose hull fails a check falls
+//!    back). The hull is convex on the sphere, so the joint is one sheet with consistent
+//!    orientation for any number of children in any directions; the Eq 5.1 offsets
+//!    (pairwise, with the true 3D angles) keep the rings apart. Listed in
+//!    [`SweepMesh::general`].
+//! 6. **Asymmetric template** (§5.5.3, Figs 5.20–5.22; spec 001 §2.7). A child whose
+//!    radius `r` is ≤ 1/3 of its largest partner's (tolerance 1e-6 relative, so exactly
+//!    1/3 counts) is *thin*; its junction is listed in [`SweepMesh::asymmetric`]. The
+//!    seed's templates "add a ring of vertices near the base of the smaller branch" and
+//!    take the places of its top, middle and side subtemplates; ours: an **extra ring**
+//!    of radius `ρ = collar_ratio · r` (default 1.75 r, capped at 0.9 × the trunk
+//!    radius) is placed on the child's axis at the Eq 5.1 offset computed with `ρ` as
+//!    its radius (so every partner clears it), takes the child's place in the junction
+//!    (coplanar template or general junction, any of the seed's 16 ring states, since all
+//!    our rings are vertex-forward), and a 12-triangle strip joins it to the child's own
+//!    ring `ρ` further out. Each extra ring adds exactly 6 vertices and 12 triangles;
+//!    symmetric junctions add none (property 16). A thin child whose internode has no
+//!    room for the ring (the ring would break the 90 % rule) keeps the symmetric
+//!    template. Children with an extra ring are listed in [`SweepMesh::collars`].
+//! 7. **Repair and fallbacks.** The finished mesh is checked ([`check_mesh`]); faces
+//!    that intersect faces of the same or a neighbouring node, or are degenerate, mark
+//!    their nodes. A marked coplanar-template junction is first rebuilt as a general
+//!    junction (this is what meshes narrow whorls that fit a plane within
+//!    `coplanar_deg` but whose template folds, e.g. every junction of
+//!    `lsys-ternary-tree`); in a round where no junction changed that way, the marked
+//!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). A junction with
+//!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
+//!    [`SweepOptions::general_junctions`] off, a non-coplanar one or one with more than
+//!    `max_children` children) falls back from the start. A
 //!    fallback node ends its incoming internode with a flat cap at the trunk offset and
 //!    starts every child as its own tube with a flat cap at its offset: closed pieces
 //!    separated by the Eq 5.1 gap. All are listed in [`SweepMesh::fallbacks`].
@@ -76,6 +106,7 @@
 
 use crate::error::{Error, Result};
 use crate::mesh::check::{check_mesh, CheckOptions};
+use crate::mesh::hull::{cap_hull, CapLoop};
 use crate::mesh::{Crease, FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec2};
@@ -94,11 +125,23 @@ pub struct SweepOptions {
     pub caps: bool,
     /// Tip cone height divided by the tip width (seed "Tip Size", `/A`; default 1).
     pub tip_size: f64,
-    /// Most children a junction template takes (default 4); more fall back.
+    /// Most children the coplanar template takes (default 4); more use the general
+    /// junction (or fall back when `general_junctions` is off).
     pub max_children: usize,
     /// Largest angle in degrees between a branch axis and the fitted branching plane
-    /// (default 20°); beyond it the junction falls back.
+    /// (default 20°); beyond it the junction is non-coplanar and uses the general
+    /// junction (or falls back when `general_junctions` is off).
     pub coplanar_deg: f64,
+    /// Mesh non-coplanar junctions and junctions with more than `max_children` children
+    /// with the general (projected convex-hull) junction instead of falling back
+    /// (default true).
+    pub general_junctions: bool,
+    /// Radius of the asymmetric template's extra ring divided by the thin child's
+    /// radius (default 1.75, the middle of spec 001 §2.7's 1.5–2 r); the ring sits
+    /// where the child's template ring would be and the child's own ring one extra-ring
+    /// radius further out. 0 disables the extra ring (asymmetric junctions are then
+    /// meshed symmetrically); otherwise in 1..=3.
+    pub collar_ratio: f64,
     /// Two branch axes closer than this angle in degrees are aligned (default 3°): the
     /// junction falls back.
     pub aligned_deg: f64,
@@ -117,6 +160,8 @@ impl Default for SweepOptions {
             tip_size: 1.0,
             max_children: 4,
             coplanar_deg: 20.0,
+            general_junctions: true,
+            collar_ratio: 1.75,
             aligned_deg: 3.0,
             asymmetric_ratio: 1.0 / 3.0,
             repair_rounds: 4,
@@ -139,6 +184,9 @@ impl SweepOptions {
         if !(self.aligned_deg.is_finite() && (0.0..90.0).contains(&self.aligned_deg)) {
             return bad(format!("aligned_deg = {}; it must be in [0, 90)", self.aligned_deg));
         }
+        if !(self.collar_ratio == 0.0 || (1.0..=3.0).contains(&self.collar_ratio)) {
+            return bad(format!("collar_ratio = {}; it must be 0 or in 1..=3", self.collar_ratio));
+        }
         if !(self.asymmetric_ratio.is_finite() && (0.0..=1.0).contains(&self.asymmetric_ratio)) {
             return bad(format!("asymmetric_ratio = {}; it must be in 0..=1", self.asymmetric_ratio));
         }
@@ -151,12 +199,21 @@ impl SweepOptions {
 pub struct SweepMesh {
     /// The triangle control mesh with face-varying UVs (and base-cap creases).
     pub mesh: Mesh,
-    /// Junction nodes meshed with the template.
+    /// Junction nodes meshed with the template (coplanar or general).
     pub junctions: Vec<u32>,
+    /// Junction nodes among `junctions` meshed with the general (projected convex-hull)
+    /// junction: non-coplanar whorls and junctions with more than `max_children`
+    /// children.
+    pub general: Vec<u32>,
     /// Nodes (junctions or chain nodes) that fell back to separately capped pieces.
     pub fallbacks: Vec<u32>,
-    /// Junction nodes where the asymmetric rule holds (meshed symmetrically).
+    /// Junction nodes where the asymmetric rule holds (a child's radius ≤
+    /// `asymmetric_ratio` × its largest partner's).
     pub asymmetric: Vec<u32>,
+    /// Child nodes that start with the asymmetric template's extra ring (one ring of 6
+    /// vertices and a 12-triangle strip each); a thin child whose internode has no room
+    /// for it is meshed symmetrically and not listed.
+    pub collars: Vec<u32>,
     /// Internodes (named by their end node) whose Eq 5.1 offsets had to be clamped.
     pub clamped: Vec<u32>,
     /// Nodes removed: zero-length internodes and chain nodes too close to a junction.
@@ -259,6 +316,15 @@ struct Plan {
     sorted: Vec<Vec<u32>>,
     /// Junctions that cannot be templated at all.
     forced: Vec<bool>,
+    /// Junctions meshed with the general junction, and its faces as (ring, vertex)
+    /// pairs, rings numbered trunk first, then the children in `sorted` order.
+    general: Vec<bool>,
+    general_faces: Vec<Vec<[(u32, u32); 3]>>,
+    /// Reference direction (vertex 0) of a junction child's start ring.
+    kid_u: Vec<DVec3>,
+    /// Extra-ring radius of a thin child (0: none) and the extra ring's offset.
+    collar: Vec<f64>,
+    off_collar: Vec<f64>,
     clamped: Vec<u32>,
     collapsed: Vec<u32>,
     asymmetric: Vec<u32>,
@@ -368,6 +434,11 @@ impl Plan {
             h_in: Vec::new(),
             sorted: Vec::new(),
             forced: Vec::new(),
+            general: Vec::new(),
+            general_faces: Vec::new(),
+            kid_u: Vec::new(),
+            collar: Vec::new(),
+            off_collar: Vec::new(),
             clamped: Vec::new(),
             collapsed,
             asymmetric: Vec::new(),
@@ -391,7 +462,62 @@ impl Plan {
             }
         }
         plan.collapsed.sort_unstable();
+        plan.general_joints(opts);
         plan
+    }
+
+    /// Faces of every general junction (module docs, step 5b); a junction whose hull
+    /// fails its checks falls back.
+    fn general_joints(&mut self, opts: &SweepOptions) {
+        let n = self.live.len();
+        self.general_faces = vec![Vec::new(); n];
+        for j in 0..n {
+            if self.live[j] && self.general[j] && !self.forced[j] && !self.make_general(j, opts) {
+                self.forced[j] = true;
+            }
+        }
+    }
+
+    /// Turns junction `j` into a general junction: children's ring frames transported
+    /// from the trunk's, hull faces computed. False (and `j` unchanged) when the hull
+    /// fails its checks.
+    fn make_general(&mut self, j: usize, opts: &SweepOptions) -> bool {
+        let eps = 1.0 - opts.aligned_deg.to_radians().cos();
+        let h = self.h_in[j];
+        let u = perpendicular(self.normal[j], h);
+        let r = self.rad[j];
+        let mut loops = vec![CapLoop {
+            axis: -h,
+            radius: r,
+            offset: if self.par[j] != NONE { self.off_end[j] } else { 0.0 },
+            u,
+            w: h.cross(u),
+            at_end: true,
+        }];
+        let mut frames = Vec::with_capacity(self.sorted[j].len());
+        for &c in &self.sorted[j] {
+            let c = c as usize;
+            let d = self.dir[c];
+            let uc = perpendicular(DQuat::from_rotation_arc(h, d) * u, d);
+            frames.push((c, uc));
+            let (radius, offset) = if self.collar[c] > 0.0 {
+                (self.collar[c], self.off_collar[c])
+            } else {
+                (r.min(self.rad[c]), self.off_start[c])
+            };
+            loops.push(CapLoop { axis: d, radius, offset, u: uc, w: d.cross(uc), at_end: false });
+        }
+        match cap_hull(&loops, SIDES as u32, eps) {
+            Some(f) => {
+                self.general_faces[j] = f;
+                self.general[j] = true;
+                for (c, uc) in frames {
+                    self.kid_u[c] = uc;
+                }
+                true
+            }
+            None => false,
+        }
     }
 
     /// Graph, offsets and junction set-up for the live nodes; returns the chain nodes to
@@ -440,6 +566,10 @@ impl Plan {
         self.h_in = vec![DVec3::ZERO; n];
         self.sorted = vec![Vec::new(); n];
         self.forced = vec![false; n];
+        self.general = vec![false; n];
+        self.kid_u = vec![DVec3::ZERO; n];
+        self.collar = vec![0.0; n];
+        self.off_collar = vec![0.0; n];
         self.clamped.clear();
         self.asymmetric.clear();
         for j in 0..n {
@@ -447,8 +577,14 @@ impl Plan {
                 self.node(j, opts);
             }
         }
-        // Both ends of an internode share 90% of its length (spec 001 §2.2 guard).
+        // Both ends of an internode share 90% of its length (spec 001 §2.2 guard). A thin
+        // child without room for its extra ring loses it first (symmetric template).
         for c in 0..n {
+            let sum = self.off_start[c] + self.off_end[c];
+            if self.collar[c] > 0.0 && sum > 0.9 * self.len[c] {
+                self.off_start[c] = self.off_collar[c];
+                self.collar[c] = 0.0;
+            }
             let sum = self.off_start[c] + self.off_end[c];
             if self.live[c] && self.par[c] != NONE && sum > 0.9 * self.len[c] {
                 let f = 0.9 * self.len[c] / sum;
@@ -502,7 +638,30 @@ impl Plan {
             maxes.push(0.9 * self.len[c as usize]);
         }
         let k = axes.len();
-        let mut off: Vec<f64> = (0..k).map(|i| (0.25 * radii[i]).min(maxes[i])).collect();
+        // Asymmetric rule (seed 001 §5.5.3): a child whose radius is ≤ ratio × its
+        // largest partner's is thin; it gets the extra ring, which its partners must clear.
+        let junction = kids.len() >= 2;
+        let thin: Vec<bool> = (0..k)
+            .map(|i| {
+                let other = (0..k).filter(|&m| m != i).map(|m| radii[m]).fold(0.0, f64::max);
+                junction && i > 0 && radii[i] <= opts.asymmetric_ratio * other * (1.0 + 1e-6)
+            })
+            .collect();
+        if thin.iter().any(|&t| t) {
+            self.asymmetric.push(j as u32);
+        }
+        let collar: Vec<f64> = (0..k)
+            .map(|i| {
+                let rho = (opts.collar_ratio * radii[i]).min(0.9 * rj);
+                if thin[i] && rho > 1.05 * radii[i] {
+                    rho
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let eff: Vec<f64> = (0..k).map(|i| if collar[i] > 0.0 { collar[i] } else { radii[i] }).collect();
+        let mut off: Vec<f64> = (0..k).map(|i| (0.25 * eff[i]).min(maxes[i])).collect();
         let mut clamped = false;
         let mut aligned = false;
         let cos_aligned = opts.aligned_deg.to_radians().cos();
@@ -512,8 +671,7 @@ impl Plan {
                 if c > cos_aligned {
                     aligned = true;
                 }
-                if let Some((da, db, cl)) = guarded_offsets(radii[a], radii[b], c.acos(), maxes[a], maxes[b])
-                {
+                if let Some((da, db, cl)) = guarded_offsets(eff[a], eff[b], c.acos(), maxes[a], maxes[b]) {
                     off[a] = off[a].max(da);
                     off[b] = off[b].max(db);
                     clamped |= cl;
@@ -532,14 +690,23 @@ impl Plan {
         }
         self.off_end[j] = off[0];
         for (i, &c) in kids.iter().enumerate() {
-            self.off_start[c as usize] = off[i + 1];
+            let c = c as usize;
+            self.off_start[c] = off[i + 1];
+            // The extra ring sits at the template offset (computed for its radius), the
+            // child's own ring one extra-ring radius further out, when there is room.
+            let rho = collar[i + 1];
+            if rho > 0.0 && off[i + 1] + rho <= maxes[i + 1] {
+                self.collar[c] = rho;
+                self.off_collar[c] = off[i + 1];
+                self.off_start[c] = off[i + 1] + rho;
+            }
         }
-        if kids.len() < 2 {
+        if !junction {
             return;
         }
         // Branching plane (spec 001 §2.3): least-variance normal, toward the node's up.
         let mut n = fit_normal(&axes);
-        let mut force = aligned || kids.len() > opts.max_children;
+        let mut force = aligned;
         if n == DVec3::ZERO {
             force = true;
             n = perpendicular(self.up[j], h_in);
@@ -550,10 +717,18 @@ impl Plan {
             n = -n;
         }
         let tol = opts.coplanar_deg.to_radians().sin();
-        if axes.iter().any(|a| a.dot(n).abs() > tol) {
+        let general = kids.len() > opts.max_children || axes.iter().any(|a| a.dot(n).abs() > tol);
+        if general && !opts.general_junctions {
             force = true;
         }
         self.normal[j] = n;
+        self.general[j] = general && !force;
+        // Children's ring frames: vertex-forward (vertex 0 on +N) for the coplanar
+        // template (a general junction replaces them in `make_general`).
+        for &c in &kids {
+            let d = self.dir[c as usize];
+            self.kid_u[c as usize] = perpendicular(n, d);
+        }
         // Children by increasing signed angle about N from the trunk heading.
         let mut by: Vec<(f64, u32)> = kids
             .iter()
@@ -565,14 +740,6 @@ impl Plan {
         by.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         self.sorted[j] = by.iter().map(|x| x.1).collect();
         self.forced[j] = force;
-        // Asymmetric rule (seed 001 §5.5.3): r ≤ ratio × the largest partner's radius.
-        for i in 1..k {
-            let other = (0..k).filter(|&m| m != i).map(|m| radii[m]).fold(0.0, f64::max);
-            if radii[i] <= opts.asymmetric_ratio * other * (1.0 + 1e-6) {
-                self.asymmetric.push(j as u32);
-                break;
-            }
-        }
     }
 }
 
@@ -680,6 +847,19 @@ impl Build<'_> {
             self.flat_cap(ring, true, owner, true);
         } else {
             self.open_loops += 1;
+        }
+    }
+
+    /// The general junction at node `j` (module docs, step 5b): the faces found by
+    /// [`cap_hull`] on `trunk` followed by `kids`, mapped to their ring vertices.
+    fn general_junction(&mut self, j: u32, trunk: &Ring, kids: &[Ring], faces: &[[(u32, u32); 3]]) {
+        let mut rings = vec![*trunk];
+        rings.extend_from_slice(kids);
+        for f in faces {
+            let t = f.map(|(l, k)| rings[l as usize].index(k as usize));
+            let uv =
+                [self.vertex_uv(&rings, t[0]), self.vertex_uv(&rings, t[1]), self.vertex_uv(&rings, t[2])];
+            self.tri(t, uv, [j, NONE]);
         }
     }
 
@@ -880,18 +1060,25 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                 let mut rings = Vec::with_capacity(kids.len());
                 for &c in &plan.sorted[i] {
                     let c = c as usize;
-                    let off = plan.off_start[c];
-                    let ring = b.ring(
-                        plan.pos[i] + plan.dir[c] * off,
-                        plan.dir[c],
-                        nrm,
-                        r.min(plan.rad[c]),
-                        plan.path[i] + off,
-                    );
+                    let (off, d, u) = (plan.off_start[c], plan.dir[c], plan.kid_u[c]);
+                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
                     start[c] = Some(ring);
-                    rings.push(ring);
+                    if plan.collar[c] > 0.0 {
+                        // Asymmetric template: the extra ring takes the child's place in
+                        // the junction, a strip joins it to the child's own ring.
+                        let oc = plan.off_collar[c];
+                        let extra = b.ring(plan.pos[i] + d * oc, d, u, plan.collar[c], plan.path[i] + oc);
+                        b.strip(&extra, &ring, own);
+                        rings.push(extra);
+                    } else {
+                        rings.push(ring);
+                    }
                 }
-                b.junction(i as u32, &trunk, &rings);
+                if plan.general[i] {
+                    b.general_junction(i as u32, &trunk, &rings, &plan.general_faces[i]);
+                } else {
+                    b.junction(i as u32, &trunk, &rings);
+                }
             }
             _ => {
                 // Fallback: every child its own tube, capped at its offset.
@@ -929,7 +1116,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             why: format!("{} nodes exceed u32 vertex indices", skeleton.len()),
         });
     }
-    let plan = Plan::new(skeleton, opts);
+    let mut plan = Plan::new(skeleton, opts);
     let n = skeleton.len();
     let mut fallback: Vec<bool> = plan.forced.clone();
     let mut round = 0;
@@ -969,18 +1156,47 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         if bad.is_empty() {
             break (mesh, twist, loops);
         }
-        for o in bad {
-            fallback[o as usize] = true;
+        // A coplanar template that fails is tried once as a general junction (module
+        // docs, step 7); the other nodes fall back, but only once no junction changed
+        // in this round (a neighbour's faces may have been the culprit).
+        let mut bad: Vec<u32> = bad.into_iter().collect();
+        bad.sort_unstable();
+        let mut escalated = false;
+        for &o in &bad {
+            let o = o as usize;
+            if opts.general_junctions
+                && plan.kind[o] == Kind::Junction
+                && !plan.general[o]
+                && !plan.forced[o]
+                && plan.make_general(o, opts)
+            {
+                escalated = true;
+            }
+        }
+        if !escalated {
+            for o in bad {
+                fallback[o as usize] = true;
+            }
         }
     };
+    let plan = &plan;
     let kind_is = |k: Kind| (0..n).filter(move |&i| plan.live[i] && plan.kind[i] == k);
     let fallbacks: Vec<u32> = (0..n).filter(|&i| fallback[i]).map(|i| i as u32).collect();
     let junctions: Vec<u32> = kind_is(Kind::Junction).filter(|&i| !fallback[i]).map(|i| i as u32).collect();
+    let general: Vec<u32> = junctions.iter().copied().filter(|&i| plan.general[i as usize]).collect();
+    let collars: Vec<u32> = (0..n)
+        .filter(|&c| {
+            plan.live[c] && plan.collar[c] > 0.0 && plan.par[c] != NONE && !fallback[plan.par[c] as usize]
+        })
+        .map(|c| c as u32)
+        .collect();
     Ok(SweepMesh {
         mesh,
         junctions,
+        general,
         fallbacks,
         asymmetric: plan.asymmetric.clone(),
+        collars,
         clamped: plan.clamped.clone(),
         collapsed: plan.collapsed.clone(),
         max_twist_deg: max_twist,
