@@ -18,7 +18,15 @@
 //! (D = 2 or 3), so a cell holds at most one node and a dart is tested against the
 //! nodes of the `5^D` surrounding cells only. Which cells are occupied is kept in a
 //! bitmap (one bit per cell, small enough to stay in cache), read five cells of a row
-//! at a time, so a dart touches node data only for the few occupied cells near it. Darts are uniform in the volume's bounding
+//! at a time, so a dart touches node data only for the few occupied cells near it.
+//!
+//! Darts are thrown in batches (up to 8 192, fewer near the end). All darts of a batch
+//! are first tested in parallel against the nodes placed before the batch; a dart that
+//! fails would also fail at its own turn, since nodes are only ever added. The
+//! survivors are then tested in dart order against the nodes added earlier in the same
+//! batch, which is needed only where a block of 4×4×4 cells near the dart got one.
+//! The nodes (and the generator's final state) are exactly those of throwing the darts
+//! one at a time, for any thread count. Darts are uniform in the volume's bounding
 //! box, rejected outside the volume or within `d` of a node, until `K` nodes exist or an
 //! attempt cap (`40·K + 10 000` darts) is reached; the shortfall is reported. The root
 //! is inserted first, so it is always a node. When the spacing is not given it is
@@ -41,8 +49,10 @@
 //! - **2D** (`3 ≤ k ≤ 32`): sector `j` holds the angles `atan2(d.y, d.x) ∈
 //!   [2πj/k, 2π(j+1)/k)` (angles in `[0, 2π)`).
 //!
-//! The build searches a uniform grid (cell size `d`) in expanding Chebyshev shells
-//! around each node. After shell `s`, every unseen node is at least `s·cell` away, so a
+//! The build searches a uniform grid (cell size `d`) around each node: first the whole
+//! cube of Chebyshev radius 3 cells (row by row: a row of cells is one contiguous run of
+//! node ids), then expanding shells. Each sector keeps the least `d² bits << 32 | id`
+//! key. After shell `s`, every unseen node is at least `s·cell` away, so a
 //! sector whose best candidate is that close is final. A sector with no candidate yet is
 //! final when a summed-area table of the cell counts shows no node left in the
 //! bounding box of the grid cells the sector can reach. Shells only visit cells inside
