@@ -111,7 +111,7 @@ pub fn dijkstra_until(
 ) -> Search {
     let n = g.len();
     // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
-    let unreached = State { dist: f32::INFINITY, parent: NONE, hops: u32::MAX & !DONE, source: NONE };
+    let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
     let mut st = vec![unreached; n];
     let mut order = Vec::with_capacity(n);
     let mut heap = QuadHeap::with_capacity(n / 4 + 16);
