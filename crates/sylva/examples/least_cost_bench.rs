@@ -1,6 +1,7 @@
 //! Times MGV least-cost-path trees at the sizes of seed 004 Table 6.2 (graph nodes /
 //! endpoints: 150 k / 7.5 k, 600 k / 19 k, 200 k / 4 k): graph, paths (Dijkstra and
-//! endpoints), thickness + skeleton, total; best and median of `runs` runs.
+//! endpoints), thickness + skeleton, total; best and median of `runs` runs, with the
+//! process CPU time (user + system, all threads) next to the wall time.
 //!
 //! ```text
 //! cargo run --release -p sylva --example least_cost_bench            # all three sizes, 5 runs
@@ -28,6 +29,27 @@ fn params(nodes: usize, endpoints: usize) -> LeastCostParams {
     p
 }
 
+/// CPU time of the whole process (all threads; user + system) from `/proc/self/stat`,
+/// in seconds (10 ms resolution; `NaN` where that file does not exist).
+fn cpu() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return f64::NAN };
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok());
+    match (tick(11), tick(12)) {
+        (Some(u), Some(s)) => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
+}
+
+/// Runs `f`, returning its result with the wall and CPU seconds it took.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
+    let (t, c) = (std::time::Instant::now(), cpu());
+    let r = f();
+    (r, t.elapsed().as_secs_f64(), cpu() - c)
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let only: Option<usize> = args.first().and_then(|a| a.parse().ok());
@@ -41,35 +63,33 @@ fn main() {
         let mut totals = Vec::new();
         let mut last = None;
         for seed in 0..runs as u64 {
-            let t = std::time::Instant::now();
-            let tree = lc::grow(&p, seed + 1, None).expect("grows");
-            totals.push(t.elapsed().as_secs_f64());
+            let (tree, wall, cpu) = timed(|| lc::grow(&p, seed + 1, None).expect("grows"));
+            totals.push((wall, cpu));
             last = Some(tree.report);
         }
-        totals.sort_by(f64::total_cmp);
-        // Graph stages separately: Poisson sampling, then the Yao build.
+        totals.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Graph stages separately: Poisson sampling, the spatial sort, the Yao build, and
+        // one length-weight Dijkstra from the root.
         let vol = p.graph_volume();
-        let t = std::time::Instant::now();
         let m = vol.measure(3, 1);
         let d = graph::auto_spacing(m, p.nodes, 3);
         let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
-        let s = graph::poisson(&vol, p.nodes, d, Some(vol.bottom_center(3)), 3, &mut rng).expect("samples");
-        let t_poisson = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
-        let (pos, root) = graph::spatial_sort(&s.points, d, 0);
-        let g = graph::yao(pos, 8, 3, d as f32, root);
-        let t_yao = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
-        let _ = paths::dijkstra(&g, &[g.root], None, &mut paths::Length);
+        let (s, tp, cp) = timed(|| {
+            graph::poisson(&vol, p.nodes, d, Some(vol.bottom_center(3)), 3, &mut rng).expect("samples")
+        });
+        let ((pos, root), ts, cs) = timed(|| graph::spatial_sort(&s.points, d, 0));
+        let (g, ty, cy) = timed(|| graph::yao(pos, 8, 3, d as f32, root));
+        let (_, tj, cj) = timed(|| paths::dijkstra(&g, &[g.root], None, &mut paths::Length));
         println!(
-            "  graph stages: poisson {t_poisson:.3} s, sort + yao {t_yao:.3} s; one length-weight Dijkstra {:.3} s",
-            t.elapsed().as_secs_f64()
+            "  stages, wall (cpu) s: poisson {tp:.3} ({cp:.2}), sort {ts:.3} ({cs:.2}), yao {ty:.3} ({cy:.2}); one length-weight Dijkstra {tj:.3} ({cj:.2})"
         );
         let r = last.expect("at least one run");
+        let (best, med) = (totals[0], totals[totals.len() / 2]);
         println!(
-            "{k}k nodes / {e} endpoints: best {:.3} s, median {:.3} s | last run: graph {:.3} s, paths {:.3} s, skeleton {:.3} s; {} edges, graph {:.1} MiB, {} endpoints, {} tips, {} skeleton nodes, {} unreachable",
-            totals[0],
-            totals[totals.len() / 2],
+            "{k}k nodes / {e} endpoints: best {:.3} s (cpu {:.2} s), median {:.3} s | last run: graph {:.3} s, paths {:.3} s, skeleton {:.3} s; {} edges, graph {:.1} MiB, {} endpoints, {} tips, {} skeleton nodes, {} unreachable",
+            best.0,
+            best.1,
+            med.0,
             r.graph_time.as_secs_f64(),
             r.path_time.as_secs_f64(),
             r.skeleton_time.as_secs_f64(),

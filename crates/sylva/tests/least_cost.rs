@@ -54,6 +54,93 @@ fn poisson_nodes_keep_the_minimum_distance_and_stay_inside() {
     }
 }
 
+/// The sampler of Fig. 4.2 (1A–1F) written the obvious way: darts drawn one at a time
+/// from the same generator as `graph::poisson` (uniform in the bounding box, x, y then z),
+/// each tested against every node so far.
+fn serial_darts(v: &Volume, count: usize, d: f64, dims: u8, rng: &mut Pcg64) -> Vec<DVec3> {
+    use rand::RngExt;
+    let (lo, hi) = v.bounds();
+    let ext = hi - lo;
+    let mut pts: Vec<DVec3> = Vec::new();
+    let cap = 40 * count + 10_000;
+    let mut attempts = 0;
+    while pts.len() < count && attempts < cap {
+        attempts += 1;
+        let x = lo.x + ext.x * rng.random::<f64>();
+        let y = lo.y + ext.y * rng.random::<f64>();
+        let z = if dims == 2 { 0.0 } else { lo.z + ext.z * rng.random::<f64>() };
+        let p = DVec3::new(x, y, z);
+        if v.contains(p) && pts.iter().all(|q| q.distance_squared(p) >= d * d) {
+            pts.push(p);
+        }
+    }
+    pts
+}
+
+#[test]
+fn batched_poisson_equals_one_dart_at_a_time() {
+    use rand::RngExt;
+    // Centred at the origin and d ≫ f32 rounding, so the f32 pre-test of `poisson` and
+    // the plain f64 test here cannot disagree.
+    let ball = Volume::new(vec![Primitive::Sphere { center: [0.0; 3], radius: 1.0 }]);
+    // Large enough for parallel batches; the last case runs into the attempt cap.
+    for (count, d, dims) in [(6000, 0.06, 3u8), (1200, 0.04, 2), (150, 0.3, 3), (3000, 0.25, 3)] {
+        let v = &ball;
+        let mut a = Pcg64::seed_from_u64(21);
+        let mut b = Pcg64::seed_from_u64(21);
+        let got = poisson(v, count, d, None, dims, &mut a).unwrap();
+        let want = serial_darts(v, count, d, dims, &mut b);
+        assert_eq!(got.points, want, "count {count}, d {d}, dims {dims}");
+        assert_eq!(got.shortfall, count - want.len());
+        // The generator is left exactly where one-dart-at-a-time leaves it.
+        assert_eq!(a.random::<u64>(), b.random::<u64>());
+    }
+}
+
+#[test]
+fn graphs_are_identical_for_any_thread_count() {
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            (poisson_yao(&cube(1.0), 20_000, None, None, 8, 3, 9).unwrap(), small_graph(3000, 6, 2, 4))
+        })
+    };
+    let one = build(1);
+    for threads in [2, 3] {
+        assert!(build(threads) == one, "{threads} threads");
+    }
+    assert_eq!(one.0.len(), 20_000);
+}
+
+/// Yao over clustered nodes, where the nearest node of many sectors lies far outside the
+/// first search cube: checks the ring-by-ring part of the search.
+#[test]
+fn yao_finds_far_nearest_nodes_across_empty_space() {
+    let mut rng = Pcg64::seed_from_u64(3);
+    let mut pos = Vec::new();
+    for centre in [Vec3::ZERO, Vec3::new(3.0, 2.5, -2.0), Vec3::new(-1.5, 4.0, 1.0)] {
+        let s = poisson(
+            &Volume::new(vec![Primitive::Sphere { center: centre.as_dvec3().to_array(), radius: 0.5 }]),
+            300,
+            0.1,
+            None,
+            3,
+            &mut rng,
+        )
+        .unwrap();
+        pos.extend(s.points.iter().map(|p| p.as_vec3()));
+    }
+    for k in [8, 24] {
+        let g = graph::yao(pos.clone(), k, 3, 0.1, 0);
+        let oracle = brute_yao(&g, k);
+        for u in 0..g.len() as u32 {
+            let mut got = g.out(u).to_vec();
+            got.sort_unstable();
+            assert_eq!(got, oracle[u as usize], "node {u}, k = {k}");
+        }
+    }
+}
+
 /// Brute-force Yao oracle: for every node, the nearest other node in each sector.
 fn brute_yao(g: &Graph, k: u32) -> Vec<Vec<u32>> {
     (0..g.len())

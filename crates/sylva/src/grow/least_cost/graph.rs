@@ -16,7 +16,17 @@
 //!
 //! Faithful dart throwing accelerated by a background grid of cell size `d/√D`
 //! (D = 2 or 3), so a cell holds at most one node and a dart is tested against the
-//! nodes of the `5^D` surrounding cells only. Darts are uniform in the volume's bounding
+//! nodes of the `5^D` surrounding cells only. Which cells are occupied is kept in a
+//! bitmap (one bit per cell, small enough to stay in cache), read five cells of a row
+//! at a time, so a dart touches node data only for the few occupied cells near it.
+//!
+//! Darts are thrown in batches (up to 8 192, fewer near the end). All darts of a batch
+//! are first tested in parallel against the nodes placed before the batch; a dart that
+//! fails would also fail at its own turn, since nodes are only ever added. The
+//! survivors are then tested in dart order against the nodes added earlier in the same
+//! batch, which is needed only where a block of 4×4×4 cells near the dart got one.
+//! The nodes (and the generator's final state) are exactly those of throwing the darts
+//! one at a time, for any thread count. Darts are uniform in the volume's bounding
 //! box, rejected outside the volume or within `d` of a node, until `K` nodes exist or an
 //! attempt cap (`40·K + 10 000` darts) is reached; the shortfall is reported. The root
 //! is inserted first, so it is always a node. When the spacing is not given it is
@@ -39,8 +49,10 @@
 //! - **2D** (`3 ≤ k ≤ 32`): sector `j` holds the angles `atan2(d.y, d.x) ∈
 //!   [2πj/k, 2π(j+1)/k)` (angles in `[0, 2π)`).
 //!
-//! The build searches a uniform grid (cell size `d`) in expanding Chebyshev shells
-//! around each node. After shell `s`, every unseen node is at least `s·cell` away, so a
+//! The build searches a uniform grid (cell size `d`) around each node: first the whole
+//! cube of Chebyshev radius 3 cells (row by row: a row of cells is one contiguous run of
+//! node ids), then expanding shells. Each sector keeps the least `d² bits << 32 | id`
+//! key. After shell `s`, every unseen node is at least `s·cell` away, so a
 //! sector whose best candidate is that close is final. A sector with no candidate yet is
 //! final when a summed-area table of the cell counts shows no node left in the
 //! bounding box of the grid cells the sector can reach. Shells only visit cells inside
@@ -514,9 +526,14 @@ pub fn poisson(
     let pz = if dims == 2 { 0 } else { 2 };
     let (gx, gy) = (nx + 4, ny + 4);
     let padded = gx * gy * (nz + 2 * pz);
-    // Each cell holds its node's position in f32 (a quick conservative test that
-    // avoids fetching the f64 node) and the node's id; `x = NaN` marks an empty cell.
-    let mut grid = vec![([f32::NAN; 3], NONE); padded];
+    // Occupancy is one bit per cell (a few MiB at most, so it stays in cache); an
+    // occupied cell holds its node's position in f32 (a quick conservative test that
+    // avoids fetching the f64 node) and the node's id. Cells are only read where their
+    // bit is set, so the cell array needs no initialisation (zeroed pages are mapped
+    // lazily).
+    let mut bits = vec![0u64; padded / 64 + 2];
+    let mut grid = vec![[0u32; 4]; padded];
+    let put = |p: Vec3, id: u32| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), id];
     let mut pts: Vec<DVec3> = Vec::with_capacity(count);
     let idx = |p: DVec3| -> usize {
         let c = |v: f64, m: usize| ((v / cell).floor().max(0.0) as usize).min(m - 1);
@@ -526,55 +543,120 @@ pub fn poisson(
     };
     let d2 = spacing * spacing;
     // Neighbour cells that can hold a node closer than d (cell = d/√D: the squared gap
-    // Σ max(|δ|−1, 0)² cells must be below D), nearest first so conflicts are found early.
+    // Σ max(|δ|−1, 0)² cells must be below D), as rows of five cells along x: the row's
+    // offset to its first cell (dx = −2) and a 5-bit mask of the cells that count.
     let zr = pz as isize;
-    let mut offsets: Vec<(isize, isize)> = Vec::new();
+    let mut rows: Vec<(isize, u64)> = Vec::new();
     for dz in -zr..=zr {
         for dy in -2isize..=2 {
+            let mut mask = 0u64;
             for dx in -2isize..=2 {
                 let gap: isize = [dx, dy, dz].iter().map(|v| (v.abs() - 1).max(0).pow(2)).sum();
                 if (dx, dy, dz) != (0, 0, 0) && gap < dims as isize {
-                    let off = (dz * gy as isize + dy) * gx as isize + dx;
-                    offsets.push((dx * dx + dy * dy + dz * dz, off));
+                    mask |= 1 << (dx + 2);
                 }
+            }
+            if mask != 0 {
+                rows.push(((dz * gy as isize + dy) * gx as isize - 2, mask));
             }
         }
     }
-    offsets.sort_unstable();
-    let offsets: Vec<isize> = offsets.into_iter().map(|o| o.1).collect();
+    let occupied = |bits: &[u64], i: usize| bits[i >> 6] >> (i & 63) & 1 != 0;
+    // Five bits of cells `i .. i + 5` (the bitmap has a spare word at the end).
+    let five = |bits: &[u64], i: usize| {
+        let (w, sh) = (i >> 6, i & 63);
+        let two = (bits[w + 1] as u128) << 64 | bits[w] as u128;
+        (two >> sh) as u64 & 0x1f
+    };
     if let Some(r) = root {
-        grid[idx(r)] = (r.as_vec3().to_array(), 0);
+        let at = idx(r);
+        grid[at] = put(r.as_vec3(), 0);
+        bits[at >> 6] |= 1 << (at & 63);
         pts.push(r);
     }
     let (lo2, hi2) = ((d2 * (1.0 - 1e-5)) as f32, (d2 * (1.0 + 1e-5)) as f32);
+    // Is the dart `p` in cell `at` at least d from every node in the grid?
+    let free = |bits: &[u64], grid: &[[u32; 4]], pts: &[DVec3], at: usize, p: DVec3| {
+        let pf = p.as_vec3();
+        rows.iter().all(|&(off, mask)| {
+            let first = (at as isize + off) as usize;
+            let mut hits = five(bits, first) & mask;
+            while hits != 0 {
+                let [x, y, z, c] = grid[first + hits.trailing_zeros() as usize];
+                hits &= hits - 1;
+                let d =
+                    Vec3::new(f32::from_bits(x), f32::from_bits(y), f32::from_bits(z)).distance_squared(pf);
+                // Decide in f32 unless the distance is within rounding of d; then in f64.
+                if d < lo2 || (d < hi2 && pts[c as usize].distance_squared(p) < d2) {
+                    return false;
+                }
+            }
+            true
+        })
+    };
+    // Blocks of 4×4×4 cells (4×4 in 2D) stamped with the batch that last added a node
+    // in them.
+    let (bx, by) = (gx / 4 + 1, gy / 4 + 1);
+    let mut stamp = vec![0u32; bx * by * ((nz + 2 * pz) / 4 + 1)];
+    let cell_xyz = |at: usize| (at % gx, at / gx % gy, at / (gx * gy));
     let cap = 40usize.saturating_mul(count).saturating_add(10_000);
     let mut attempts = 0usize;
+    let mut darts: Vec<DVec3> = Vec::new();
+    let mut pass: Vec<bool> = Vec::new();
+    let mut batch = 0u32;
     while pts.len() < count && attempts < cap {
-        attempts += 1;
-        let p = random_in(rng, lo, ext, dims);
-        let at = idx(p);
-        if grid[at].1 != NONE || !volume.contains(p) {
-            continue;
+        // Batches are exactly equivalent to throwing the darts one by one: a dart that
+        // meets a node of the grid as it was before the batch would meet it at its own
+        // turn too, so the parallel pre-test only removes darts the serial test would
+        // reject; the survivors are then tested in dart order against the nodes added
+        // by earlier darts of the same batch (only where one was added nearby).
+        let b = (2 * (count - pts.len())).clamp(256, 8192).min(cap - attempts);
+        let saved = rng.clone();
+        darts.clear();
+        darts.extend((0..b).map(|_| random_in(rng, lo, ext, dims)));
+        let pre = |p: &DVec3| {
+            let at = idx(*p);
+            !occupied(&bits, at) && volume.contains(*p) && free(&bits, &grid, &pts, at, *p)
+        };
+        if b >= 2048 {
+            darts.par_iter().with_min_len(1024).map(pre).collect_into_vec(&mut pass);
+        } else {
+            pass.clear();
+            pass.extend(darts.iter().map(pre));
         }
-        let pf = p.as_vec3();
-        let ok = offsets.iter().all(|&o| {
-            let (q, c) = grid[(at as isize + o) as usize];
-            if c == NONE {
-                return true;
+        batch += 1;
+        let mut used = b;
+        for (i, p) in darts.iter().enumerate() {
+            if !pass[i] {
+                continue;
             }
-            let d = Vec3::from_array(q).distance_squared(pf);
-            // Decide in f32 unless the distance is within rounding of d; then in f64.
-            if d < lo2 {
-                false
-            } else if d >= hi2 {
-                true
-            } else {
-                pts[c as usize].distance_squared(p) >= d2
+            let at = idx(*p);
+            let (x, y, z) = cell_xyz(at);
+            let (z0, z1) = ((z.saturating_sub(pz)) / 4, (z + pz) / 4);
+            let near = (z0..=z1).any(|bz| {
+                ((y - 2) / 4..=(y + 2) / 4).any(|by_| {
+                    ((x - 2) / 4..=(x + 2) / 4).any(|bx_| stamp[(bz * by + by_) * bx + bx_] == batch)
+                })
+            });
+            if near && (occupied(&bits, at) || !free(&bits, &grid, &pts, at, *p)) {
+                continue;
             }
-        });
-        if ok {
-            grid[at] = (pf.to_array(), pts.len() as u32);
-            pts.push(p);
+            grid[at] = put(p.as_vec3(), pts.len() as u32);
+            bits[at >> 6] |= 1 << (at & 63);
+            stamp[((z / 4) * by + y / 4) * bx + x / 4] = batch;
+            pts.push(*p);
+            if pts.len() == count {
+                used = i + 1;
+                break;
+            }
+        }
+        attempts += used;
+        if used < b {
+            // Leave the generator where the serial loop would have left it.
+            *rng = saved;
+            for _ in 0..used {
+                random_in(rng, lo, ext, dims);
+            }
         }
     }
     Ok(Samples { shortfall: count - pts.len().min(count), points: pts })
@@ -730,6 +812,12 @@ impl Graph {
     }
 }
 
+/// The octant of `d` (the Yao-8 sector in 3D; ties to the positive side).
+#[inline]
+fn octant(d: Vec3) -> u32 {
+    (d.x >= 0.0) as u32 | ((d.y >= 0.0) as u32) << 1 | ((d.z >= 0.0) as u32) << 2
+}
+
 /// The Yao sector of `d = q − p` among `k` (see the module docs).
 #[inline]
 pub fn sector(d: Vec3, k: u32, dims: u8) -> u32 {
@@ -740,7 +828,7 @@ pub fn sector(d: Vec3, k: u32, dims: u8) -> u32 {
         }
         ((a / std::f32::consts::TAU * k as f32) as u32).min(k - 1)
     } else {
-        let oct = (d.x >= 0.0) as u32 | ((d.y >= 0.0) as u32) << 1 | ((d.z >= 0.0) as u32) << 2;
+        let oct = octant(d);
         let m = k / 8;
         if m <= 1 {
             return oct;
@@ -910,6 +998,10 @@ fn sector_box(s: u32, k: u32, dims: u8, c: [usize; 3], n: [usize; 3]) -> ([usize
 /// Yao search cell size in units of the spacing (tuned: about one node per cell).
 const YAO_CELL: f32 = 1.0;
 
+/// Chebyshev radius (in cells) of the first, whole-cube pass of the Yao search: large
+/// enough that it closes all sectors of most interior nodes (tuned at 150 k–600 k nodes).
+const YAO_FIRST: usize = 3;
+
 /// Maximum Yao `k` (sectors).
 pub const MAX_SECTORS: usize = 32;
 
@@ -919,13 +1011,17 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
     let c = grid.coords(p);
     let n = grid.n;
     let ku = k as usize;
-    let mut best = [(f32::INFINITY, NONE); MAX_SECTORS];
+    let mut best = [u64::MAX; MAX_SECTORS];
     let mut open = [true; MAX_SECTORS];
+    let octants = dims == 3 && k == 8;
     let mut boxes = [([0usize; 3], [0usize; 3]); MAX_SECTORS];
     for (s, b) in boxes.iter_mut().enumerate().take(ku) {
         *b = sector_box(s as u32, k, dims, c, n);
     }
-    let mut s = 0usize;
+    // The first pass visits the whole cube of Chebyshev radius `YAO_FIRST` at once (it
+    // closes most sectors); later passes visit one ring each.
+    let mut s = YAO_FIRST;
+    let mut whole = true;
     loop {
         // Union box of the open sectors.
         let mut ulo = [usize::MAX; 3];
@@ -938,7 +1034,7 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
                 }
             }
         }
-        // Visit the cells of Chebyshev ring s inside the union box.
+        // Visit the cells of Chebyshev ring s (the cube when `whole`) inside the union box.
         let r = |a: usize| {
             let lo = c[a].saturating_sub(s).max(ulo[a]);
             let hi = (c[a] + s).min(uhi[a]);
@@ -946,43 +1042,40 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
         };
         let ((x0, x1), (y0, y1), (z0, z1)) = (r(0), r(1), r(2));
         if x0 <= x1 && y0 <= y1 && z0 <= z1 {
+            // Nodes of the cells `row + a ..= row + b` are one contiguous run of `order`.
+            // Each sector keeps the least key `d² bits << 32 | id` (non-negative f32 order
+            // like their bits, so this is the nearest node, ties to the smaller id); a
+            // closed sector's key is final, so updating it again changes nothing.
+            let mut scan = |row: usize, a: usize, b: usize| {
+                let run = &grid.order[grid.start[row + a] as usize..grid.start[row + b + 1] as usize];
+                for &q in run {
+                    if q as usize == u {
+                        continue;
+                    }
+                    let d = pos[q as usize] - p;
+                    let j = if octants { octant(d) } else { sector(d, k, dims) } as usize;
+                    let key = (d.length_squared().to_bits() as u64) << 32 | q as u64;
+                    best[j] = best[j].min(key);
+                }
+            };
             for z in z0..=z1 {
-                let zs = z.abs_diff(c[2]) == s;
+                let zs = whole || z.abs_diff(c[2]) == s;
                 for y in y0..=y1 {
-                    let ys = zs || y.abs_diff(c[1]) == s;
                     let row = (z * n[1] + y) * n[0];
-                    let mut scan = |x: usize| {
-                        let cell = row + x;
-                        for &q in &grid.order[grid.start[cell] as usize..grid.start[cell + 1] as usize] {
-                            if q as usize == u {
-                                continue;
-                            }
-                            let d = pos[q as usize] - p;
-                            let j = sector(d, k, dims) as usize;
-                            if !open[j] {
-                                continue;
-                            }
-                            let d2 = d.length_squared();
-                            if d2 < best[j].0 || (d2 == best[j].0 && q < best[j].1) {
-                                best[j] = (d2, q);
-                            }
-                        }
-                    };
-                    if ys || s == 0 {
-                        for x in x0..=x1 {
-                            scan(x);
-                        }
+                    if zs || y.abs_diff(c[1]) == s || s == 0 {
+                        scan(row, x0, x1);
                     } else {
                         if c[0] >= s && (x0..=x1).contains(&(c[0] - s)) {
-                            scan(c[0] - s);
+                            scan(row, c[0] - s, c[0] - s);
                         }
                         if (x0..=x1).contains(&(c[0] + s)) {
-                            scan(c[0] + s);
+                            scan(row, c[0] + s, c[0] + s);
                         }
                     }
                 }
             }
         }
+        whole = false;
         // Close sectors. An unseen node of sector j lies outside the visited cube of
         // cells [c − s, c + s], beyond one of the cube's faces on the sides the
         // sector's box reaches, so it is at least `bound` from p.
@@ -992,7 +1085,8 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
             if !open[j] {
                 continue;
             }
-            if best[j].1 != NONE {
+            let found = best[j] != u64::MAX;
+            if found {
                 let (blo, bhi) = boxes[j];
                 let mut bound = f32::INFINITY;
                 for a in 0..3 {
@@ -1005,14 +1099,14 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
                 }
                 // Guard against rounding: never claim more than the cells guarantee.
                 let bound = bound.max(s as f32 * grid.cell) - 1e-6 * grid.cell;
-                if best[j].0 <= bound * bound {
+                if f32::from_bits((best[j] >> 32) as u32) <= bound * bound {
                     open[j] = false;
                     continue;
                 }
             }
             // Nodes left in the sector's box outside the visited cube? (Only asked for
             // sectors with no candidate yet, or far out, where it pays.)
-            if best[j].1 != NONE && s < 3 {
+            if found && s < 3 {
                 any_open = true;
                 continue;
             }
@@ -1031,9 +1125,9 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
         }
         s += 1;
     }
-    for b in best.iter().take(ku) {
-        if b.1 != NONE {
-            out.push(b.1);
+    for &b in best.iter().take(ku) {
+        if b != u64::MAX {
+            out.push(b as u32);
         }
     }
 }

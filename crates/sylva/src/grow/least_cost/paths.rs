@@ -9,16 +9,16 @@
 //! node's guiding vector and hence its out-edge weights (§5.2.2): the weights are fixed
 //! before they are used, so the search is exact for these self-consistent weights.
 //!
-//! The heap is a binary heap of `(distance bits, node)`: non-negative `f32` distances
-//! order like their bit patterns, and ties go to the smaller node id, so the settle
-//! order — and every output — is deterministic.
+//! The heap is a 4-ary min-heap of `u64` keys `distance bits << 32 | node`: non-negative
+//! `f32` distances order like their bit patterns, and ties go to the smaller node id, so
+//! the settle order — and every output — is deterministic (the same order as a binary
+//! heap of `(distance bits, node)` pairs; the 4-ary layout halves the tree depth and
+//! keeps a node's four children adjacent in memory).
 
 use super::graph::{Graph, NONE};
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// Edge weights, asked lazily by [`dijkstra`].
 pub trait Costs {
@@ -87,7 +87,8 @@ pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mu
     dijkstra_until(g, sources, allowed, costs, NONE)
 }
 
-/// Per-node search state, packed so a relaxation touches one cache line.
+/// Per-node search state, packed so a relaxation touches one cache line. The top bit of
+/// `hops` marks a settled node.
 #[derive(Clone, Copy)]
 struct State {
     dist: f32,
@@ -95,6 +96,9 @@ struct State {
     hops: u32,
     source: u32,
 }
+
+/// The "settled" bit of [`State::hops`].
+const DONE: u32 = 1 << 31;
 
 /// [`dijkstra`] that stops right after settling `stop` (`NONE`: never). Nodes not
 /// settled by then keep their tentative values.
@@ -106,49 +110,111 @@ pub fn dijkstra_until(
     stop: u32,
 ) -> Search {
     let n = g.len();
-    let mut st = vec![State { dist: f32::INFINITY, parent: NONE, hops: u32::MAX, source: NONE }; n];
+    // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
+    let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
+    let mut st = vec![unreached; n];
     let mut order = Vec::with_capacity(n);
-    let mut done = vec![false; n];
-    let mut heap = BinaryHeap::with_capacity(n / 4 + 16);
+    let mut heap = QuadHeap::with_capacity(n / 4 + 16);
     for &src in sources {
         if (src as usize) < n && st[src as usize].source == NONE {
             st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
-            heap.push(Reverse((0u32, src)));
+            heap.push(src as u64);
         }
     }
-    while let Some(Reverse((bits, u))) = heap.pop() {
+    while let Some(key) = heap.pop() {
+        let (bits, u) = ((key >> 32) as u32, key as u32);
         let ui = u as usize;
-        if done[ui] || bits != st[ui].dist.to_bits() {
+        if st[ui].hops & DONE != 0 || bits != st[ui].dist.to_bits() {
             continue;
         }
-        done[ui] = true;
+        st[ui].hops |= DONE;
         order.push(u);
         let su = st[ui];
-        costs.settle(g, u, su.parent, su.hops, su.source);
+        let hops = su.hops & !DONE;
+        costs.settle(g, u, su.parent, hops, su.source);
         if u == stop {
             break;
         }
         let first = g.first_edge(u);
         for (i, &v) in g.out(u).iter().enumerate() {
             let vi = v as usize;
-            if done[vi] || allowed.is_some_and(|a| !a[vi]) {
+            if st[vi].hops & DONE != 0 || allowed.is_some_and(|a| !a[vi]) {
                 continue;
             }
             let w = costs.weight(g, u, v, first + i).max(0.0);
             let nd = su.dist + w;
             let sv = &mut st[vi];
             if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
-                *sv = State { dist: nd, parent: u, hops: su.hops + 1, source: su.source };
-                heap.push(Reverse((nd.to_bits(), v)));
+                *sv = State { dist: nd, parent: u, hops: hops + 1, source: su.source };
+                heap.push((nd.to_bits() as u64) << 32 | v as u64);
             }
         }
     }
+    let hops = |s: &State| if s.source == NONE { u32::MAX } else { s.hops & !DONE };
     Search {
         dist: st.iter().map(|s| s.dist).collect(),
         parent: st.iter().map(|s| s.parent).collect(),
-        hops: st.iter().map(|s| s.hops).collect(),
+        hops: st.iter().map(hops).collect(),
         source: st.iter().map(|s| s.source).collect(),
         order,
+    }
+}
+
+/// A 4-ary min-heap of `u64` keys (duplicates allowed).
+struct QuadHeap {
+    keys: Vec<u64>,
+}
+
+impl QuadHeap {
+    fn with_capacity(n: usize) -> Self {
+        QuadHeap { keys: Vec::with_capacity(n) }
+    }
+
+    fn push(&mut self, key: u64) {
+        let h = &mut self.keys;
+        let mut i = h.len();
+        h.push(key);
+        while i > 0 {
+            let p = (i - 1) / 4;
+            if h[p] <= key {
+                break;
+            }
+            h[i] = h[p];
+            i = p;
+        }
+        h[i] = key;
+    }
+
+    fn pop(&mut self) -> Option<u64> {
+        let h = &mut self.keys;
+        let top = *h.first()?;
+        let last = h.pop()?;
+        let n = h.len();
+        if n == 0 {
+            return Some(top);
+        }
+        let mut i = 0;
+        loop {
+            let c = 4 * i + 1;
+            if c >= n {
+                break;
+            }
+            // Smallest of up to four children.
+            let mut m = c;
+            let end = (c + 4).min(n);
+            for j in c + 1..end {
+                if h[j] < h[m] {
+                    m = j;
+                }
+            }
+            if h[m] >= last {
+                break;
+            }
+            h[i] = h[m];
+            i = m;
+        }
+        h[i] = last;
+        Some(top)
     }
 }
 
@@ -221,6 +287,27 @@ pub fn mgv_weight(e: Vec3, guide: Vec3, epsilon: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::grow::least_cost::graph::{poisson_yao, Primitive, Volume};
+
+    #[test]
+    fn quad_heap_pops_the_minimum() {
+        let mut rng = Pcg64::seed_from_u64(5);
+        let mut h = QuadHeap::with_capacity(4);
+        let mut reference: Vec<u64> = Vec::new();
+        for i in 0..3000 {
+            let k = rng.random_range(0..500u64);
+            h.push(k);
+            reference.push(k);
+            if i % 3 == 0 {
+                let (at, _) = reference.iter().enumerate().min_by_key(|e| *e.1).unwrap();
+                assert_eq!(h.pop(), Some(reference.swap_remove(at)));
+            }
+        }
+        reference.sort_unstable();
+        for want in reference {
+            assert_eq!(h.pop(), Some(want));
+        }
+        assert_eq!(h.pop(), None);
+    }
 
     #[test]
     fn mgv_weight_values() {
