@@ -31,15 +31,13 @@ struct Topo {
 
 /// Asserts a valid, consistently oriented 2-manifold of triangles (each edge in one or
 /// two faces run opposite ways, every vertex star one fan, finite positions, no unused
-/// vertex) of genus 0 in every component, with `sylva::mesh::check`; returns its counts.
-/// Degenerate faces are judged where a test cares (the hull's known slivers on planar
-/// plants, see `tests/meshers.rs`), not here.
+/// vertex, no degenerate face) of genus 0 in every component, with
+/// `sylva::mesh::check`; returns its counts.
 fn check(name: &str, m: &Mesh) -> Topo {
     m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
     assert!((0..m.face_count()).all(|f| m.face(f).len() == 3), "{name}: not all triangles");
     let r = check_mesh(m, &CheckOptions { self_intersections: false, ..Default::default() });
-    let problems: Vec<String> =
-        r.structural_problems().into_iter().filter(|p| !p.contains("degenerate")).collect();
+    let problems = r.structural_problems();
     assert!(problems.is_empty(), "{name}: {problems:?}");
     assert_eq!(
         r.total_genus(),
