@@ -151,7 +151,25 @@ fn environment(
     let (program, radius) = match (&g.environment, folder.and_then(|f| f.environment_program.as_deref())) {
         (Some(c), _) => (c.program.as_str(), c.radius),
         (None, Some(p)) => (p, None),
-        (None, None) => return Ok(None),
+        (None, None) => {
+            // Name the model's environment file when it is the missing piece.
+            let missing = folder.and_then(|f| f.environment_file.as_ref()).filter(|p| !p.is_file());
+            return match (ls.environment_at, missing) {
+                (Some(at), Some(file)) => {
+                    let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                    let m = format!(
+                        "unsupported: `?E` needs the environmental program of `{name}`, which is not in the model \
+                         folder (sylva has: {}; choose one with --set generator.environment.program=…)",
+                        PROGRAMS.join(", ")
+                    );
+                    Err(ls
+                        .source
+                        .error(lsystem::ErrorKind::Unsupported, at, 2, &m, "communication module")
+                        .into())
+                }
+                _ => Ok(None),
+            };
+        }
     };
     if !PROGRAMS.contains(&program) {
         // An unknown program is an unsupported feature of the model, named at its `?E`.

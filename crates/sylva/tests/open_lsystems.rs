@@ -123,7 +123,7 @@ fn the_model_folders_environment_file_names_the_program() {
     let e = derive_err(&dir.join("fractal.l"), &[]);
     let msg = e.to_string();
     assert!(matches!(&e, sylva::Error::Lsystem(l) if l.kind == ErrorKind::Unsupported), "{msg}");
-    assert!(msg.contains("fractal.l:3:") && msg.contains("?E"), "{msg}");
+    assert!(msg.contains("fractal.l:3:") && msg.contains("?E") && msg.contains("`fractal.e`"), "{msg}");
     // A bad radius is a recipe error.
     let e = derive_err(
         &dir.join("fractal.l"),
