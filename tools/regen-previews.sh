@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates the preset catalogue pictures: docs/presets/<preset>.png for every grown
 # preset (320 px, default mesher), docs/curves/<preset>.png (480 px) for every curves
-# preset, and docs/meshers/<tree>-<mesher>.png: two trees with each mesher.
+# preset, docs/meshers/<tree>-<mesher>.png: two trees with each mesher, and
+# docs/cpfg/*.png: three cpfg corpus models (open L-systems, sub-L-systems).
 # Usage: tools/regen-previews.sh            (from the repository root; release build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,3 +29,16 @@ for m in "tube none 0" "hull loop 2" "sweep loop 2" "quad catmull-clark 2"; do
             --set mesh.method="$1" --set refine.scheme="$2" --set refine.levels="$3" >/dev/null
     done
 done
+# cpfg corpus models (docs/cpfg-compatibility.md), when the corpus is next to the repo.
+corpus=../shared/corpus/cpfg
+if [ -d "$corpus" ]; then
+    mkdir -p docs/cpfg
+    env=(--set generator.environment.program=honda81)
+    "$bin" grow "$corpus/11-CPFG__07-Open__04-sierpinski-random/fractal.l" "${env[@]}" -o "$tmp/s.glb" \
+        --preview docs/cpfg/sierpinski-random.png --preview-size 320 >/dev/null
+    "$bin" grow "$corpus/11-CPFG__07-Open__06-canalization/plant.l" "${env[@]}" \
+        --set generator.environment.radius=0.91 -o "$tmp/c.glb" --preview docs/cpfg/canalization.png \
+        --preview-size 320 >/dev/null
+    "$bin" grow "$corpus/10-manuals__11-CPFG__Sedge/sedge.l" -o "$tmp/e.glb" --preview docs/cpfg/sedge.png \
+        --preview-size 320 >/dev/null
+fi
