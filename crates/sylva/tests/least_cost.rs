@@ -644,3 +644,35 @@ fn flat_trees_grow_in_2d() {
     assert!(t.skeleton.position.iter().all(|q| q.z == 0.0));
     assert!(t.report.tips > 10);
 }
+
+#[test]
+fn mig_level_one_endpoints_lie_in_the_shell_under_the_surface() {
+    // §4.2: level-1 endpoints are drawn from the reached nodes with −d_e ≤ sdf ≤ 0. With
+    // no further level, every tip of the tree is such an endpoint.
+    let sphere = Primitive::Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 };
+    let tips_sdf = |shell: f64| -> Vec<f64> {
+        let p = LeastCostParams {
+            method: "mig".into(),
+            nodes: 3000,
+            endpoints: 40,
+            shell,
+            volume: vec![sphere.clone()],
+            ..Default::default()
+        };
+        let t = grow(&p, 5);
+        let vol = Volume::new(vec![sphere.clone()]);
+        let kids = t.skeleton.children();
+        (0..t.skeleton.len())
+            .filter(|&i| kids.of(i).is_empty())
+            .map(|i| vol.sdf(t.skeleton.position[i].as_dvec3()))
+            .collect()
+    };
+    let thin = tips_sdf(0.15);
+    assert!(thin.len() >= 20, "{} tips", thin.len());
+    for d in &thin {
+        assert!((-0.15 - 1e-4..=1e-4).contains(d), "tip at sdf {d}, outside the 0.15 shell");
+    }
+    // The rule matters: with a shell as deep as the volume, tips go deeper.
+    let deep = tips_sdf(2.0);
+    assert!(deep.iter().any(|&d| d < -0.15), "{deep:?}");
+}
