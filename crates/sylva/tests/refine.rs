@@ -697,14 +697,24 @@ fn uv_seams_stay_exact_in_every_mode() {
             let mut seam_vertices = 0;
             for (v, list) in &per_vertex {
                 let p = r.positions[*v as usize];
-                let us: Vec<f32> = list.iter().map(|t| t.x).collect();
-                if us.contains(&0.0) && us.contains(&1.0) {
-                    seam_vertices += 1;
-                    let v0 = list[0].y;
-                    assert!(list.iter().all(|t| t.y == v0), "{uv:?}: v differs across the seam at {p}");
-                } else {
+                if p.z.abs() > 1e-6 || p.x <= 0.0 {
                     // Off the seam a vertex has a single UV.
                     assert!(list.iter().all(|t| *t == list[0]), "{uv:?}: split UV off the seam at {p}");
+                    continue;
+                }
+                seam_vertices += 1;
+                // On the seam: two charts, mirror images of each other (u and 1 − u, the
+                // same v). Every mode but `Smooth` pins the chart's corners, so u stays
+                // exactly 0 and 1; `Smooth` (OpenSubdiv's NONE) smooths the corners where
+                // the seam meets the open ends, and the seam next to them follows.
+                let (lo, hi) = list.iter().fold((list[0], list[0]), |(a, b), t| {
+                    (if t.x < a.x { *t } else { a }, if t.x > b.x { *t } else { b })
+                });
+                assert!(list.iter().all(|t| *t == lo || *t == hi), "{uv:?}: more than two UVs at {p}");
+                assert!((lo.y - hi.y).abs() < 1e-6, "{uv:?}: v differs across the seam at {p}");
+                assert!((lo.x + hi.x - 1.0).abs() < 1e-6, "{uv:?}: seam sides not mirrored at {p}");
+                if uv != FvarInterpolation::Smooth {
+                    assert!(lo.x == 0.0 && hi.x == 1.0, "{uv:?}: seam moved off u = 0 / 1 at {p}");
                 }
             }
             assert_eq!(seam_vertices, 3 * 8 + 1, "{uv:?}");
@@ -797,13 +807,29 @@ fn output_is_identical_for_any_thread_count() {
 
 /// The reference program: `$SYLVA_OSD_REFINE`, or built here with g++ when OpenSubdiv's
 /// headers are installed (`apt-get install libosd-dev`). `None` (the test is skipped)
-/// when neither works, unless `SYLVA_REQUIRE_OSD` is set.
+/// when neither works, unless `SYLVA_REQUIRE_OSD` is set. Built once per test process
+/// (tests run in parallel: a second build would overwrite the program while another test
+/// runs it), into a per-process file.
 fn osd_refine() -> Option<std::path::PathBuf> {
+    static BUILT: std::sync::OnceLock<Option<std::path::PathBuf>> = std::sync::OnceLock::new();
+    if let Some(p) = BUILT.get_or_init(build_osd_refine) {
+        return Some(p.clone());
+    }
+    assert!(
+        std::env::var_os("SYLVA_REQUIRE_OSD").is_none(),
+        "SYLVA_REQUIRE_OSD is set but OpenSubdiv is not available"
+    );
+    eprintln!("skipping the OpenSubdiv agreement test: install libosd-dev and g++, or set SYLVA_OSD_REFINE");
+    None
+}
+
+fn build_osd_refine() -> Option<std::path::PathBuf> {
     if let Ok(p) = std::env::var("SYLVA_OSD_REFINE") {
         return Some(p.into());
     }
     let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/opensubdiv/osd_refine.cpp");
-    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("osd_refine");
+    let out =
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("osd_refine-{}", std::process::id()));
     let built = std::path::Path::new("/usr/include/opensubdiv/far/topologyDescriptor.h").exists()
         && std::process::Command::new("g++")
             .args(["-O2", "-std=c++14"])
@@ -815,11 +841,6 @@ fn osd_refine() -> Option<std::path::PathBuf> {
     if built {
         return Some(out);
     }
-    assert!(
-        std::env::var_os("SYLVA_REQUIRE_OSD").is_none(),
-        "SYLVA_REQUIRE_OSD is set but OpenSubdiv is not available"
-    );
-    eprintln!("skipping the OpenSubdiv agreement test: install libosd-dev and g++, or set SYLVA_OSD_REFINE");
     None
 }
 
