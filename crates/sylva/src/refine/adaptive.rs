@@ -7,10 +7,15 @@
 //! triangle is larger than the **size tolerance** (world-space area). The seed leaves
 //! crack handling open; the output here is always conforming:
 //!
-//! 1. The control mesh is refined uniformly to `max_levels` by the [`Refiner`], so every
-//!    level's positions are exactly Loop's (creases, corners, boundaries, semi-sharp
-//!    decay included). The refinement hierarchy is a forest of 4-ary face trees: face `f`
-//!    of level `l` has the children `4f … 4f + 3` at level `l + 1`.
+//! 1. The control mesh is refined uniformly to `max_levels − 1` by the [`Refiner`], so
+//!    every level's positions are exactly Loop's (creases, corners, boundaries, semi-sharp
+//!    decay included). The deepest level `max_levels` — four times the faces of the one
+//!    above, and where almost all of uniform refinement's time goes — is never built:
+//!    only the children of red-refined faces of level `max_levels − 1` exist there, and
+//!    their vertices are evaluated one by one with the uniform kernel's masks and
+//!    arithmetic (bit for bit the uniform positions). The refinement hierarchy is a forest
+//!    of 4-ary face trees: face `f` of level `l` has the children `4f … 4f + 3` at level
+//!    `l + 1`.
 //! 2. A face of the hierarchy is **red-refined** when it is a leaf so far, wants
 //!    refinement (bends more than the flatness tolerance across one of its edges, and is
 //!    larger than the size tolerance) and is above `max_levels`.
@@ -140,7 +145,7 @@ pub fn adaptive_loop_levels(
     }
     // Levels 0 … n − 1 are refined uniformly with full adjacency; the deepest level n is
     // only ever needed for the children of red-refined faces of level n − 1, so its
-    // topology is never built and its positions are evaluated on demand (`Finest`).
+    // topology is never built and its positions are evaluated on demand (`Hierarchy::finest_position`).
     let ro = RefineOptions {
         scheme: Scheme::Loop,
         levels: n.saturating_sub(1) as u32,
