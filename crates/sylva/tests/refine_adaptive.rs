@@ -587,3 +587,58 @@ fn bias_scales_noise_per_vertex() {
         assert!(displace(&mut m.clone(), 1, &bad, 0).is_err(), "{bad:?}");
     }
 }
+
+/// The deepest level is evaluated sparsely (only where red-refined faces have children),
+/// with the uniform kernel's arithmetic: every output vertex is, bit for bit, a vertex of
+/// uniform Loop refinement at some level, also with semi-sharp (fractional) creases under
+/// both decay rules, a tagged corner and an open boundary, and the deepest level is used.
+#[test]
+fn sparse_deepest_level_matches_uniform_with_creases_corners_and_boundary() {
+    use sylva::refine::{BoundaryInterpolation, CreasingMethod};
+    let mut oct = octahedron();
+    oct.creases = vec![
+        sylva::mesh::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
+        sylva::mesh::Crease { a: 2, b: 1, sharpness: 1.5 },
+        sylva::mesh::Crease { a: 1, b: 3, sharpness: 0.4 },
+    ];
+    let mut grid = bumpy_grid(4, 0.3);
+    grid.creases = vec![sylva::mesh::Crease { a: 6, b: 12, sharpness: 2.3 }];
+    let corners = [Corner { vertex: 4, sharpness: 1.7 }];
+    let key = |p: &Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    for m in [&oct, &grid] {
+        for creasing in [CreasingMethod::Uniform, CreasingMethod::Chaikin] {
+            for boundary in [BoundaryInterpolation::EdgeOnly, BoundaryInterpolation::EdgeAndCorner] {
+                for levels in 1..=3 {
+                    let opts = AdaptiveOptions {
+                        max_levels: levels,
+                        flatness: 0.05,
+                        min_area: 0.0,
+                        boundary,
+                        creasing,
+                        ..Default::default()
+                    };
+                    let (out, face_levels) = adaptive_loop_levels(m, &corners, &opts).unwrap();
+                    assert_conforming(m, &out);
+                    assert_eq!(face_levels.iter().max(), Some(&(levels as u8)));
+                    let mut uniform: HashSet<[u32; 3]> = m.positions.iter().map(key).collect();
+                    for l in 1..=levels {
+                        let so = SubdivideOptions {
+                            refine: RefineOptions {
+                                scheme: Scheme::Loop,
+                                levels: l,
+                                boundary,
+                                creasing,
+                                ..Default::default()
+                            },
+                            ..Default::default()
+                        };
+                        uniform.extend(subdivide(m, &corners, &so).unwrap().positions.iter().map(key));
+                    }
+                    for p in &out.positions {
+                        assert!(uniform.contains(&key(p)), "{p} ({creasing:?} {boundary:?} level {levels})");
+                    }
+                }
+            }
+        }
+    }
+}

@@ -7,10 +7,15 @@
 //! triangle is larger than the **size tolerance** (world-space area). The seed leaves
 //! crack handling open; the output here is always conforming:
 //!
-//! 1. The control mesh is refined uniformly to `max_levels` by the [`Refiner`], so every
-//!    level's positions are exactly Loop's (creases, corners, boundaries, semi-sharp
-//!    decay included). The refinement hierarchy is a forest of 4-ary face trees: face `f`
-//!    of level `l` has the children `4f … 4f + 3` at level `l + 1`.
+//! 1. The control mesh is refined uniformly to `max_levels − 1` by the [`Refiner`], so
+//!    every level's positions are exactly Loop's (creases, corners, boundaries, semi-sharp
+//!    decay included). The deepest level `max_levels` — four times the faces of the one
+//!    above, and where almost all of uniform refinement's time goes — is never built:
+//!    only the children of red-refined faces of level `max_levels − 1` exist there, and
+//!    their vertices are evaluated one by one with the uniform kernel's masks and
+//!    arithmetic (bit for bit the uniform positions). The refinement hierarchy is a forest
+//!    of 4-ary face trees: face `f` of level `l` has the children `4f … 4f + 3` at level
+//!    `l + 1`.
 //! 2. A face of the hierarchy is **red-refined** when it is a leaf so far, wants
 //!    refinement (bends more than the flatness tolerance across one of its edges, and is
 //!    larger than the size tolerance) and is above `max_levels`.
@@ -28,6 +33,8 @@
 //! are carried linearly (barycentric in the control triangle, dyadic weights, so seams
 //! stay exact).
 
+use super::crease::Rules;
+use super::loop_::beta;
 use super::topology::{Topology, NONE};
 use super::{BoundaryInterpolation, Corner, CreasingMethod, RefineError, RefineOptions, Refiner, Scheme};
 use crate::mesh::{FaceVarying, Mesh};
@@ -123,24 +130,43 @@ pub fn adaptive_loop_levels(
             limit: options.max_faces,
         });
     }
+    // The face budget of the deepest level, checked as the uniform refiner would.
+    let n = options.max_levels as usize;
+    let out_faces = super::output_face_count(Scheme::Loop, mesh.face_count(), 0, options.max_levels);
+    if out_faces > options.max_faces as u128 {
+        return Err(RefineError::Budget {
+            levels: options.max_levels,
+            faces: out_faces,
+            limit: options.max_faces,
+        });
+    }
+    if out_faces.saturating_mul(2) + mesh.positions.len() as u128 >= NONE as u128 {
+        return Err(RefineError::TooLarge { what: "refined mesh", count: out_faces as usize });
+    }
+    // Levels 0 … n − 1 are refined uniformly with full adjacency; the deepest level n is
+    // only ever needed for the children of red-refined faces of level n − 1, so its
+    // topology is never built and its positions are evaluated on demand (`Hierarchy::finest_position`).
     let ro = RefineOptions {
         scheme: Scheme::Loop,
-        levels: options.max_levels,
+        levels: n.saturating_sub(1) as u32,
         boundary: options.boundary,
         creasing: options.creasing,
-        full_last_level: false,
+        full_last_level: true,
         parallel: true,
         max_faces: options.max_faces,
     };
     let refiner = Refiner::new(mesh, corners, &ro)?;
-    let n = refiner.levels();
-    let mut pos: Vec<Vec<Vec3>> = Vec::with_capacity(n + 1);
+    let mut pos: Vec<Vec<Vec3>> = Vec::with_capacity(n);
     pos.push(mesh.positions.clone());
-    for l in 0..n {
+    for l in 0..n.saturating_sub(1) {
         let mut next = vec![Vec3::ZERO; refiner.level(l + 1).vertex_count()];
         refiner.interpolate_level(l, &pos[l], &mut next);
         pos.push(next);
     }
+    let finest_rules = (n > 0).then(|| {
+        let last = &refiner.levels[n - 1];
+        super::crease::refine_features(&last.topo, &last.features, options.creasing, options.boundary).0
+    });
     // Per level below the finest: face normals (area-weighted) and which edges are sharp,
     // computed once instead of on every query.
     let normals: Vec<Vec<Vec3>> = (0..n)
@@ -171,15 +197,30 @@ pub fn adaptive_loop_levels(
         .collect();
     // angle(a, b) > flatness  ⇔  a·b < cos(flatness)·|a||b| for flatness in [0, π).
     let cos_flatness = if options.flatness < std::f32::consts::PI { options.flatness.cos() } else { -2.0 };
-    let h = Hierarchy { refiner: &refiner, pos: &pos, options, normals, sharp, cos_flatness };
+    let h = Hierarchy {
+        refiner: &refiner,
+        levels: n,
+        pos: &pos,
+        finest_rules,
+        options,
+        normals,
+        sharp,
+        cos_flatness,
+    };
     let refined = h.select();
     Ok(h.emit(mesh, &refined))
 }
 
 /// The uniform hierarchy and the tolerances.
 struct Hierarchy<'a> {
+    /// The uniform refinement of levels 0 … `levels − 1` (full adjacency on all of them).
     refiner: &'a Refiner,
+    /// The deepest level (`max_levels`); its topology and positions are never built.
+    levels: usize,
+    /// Positions of levels 0 … `levels − 1`.
     pos: &'a [Vec<Vec3>],
+    /// Crease and corner masks from level `levels − 1` to `levels` (none when `levels` = 0).
+    finest_rules: Option<Rules>,
     options: &'a AdaptiveOptions,
     /// Unnormalized face normals of each level below the finest.
     normals: Vec<Vec<Vec3>>,
@@ -281,7 +322,7 @@ impl Hierarchy<'_> {
 
     /// Which faces of each level (below the finest) are red-refined.
     fn select(&self) -> Vec<Vec<bool>> {
-        let n = self.refiner.levels();
+        let n = self.levels;
         let mut refine: Vec<Vec<bool>> = (0..n).map(|l| vec![false; self.topo(l).face_count()]).collect();
         let mut want: Vec<Want> = (0..n).map(|l| vec![0u8; self.topo(l).face_count()]).collect();
         loop {
@@ -345,10 +386,75 @@ impl Hierarchy<'_> {
         }
     }
 
+    /// The Loop position of vertex `v` of the deepest level (`levels` > 0): the vertex
+    /// point of vertex `v` or the edge point of edge `v − V` of level `levels − 1`. The
+    /// same arithmetic, in the same order, as the uniform kernel (`loop_::interpolate`),
+    /// so the result is bit for bit the uniform one.
+    fn finest_position(&self, v: u32) -> Vec3 {
+        let l = self.levels - 1;
+        let p = self.topo(l);
+        let src = &self.pos[l];
+        let rules = self.finest_rules.as_ref().expect("a finest level below level 0");
+        let nv = p.num_verts;
+        if v >= nv {
+            let e = v - nv;
+            let [a, b] = p.edge_verts[e as usize];
+            let [c0, c1] = p.edge_corners[e as usize];
+            let s = src[a as usize] + src[b as usize];
+            let smooth = if c1 == NONE {
+                s * 0.5
+            } else {
+                let opp = src[p.face_verts[p.prev(c0) as usize] as usize]
+                    + src[p.face_verts[p.prev(c1) as usize] as usize];
+                s * 0.375 + opp * 0.125
+            };
+            return match rules.edge_specials.binary_search_by_key(&e, |x| x.0) {
+                Ok(i) => {
+                    let w = rules.edge_specials[i].1;
+                    let mid = (src[a as usize] + src[b as usize]) * 0.5;
+                    mid * w + smooth * (1.0 - w)
+                }
+                Err(_) => smooth,
+            };
+        }
+        let cs = p.vertex_corners(v as usize);
+        let n = cs.len();
+        let smooth = if n == 0 {
+            src[v as usize]
+        } else {
+            let mut sum = Vec3::ZERO;
+            for &c in cs {
+                sum += src[p.face_verts[p.next(c) as usize] as usize];
+            }
+            let b = beta(n) as f32;
+            src[v as usize] * (1.0 - n as f32 * b) + sum * b
+        };
+        match rules.vertex_specials.binary_search_by_key(&v, |x| x.vertex) {
+            Ok(i) => {
+                let s = &rules.vertex_specials[i];
+                let mut out = src[v as usize] * s.w_vertex;
+                if s.w_pair != 0.0 {
+                    out += (src[s.pair[0] as usize] + src[s.pair[1] as usize]) * s.w_pair;
+                }
+                if s.smooth != 0.0 {
+                    out += smooth * s.smooth;
+                }
+                out
+            }
+            Err(_) => smooth,
+        }
+    }
+
     /// Writes the leaves (and green halves) as a mesh.
     fn emit(&self, mesh: &Mesh, refine: &[Vec<bool>]) -> (Mesh, Vec<u8>) {
-        let n = self.refiner.levels();
-        let finest_verts = self.topo(n).vertex_count();
+        let n = self.levels;
+        // Vertices of the deepest level: V + E of level n − 1 (Loop's numbering).
+        let finest_verts = if n == 0 {
+            self.topo(0).vertex_count()
+        } else {
+            let t = self.topo(n - 1);
+            t.vertex_count() + t.edge_count()
+        };
         // (global vertex, barycentric corner weights in the control face), per leaf corner.
         let mut tris: Vec<Leaf> = Vec::new();
         let mut level_of = vec![u8::MAX; finest_verts];
@@ -358,20 +464,16 @@ impl Hierarchy<'_> {
                 *s = l as u8;
             }
         };
-        for l in 0..=n {
+        for l in 0..n {
             let t = self.topo(l);
             for f in 0..t.face_count() {
                 let exists = l == 0 || refine[l - 1][f / 4];
-                if !exists || (l < n && refine[l][f]) {
+                if !exists || refine[l][f] {
                     continue;
                 }
                 let v: [u32; 3] = [t.face_verts[3 * f], t.face_verts[3 * f + 1], t.face_verts[3 * f + 2]];
                 let (root, w) = barycentric(f, l);
-                let hanging = if l < n {
-                    (0..3).find(|&j| self.neighbour(l, f, j).is_some_and(|g| refine[l][g]))
-                } else {
-                    None
-                };
+                let hanging = (0..3).find(|&j| self.neighbour(l, f, j).is_some_and(|g| refine[l][g]));
                 for &x in &v {
                     use_vertex(x, l);
                 }
@@ -388,6 +490,33 @@ impl Hierarchy<'_> {
                 }
             }
         }
+        if n == 0 {
+            for f in 0..self.topo(0).face_count() {
+                let t = self.topo(0);
+                let v: [u32; 3] = [t.face_verts[3 * f], t.face_verts[3 * f + 1], t.face_verts[3 * f + 2]];
+                for &x in &v {
+                    use_vertex(x, 0);
+                }
+                tris.push((v, barycentric(f, 0).1, f as u32, 0));
+            }
+        } else {
+            // The deepest level: only the children of red-refined faces of level n − 1 exist
+            // (all leaves), with Loop's child layout (see `barycentric`).
+            let p = self.topo(n - 1);
+            for (pf, _) in refine[n - 1].iter().enumerate().filter(|x| *x.1) {
+                let pv = &p.face_verts[3 * pf..3 * pf + 3];
+                let pe = &p.face_edges[3 * pf..3 * pf + 3];
+                let (m0, m1, m2) = (p.num_verts + pe[0], p.num_verts + pe[1], p.num_verts + pe[2]);
+                let children = [[pv[0], m0, m2], [m0, pv[1], m1], [m2, m1, pv[2]], [m0, m1, m2]];
+                for (k, v) in children.into_iter().enumerate() {
+                    for &x in &v {
+                        use_vertex(x, n);
+                    }
+                    let (root, w) = barycentric(4 * pf + k, n);
+                    tris.push((v, w, root, n as u8));
+                }
+            }
+        }
         // Compact the vertices in hierarchy order: control vertices keep their order
         // (and their indices when all are used), then each level's new edge points.
         let mut index = vec![u32::MAX; finest_verts];
@@ -395,7 +524,12 @@ impl Hierarchy<'_> {
         for (v, &l) in level_of.iter().enumerate() {
             if l != u8::MAX {
                 index[v] = out.positions.len() as u32;
-                out.positions.push(self.pos[l as usize][v]);
+                let l = l as usize;
+                out.positions.push(if l < n || n == 0 {
+                    self.pos[l][v]
+                } else {
+                    self.finest_position(v as u32)
+                });
             }
         }
         out.face_indices.reserve(3 * tris.len());
