@@ -84,7 +84,7 @@ impl Search {
 /// Multi-source Dijkstra over out-edges (§3.1, Fig. 3.1): every source starts at cost 0
 /// with 0 hops. `allowed`, when given, restricts the search to the flagged nodes.
 pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mut impl Costs) -> Search {
-    dijkstra_until(g, sources, allowed, costs, NONE)
+    dijkstra_until(g, sources, allowed, costs, Until::Never)
 }
 
 /// Per-node search state, packed so a relaxation touches one cache line. The top bit of
@@ -100,16 +100,46 @@ struct State {
 /// The "settled" bit of [`State::hops`].
 const DONE: u32 = 1 << 31;
 
-/// [`dijkstra`] that stops right after settling `stop` (`NONE`: never). Nodes not
-/// settled by then keep their tentative values.
+/// When [`dijkstra_until`] may stop before the heap is empty. Every node it reports
+/// as settled (in [`Search::order`]) has exactly the state — and [`Costs::settle`] was
+/// called for it in exactly the order — of a full search, because an early stop only cuts
+/// the same deterministic settle sequence short; nodes not settled keep tentative values.
+#[derive(Debug, Clone, Copy, Default)]
+pub enum Until<'a> {
+    /// Run until every reachable node is settled.
+    #[default]
+    Never,
+    /// Stop right after settling this node (`NONE`: never).
+    Node(u32),
+    /// Stop once every node whose final hop count is ≤ k is settled (and has relaxed its
+    /// out-edges). Then a node has hop count exactly k in the result if and only if it
+    /// has in a full search: a node left unsettled only ever gets paths through nodes
+    /// with more than k hops, so its tentative and final hop counts both exceed k.
+    Hops(u32),
+    /// Stop once every flagged node is settled (a flagged node that is never reached
+    /// means no early stop). With no node flagged it stops right after the first settle.
+    Settled(&'a [bool]),
+}
+
+/// [`dijkstra`] that may stop early (see [`Until`]).
 pub fn dijkstra_until(
     g: &Graph,
     sources: &[u32],
     allowed: Option<&[bool]>,
     costs: &mut impl Costs,
-    stop: u32,
+    until: Until,
 ) -> Search {
     let n = g.len();
+    let (stop, max_hops, targets) = match until {
+        Until::Never => (NONE, None, None),
+        Until::Node(u) => (u, None, None),
+        Until::Hops(k) => (NONE, Some(k), None),
+        Until::Settled(flags) => (NONE, None, Some(flags)),
+    };
+    // Targets not yet settled (Until::Settled).
+    let mut targets_left = targets.map_or(0, |t| t.iter().take(n).filter(|&&f| f).count());
+    // Unsettled nodes whose tentative hop count is ≤ k (Until::Hops).
+    let mut pending = 0usize;
     // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
     let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
     let mut st = vec![unreached; n];
@@ -119,8 +149,10 @@ pub fn dijkstra_until(
         if (src as usize) < n && st[src as usize].source == NONE {
             st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
             heap.push(src as u64);
+            pending += 1;
         }
     }
+    let k = max_hops.unwrap_or(u32::MAX);
     while let Some(key) = heap.pop() {
         let (bits, u) = ((key >> 32) as u32, key as u32);
         let ui = u as usize;
@@ -135,6 +167,17 @@ pub fn dijkstra_until(
         if u == stop {
             break;
         }
+        if let Some(t) = targets {
+            if t.get(ui).copied().unwrap_or(false) {
+                targets_left -= 1;
+            }
+            if targets_left == 0 {
+                break;
+            }
+        }
+        if hops <= k {
+            pending -= 1;
+        }
         let first = g.first_edge(u);
         for (i, &v) in g.out(u).iter().enumerate() {
             let vi = v as usize;
@@ -145,9 +188,14 @@ pub fn dijkstra_until(
             let nd = su.dist + w;
             let sv = &mut st[vi];
             if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
+                let was = sv.source != NONE && sv.hops <= k;
                 *sv = State { dist: nd, parent: u, hops: hops + 1, source: su.source };
                 heap.push((nd.to_bits() as u64) << 32 | v as u64);
+                pending = pending + usize::from(hops < k) - usize::from(was);
             }
+        }
+        if max_hops.is_some() && pending == 0 {
+            break;
         }
     }
     let hops = |s: &State| if s.source == NONE { u32::MAX } else { s.hops & !DONE };
