@@ -9,11 +9,12 @@
 //! node's guiding vector and hence its out-edge weights (§5.2.2): the weights are fixed
 //! before they are used, so the search is exact for these self-consistent weights.
 //!
-//! The heap is a 4-ary min-heap of `u64` keys `distance bits << 32 | node`: non-negative
-//! `f32` distances order like their bit patterns, and ties go to the smaller node id, so
-//! the settle order — and every output — is deterministic (the same order as a binary
-//! heap of `(distance bits, node)` pairs; the 4-ary layout halves the tree depth and
-//! keeps a node's four children adjacent in memory).
+//! The priority queue is a radix heap of `u64` keys `distance bits << 32 | node`:
+//! non-negative `f32` distances order like their bit patterns, and ties go to the
+//! smaller node id, so the settle order — and every output — is deterministic (the same
+//! order as a binary heap of `(distance bits, node)` pairs; keys that fall below the
+//! last pop, possible when an edge adds less than half an ulp, wait in a 4-ary side
+//! heap and come out first).
 
 use super::graph::{Graph, NONE};
 use glam::Vec3;
@@ -48,7 +49,8 @@ impl Costs for Stored<'_> {
     }
 }
 
-/// The result of [`dijkstra`].
+/// The result of [`dijkstra`] (after an early stop of [`dijkstra_until`], the values
+/// of nodes not in `order` are tentative).
 #[derive(Debug, Clone, Default)]
 pub struct Search {
     /// Least cost from the nearest source (`f32::INFINITY` when unreached).
@@ -144,7 +146,7 @@ pub fn dijkstra_until(
     let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
     let mut st = vec![unreached; n];
     let mut order = Vec::with_capacity(n);
-    let mut heap = QuadHeap::with_capacity(n / 4 + 16);
+    let mut heap = RadixHeap::new();
     for &src in sources {
         if (src as usize) < n && st[src as usize].source == NONE {
             st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
@@ -205,6 +207,76 @@ pub fn dijkstra_until(
         hops: st.iter().map(hops).collect(),
         source: st.iter().map(|s| s.source).collect(),
         order,
+    }
+}
+
+/// A radix heap of `u64` keys (duplicates allowed) that pops exactly the minimum, like
+/// [`QuadHeap`], but in amortised O(1) per key for Dijkstra's nearly monotone keys.
+///
+/// Bucket `b > 0` holds keys whose highest bit differing from `last` (the largest key
+/// popped so far) is bit `b − 1`; bucket 0 holds copies of `last`. A pop from an empty
+/// bucket 0 takes the lowest non-empty bucket, makes its minimum the new `last` and
+/// spreads it over lower buckets. A key below `last` (Dijkstra pushes one when an edge
+/// adds less than half an ulp to the distance and the target has a smaller id) is
+/// smaller than every bucketed key, so it waits in the side heap `low`, popped first.
+struct RadixHeap {
+    last: u64,
+    buckets: Vec<Vec<u64>>,
+    /// Bit `b` set when bucket `b` is non-empty.
+    used: u128,
+    low: QuadHeap,
+}
+
+impl RadixHeap {
+    fn new() -> Self {
+        RadixHeap { last: 0, buckets: vec![Vec::new(); 65], used: 0, low: QuadHeap::with_capacity(0) }
+    }
+
+    #[inline]
+    fn bucket(&self, key: u64) -> usize {
+        (64 - (key ^ self.last).leading_zeros()) as usize
+    }
+
+    #[inline]
+    fn push(&mut self, key: u64) {
+        if key < self.last {
+            self.low.push(key);
+            return;
+        }
+        let b = self.bucket(key);
+        self.buckets[b].push(key);
+        self.used |= 1 << b;
+    }
+
+    fn pop(&mut self) -> Option<u64> {
+        if let Some(k) = self.low.pop() {
+            return Some(k);
+        }
+        if self.used & 1 == 0 {
+            if self.used == 0 {
+                return None;
+            }
+            let b = self.used.trailing_zeros() as usize;
+            let items = std::mem::take(&mut self.buckets[b]);
+            self.used &= !(1 << b);
+            self.last = items.iter().copied().min()?;
+            for &k in &items {
+                let t = self.bucket(k);
+                self.buckets[t].push(k);
+                self.used |= 1 << t;
+            }
+            // Keep the emptied bucket's allocation for later pushes.
+            let mut items = items;
+            items.clear();
+            if self.buckets[b].is_empty() {
+                self.buckets[b] = items;
+            }
+        }
+        let k = self.buckets[0].pop();
+        if self.buckets[0].is_empty() {
+            self.used &= !1;
+        }
+        k
     }
 }
 
@@ -353,6 +425,37 @@ mod tests {
         reference.sort_unstable();
         for want in reference {
             assert_eq!(h.pop(), Some(want));
+        }
+        assert_eq!(h.pop(), None);
+    }
+
+    #[test]
+    fn radix_heap_pops_the_minimum_even_below_the_last_pop() {
+        let mut rng = Pcg64::seed_from_u64(9);
+        let mut h = RadixHeap::new();
+        let mut q = QuadHeap::with_capacity(4);
+        let mut last = 0u64;
+        for i in 0..20_000 {
+            // Mostly keys at or above the last pop (Dijkstra), sometimes just below it
+            // (same distance bits, smaller id), sometimes duplicates.
+            let k = match rng.random_range(0..10) {
+                0 => last & !0xffff_ffff | rng.random_range(0..=(last & 0xffff_ffff)),
+                1 => last,
+                _ => {
+                    let bits = rng.random_range(0..40);
+                    last + rng.random_range(0..1u64 << bits)
+                }
+            };
+            h.push(k);
+            q.push(k);
+            if i % 3 != 0 {
+                let (a, b) = (h.pop(), q.pop());
+                assert_eq!(a, b);
+                last = last.max(a.unwrap());
+            }
+        }
+        while let Some(b) = q.pop() {
+            assert_eq!(h.pop(), Some(b));
         }
         assert_eq!(h.pop(), None);
     }
