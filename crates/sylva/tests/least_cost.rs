@@ -10,7 +10,7 @@ use sylva::grow::least_cost::graph::{
     self, lattice, poisson, poisson_yao, sector, Graph, Primitive, Volume, NONE,
 };
 use sylva::grow::least_cost::mgv::{self, MgvIteration, MgvState, Rotation};
-use sylva::grow::least_cost::paths::{dijkstra, mgv_weight, Costs, Length, Search};
+use sylva::grow::least_cost::paths::{dijkstra, dijkstra_until, mgv_weight, Costs, Length, Search, Until};
 use sylva::grow::least_cost::{self as lc, LeastCostParams};
 use sylva::recipe;
 
@@ -323,6 +323,44 @@ fn lazy_mgv_weights_are_in_range_and_the_search_is_exact_for_them() {
         }
         assert!((c.guide[u as usize].length() - 1.0).abs() < 1e-5);
     }
+}
+
+#[test]
+fn early_stopped_searches_match_the_full_search_where_it_matters() {
+    let g = small_graph(3000, 8, 3, 6);
+    // Several sources, as in an MGV iteration from a tree.
+    let srcs: Vec<u32> = (0..g.len() as u32).step_by(397).collect();
+    let run = |until: Until| {
+        let mut c = Recorded { guide: vec![Vec3::Y; g.len()] };
+        let s = dijkstra_until(&g, &srcs, None, &mut c, until);
+        (s, c.guide)
+    };
+    let (full, full_guide) = run(Until::Never);
+    let same = |s: &Search, guide: &[Vec3], v: usize| {
+        (s.dist[v], s.parent[v], s.hops[v], s.source[v], guide[v])
+            == (full.dist[v], full.parent[v], full.hops[v], full.source[v], full_guide[v])
+    };
+    for k in [1, 3, 5] {
+        let (s, guide) = run(Until::Hops(k));
+        assert!(s.order.len() < full.order.len(), "k = {k} stops early");
+        assert_eq!(s.order[..], full.order[..s.order.len()], "a prefix of the full settle order");
+        for v in 0..g.len() {
+            if full.hops[v] <= k {
+                assert!(same(&s, &guide, v), "k = {k}: node {v} has its final state");
+            }
+            assert_eq!(s.reached(v as u32) && s.hops[v] == k, full.hops[v] == k, "k = {k}: node {v}");
+        }
+    }
+    // Targets: a block of far nodes; every target gets its final state.
+    let targets: Vec<bool> = (0..g.len()).map(|v| v % 11 == 0 && full.hops[v] < 6).collect();
+    let (s, guide) = run(Until::Settled(&targets));
+    assert!(s.order.len() < full.order.len());
+    for v in (0..g.len()).filter(|&v| targets[v]) {
+        assert!(same(&s, &guide, v), "target {v}");
+        assert!(s.path(v as u32).iter().all(|&u| same(&s, &guide, u as usize)));
+    }
+    let (s, _) = run(Until::Settled(&[]));
+    assert_eq!(s.order.len(), 1, "no targets: stops after the first settle");
 }
 
 fn mgv_params(iters: Vec<MgvIteration>) -> LeastCostParams {

@@ -52,7 +52,7 @@
 //! (hanging branches, Fig. 5.12; upward ones, Table 6.1 f).
 
 use super::graph::{Graph, Primitive, Volume, NONE};
-use super::paths::{dijkstra_until, mgv_weight, Costs, Search};
+use super::paths::{dijkstra_until, mgv_weight, Costs, Search, Until};
 use super::{bad, hash01, in_range, main_graph, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::Result;
 use glam::{DVec3, Vec3};
@@ -489,11 +489,17 @@ impl MgvState {
             epsilon: p.epsilon as f32,
             axis: if p.axis == "guide" { AxisRule::Guide } else { AxisRule::Edge },
         };
-        // A `point` endpoint is known before the search (the reachable non-tree node
-        // nearest the target), so the search can stop once it is settled.
-        let stop = if it.endpoints == "point" && it.direction == "any" {
+        // The search stops as soon as the endpoint candidates are final (see
+        // `paths::Until`; the endpoints and their paths are those of a full search). A
+        // `point` endpoint is known before the search (the reachable non-tree node
+        // nearest the target): stop once it is settled. `volume` candidates are the
+        // reachable non-tree nodes in the crown: stop once all are settled. `surface`
+        // candidates are the nodes exactly `hops` edges out: stop once every node with
+        // at most `hops` edges is settled. `none` stops after the first settle.
+        let crown_flags: Vec<bool>;
+        let until = if it.endpoints == "point" && it.direction == "any" {
             let t = DVec3::from_array(it.target).as_vec3();
-            (0..g.len() as u32)
+            let nearest = (0..g.len() as u32)
                 .filter(|&v| self.reachable[v as usize] && !self.in_tree[v as usize])
                 .min_by(|&a, &b| {
                     g.position[a as usize]
@@ -501,11 +507,22 @@ impl MgvState {
                         .total_cmp(&g.position[b as usize].distance_squared(t))
                         .then(a.cmp(&b))
                 })
-                .unwrap_or(NONE)
+                .unwrap_or(NONE);
+            Until::Node(nearest)
+        } else if it.endpoints == "volume" {
+            let crown = Volume::new(it.crown.clone());
+            crown_flags = (0..g.len())
+                .map(|v| self.reachable[v] && !self.in_tree[v] && crown.contains(g.position[v].as_dvec3()))
+                .collect();
+            Until::Settled(&crown_flags)
+        } else if it.endpoints == "surface" {
+            Until::Hops(it.hops)
+        } else if it.endpoints == "none" {
+            Until::Settled(&[])
         } else {
-            NONE
+            Until::Never
         };
-        let search = dijkstra_until(g, &self.nodes, None, &mut costs, stop);
+        let search = dijkstra_until(g, &self.nodes, None, &mut costs, until);
         let guide = costs.guide;
         let mut rng =
             Pcg64::seed_from_u64(seed ^ 0x656e_6470_6f69_6e74 ^ (index as u64).wrapping_mul(0x9e37_79b9));

@@ -9,11 +9,12 @@
 //! node's guiding vector and hence its out-edge weights (§5.2.2): the weights are fixed
 //! before they are used, so the search is exact for these self-consistent weights.
 //!
-//! The heap is a 4-ary min-heap of `u64` keys `distance bits << 32 | node`: non-negative
-//! `f32` distances order like their bit patterns, and ties go to the smaller node id, so
-//! the settle order — and every output — is deterministic (the same order as a binary
-//! heap of `(distance bits, node)` pairs; the 4-ary layout halves the tree depth and
-//! keeps a node's four children adjacent in memory).
+//! The priority queue is a radix heap of `u64` keys `distance bits << 32 | node`:
+//! non-negative `f32` distances order like their bit patterns, and ties go to the
+//! smaller node id, so the settle order — and every output — is deterministic (the same
+//! order as a binary heap of `(distance bits, node)` pairs; keys that fall below the
+//! last pop, possible when an edge adds less than half an ulp, wait in a 4-ary side
+//! heap and come out first).
 
 use super::graph::{Graph, NONE};
 use glam::Vec3;
@@ -48,7 +49,8 @@ impl Costs for Stored<'_> {
     }
 }
 
-/// The result of [`dijkstra`].
+/// The result of [`dijkstra`] (after an early stop of [`dijkstra_until`], the values
+/// of nodes not in `order` are tentative).
 #[derive(Debug, Clone, Default)]
 pub struct Search {
     /// Least cost from the nearest source (`f32::INFINITY` when unreached).
@@ -84,7 +86,7 @@ impl Search {
 /// Multi-source Dijkstra over out-edges (§3.1, Fig. 3.1): every source starts at cost 0
 /// with 0 hops. `allowed`, when given, restricts the search to the flagged nodes.
 pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mut impl Costs) -> Search {
-    dijkstra_until(g, sources, allowed, costs, NONE)
+    dijkstra_until(g, sources, allowed, costs, Until::Never)
 }
 
 /// Per-node search state, packed so a relaxation touches one cache line. The top bit of
@@ -100,27 +102,59 @@ struct State {
 /// The "settled" bit of [`State::hops`].
 const DONE: u32 = 1 << 31;
 
-/// [`dijkstra`] that stops right after settling `stop` (`NONE`: never). Nodes not
-/// settled by then keep their tentative values.
+/// When [`dijkstra_until`] may stop before the heap is empty. Every node it reports
+/// as settled (in [`Search::order`]) has exactly the state — and [`Costs::settle`] was
+/// called for it in exactly the order — of a full search, because an early stop only cuts
+/// the same deterministic settle sequence short; nodes not settled keep tentative values.
+#[derive(Debug, Clone, Copy, Default)]
+pub enum Until<'a> {
+    /// Run until every reachable node is settled.
+    #[default]
+    Never,
+    /// Stop right after settling this node (`NONE`: never).
+    Node(u32),
+    /// Stop once every node whose final hop count is ≤ k is settled (and has relaxed its
+    /// out-edges). Then a node has hop count exactly k in the result if and only if it
+    /// has in a full search: a node left unsettled only ever gets paths through nodes
+    /// with more than k hops, so its tentative and final hop counts both exceed k.
+    Hops(u32),
+    /// Stop once every flagged node is settled (a flagged node that is never reached
+    /// means no early stop). With no node flagged it stops right after the first settle.
+    Settled(&'a [bool]),
+}
+
+/// [`dijkstra`] that may stop early (see [`Until`]).
 pub fn dijkstra_until(
     g: &Graph,
     sources: &[u32],
     allowed: Option<&[bool]>,
     costs: &mut impl Costs,
-    stop: u32,
+    until: Until,
 ) -> Search {
     let n = g.len();
+    let (stop, max_hops, targets) = match until {
+        Until::Never => (NONE, None, None),
+        Until::Node(u) => (u, None, None),
+        Until::Hops(k) => (NONE, Some(k), None),
+        Until::Settled(flags) => (NONE, None, Some(flags)),
+    };
+    // Targets not yet settled (Until::Settled).
+    let mut targets_left = targets.map_or(0, |t| t.iter().take(n).filter(|&&f| f).count());
+    // Unsettled nodes whose tentative hop count is ≤ k (Until::Hops).
+    let mut pending = 0usize;
     // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
     let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
     let mut st = vec![unreached; n];
     let mut order = Vec::with_capacity(n);
-    let mut heap = QuadHeap::with_capacity(n / 4 + 16);
+    let mut heap = RadixHeap::new();
     for &src in sources {
         if (src as usize) < n && st[src as usize].source == NONE {
             st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
             heap.push(src as u64);
+            pending += 1;
         }
     }
+    let k = max_hops.unwrap_or(u32::MAX);
     while let Some(key) = heap.pop() {
         let (bits, u) = ((key >> 32) as u32, key as u32);
         let ui = u as usize;
@@ -135,6 +169,17 @@ pub fn dijkstra_until(
         if u == stop {
             break;
         }
+        if let Some(t) = targets {
+            if t.get(ui).copied().unwrap_or(false) {
+                targets_left -= 1;
+            }
+            if targets_left == 0 {
+                break;
+            }
+        }
+        if hops <= k {
+            pending -= 1;
+        }
         let first = g.first_edge(u);
         for (i, &v) in g.out(u).iter().enumerate() {
             let vi = v as usize;
@@ -145,9 +190,14 @@ pub fn dijkstra_until(
             let nd = su.dist + w;
             let sv = &mut st[vi];
             if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
+                let was = sv.source != NONE && sv.hops <= k;
                 *sv = State { dist: nd, parent: u, hops: hops + 1, source: su.source };
                 heap.push((nd.to_bits() as u64) << 32 | v as u64);
+                pending = pending + usize::from(hops < k) - usize::from(was);
             }
+        }
+        if max_hops.is_some() && pending == 0 {
+            break;
         }
     }
     let hops = |s: &State| if s.source == NONE { u32::MAX } else { s.hops & !DONE };
@@ -157,6 +207,76 @@ pub fn dijkstra_until(
         hops: st.iter().map(hops).collect(),
         source: st.iter().map(|s| s.source).collect(),
         order,
+    }
+}
+
+/// A radix heap of `u64` keys (duplicates allowed) that pops exactly the minimum, like
+/// [`QuadHeap`], but in amortised O(1) per key for Dijkstra's nearly monotone keys.
+///
+/// Bucket `b > 0` holds keys whose highest bit differing from `last` (the largest key
+/// popped so far) is bit `b − 1`; bucket 0 holds copies of `last`. A pop from an empty
+/// bucket 0 takes the lowest non-empty bucket, makes its minimum the new `last` and
+/// spreads it over lower buckets. A key below `last` (Dijkstra pushes one when an edge
+/// adds less than half an ulp to the distance and the target has a smaller id) is
+/// smaller than every bucketed key, so it waits in the side heap `low`, popped first.
+struct RadixHeap {
+    last: u64,
+    buckets: Vec<Vec<u64>>,
+    /// Bit `b` set when bucket `b` is non-empty.
+    used: u128,
+    low: QuadHeap,
+}
+
+impl RadixHeap {
+    fn new() -> Self {
+        RadixHeap { last: 0, buckets: vec![Vec::new(); 65], used: 0, low: QuadHeap::with_capacity(0) }
+    }
+
+    #[inline]
+    fn bucket(&self, key: u64) -> usize {
+        (64 - (key ^ self.last).leading_zeros()) as usize
+    }
+
+    #[inline]
+    fn push(&mut self, key: u64) {
+        if key < self.last {
+            self.low.push(key);
+            return;
+        }
+        let b = self.bucket(key);
+        self.buckets[b].push(key);
+        self.used |= 1 << b;
+    }
+
+    fn pop(&mut self) -> Option<u64> {
+        if let Some(k) = self.low.pop() {
+            return Some(k);
+        }
+        if self.used & 1 == 0 {
+            if self.used == 0 {
+                return None;
+            }
+            let b = self.used.trailing_zeros() as usize;
+            let items = std::mem::take(&mut self.buckets[b]);
+            self.used &= !(1 << b);
+            self.last = items.iter().copied().min()?;
+            for &k in &items {
+                let t = self.bucket(k);
+                self.buckets[t].push(k);
+                self.used |= 1 << t;
+            }
+            // Keep the emptied bucket's allocation for later pushes.
+            let mut items = items;
+            items.clear();
+            if self.buckets[b].is_empty() {
+                self.buckets[b] = items;
+            }
+        }
+        let k = self.buckets[0].pop();
+        if self.buckets[0].is_empty() {
+            self.used &= !1;
+        }
+        k
     }
 }
 
@@ -305,6 +425,37 @@ mod tests {
         reference.sort_unstable();
         for want in reference {
             assert_eq!(h.pop(), Some(want));
+        }
+        assert_eq!(h.pop(), None);
+    }
+
+    #[test]
+    fn radix_heap_pops_the_minimum_even_below_the_last_pop() {
+        let mut rng = Pcg64::seed_from_u64(9);
+        let mut h = RadixHeap::new();
+        let mut q = QuadHeap::with_capacity(4);
+        let mut last = 0u64;
+        for i in 0..20_000 {
+            // Mostly keys at or above the last pop (Dijkstra), sometimes just below it
+            // (same distance bits, smaller id), sometimes duplicates.
+            let k = match rng.random_range(0..10) {
+                0 => last & !0xffff_ffff | rng.random_range(0..=(last & 0xffff_ffff)),
+                1 => last,
+                _ => {
+                    let bits = rng.random_range(0..40);
+                    last + rng.random_range(0..1u64 << bits)
+                }
+            };
+            h.push(k);
+            q.push(k);
+            if i % 3 != 0 {
+                let (a, b) = (h.pop(), q.pop());
+                assert_eq!(a, b);
+                last = last.max(a.unwrap());
+            }
+        }
+        while let Some(b) = q.pop() {
+            assert_eq!(h.pop(), Some(b));
         }
         assert_eq!(h.pop(), None);
     }
