@@ -563,7 +563,7 @@ fn a_reused_graph_file_gives_the_identical_tree() {
 #[test]
 fn bad_parameters_are_named_errors() {
     for (set, key) in [
-        ("generator.method=\"bcm\"", "generator.method"),
+        ("generator.method=\"lattice\"", "generator.method"),
         ("generator.nodes=9000000", "generator.nodes"),
         ("generator.zeta=-1", "generator.zeta"),
         ("generator.sectors=7", "generator.sectors"),
@@ -604,7 +604,7 @@ fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
 fn every_least_cost_preset_grows_a_closed_tube_mesh() {
     let names: Vec<_> = sylva::presets::all()
         .into_iter()
-        .filter(|p| p.name.starts_with("mig-") || p.name.starts_with("mgv-"))
+        .filter(|p| p.name.starts_with("mig-") || p.name.starts_with("mgv-") || p.name.starts_with("bcm-"))
         .collect();
     assert!(names.len() >= 6, "mig-/mgv- presets exist");
     for p in names {
@@ -713,4 +713,78 @@ fn mig_level_one_endpoints_lie_in_the_shell_under_the_surface() {
     // The rule matters: with a shell as deep as the volume, tips go deeper.
     let deep = tips_sdf(2.0);
     assert!(deep.iter().any(|&d| d < -0.15), "{deep:?}");
+}
+
+fn bcm_params(rounds: u32) -> LeastCostParams {
+    LeastCostParams {
+        method: "bcm".into(),
+        spacing: 0.25,
+        nodes: 3000,
+        endpoints: 6,
+        volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [4.0, 4.0, 4.0] }],
+        bcm: lc::bcm::BcmParams {
+            rounds,
+            later_endpoints: 10,
+            near: 2,
+            min_root_distance: 1.5,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn bcm_follows_the_lattice_and_later_rounds_add_twigs_near_the_tree() {
+    let one = grow(&bcm_params(1), 4);
+    let two = grow(&bcm_params(2), 4);
+    assert_eq!(one.report.endpoints, 6);
+    assert_eq!(two.report.endpoints, 6 + 10);
+    for t in [&one, &two] {
+        let sk = &t.skeleton;
+        sk.validate().unwrap();
+        // Regular lattice, no smoothing: every internode runs along one axis (the
+        // staircase artefact of Fig. 3.3).
+        for i in 0..sk.len() {
+            let par = sk.parent[i];
+            if par == sylva::NO_PARENT {
+                continue;
+            }
+            let d = sk.position[i] - sk.position[par as usize];
+            let moving = [d.x, d.y, d.z].iter().filter(|c| c.abs() > 1e-4).count();
+            assert_eq!(moving, 1, "internode {i} is not axis-aligned: {d}");
+        }
+    }
+    // Round 2 keeps round 1 (same lattice, weights and first draws) and adds twigs whose
+    // tips lie within `near` steps of it and farther than 1.5 from the root.
+    let old: Vec<Vec3> = one.skeleton.position.clone();
+    let root = two.skeleton.position[0];
+    let kids = two.skeleton.children();
+    let mut new_tips = 0;
+    for i in 0..two.skeleton.len() {
+        let p = two.skeleton.position[i];
+        if !kids.of(i).is_empty() || old.iter().any(|q| q.distance(p) < 1e-4) {
+            continue;
+        }
+        new_tips += 1;
+        assert!(p.distance(root) > 1.5, "twig tip {p} too close to the root");
+    }
+    for q in &old {
+        assert!(two.skeleton.position.iter().any(|p| p.distance(*q) < 1e-4), "round 2 lost {q}");
+    }
+    assert!(new_tips >= 5, "{new_tips} new tips");
+    // Deterministic in the seed.
+    assert_eq!(grow(&bcm_params(2), 4).skeleton, two.skeleton);
+    assert_ne!(grow(&bcm_params(2), 5).skeleton, two.skeleton);
+}
+
+#[test]
+fn bcm_parameters_are_named_errors() {
+    let mut p = bcm_params(2);
+    p.bcm.weights = "sideways".into();
+    let e = lc::grow(&p, 1, None).unwrap_err().to_string();
+    assert!(e.contains("generator.bcm.weights"), "{e}");
+    let mut p = bcm_params(0);
+    p.bcm.rounds = 0;
+    let e = lc::grow(&p, 1, None).unwrap_err().to_string();
+    assert!(e.contains("generator.bcm.rounds"), "{e}");
 }

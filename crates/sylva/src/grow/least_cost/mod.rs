@@ -11,6 +11,8 @@
 //!   then a conical subgraph at every endpoint, level by level (`maketree`, Fig. 4.2).
 //! - [`mgv`]: *modified guiding vectors* (Ch. 5): one graph whose edge weights follow
 //!   guiding vectors set lazily during Dijkstra, over 4–5 iterations.
+//! - [`bcm`]: the construction method (§3.3.1) the thesis starts from: a lattice with
+//!   random or spatial weights, rounds that cheapen the tree's edges.
 //! - [`graph`]: volumes, Poisson-disc nodes, Yao-k and lattice graphs, graph files.
 //! - [`paths`]: multi-source Dijkstra, BCM / MIG / MGV weights.
 //!
@@ -32,6 +34,7 @@
 //! towards the midpoint of its neighbours `smooth_iterations` times, with junctions,
 //! tips and the root pinned (inference; 0 = off, the seed's look).
 
+pub mod bcm;
 pub mod graph;
 pub mod mgv;
 pub mod mig;
@@ -55,7 +58,7 @@ pub const MAX_NODES_LIMIT: usize = 50_000_000;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LeastCostParams {
-    /// `mig` (Ch. 4) or `mgv` (Ch. 5).
+    /// `mig` (Ch. 4), `mgv` (Ch. 5) or `bcm` (§3.3.1, for comparison).
     pub method: String,
     /// 3 (trees) or 2 (flat trees in the z = 0 plane).
     pub dims: u8,
@@ -112,6 +115,8 @@ pub struct LeastCostParams {
     pub smooth: f64,
     /// Smoothing passes (at most 100).
     pub smooth_iterations: u32,
+    /// BCM: `[generator.bcm]` (lattice, weights, rounds).
+    pub bcm: bcm::BcmParams,
 }
 
 impl Default for LeastCostParams {
@@ -143,6 +148,7 @@ impl Default for LeastCostParams {
             pipe_exponent: 2.0,
             smooth: 0.0,
             smooth_iterations: 3,
+            bcm: bcm::BcmParams::default(),
         }
     }
 }
@@ -169,8 +175,8 @@ pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
 impl LeastCostParams {
     /// Checks every parameter; errors name the key (`generator.zeta`).
     pub fn validate(&self) -> Result<()> {
-        if !["mig", "mgv"].contains(&self.method.as_str()) {
-            return bad("method", format!("is `{}`; use mig or mgv", self.method));
+        if !["mig", "mgv", "bcm"].contains(&self.method.as_str()) {
+            return bad("method", format!("is `{}`; use mig, mgv or bcm", self.method));
         }
         if self.dims != 2 && self.dims != 3 {
             return bad("dims", format!("must be 2 or 3, got {}", self.dims));
@@ -219,6 +225,7 @@ impl LeastCostParams {
         }
         match self.method.as_str() {
             "mig" => mig::validate(self),
+            "bcm" => bcm::validate(self),
             _ => mgv::validate(self),
         }
     }
@@ -539,6 +546,7 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     let mut report = LeastCostReport::default();
     let mut tree = match p.method.as_str() {
         "mig" => mig::grow(p, seed, base, &mut report)?,
+        "bcm" => bcm::grow(p, seed, &mut report)?,
         _ => mgv::grow(p, seed, base, &mut report)?,
     };
     let t = Instant::now();
