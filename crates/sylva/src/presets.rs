@@ -76,7 +76,7 @@ mod tests {
             );
             let family = p.name.split('-').next().unwrap_or("");
             assert!(
-                ["lsys", "wp", "colonize", "mig", "mgv", "curves"].contains(&family),
+                ["lsys", "wp", "colonize", "mig", "mgv", "bcm", "curves"].contains(&family),
                 "{} has no generator family prefix",
                 p.name
             );
