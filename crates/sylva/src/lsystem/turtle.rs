@@ -283,12 +283,14 @@ pub fn answer_queries(
     }
     let mut found: Vec<(usize, QueryState)> = Vec::new();
     run(symbols, string, opts, source, &mut |_, _| {}, &mut |i, st| found.push((i, st)))?;
-    let mut sensors: Vec<(usize, Sensor)> = Vec::new();
+    // The `?E` modules: their indices in the string and what the environment sees.
+    let (mut at, mut sensors): (Vec<usize>, Vec<Sensor>) = (Vec::new(), Vec::new());
     for (i, st) in found {
         let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
         match which[string.syms[i] as usize] {
             Some(4) if env.is_some() => {
-                sensors.push((i, Sensor { position: st[0], values: string.params[range].to_vec() }));
+                at.push(i);
+                sensors.push(Sensor { position: st[0], values: string.params[range].to_vec() });
             }
             Some(4) => {}
             Some(k) => {
@@ -301,10 +303,9 @@ pub fn answer_queries(
         }
     }
     if let Some(env) = env {
-        let mut list: Vec<Sensor> = sensors.iter().map(|(_, s)| s.clone()).collect();
-        env.respond(&mut list);
-        for ((i, _), s) in sensors.iter().zip(list) {
-            let range = string.pofs[*i] as usize..string.pofs[*i + 1] as usize;
+        env.respond(&mut sensors);
+        for (&i, s) in at.iter().zip(sensors) {
+            let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
             // The module keeps its arity: answers beyond it are dropped.
             for (slot, v) in string.params[range].iter_mut().zip(s.values) {
                 *slot = v;
