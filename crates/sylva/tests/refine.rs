@@ -838,10 +838,7 @@ fn build_osd_refine() -> Option<std::path::PathBuf> {
             .arg(&out)
             .status()
             .is_ok_and(|s| s.success());
-    if built {
-        return Some(out);
-    }
-    None
+    built.then_some(out)
 }
 
 /// Writes `m` as OBJ with OpenSubdiv tags (sharpness ∞ → 10).

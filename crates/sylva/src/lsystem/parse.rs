@@ -788,7 +788,7 @@ impl LSystem {
                 } else {
                     1
                 };
-                if blocks.len() == 1 && main_blocks.iter().all(Option::is_none) {
+                if blocks.len() == 1 {
                     // Keep the main L-system's statement blocks apart from the subs'.
                     main_blocks = [
                         self.define_block.take(),
