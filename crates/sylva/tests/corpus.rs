@@ -1,16 +1,11 @@
 //! The cpfg corpus (`../shared/corpus/cpfg/`, fifty vlab models): every model is
 //! parsed, derived to its own derivation length, interpreted and meshed. No model may
-//! panic; every failure must be an `unsupported: …` error or a known failure listed
-//! below with its reason; and at least `MIN_GROWING` models must grow a non-empty
-//! skeleton or organ set (the target is 90 %; see docs/cpfg-compatibility.md
-//! for where sylva stands). The table this test prints
+//! panic; every failure must be an `unsupported: …` error; and at least `MIN_GROWING`
+//! models must grow a non-empty skeleton or organ set (the target is 90 %; see
+//! docs/cpfg-compatibility.md for where sylva stands). The table this test prints
 //! (`cargo test --release --test corpus -- --nocapture`) is in that document.
 
 use std::path::{Path, PathBuf};
-
-/// Models known to grow nothing in sylva, with the reason (each one is a bug or a
-/// semantic difference to fix, not an accepted outcome).
-const KNOWN_FAILURES: &[(&str, &str)] = &[];
 
 /// The fewest models that must grow (the target: 90 % of the 49 models).
 const MIN_GROWING: usize = 45;
@@ -124,8 +119,6 @@ fn corpus_models_grow_or_fail_as_unsupported() {
                 if is_unsupported {
                     unsupported += 1;
                     rows.push(format!("| {name} | {fname} | unsupported | {msg} |"));
-                } else if let Some((_, why)) = KNOWN_FAILURES.iter().find(|(n, _)| *n == name) {
-                    rows.push(format!("| {name} | {fname} | known failure | {msg} ({why}) |"));
                 } else {
                     bad.push(format!("{name}: {msg}"));
                     rows.push(format!("| {name} | {fname} | FAILED | {msg} |"));
