@@ -17,7 +17,8 @@
 //!    the first tree.
 //! 4. **Later rounds** (`bcm.rounds` in all). The weights of edges between two tree
 //!    sites are multiplied by `bcm.cheapen` (the seed leaves the factor open; spec 004
-//!    §2.4 asks for it to be exposed), `bcm.later_endpoints` new endpoints are drawn
+//!    §2.4 asks for it to be exposed; an edge is cheapened again in every later round,
+//!    so older paths become cheaper still), `bcm.later_endpoints` new endpoints are drawn
 //!    from the sites not on the tree within `bcm.near` lattice steps of it and farther
 //!    than `bcm.min_root_distance` from the root (the elm of Fig. 3.10), and Dijkstra
 //!    from the root runs again. Each new path is added from its endpoint back to the
@@ -135,7 +136,7 @@ pub fn grow(p: &LeastCostParams, seed: u64, report: &mut LeastCostReport) -> Res
     };
     report.graph_nodes = g.len();
     report.graph_edges = g.edge_count();
-    report.graph_bytes = g.len() * 16 + g.edge_count() * 8;
+    report.graph_bytes = g.bytes();
     report.graph_time += t.elapsed();
 
     let t = Instant::now();
