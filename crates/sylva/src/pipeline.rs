@@ -394,9 +394,11 @@ pub fn mesh(
         }
         q.mesh
     } else if recipe.mesh.method == "sweep" {
-        use crate::mesh::sweep::{sweep_mesh, SweepOptions};
-        let sw =
-            sweep_mesh(skeleton, &SweepOptions { caps: recipe.mesh.tips != "open", ..Default::default() })?;
+        use crate::mesh::sweep::{sweep_mesh, SweepOptions, SweepTips};
+        // `mesh.tips = "flat"` is the seed's Cap Front off: pruned, creased flat tips.
+        let tips = if recipe.mesh.tips == "flat" { SweepTips::Pruned } else { SweepTips::Cone };
+        let opts = SweepOptions { caps: recipe.mesh.tips != "open", tips, ..Default::default() };
+        let sw = sweep_mesh(skeleton, &opts)?;
         report.axes = sw.junctions.len() + sw.fallbacks.len();
         if !sw.fallbacks.is_empty() {
             report.warnings.push(format!(

@@ -6,7 +6,9 @@
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
-use sylva::mesh::sweep::{guarded_offsets, pair_offsets, sweep_mesh, SweepMesh, SweepOptions};
+use sylva::mesh::sweep::{
+    guarded_offsets, pair_offsets, sweep_mesh, SweepMesh, SweepOptions, SweepTips, UMapping,
+};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::skeleton::NO_PARENT;
 use sylva::{Mesh, Skeleton};
@@ -560,6 +562,126 @@ fn stem_uvs() {
             assert!((0.0..=1.0).contains(&t.x) && t.y >= 0.0);
         }
     }
+}
+
+/// UV of every corner of `m`, per vertex: `None` where a vertex has two different UVs.
+fn per_vertex_uv(m: &Mesh) -> Vec<Option<glam::Vec2>> {
+    let uv = m.uvs.as_ref().unwrap();
+    let mut out: Vec<Option<glam::Vec2>> = vec![None; m.positions.len()];
+    let mut seen = vec![false; m.positions.len()];
+    let mut split = vec![false; m.positions.len()];
+    for f in 0..m.face_count() {
+        for (c, &v) in m.corners(f).zip(m.face(f)) {
+            let t = uv.values[uv.indices[c] as usize];
+            let v = v as usize;
+            if seen[v] && out[v] != Some(t) {
+                split[v] = true;
+            }
+            seen[v] = true;
+            out[v] = Some(t);
+        }
+    }
+    out.iter().zip(split).map(|(t, s)| if s { None } else { *t }).collect()
+}
+
+/// Spec 001 property 23: the seed's stem UVs. `u` alternates 0/1 around every ring (each
+/// stem edge spans [0, 1]) and every ring vertex has one UV (no seam), through chains,
+/// junctions (coplanar, general, with an extra ring) and tips.
+#[test]
+fn reflected_u_alternates_without_seams() {
+    let skeletons = [
+        ("fork", fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0)),
+        ("asymmetric", fork(&[(0.0, 0.1), (50.0, 0.03)], 0.1, 1.0)),
+        ("whorl", fork(&[(-60.0, 0.08), (-20.0, 0.08), (20.0, 0.08), (60.0, 0.08), (90.0, 0.05)], 0.1, 1.0)),
+        ("random", random_skeleton(7)),
+    ];
+    for (name, sk) in skeletons {
+        let s = sweep(&sk, false);
+        assert!(s.fallbacks.is_empty(), "{name}: fallbacks {:?}", s.fallbacks);
+        let m = &s.mesh;
+        let pv = per_vertex_uv(m);
+        // No seam: every vertex has one UV (open base, cone tips, no fallback caps).
+        assert!(pv.iter().all(|t| t.is_some()), "{name}: a vertex with several UVs");
+        let pv: Vec<glam::Vec2> = pv.into_iter().flatten().collect();
+        // The mesher pushes each ring as 6 consecutive vertices and each cone apex (u = ½)
+        // as one: regroup the rings and check u alternates around each, at one v.
+        let ring_vertices: Vec<glam::Vec2> = pv.iter().copied().filter(|t| t.x != 0.5).collect();
+        assert_eq!(ring_vertices.len() % 6, 0, "{name}");
+        let tips = (0..sk.len()).filter(|&i| !sk.parent.contains(&(i as u32))).count();
+        assert_eq!(pv.len() - ring_vertices.len(), tips, "{name}: one apex per tip");
+        for ring in ring_vertices.chunks(6) {
+            for k in 0..6 {
+                let (a, b) = (ring[k], ring[(k + 1) % 6]);
+                assert!(a.x == 0.0 || a.x == 1.0, "{name}: u = {}", a.x);
+                assert_eq!((a.x - b.x).abs(), 1.0, "{name}: u does not alternate around {ring:?}");
+                assert_eq!(a.y, b.y, "{name}: one v per ring");
+            }
+        }
+    }
+    // With `Wrapped`, u = k/6 and a seam column (u = 1) exists.
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let w = sweep_mesh(&sk, &SweepOptions { u_mapping: UMapping::Wrapped, ..Default::default() }).unwrap();
+    let uv = w.mesh.uvs.as_ref().unwrap();
+    assert!(uv.values.iter().any(|t| (t.x - 1.0 / 6.0).abs() < 1e-6));
+    assert!(per_vertex_uv(&w.mesh).iter().any(|t| t.is_none()), "wrapped u has a seam");
+}
+
+/// Spec 001 property 23, Tile V: `v` restarts at every internode (0 at its start ring,
+/// 1 at its end ring); without it, `v` is the path length over the longest path.
+#[test]
+fn tile_v_restarts_per_internode() {
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let t = sweep_mesh(&sk, &SweepOptions { tile_v: true, ..Default::default() }).unwrap();
+    let p = sweep_mesh(&sk, &SweepOptions::default()).unwrap();
+    assert_eq!(t.mesh.face_indices, p.mesh.face_indices, "Tile V changes UVs only");
+    let (ut, up) = (t.mesh.uvs.as_ref().unwrap(), p.mesh.uvs.as_ref().unwrap());
+    // Every strip face of the tiled mesh has v in {0, 1}; the path-mapped one has
+    // fractional v values in (0, 1) on its inner rings.
+    let strip_v: Vec<f32> = ut.values.iter().map(|t| t.y).filter(|v| *v <= 1.0).collect();
+    assert!(strip_v.iter().all(|v| *v == 0.0 || *v == 1.0), "tiled v on rings is 0 or 1");
+    assert!(up.values.iter().any(|t| t.y > 0.05 && t.y < 0.95));
+    // Each internode spans the whole domain: there are as many strip faces with a v = 0
+    // corner as with a v = 1 corner.
+    let count = |v: f32| ut.values.iter().filter(|t| t.y == v).count();
+    assert!(count(0.0) > 0 && count(1.0) > 0);
+    // Cone apexes lie beyond 1.
+    assert!(ut.values.iter().any(|t| t.y > 1.0));
+}
+
+/// Seed §A.3 "Cap Front" off: pruned tips are flat creased caps (4 triangles, no new
+/// vertex, 6 crease edges) and the mesh stays closed and refines flat there.
+#[test]
+fn pruned_tips_are_flat_creased_caps() {
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let cone = sweep_mesh(&sk, &SweepOptions { caps: true, ..Default::default() }).unwrap();
+    let flat =
+        sweep_mesh(&sk, &SweepOptions { caps: true, tips: SweepTips::Pruned, ..Default::default() }).unwrap();
+    let tips = 2;
+    assert_eq!(flat.mesh.positions.len() + tips, cone.mesh.positions.len(), "a cone adds one apex");
+    assert_eq!(flat.mesh.face_count() + 2 * tips, cone.mesh.face_count(), "6 cone vs 4 cap triangles");
+    assert_eq!(flat.mesh.creases.len(), cone.mesh.creases.len() + 6 * tips);
+    let r = assert_valid("pruned", &flat, 1, true);
+    assert!(r.total_genus() == 0);
+    assert!(signed_volume(&flat.mesh) > 0.0);
+    // After Loop level 2 the tip's cap stays flat: the tip node's refined vertices near
+    // the cap plane lie on it.
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
+        ..Default::default()
+    };
+    let fine = subdivide(&flat.mesh, &[], &opts).unwrap();
+    assert!(report(&fine).is_valid());
+    let tip = sk.position[3].as_dvec3();
+    let h = (tip - sk.position[2].as_dvec3()).normalize();
+    let beyond = fine.positions.iter().map(|p| (p.as_dvec3() - tip).dot(h)).fold(f64::MIN, f64::max);
+    assert!(beyond <= 1e-5, "nothing of a pruned tip lies beyond its end: {beyond}");
+    let beyond_cone = subdivide(&cone.mesh, &[], &opts)
+        .unwrap()
+        .positions
+        .iter()
+        .map(|p| (p.as_dvec3() - tip).dot(h))
+        .fold(f64::MIN, f64::max);
+    assert!(beyond_cone > 0.01, "the cone does: {beyond_cone}");
 }
 
 /// A random skeleton: a trunk, then up to `depth` levels of junctions with 1–8 children

@@ -92,14 +92,22 @@
 //!    starts every child as its own tube with a flat cap at its offset: closed pieces
 //!    separated by the Eq 5.1 gap. All are listed in [`SweepMesh::fallbacks`].
 //! 8. **Ends** (§A.3). Tips: a cone whose apex lies `tip_size × width` beyond the last
-//!    ring, fanned to it (6 triangles, 1 vertex). Bases: open (one 6-edge boundary loop
-//!    per root) or, with [`SweepOptions::caps`], a flat fan of 4 triangles with its ring
-//!    edges tagged as infinitely sharp creases ("Cap Back").
-//! 9. **UVs.** `u = k/6` around each ring, the seam column duplicated (`u = 1`) in the
-//!    face-varying channel; `v` is the path length from the root divided by the longest
+//!    ring, fanned to it (6 triangles, 1 vertex; "Cap Front"), or with
+//!    [`SweepTips::Pruned`] a flat fan of 4 triangles whose ring edges are infinitely
+//!    sharp creases (Cap Front off: "pruned"). Bases: open (one 6-edge boundary loop
+//!    per root) or, with [`SweepOptions::caps`], the same creased flat fan ("Cap Back").
+//! 9. **UVs** (§6.3, spec 001 §2.12). `u`: by default the seed's reflected mapping,
+//!    0, 1, 0, 1, 0, 1 around each ring ([`UMapping::Reflected`]): every stem edge
+//!    spans `[0, 1]` and there is no seam; a strip carries the parity from its start
+//!    ring to its end ring through the twist offset, and a junction's child rings take
+//!    the trunk ring's parity (all junction rings have vertex 0 on the normal). With
+//!    [`UMapping::Wrapped`], `u = k/6` with the seam column duplicated (`u = 1`) in the
+//!    face-varying channel. `v` is the path length from the root divided by the longest
 //!    root-to-tip path (0 at the base, 1 at the end of the longest path, increasing along
-//!    every base-to-tip path). Junction corners take their own ring's coordinates; caps
-//!    map their disc to `[0, 1]²`; a cone apex gets the middle `u` of its triangle.
+//!    every base-to-tip path), or with [`SweepOptions::tile_v`] 0 → 1 along every
+//!    internode (junction corners: 1 on the trunk ring, 0 on the child rings). Junction
+//!    corners take their own ring's coordinates; caps map their disc to `[0, 1]²`; a
+//!    cone apex gets the middle `u` of its triangle.
 //!
 //! Output: triangles only, counter-clockwise seen from outside, a 2-manifold.
 //! Deterministic; every valid skeleton gives a mesh, never a panic.
@@ -151,6 +159,41 @@ pub struct SweepOptions {
     /// Rounds of "check, then fall back where faces intersect" (default 4; 0 disables
     /// the check).
     pub repair_rounds: u32,
+    /// How tips end (default [`SweepTips::Cone`], the seed's "Cap Front").
+    pub tips: SweepTips,
+    /// How `u` runs around a ring (default [`UMapping::Reflected`], the seed's stem UVs).
+    pub u_mapping: UMapping,
+    /// The seed's "Tile V": `v` runs from 0 to 1 along every internode instead of along
+    /// the longest root-to-tip path (default false).
+    pub tile_v: bool,
+}
+
+/// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SweepTips {
+    /// "Cap Front" on: a cone whose apex lies `tip_size × width` beyond the last ring
+    /// (6 triangles, 1 vertex).
+    #[default]
+    Cone,
+    /// "Cap Front" off: a flat cap over the last ring with infinitely sharp crease
+    /// edges, so it stays flat under subdivision (a "pruned" branch; 4 triangles, no
+    /// vertex).
+    Pruned,
+}
+
+/// How `u` runs around the sweep mesher's hexagonal rings (spec 001 §2.12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UMapping {
+    /// The seed's stem UVs (Fig 6.4d): `u` is reflected at every ring vertex, 0, 1, 0,
+    /// 1, 0, 1 around the ring, so every edge spans `[0, 1]` and there is no seam. The
+    /// parity is carried along each strip and held across junctions (every junction
+    /// ring's vertex 0 lies on the branching plane's normal, so a child ring takes the
+    /// trunk ring's parity).
+    #[default]
+    Reflected,
+    /// `u = k/6` around the ring with the seam column duplicated (`u = 1`): the texture
+    /// wraps once around the branch without mirroring, at the cost of a UV seam.
+    Wrapped,
 }
 
 impl Default for SweepOptions {
@@ -165,6 +208,9 @@ impl Default for SweepOptions {
             aligned_deg: 3.0,
             asymmetric_ratio: 1.0 / 3.0,
             repair_rounds: 4,
+            tips: SweepTips::Cone,
+            u_mapping: UMapping::Reflected,
+            tile_v: false,
         }
     }
 }
@@ -268,6 +314,11 @@ struct Ring {
     r: f64,
     v: f64,
     first: u32,
+    /// `u` of vertex `k` is `(k + parity) mod 2` with [`UMapping::Reflected`].
+    parity: u8,
+    /// `v` of this ring's junction and cap corners with Tile V: 1 where the ring ends an
+    /// internode, 0 where it starts one.
+    tile: f32,
 }
 
 impl Ring {
@@ -757,7 +808,7 @@ struct Build<'a> {
 impl Build<'_> {
     fn ring(&mut self, c: DVec3, d: DVec3, u: DVec3, r: f64, v: f64) -> Ring {
         let first = self.mesh.positions.len() as u32;
-        let ring = Ring { c, d, u: perpendicular(u, d), r, v, first };
+        let ring = Ring { c, d, u: perpendicular(u, d), r, v, first, parity: 0, tile: 0.0 };
         for k in 0..SIDES {
             self.mesh.positions.push(ring.vertex(k).as_vec3());
         }
@@ -774,7 +825,16 @@ impl Build<'_> {
     }
 
     fn ring_uv(&self, ring: &Ring, k: usize) -> Vec2 {
-        Vec2::new((k % SIDES) as f32 / SIDES as f32, (ring.v / self.plan.vmax) as f32)
+        let v = if self.opts.tile_v { ring.tile } else { (ring.v / self.plan.vmax) as f32 };
+        Vec2::new(self.u(ring, k), v)
+    }
+
+    /// `u` of vertex `k` of `ring`; `k = 6` is the wrap column (`u = 1` when wrapped).
+    fn u(&self, ring: &Ring, k: usize) -> f32 {
+        match self.opts.u_mapping {
+            UMapping::Reflected => ((k + ring.parity as usize) % 2) as f32,
+            UMapping::Wrapped => k as f32 / SIDES as f32,
+        }
     }
 
     /// UV of global vertex `g` on one of `rings`.
@@ -787,18 +847,26 @@ impl Build<'_> {
         Vec2::ZERO
     }
 
-    /// The 12-triangle strip from `a` (start) to `b` (end) with the least twist.
-    fn strip(&mut self, a: &Ring, b: &Ring, owner: [u32; 2]) {
+    /// The 12-triangle strip from `a` (start) to `b` (end) with the least twist; sets
+    /// `b`'s `u` parity from `a`'s (connected vertices share `u`) and `b` as an end ring
+    /// for Tile V.
+    fn strip(&mut self, a: &Ring, b: &mut Ring, owner: [u32; 2]) {
         let t = DQuat::from_rotation_arc(a.d, b.d) * a.u;
         let alpha = t.dot(b.w()).atan2(t.dot(b.u));
         let o = (alpha / FRAC_PI_3).round();
         self.max_twist = self.max_twist.max((alpha - o * FRAC_PI_3).abs().to_degrees());
         let o = o.rem_euclid(6.0) as usize;
-        let (va, vb) = ((a.v / self.plan.vmax) as f32, (b.v / self.plan.vmax) as f32);
+        b.parity = ((a.parity as usize + o) % 2) as u8;
+        b.tile = 1.0;
+        let (va, vb) = if self.opts.tile_v {
+            (0.0, 1.0)
+        } else {
+            ((a.v / self.plan.vmax) as f32, (b.v / self.plan.vmax) as f32)
+        };
         for k in 0..SIDES {
             let (a0, a1) = (a.index(k), a.index(k + 1));
             let (b0, b1) = (b.index(k + o), b.index(k + 1 + o));
-            let (u0, u1) = (k as f32 / 6.0, (k + 1) as f32 / 6.0);
+            let (u0, u1) = (self.u(a, k), self.u(a, k + 1));
             let (ua0, ua1, ub0, ub1) =
                 (Vec2::new(u0, va), Vec2::new(u1, va), Vec2::new(u0, vb), Vec2::new(u1, vb));
             self.tri([a0, a1, b1], [ua0, ua1, ub1], owner);
@@ -827,16 +895,25 @@ impl Build<'_> {
         }
     }
 
-    /// Cone cap at the end of a tube (seed §A.3 "Cap Front").
-    fn cone(&mut self, ring: &Ring, owner: [u32; 2]) {
+    /// End of a tip's tube (seed §A.3): a cone ("Cap Front"; `len` is the internode's
+    /// length, for Tile V) or a flat creased cap ("pruned").
+    fn tip(&mut self, ring: &Ring, len: f64, owner: [u32; 2]) {
+        if self.opts.tips == SweepTips::Pruned {
+            self.flat_cap(ring, false, owner, true);
+            return;
+        }
         let h = self.opts.tip_size * 2.0 * ring.r;
         let h = h.max(0.05 * ring.r);
         let apex = self.mesh.positions.len() as u32;
         self.mesh.positions.push((ring.c + ring.d * h).as_vec3());
-        let va = ((ring.v + h) / self.plan.vmax) as f32;
+        let va = if self.opts.tile_v {
+            (1.0 + h / len.max(1e-12)) as f32
+        } else {
+            ((ring.v + h) / self.plan.vmax) as f32
+        };
         for k in 0..SIDES {
-            let (u0, u1) = (self.ring_uv(ring, k), Vec2::new((k + 1) as f32 / 6.0, self.ring_uv(ring, k).y));
-            let ua = Vec2::new((k as f32 + 0.5) / 6.0, va);
+            let (u0, u1) = (self.ring_uv(ring, k), Vec2::new(self.u(ring, k + 1), self.ring_uv(ring, k).y));
+            let ua = Vec2::new(0.5 * (u0.x + u1.x), va);
             self.tri([ring.index(k), ring.index(k + 1), apex], [u0, u1, ua], owner);
         }
     }
@@ -1006,7 +1083,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
             let owner = [nodeown(plan.par[i] as usize), nodeown(i)];
             let d = plan.dir[i];
             let ut = DQuat::from_rotation_arc(a.d, d) * a.u;
-            let e = match kind {
+            let mut e = match kind {
                 Kind::Tip => b.ring(plan.pos[i], d, ut, r, plan.path[i]),
                 Kind::Chain if !fb => {
                     let c = plan.kids[i][0] as usize;
@@ -1023,9 +1100,9 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     b.ring(plan.pos[i] - d * off, d, ut, r, plan.path[i] - off)
                 }
             };
-            b.strip(&a, &e, owner);
+            b.strip(&a, &mut e, owner);
             if kind == Kind::Tip {
-                b.cone(&e, owner);
+                b.tip(&e, plan.len[i], owner);
             } else if fb {
                 b.flat_cap(&e, false, [i as u32, NONE], false);
             }
@@ -1061,18 +1138,24 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                 for &c in &plan.sorted[i] {
                     let c = c as usize;
                     let (off, d, u) = (plan.off_start[c], plan.dir[c], plan.kid_u[c]);
-                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
-                    start[c] = Some(ring);
+                    let mut ring =
+                        b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
+                    // Every junction ring has vertex 0 on the normal: the child takes
+                    // the trunk's `u` parity.
+                    ring.parity = trunk.parity;
                     if plan.collar[c] > 0.0 {
                         // Asymmetric template: the extra ring takes the child's place in
                         // the junction, a strip joins it to the child's own ring.
                         let oc = plan.off_collar[c];
-                        let extra = b.ring(plan.pos[i] + d * oc, d, u, plan.collar[c], plan.path[i] + oc);
-                        b.strip(&extra, &ring, own);
+                        let mut extra = b.ring(plan.pos[i] + d * oc, d, u, plan.collar[c], plan.path[i] + oc);
+                        extra.parity = trunk.parity;
+                        b.strip(&extra, &mut ring, own);
+                        ring.tile = 0.0;
                         rings.push(extra);
                     } else {
                         rings.push(ring);
                     }
+                    start[c] = Some(ring);
                 }
                 if plan.general[i] {
                     b.general_junction(i as u32, &trunk, &rings, &plan.general_faces[i]);
