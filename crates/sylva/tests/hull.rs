@@ -57,15 +57,6 @@ fn check(name: &str, m: &Mesh) -> Topo {
     }
 }
 
-fn signed_volume(m: &Mesh) -> f64 {
-    (0..m.face_count())
-        .map(|f| {
-            let [a, b, c] = [0, 1, 2].map(|k| m.positions[m.face(f)[k] as usize].as_dvec3());
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum()
-}
-
 fn face_area(m: &Mesh, f: usize) -> f64 {
     let [a, b, c] = [0, 1, 2].map(|k| m.positions[m.face(f)[k] as usize].as_dvec3());
     (b - a).cross(c - a).length() * 0.5
@@ -91,7 +82,7 @@ fn full_check(name: &str, sk: &Skeleton, sides: u32, refine: bool) -> HullMesh {
     assert_eq!(capped.open_loops, 0);
     assert_eq!(tc.euler, 2 * tc.components as i64);
     if capped.mesh.face_count() > 0 {
-        assert!(signed_volume(&capped.mesh) > 0.0, "{name}: inward-facing (volume ≤ 0)");
+        assert!(capped.mesh.signed_volume() > 0.0, "{name}: inward-facing (volume ≤ 0)");
     }
     // Components: one per tree, plus one per loop of each fallback joint, minus one per
     // fallback joint (its pieces were one before).
@@ -649,7 +640,7 @@ fn every_preset_meshes_into_a_valid_manifold() {
             let tc = check(p.name, &capped.mesh);
             assert_eq!(tc.boundary_loops, 0);
             if capped.mesh.face_count() > 0 {
-                assert!(signed_volume(&capped.mesh) > 0.0, "{}: volume", p.name);
+                assert!(capped.mesh.signed_volume() > 0.0, "{}: volume", p.name);
             }
         }
         if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {

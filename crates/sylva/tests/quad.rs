@@ -55,15 +55,6 @@ fn check(name: &str, m: &Mesh) -> Topo {
 }
 
 /// Signed volume of a closed quad mesh (each quad as two triangles).
-fn signed_volume(m: &Mesh) -> f64 {
-    (0..m.face_count())
-        .map(|f| {
-            let p = m.face(f).iter().map(|&i| m.positions[i as usize].as_dvec3()).collect::<Vec<_>>();
-            (1..p.len() - 1).map(|k| p[0].dot(p[k].cross(p[k + 1])) / 6.0).sum::<f64>()
-        })
-        .sum()
-}
-
 fn catmull_clark(m: &Mesh, levels: u32) -> Mesh {
     let opts = SubdivideOptions {
         refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
@@ -91,7 +82,7 @@ fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
     let t = check(name, &q.mesh);
     assert_eq!(t.components, q.components, "{name}: components vs report");
     assert_eq!(t.components, expected_components(sk, &q), "{name}: unreported detached pieces");
-    assert!(signed_volume(&q.mesh) > 0.0, "{name}: inward-facing (volume ≤ 0)");
+    assert!(q.mesh.signed_volume() > 0.0, "{name}: inward-facing (volume ≤ 0)");
     let uv = q.mesh.uvs.as_ref().expect("UVs");
     assert_eq!(uv.indices.len(), q.mesh.face_indices.len());
     assert!(uv.values.iter().all(|v| v.is_finite() && v.x >= 0.0 && v.x <= 1.0 && v.y >= 0.0));
@@ -100,7 +91,7 @@ fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
     // Spec 003 property 11: V′ = V + E + F, still closed and all-quad.
     assert_eq!(tf.vertices, t.vertices + t.edges + t.faces, "{name}: V' = V + E + F");
     assert_eq!(tf.faces, 4 * t.faces);
-    assert!(signed_volume(&fine) > 0.0, "{name}: refined volume");
+    assert!(fine.signed_volume() > 0.0, "{name}: refined volume");
     q
 }
 
@@ -371,7 +362,7 @@ fn every_preset_meshes_into_a_closed_manifold() {
         let t = check(p.name, &q.mesh);
         assert_eq!(t.components, expected_components(sk, &q), "{}", p.name);
         if t.faces > 0 {
-            assert!(signed_volume(&q.mesh) > 0.0, "{}: volume", p.name);
+            assert!(q.mesh.signed_volume() > 0.0, "{}: volume", p.name);
             check(&format!("{} CC 1", p.name), &catmull_clark(&q.mesh, 1));
         }
         let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
@@ -409,7 +400,7 @@ fn random_case(seed: u64) -> Result<(), String> {
     if t.components != expected_components(&sk, &q) {
         return Err(format!("{} components, {} expected", t.components, expected_components(&sk, &q)));
     }
-    if signed_volume(&q.mesh) <= 0.0 {
+    if q.mesh.signed_volume() <= 0.0 {
         return Err("volume ≤ 0".into());
     }
     Ok(())

@@ -33,16 +33,6 @@ fn assert_valid(name: &str, s: &SweepMesh, roots: usize, caps: bool) -> MeshRepo
     r
 }
 
-fn signed_volume(m: &Mesh) -> f64 {
-    (0..m.face_count())
-        .map(|f| {
-            let v = m.face(f);
-            let p = |i: usize| m.positions[v[i] as usize].as_dvec3();
-            p(0).dot(p(1).cross(p(2))) / 6.0
-        })
-        .sum()
-}
-
 /// A trunk of `trunk_len` from the origin up +Y, then one child per `(angle°, radius)`
 /// turned about +Z, each two internodes of length `len`.
 fn fork(kids: &[(f64, f32)], r: f32, len: f32) -> Skeleton {
@@ -116,7 +106,7 @@ fn a_chain_open_and_capped() {
     let capped = sweep(&s, true);
     let r = assert_valid("chain capped", &capped, 1, true);
     assert_eq!(r.euler, 2);
-    assert!(signed_volume(&capped.mesh) > 0.0);
+    assert!(capped.mesh.signed_volume() > 0.0);
     assert_eq!(capped.mesh.creases.len(), 6);
     assert!(open.max_twist_deg <= 30.0 + 1e-9);
 }
@@ -163,7 +153,7 @@ fn symmetric_junction_adds_no_vertices_and_is_templated() {
     assert_eq!(s.mesh.vertex_count(), 8 * 6 + 2);
     // Junction: 3 strips of 6 + 2 hole triangles; tubes 5 × 12; 2 cones; base cap 4.
     assert_eq!(s.mesh.face_count(), 3 * 6 + 2 + 5 * 12 + 2 * 6 + 4);
-    assert!(signed_volume(&s.mesh) > 0.0);
+    assert!(s.mesh.signed_volume() > 0.0);
 }
 
 #[test]
@@ -360,7 +350,7 @@ fn non_coplanar_whorls_get_a_general_junction() {
             assert_eq!(s.mesh.face_count(), joint + (1 + 2 * n) * 12 + 6 * n + cap, "{name}");
             assert!(s.max_twist_deg <= 30.0 + 1e-9, "{name}");
             if caps {
-                assert!(signed_volume(&s.mesh) > 0.0, "{name}");
+                assert!(s.mesh.signed_volume() > 0.0, "{name}");
                 assert_eq!(r.euler, 2, "{name}");
                 let fine = level2(&s.mesh);
                 assert!(fine.is_valid(), "{name} level 2: {:?}", fine.problems());
@@ -662,7 +652,7 @@ fn pruned_tips_are_flat_creased_caps() {
     assert_eq!(flat.mesh.creases.len(), cone.mesh.creases.len() + 6 * tips);
     let r = assert_valid("pruned", &flat, 1, true);
     assert!(r.total_genus() == 0);
-    assert!(signed_volume(&flat.mesh) > 0.0);
+    assert!(flat.mesh.signed_volume() > 0.0);
     // After Loop level 2 the tip's cap stays flat: the tip node's refined vertices near
     // the cap plane lie on it.
     let opts = SubdivideOptions {

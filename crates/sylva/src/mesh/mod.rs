@@ -80,6 +80,19 @@ impl Mesh {
         self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize
     }
 
+    /// Signed volume enclosed by the faces (each fanned from its first corner), in f64:
+    /// positive for a closed mesh oriented counter-clockwise seen from outside; for an
+    /// open mesh it is the volume of the cone from the origin over its faces.
+    pub fn signed_volume(&self) -> f64 {
+        (0..self.face_count())
+            .map(|f| {
+                let v = self.face(f);
+                let p = |k: usize| self.positions[v[k] as usize].as_dvec3();
+                (1..v.len().saturating_sub(1)).map(|k| p(0).dot(p(k).cross(p(k + 1))) / 6.0).sum::<f64>()
+            })
+            .sum()
+    }
+
     /// Appends a face given its vertex indices.
     pub fn push_face(&mut self, vertices: &[u32]) {
         if self.face_offsets.is_empty() {
@@ -277,6 +290,24 @@ mod tests {
         assert_eq!(a.face(1), &[4, 5, 6, 7]);
         assert_eq!(a.triangle_count(), 4);
         a.validate().unwrap();
+    }
+
+    #[test]
+    fn signed_volume_of_a_cube() {
+        // A 2 × 1 × 1 box of quads, outward: volume 2; flipped: −2.
+        let mut m = Mesh::new();
+        for i in 0..8u32 {
+            m.positions.push(Vec3::new((i & 1) as f32 * 2.0, ((i >> 1) & 1) as f32, (i >> 2) as f32));
+        }
+        for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
+            m.push_face(&f);
+        }
+        assert!((m.signed_volume() - 2.0).abs() < 1e-12, "{}", m.signed_volume());
+        for f in 0..m.face_count() {
+            let r = m.corners(f);
+            m.face_indices[r].reverse();
+        }
+        assert!((m.signed_volume() + 2.0).abs() < 1e-12);
     }
 
     #[test]
