@@ -56,7 +56,10 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
             finite(&format!("roots[{i}]"), v)?;
         }
         if p.dims == 2 && r[2] != 0.0 {
-            return bad(&format!("roots[{i}]"), format!("must lie in the z = 0 plane with dims = 2, got z = {}", r[2]));
+            return bad(
+                &format!("roots[{i}]"),
+                format!("must lie in the z = 0 plane with dims = 2, got z = {}", r[2]),
+            );
         }
     }
     Ok(())
@@ -91,7 +94,9 @@ pub fn poisson_yao_roots(p: &LeastCostParams, spacing: Option<f64>, seed: u64) -
             if dist < d {
                 return bad(
                     "roots",
-                    format!("roots[{i}] and roots[{j}] are {dist:.4} apart, closer than the graph spacing {d:.4}"),
+                    format!(
+                        "roots[{i}] and roots[{j}] are {dist:.4} apart, closer than the graph spacing {d:.4}"
+                    ),
                 );
             }
         }
@@ -122,7 +127,9 @@ pub fn root_nodes(p: &LeastCostParams, g: &Graph) -> Result<Vec<u32>> {
             let r = r.as_vec3();
             let best = (0..g.len() as u32)
                 .min_by(|&a, &b| {
-                    g.position[a as usize].distance_squared(r).total_cmp(&g.position[b as usize].distance_squared(r))
+                    g.position[a as usize]
+                        .distance_squared(r)
+                        .total_cmp(&g.position[b as usize].distance_squared(r))
                 })
                 .unwrap_or(NONE);
             if best == NONE || g.position[best as usize].distance(r) > 1e-4 * (1.0 + r.length()) {
@@ -135,7 +142,12 @@ pub fn root_nodes(p: &LeastCostParams, g: &Graph) -> Result<Vec<u32>> {
 
 /// Grows an MGV forest: the iterations of [`super::mgv`] with every root in the tree
 /// from the start (see the module docs).
-pub fn grow_mgv(p: &LeastCostParams, seed: u64, base: Option<&Path>, report: &mut LeastCostReport) -> Result<PathTree> {
+pub fn grow_mgv(
+    p: &LeastCostParams,
+    seed: u64,
+    base: Option<&Path>,
+    report: &mut LeastCostReport,
+) -> Result<PathTree> {
     let g = main_graph(p, seed, base, report)?;
     if g.shortfall > 0 {
         report.warnings.push(format!(

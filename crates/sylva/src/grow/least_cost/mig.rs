@@ -287,7 +287,9 @@ pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &Search) -> Ve
     let vol = p.graph_volume();
     let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
     (0..g.len() as u32)
-        .filter(|&u| s.reached(u) && s.parent[u as usize] != NONE && vol.sdf(g.position[u as usize].as_dvec3()) >= -de)
+        .filter(|&u| {
+            s.reached(u) && s.parent[u as usize] != NONE && vol.sdf(g.position[u as usize].as_dvec3()) >= -de
+        })
         .collect()
 }
 

@@ -72,7 +72,15 @@ pub struct RefineParams {
 
 impl Default for RefineParams {
     fn default() -> Self {
-        RefineParams { count: 6, spacing: 0.0, radius: 0.0, quota: 0, cone: 0.5, trunk: None, attach: "nearest".into() }
+        RefineParams {
+            count: 6,
+            spacing: 0.0,
+            radius: 0.0,
+            quota: 0,
+            cone: 0.5,
+            trunk: None,
+            attach: "nearest".into(),
+        }
     }
 }
 
@@ -83,7 +91,10 @@ impl RefineParams {
             return bad("refine", format!("needs method = \"mig\", not `{}`", p.method));
         }
         if !p.graph_cache.is_empty() {
-            return bad("graph_cache", "is not supported with `generator.refine` (the refined graph is rebuilt)");
+            return bad(
+                "graph_cache",
+                "is not supported with `generator.refine` (the refined graph is rebuilt)",
+            );
         }
         if self.count == 0 || self.count > MAX_SPHERES {
             return bad("refine.count", format!("must be in 1..={MAX_SPHERES}, got {}", self.count));
@@ -91,7 +102,10 @@ impl RefineParams {
         in_range("refine.spacing", self.spacing, 0.0, 1e6)?;
         in_range("refine.radius", self.radius, 0.0, 1e6)?;
         if self.quota > p.nodes {
-            return bad("refine.quota", format!("must be at most `generator.nodes` = {}, got {}", p.nodes, self.quota));
+            return bad(
+                "refine.quota",
+                format!("must be at most `generator.nodes` = {}, got {}", p.nodes, self.quota),
+            );
         }
         in_range("refine.cone", self.cone, 0.01, 1.0)?;
         if let Some(t) = self.trunk {
@@ -99,14 +113,25 @@ impl RefineParams {
                 None => {
                     return bad(
                         "refine.trunk",
-                        format!("is {t}, but `generator.volume` has {} primitives (indices from 0)", p.volume.len()),
+                        format!(
+                            "is {t}, but `generator.volume` has {} primitives (indices from 0)",
+                            p.volume.len()
+                        ),
                     )
                 }
                 Some(Primitive::Cylinder { .. } | Primitive::Cone { .. }) => {}
-                Some(_) => return bad("refine.trunk", format!("must name a cylinder or a cone, volume[{t}] is neither")),
+                Some(_) => {
+                    return bad(
+                        "refine.trunk",
+                        format!("must name a cylinder or a cone, volume[{t}] is neither"),
+                    )
+                }
             }
             if p.volume.len() < 2 {
-                return bad("refine.trunk", "leaves no coarse volume: `generator.volume` needs a crown primitive too");
+                return bad(
+                    "refine.trunk",
+                    "leaves no coarse volume: `generator.volume` needs a crown primitive too",
+                );
             }
         }
         if !["nearest", "top"].contains(&self.attach.as_str()) {
@@ -179,7 +204,9 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
     // 1. Sphere centres: Poisson darts with a large spacing in the coarse volume.
     let m = coarse.measure(3, seed);
     if m.is_nan() || m <= 0.0 {
-        return Err(Error::Recipe("`generator.volume` (without the trunk) is empty: no room for refinement spheres".into()));
+        return Err(Error::Recipe(
+            "`generator.volume` (without the trunk) is empty: no room for refinement spheres".into(),
+        ));
     }
     let cs = if r.spacing > 0.0 { r.spacing } else { auto_spacing(m, r.count, 3) };
     let mut rng = Pcg64::seed_from_u64(seed ^ 0x7265_6669_6e65_2031);
@@ -242,7 +269,11 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
     let mut rng = Pcg64::seed_from_u64(seed ^ super::GRAPH_STREAM);
     let s = poisson(&union, p.nodes, d, Some(root), 3, &mut rng)?;
     if s.shortfall > 0 {
-        warnings.push(format!("the refined level-1 volume holds only {} of the {} nodes", s.points.len(), p.nodes));
+        warnings.push(format!(
+            "the refined level-1 volume holds only {} of the {} nodes",
+            s.points.len(),
+            p.nodes
+        ));
     }
     let (pos, root_id) = spatial_sort(&s.points, d, 0);
     let trunk_vol = trunk.map(|t| Volume::new(vec![t]));
@@ -283,7 +314,8 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
     };
     add_group(&shared, true);
     for i in 0..spheres.len() as u32 {
-        let members: Vec<u32> = (0..n as u32).filter(|&u| label[u as usize] == SHARED || label[u as usize] == i).collect();
+        let members: Vec<u32> =
+            (0..n as u32).filter(|&u| label[u as usize] == SHARED || label[u as usize] == i).collect();
         add_group(&members, false);
     }
     let mut offsets = Vec::with_capacity(n + 1);
@@ -295,7 +327,15 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
         targets.extend_from_slice(&o);
         offsets.push(targets.len() as u32);
     }
-    let graph = Graph { dims: 3, position: pos, offsets, targets, root: root_id, spacing: d as f32, shortfall: s.shortfall };
+    let graph = Graph {
+        dims: 3,
+        position: pos,
+        offsets,
+        targets,
+        root: root_id,
+        spacing: d as f32,
+        shortfall: s.shortfall,
+    };
 
     // 5. Dijkstra and the quotas.
     let search = dijkstra(&graph, &[graph.root], None, &mut Length);
@@ -310,7 +350,8 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
                 label[u as usize] == i as u32 && search.reached(u) && sd <= 0.0 && sd >= -de
             })
             .collect();
-        let mut rng = Pcg64::seed_from_u64(seed ^ 0x7175_6f74_61 ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let mut rng =
+            Pcg64::seed_from_u64(seed ^ 0x7175_6f74_61 ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         shuffle(&mut cand, &mut rng);
         if cand.len() < quota {
             shortfall += quota - cand.len();
