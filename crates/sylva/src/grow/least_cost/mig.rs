@@ -24,7 +24,9 @@
 //!    seeded from (seed, level, index), and merged in index order: deterministic.
 //!
 //! Level-1 endpoints that Dijkstra does not reach are never chosen; when fewer
-//! candidates than `b` exist, all are taken.
+//! candidates than `b` exist, all are taken. With `[generator.refine]` level 1 is the
+//! refined graph of [`refine`](super::refine) (Figs. 4.8–4.9), with `roots` the forest
+//! of [`forest`](super::forest); later levels are the same.
 
 use super::graph::{auto_spacing, poisson_yao, Graph, Primitive, Volume, NONE};
 use super::mgv::shuffle;

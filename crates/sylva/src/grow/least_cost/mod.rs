@@ -11,6 +11,9 @@
 //!   then a conical subgraph at every endpoint, level by level (`maketree`, Fig. 4.2).
 //! - [`mgv`]: *modified guiding vectors* (Ch. 5): one graph whose edge weights follow
 //!   guiding vectors set lazily during Dijkstra, over 4–5 iterations.
+//! - [`refine`]: MIG refinement volumes (Figs. 4.8–4.9): a level-1 graph over spheres
+//!   and cones to the trunk, no edges between them, an endpoint quota each.
+//! - [`forest`]: several competing roots on one graph (multi-source Dijkstra).
 //! - [`bcm`]: the construction method (§3.3.1) the thesis starts from: a lattice with
 //!   random or spatial weights, rounds that cheapen the tree's edges.
 //! - [`graph`]: volumes, Poisson-disc nodes, Yao-k and lattice graphs, graph files.

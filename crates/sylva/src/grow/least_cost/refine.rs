@@ -351,7 +351,7 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
             })
             .collect();
         let mut rng =
-            Pcg64::seed_from_u64(seed ^ 0x7175_6f74_61 ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            Pcg64::seed_from_u64(seed ^ 0x0071_756f_7461 ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         shuffle(&mut cand, &mut rng);
         if cand.len() < quota {
             shortfall += quota - cand.len();
