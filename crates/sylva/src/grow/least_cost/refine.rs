@@ -39,7 +39,7 @@ use glam::DVec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Label of the shared subvolume (the trunk and the root) in [`Refined::label`].
 pub const SHARED: u32 = u32::MAX;
@@ -171,6 +171,8 @@ pub struct Refined {
     pub shortfall: usize,
     /// Warnings (fewer spheres or nodes than asked, quota shortfalls).
     pub warnings: Vec<String>,
+    /// Time to place the spheres and build the graph (the rest of [`build`] is paths).
+    pub graph_time: Duration,
 }
 
 /// The trunk's axis segment (base, top).
@@ -194,6 +196,7 @@ fn trunk_axis(t: &Primitive) -> (DVec3, DVec3) {
 /// Builds the refined level-1 graph, runs Dijkstra and draws the endpoints (module docs).
 pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined> {
     r.validate(p)?;
+    let start = Instant::now();
     let mut warnings = Vec::new();
     let trunk = r.trunk.map(|i| p.volume[i].clone());
     let coarse: Vec<Primitive> =
@@ -337,6 +340,8 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
         shortfall: s.shortfall,
     };
 
+    let graph_time = start.elapsed();
+
     // 5. Dijkstra and the quotas.
     let search = dijkstra(&graph, &[graph.root], None, &mut Length);
     let quota = r.quota_for(p.endpoints, spheres.len());
@@ -363,7 +368,7 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
         cand.truncate(quota);
         endpoints.push(cand);
     }
-    Ok(Refined { graph, label, spheres, cones, search, endpoints, quota, shortfall, warnings })
+    Ok(Refined { graph, label, spheres, cones, search, endpoints, quota, shortfall, warnings, graph_time })
 }
 
 /// MIG level 1 in the refined volume: the path union of every subvolume's endpoints and
@@ -377,7 +382,8 @@ pub(crate) fn level1(
     let t = Instant::now();
     let rf = build(p, r, seed)?;
     let g = &rf.graph;
-    report.graph_time += t.elapsed();
+    report.graph_time += rf.graph_time;
+    report.path_time += t.elapsed().saturating_sub(rf.graph_time);
     report.graph_nodes = g.len();
     report.graph_edges = g.edge_count();
     report.graph_bytes = g.bytes();
