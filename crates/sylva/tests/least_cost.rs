@@ -788,3 +788,328 @@ fn bcm_parameters_are_named_errors() {
     let e = lc::grow(&p, 1, None).unwrap_err().to_string();
     assert!(e.contains("generator.bcm.rounds"), "{e}");
 }
+
+// ---------------------------------------------------------------------------------
+// MIG refinement volumes (Figs. 4.8–4.9) and multi-root forests.
+
+use sylva::grow::least_cost::forest;
+use sylva::grow::least_cost::refine::{self, RefineParams, SHARED};
+
+fn refine_params(quota: usize) -> LeastCostParams {
+    LeastCostParams {
+        method: "mig".into(),
+        nodes: 5000,
+        endpoints: 20,
+        sub_nodes: 60,
+        sub_radius: 0.8,
+        volume: vec![
+            Primitive::Cylinder { base: [0.0; 3], height: 2.0, radius: 0.3, axis: [0.0, 1.0, 0.0] },
+            Primitive::Ellipsoid { center: [0.0, 4.0, 0.0], radii: [2.5, 2.0, 2.5], axis: [0.0, 1.0, 0.0] },
+        ],
+        refine: Some(RefineParams { count: 5, radius: 1.0, quota, trunk: Some(0), ..Default::default() }),
+        levels: vec![lc::mig::MigLevel { endpoints: 3, ..Default::default() }],
+        ..Default::default()
+    }
+}
+
+fn recipe_params(name: &str) -> LeastCostParams {
+    match recipe::load(name, &[]).unwrap().recipe.generator {
+        recipe::Generator::LeastCost(p) => *p,
+        _ => panic!("{name} is not a least-cost preset"),
+    }
+}
+
+#[test]
+fn refinement_subvolumes_share_no_edges_and_fill_their_quotas() {
+    for attach in ["nearest", "top"] {
+        let mut p = refine_params(4);
+        p.refine.as_mut().unwrap().attach = attach.into();
+        let r = p.refine.clone().unwrap();
+        let rf = refine::build(&p, &r, 3).unwrap();
+        let g = &rf.graph;
+        let n_sub = rf.spheres.len();
+        assert!((2..=5).contains(&n_sub), "{n_sub} spheres");
+        let crown = Volume::new(vec![p.volume[1].clone()]);
+        for &(c, rad) in &rf.spheres {
+            assert!(crown.contains(c), "sphere centres lie in the coarse volume without the trunk");
+            assert_eq!(rad, 1.0);
+        }
+        // Labels: a subvolume's nodes lie in its sphere or cone; the root is shared.
+        assert_eq!(rf.label[g.root as usize], SHARED);
+        for (u, &l) in rf.label.iter().enumerate() {
+            if l != SHARED {
+                let (c, rad) = rf.spheres[l as usize];
+                let mut parts = vec![Primitive::Sphere { center: c.to_array(), radius: rad }];
+                parts.extend(rf.cones[l as usize].clone());
+                assert!(
+                    Volume::new(parts).sdf(g.position[u].as_dvec3()) <= 1e-4,
+                    "node {u} outside its subvolume {l}"
+                );
+            }
+        }
+        // No edge joins two different subvolumes; the trunk links to every one of them.
+        let mut linked = vec![false; n_sub];
+        for u in 0..g.len() as u32 {
+            for &v in g.out(u) {
+                let (a, b) = (rf.label[u as usize], rf.label[v as usize]);
+                assert!(a == b || a == SHARED || b == SHARED, "edge {u}->{v} joins subvolumes {a} and {b}");
+                if a == SHARED && b != SHARED {
+                    linked[b as usize] = true;
+                }
+            }
+        }
+        assert!(linked.iter().all(|&x| x), "{attach}: the trunk links to every subvolume: {linked:?}");
+        // Exactly the quota in each subvolume, in its sphere's shell, with paths that stay
+        // in the subvolume and the trunk.
+        assert_eq!(rf.quota, 4);
+        assert_eq!(rf.shortfall, 0, "{:?}", rf.warnings);
+        let de = 3.0 * g.spacing as f64;
+        for (i, ends) in rf.endpoints.iter().enumerate() {
+            assert_eq!(ends.len(), 4, "subvolume {i}");
+            let (c, rad) = rf.spheres[i];
+            for &e in ends {
+                assert_eq!(rf.label[e as usize], i as u32);
+                let sd = g.position[e as usize].as_dvec3().distance(c) - rad;
+                assert!(sd <= 1e-9 && sd >= -de - 1e-9, "endpoint {e}: sdf {sd}");
+                let path = rf.search.path(e);
+                assert_eq!(*path.last().unwrap(), g.root);
+                for &v in &path {
+                    let l = rf.label[v as usize];
+                    assert!(l == i as u32 || l == SHARED, "path of {e} enters subvolume {l}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_quota_larger_than_the_candidates_is_a_reported_shortfall() {
+    let p = refine_params(2000);
+    let rf = refine::build(&p, p.refine.as_ref().unwrap(), 3).unwrap();
+    let missing: usize = rf.endpoints.iter().map(|e| 2000 - e.len()).sum();
+    assert!(missing > 0);
+    assert_eq!(rf.shortfall, missing);
+    assert!(rf.warnings.iter().any(|w| w.contains("quota")), "{:?}", rf.warnings);
+    let t = lc::grow(&p, 3, None).unwrap();
+    assert_eq!(t.report.quota_shortfall, missing);
+}
+
+#[test]
+fn refined_mig_trees_are_deterministic_trees_with_the_quotas() {
+    let p = refine_params(3);
+    let a = grow(&p, 5);
+    let sk = &a.skeleton;
+    sk.validate().unwrap();
+    assert_eq!(sk.parent.iter().filter(|&&q| q == sylva::NO_PARENT).count(), 1, "one root");
+    assert_eq!(a.report.trees, 1);
+    let subs = a.report.subvolumes;
+    assert!(subs >= 2);
+    assert_eq!(a.report.quota_shortfall, 0);
+    // Level 1: quota × subvolumes endpoints, then b = 3 at each.
+    assert_eq!(a.report.subgraphs, 3 * subs);
+    assert_eq!(a.report.endpoints, 3 * subs + 9 * subs);
+    assert_eq!(a.skeleton, grow(&p, 5).skeleton);
+    assert_ne!(a.skeleton, grow(&p, 6).skeleton);
+    // Without a trunk the cones meet at the root, the only shared node.
+    let mut q = refine_params(3);
+    q.refine.as_mut().unwrap().trunk = None;
+    let rf = refine::build(&q, q.refine.as_ref().unwrap(), 5).unwrap();
+    assert_eq!(rf.label.iter().filter(|&&l| l == SHARED).count(), 1);
+    let root = rf.graph.position[rf.graph.root as usize].as_dvec3();
+    for cone in rf.cones.iter().flatten() {
+        if let Primitive::Cone { base, height, axis, .. } = cone {
+            let apex = DVec3::from_array(*base) + DVec3::from_array(*axis) * *height;
+            assert!(apex.distance(root) < 1e-6, "cones end at the root");
+        }
+    }
+    assert_eq!(grow(&q, 5).skeleton.parent.iter().filter(|&&x| x == sylva::NO_PARENT).count(), 1);
+}
+
+#[test]
+fn refinement_and_roots_keys_are_named_errors() {
+    for (preset, set, key) in [
+        ("mig-refined", "generator.refine.count=0", "generator.refine.count"),
+        ("mig-refined", "generator.refine.trunk=5", "generator.refine.trunk"),
+        ("mig-refined", "generator.refine.trunk=1", "generator.refine.trunk"),
+        ("mig-refined", "generator.refine.cone=2.0", "generator.refine.cone"),
+        ("mig-refined", "generator.refine.attach=\"side\"", "generator.refine.attach"),
+        ("mig-refined", "generator.refine.spacing=-1", "generator.refine.spacing"),
+        ("mig-refined", "generator.refine.quota=99999999", "generator.refine.quota"),
+        ("mig-refined", "generator.graph_cache=\"x.graph\"", "generator.graph_cache"),
+        ("mig-refined", "generator.roots=[[0.0,0.0,0.0]]", "generator.roots"),
+        ("mgv-grove", "generator.root=[0.0,0.0,0.0]", "generator.roots"),
+        ("mgv-grove", "generator.roots=[[0.0,0.0,0.0],[0.01,0.0,0.0]]", "generator.roots"),
+        ("bcm-elm", "generator.roots=[[0.0,0.0,0.0]]", "generator.roots"),
+        ("mgv-a", "generator.refine.count=4", "generator.refine"),
+    ] {
+        let sets = vec![recipe::parse_set(set).unwrap()];
+        let e = match recipe::load(preset, &sets) {
+            Err(e) => e.to_string(),
+            Ok(l) => sylva::pipeline::grow(&l).map(|_| ()).unwrap_err().to_string(),
+        };
+        assert!(e.contains(key), "{set}: {e}");
+    }
+    let p = LeastCostParams { roots: vec![[0.0, f64::NAN, 0.0]], ..mgv_params(vec![]) };
+    assert!(p.validate().unwrap_err().to_string().contains("generator.roots[0]"));
+}
+
+/// MGV weights with every guide `up` (α ≡ 0): static, so single-source costs are
+/// well defined.
+struct UpGuides;
+
+impl Costs for UpGuides {
+    fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
+        mgv_weight(g.position[v as usize] - g.position[u as usize], Vec3::Y, 0.0)
+    }
+}
+
+fn forest_params() -> LeastCostParams {
+    let still = Rotation { rule: "constant".into(), alpha: 0.0, ..Default::default() };
+    LeastCostParams {
+        nodes: 6000,
+        volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [6.0, 4.0, 6.0] }],
+        roots: vec![[-2.0, 0.0, -2.0], [2.0, 0.0, -1.5], [0.0, 0.0, 2.0]],
+        iterations: vec![
+            MgvIteration {
+                endpoints: "volume".into(),
+                count: 30,
+                crown: vec![Primitive::Box { center: [0.0, 2.5, 0.0], size: [6.0, 3.0, 6.0] }],
+                rotation: still.clone(),
+                ..Default::default()
+            },
+            MgvIteration { endpoints: "surface".into(), count: 60, rotation: still, ..Default::default() },
+        ],
+        ..mgv_params(vec![])
+    }
+}
+
+/// The root of each tree node of an MGV state (`NONE` off the tree).
+fn owners(st: &MgvState) -> Vec<u32> {
+    let mut own = vec![NONE; st.in_tree.len()];
+    for &u in &st.nodes {
+        let par = st.parent[u as usize];
+        own[u as usize] = if par == NONE { u } else { own[par as usize] };
+    }
+    own
+}
+
+#[test]
+fn forest_endpoints_join_the_tree_that_reaches_them_cheapest() {
+    let p = forest_params();
+    let g = forest::poisson_yao_roots(&p, None, 11).unwrap();
+    let roots = forest::root_nodes(&p, &g).unwrap();
+    assert_eq!(roots[0], g.root);
+    for (i, &r) in roots.iter().enumerate() {
+        assert_eq!(g.position[r as usize].as_dvec3(), DVec3::from_array(p.roots[i]));
+    }
+    for i in 0..g.len() {
+        for j in 0..i {
+            assert!(g.position[i].distance(g.position[j]) >= g.spacing * 0.9999, "Poisson spacing kept");
+        }
+    }
+    // MIG level 1 (length weights): the multi-source cost is the least single-root cost.
+    let multi = dijkstra(&g, &roots, None, &mut Length);
+    let single: Vec<Search> = roots.iter().map(|&r| dijkstra(&g, &[r], None, &mut Length)).collect();
+    for v in 0..g.len() {
+        let best = single.iter().map(|s| s.dist[v]).fold(f32::INFINITY, f32::min);
+        if !multi.reached(v as u32) {
+            assert!(best.is_infinite());
+            continue;
+        }
+        assert!((multi.dist[v] - best).abs() <= 1e-4 * (1.0 + best), "node {v}");
+        let own = roots.iter().position(|&r| r == multi.source[v]).unwrap();
+        assert!(single[own].dist[v] <= best + 1e-4 * (1.0 + best), "node {v} joins a dearer root");
+    }
+    // MGV with α ≡ 0, iteration by iteration: every endpoint's path starts at the tree
+    // whose nodes reach it cheapest and crosses no other tree.
+    let mut st = forest::mgv_state(&g, &roots);
+    for (i, it) in p.iterations.iter().enumerate() {
+        let own = owners(&st);
+        let trees: Vec<Vec<u32>> = roots
+            .iter()
+            .map(|&r| st.nodes.iter().copied().filter(|&u| own[u as usize] == r).collect())
+            .collect();
+        let costs: Vec<Search> = trees.iter().map(|t| dijkstra(&g, t, None, &mut UpGuides)).collect();
+        st.iterate(&g, it, &p, 11, i);
+        let s = st.last.as_ref().unwrap();
+        let ends = st.endpoints.last().unwrap();
+        assert!(!ends.is_empty());
+        for &e in ends {
+            let src = s.source[e as usize];
+            let k = roots.iter().position(|&r| r == own[src as usize]).unwrap();
+            let best = costs.iter().map(|c| c.dist[e as usize]).fold(f32::INFINITY, f32::min);
+            assert!(costs[k].dist[e as usize] <= best + 1e-4 * (1.0 + best), "iteration {i}: endpoint {e}");
+            assert!((s.dist[e as usize] - best).abs() <= 1e-4 * (1.0 + best));
+            let path = s.path(e);
+            for &v in &path[..path.len() - 1] {
+                assert_eq!(own[v as usize], NONE, "the path of {e} crosses a tree");
+            }
+        }
+    }
+    // The union is a forest: one root per tree, every node below exactly one root.
+    let own = owners(&st);
+    let tree = mgv::tree_of(&g, &st);
+    assert_eq!(tree.parent.iter().filter(|&&q| q == NONE).count(), roots.len());
+    for &u in &st.nodes {
+        assert!(roots.contains(&own[u as usize]));
+    }
+    for &r in &roots {
+        assert!(st.nodes.iter().filter(|&&u| own[u as usize] == r).count() > 1, "root {r} grew a tree");
+    }
+}
+
+#[test]
+fn forests_are_deterministic_skeletons_with_one_root_per_tree() {
+    let p = forest_params();
+    let a = grow(&p, 2);
+    a.skeleton.validate().unwrap();
+    let roots: Vec<Vec3> = (0..a.skeleton.len())
+        .filter(|&i| a.skeleton.parent[i] == sylva::NO_PARENT)
+        .map(|i| a.skeleton.position[i])
+        .collect();
+    assert_eq!(roots.len(), 3);
+    assert_eq!(a.report.trees, 3);
+    for r in &p.roots {
+        assert!(roots.contains(&DVec3::from_array(*r).as_vec3()), "root {r:?} heads a tree");
+    }
+    assert_eq!(a.skeleton, grow(&p, 2).skeleton);
+    assert_ne!(a.skeleton, grow(&p, 3).skeleton);
+    // A root that wins nothing is dropped with a warning (its crown is elsewhere).
+    let mut q = forest_params();
+    q.roots.push([2.9, 3.9, 2.9]);
+    q.iterations.truncate(1);
+    q.iterations[0].crown = vec![Primitive::Box { center: [-2.0, 1.0, -2.0], size: [1.0, 1.0, 1.0] }];
+    q.iterations[0].count = 3;
+    let b = grow(&q, 2);
+    assert!(b.report.trees < 4);
+    assert!(b.report.warnings.iter().any(|w| w.contains("won no endpoint")), "{:?}", b.report.warnings);
+    // MIG forests: every level-1 endpoint below its nearest root; then the subgraphs.
+    let m = LeastCostParams {
+        method: "mig".into(),
+        nodes: 4000,
+        endpoints: 12,
+        sub_nodes: 50,
+        sub_radius: 0.6,
+        volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [6.0, 4.0, 6.0] }],
+        roots: p.roots.clone(),
+        levels: vec![lc::mig::MigLevel { endpoints: 2, ..Default::default() }],
+        ..Default::default()
+    };
+    let t = grow(&m, 1);
+    t.skeleton.validate().unwrap();
+    assert_eq!(t.report.trees, t.skeleton.parent.iter().filter(|&&q| q == sylva::NO_PARENT).count());
+    assert!(t.report.trees >= 2);
+    assert_eq!(t.report.endpoints, 12 + 24);
+    assert_eq!(t.skeleton, grow(&m, 1).skeleton);
+}
+
+#[test]
+fn the_refined_and_grove_presets_grow_as_described() {
+    let r = grow(&recipe_params("mig-refined"), 1);
+    assert_eq!(r.report.subvolumes, 7);
+    assert_eq!(r.report.quota_shortfall, 0);
+    assert_eq!(r.report.trees, 1);
+    let g = grow(&recipe_params("mgv-grove"), 1);
+    assert_eq!(g.report.trees, 4, "{:?}", g.report.warnings);
+    assert_eq!(g.skeleton.parent.iter().filter(|&&q| q == sylva::NO_PARENT).count(), 4);
+}

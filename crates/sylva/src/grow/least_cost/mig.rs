@@ -24,11 +24,13 @@
 //!    seeded from (seed, level, index), and merged in index order: deterministic.
 //!
 //! Level-1 endpoints that Dijkstra does not reach are never chosen; when fewer
-//! candidates than `b` exist, all are taken.
+//! candidates than `b` exist, all are taken. With `[generator.refine]` level 1 is the
+//! refined graph of [`refine`](super::refine) (Figs. 4.8–4.9), with `roots` the forest
+//! of [`forest`](super::forest); later levels are the same.
 
 use super::graph::{auto_spacing, poisson_yao, Graph, Primitive, Volume, NONE};
 use super::mgv::shuffle;
-use super::paths::{dijkstra, Length};
+use super::paths::{dijkstra, Length, Search};
 use super::{bad, in_range, main_graph, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::{Error, Result};
 use glam::{DQuat, DVec3, Vec3};
@@ -123,13 +125,13 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
 
 /// An endpoint of the growing tree.
 #[derive(Debug, Clone, Copy)]
-struct End {
+pub(crate) struct End {
     /// Node id in the path tree.
-    node: u32,
+    pub(crate) node: u32,
     /// Its position.
-    pos: DVec3,
-    /// The root of the graph it was chosen in.
-    root: DVec3,
+    pub(crate) pos: DVec3,
+    /// The root of the graph (the tree's own root in a forest) it was chosen in.
+    pub(crate) root: DVec3,
 }
 
 /// The guiding direction `v_g` of a subgraph at `e` (step 4B, with the level's options).
@@ -233,13 +235,33 @@ fn subgraph(p: &LeastCostParams, level: &MigLevel, end: End, r: f64, seed: u64) 
     Ok(union_paths(&g, &s.parent, &mut cand, level.endpoints, &mut rng))
 }
 
-/// Grows a MIG tree as a path union.
+/// Grows a MIG tree as a path union: level 1 (the plain volume, the refinement volumes
+/// of [`refine`](super::refine) or several competing roots of
+/// [`forest`](super::forest)), then levels 2, 3, ….
 pub fn grow(
     p: &LeastCostParams,
     seed: u64,
     base: Option<&Path>,
     report: &mut LeastCostReport,
 ) -> Result<PathTree> {
+    let (mut tree, first) = if let Some(r) = &p.refine {
+        super::refine::level1(p, r, seed, report)?
+    } else if !p.roots.is_empty() {
+        super::forest::mig_level1(p, seed, base, report)?
+    } else {
+        level1(p, seed, base, report)?
+    };
+    grow_levels(p, seed, &mut tree, first, report)?;
+    Ok(tree)
+}
+
+/// Level 1 of `maketree` in the user volume from one root.
+fn level1(
+    p: &LeastCostParams,
+    seed: u64,
+    base: Option<&Path>,
+    report: &mut LeastCostReport,
+) -> Result<(PathTree, Vec<End>)> {
     let g = main_graph(p, seed, base, report)?;
     if g.shortfall > 0 {
         report.warnings.push(format!("the level-1 volume holds only {} of the {} nodes", g.len(), p.nodes));
@@ -247,20 +269,44 @@ pub fn grow(
     let t = Instant::now();
     let s = dijkstra(&g, &[g.root], None, &mut Length);
     report.unreachable = (0..g.len() as u32).filter(|&u| !s.reached(u)).count();
-    let vol = p.graph_volume();
-    let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
-    let mut cand: Vec<u32> = (0..g.len() as u32)
-        .filter(|&u| u != g.root && s.reached(u) && vol.sdf(g.position[u as usize].as_dvec3()) >= -de)
-        .collect();
-    let mut rng = Pcg64::seed_from_u64(seed ^ 0x6c65_7665_6c31);
+    let mut cand = shell_candidates(p, &g, &s);
+    let mut rng = Pcg64::seed_from_u64(seed ^ LEVEL1_STREAM);
     let sub = union_paths(&g, &s.parent, &mut cand, p.endpoints, &mut rng);
     let mut tree = PathTree::default();
     let root_pos = g.position[g.root as usize];
     let root = tree.push(root_pos, NONE);
-    let mut all: Vec<End> = Vec::new();
-    let mut last = merge(&mut tree, &sub, root, root_pos.as_dvec3());
-    all.extend_from_slice(&last);
+    let first = merge(&mut tree, &sub, root, root_pos.as_dvec3());
     report.path_time += t.elapsed();
+    Ok((tree, first))
+}
+
+/// The generator stream of the level-1 endpoints.
+pub(crate) const LEVEL1_STREAM: u64 = 0x6c65_7665_6c31;
+
+/// Level-1 endpoint candidates: reached nodes (not sources) in the shell
+/// `−d_e ≤ sdf ≤ 0` under the volume's surface, in id order.
+pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &Search) -> Vec<u32> {
+    let vol = p.graph_volume();
+    let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
+    (0..g.len() as u32)
+        .filter(|&u| {
+            s.reached(u) && s.parent[u as usize] != NONE && vol.sdf(g.position[u as usize].as_dvec3()) >= -de
+        })
+        .collect()
+}
+
+/// Levels 2, 3, … of `maketree`: a subgraph at every endpoint of the previous level
+/// (of all previous levels with `all_previous`), starting from the level-1 endpoints
+/// `first`.
+pub(crate) fn grow_levels(
+    p: &LeastCostParams,
+    seed: u64,
+    tree: &mut PathTree,
+    first: Vec<End>,
+    report: &mut LeastCostReport,
+) -> Result<()> {
+    let mut all: Vec<End> = first.clone();
+    let mut last = first;
     let mut level_no = 1u32;
     for level in &p.levels {
         for _ in 0..level.repeat {
@@ -291,14 +337,14 @@ pub fn grow(
                 report.graph_nodes += res.graph_nodes;
                 report.graph_edges += res.graph_edges;
                 report.subgraphs += 1;
-                next.extend(merge(&mut tree, &res, e.node, e.pos));
+                next.extend(merge(tree, &res, e.node, e.pos));
             }
             all.extend_from_slice(&next);
             last = next;
         }
     }
     report.endpoints = all.len();
-    Ok(tree)
+    Ok(())
 }
 
 /// Appends a subgraph's paths to the tree, attached at `at` (the subgraph root's tree

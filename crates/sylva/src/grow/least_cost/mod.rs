@@ -11,6 +11,9 @@
 //!   then a conical subgraph at every endpoint, level by level (`maketree`, Fig. 4.2).
 //! - [`mgv`]: *modified guiding vectors* (Ch. 5): one graph whose edge weights follow
 //!   guiding vectors set lazily during Dijkstra, over 4–5 iterations.
+//! - [`refine`]: MIG refinement volumes (Figs. 4.8–4.9): a level-1 graph over spheres
+//!   and cones to the trunk, no edges between them, an endpoint quota each.
+//! - [`forest`]: several competing roots on one graph (multi-source Dijkstra).
 //! - [`bcm`]: the construction method (§3.3.1) the thesis starts from: a lattice with
 //!   random or spatial weights, rounds that cheapen the tree's edges.
 //! - [`graph`]: volumes, Poisson-disc nodes, Yao-k and lattice graphs, graph files.
@@ -35,10 +38,12 @@
 //! tips and the root pinned (inference; 0 = off, the seed's look).
 
 pub mod bcm;
+pub mod forest;
 pub mod graph;
 pub mod mgv;
 pub mod mig;
 pub mod paths;
+pub mod refine;
 
 use crate::error::{Error, Result};
 use crate::skeleton::{Skeleton, NO_PARENT};
@@ -73,6 +78,10 @@ pub struct LeastCostParams {
     /// The root; default: the bottom centre of the volume's bounding box.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub root: Option<[f64; 3]>,
+    /// Several competing roots on one graph (MGV, MIG): a forest whose trees share the
+    /// graph; every endpoint joins the root that reaches it cheapest ([`forest`]).
+    /// Empty = one tree from `root`.
+    pub roots: Vec<[f64; 3]>,
     /// A graph file to reuse (MGV graph / MIG level-1 graph): read when it exists and
     /// was built from the same graph parameters, else built and written there.
     #[serde(skip_serializing_if = "String::is_empty")]
@@ -94,6 +103,10 @@ pub struct LeastCostParams {
     pub sub_shell: f64,
     /// MIG: levels 2, 3, … of `maketree`.
     pub levels: Vec<mig::MigLevel>,
+    /// MIG: refinement volumes of the level-1 graph (Figs. 4.8–4.9;
+    /// `[generator.refine]`, [`refine`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine: Option<refine::RefineParams>,
     /// MGV: the iterations (§5.2.4).
     pub iterations: Vec<mgv::MgvIteration>,
     /// MGV: rotation axis: `edge` (spec 004's recommendation, §5.3.1) or `guide`
@@ -129,6 +142,7 @@ impl Default for LeastCostParams {
             sectors: 8,
             volume: vec![Primitive::Box { center: [0.0, 5.0, 0.0], size: [10.0, 10.0, 10.0] }],
             root: None,
+            roots: Vec::new(),
             graph_cache: String::new(),
             max_nodes: MAX_NODES,
             endpoints: 12,
@@ -138,6 +152,7 @@ impl Default for LeastCostParams {
             shrink: 0.7,
             sub_shell: 0.5,
             levels: Vec::new(),
+            refine: None,
             iterations: Vec::new(),
             axis: "edge".into(),
             epsilon: 0.0,
@@ -209,6 +224,10 @@ impl LeastCostParams {
                 finite("root", v)?;
             }
         }
+        forest::validate(self)?;
+        if let Some(r) = &self.refine {
+            r.validate(self)?;
+        }
         if self.graph_cache.contains('\0') {
             return bad("graph_cache", "is not a valid file name");
         }
@@ -237,7 +256,7 @@ impl LeastCostParams {
 
     /// Hash of everything the graph depends on (the graph file's key).
     pub fn graph_key(&self, seed: u64) -> u64 {
-        let text = serde_json::to_string(&(
+        let mut text = serde_json::to_string(&(
             &self.volume,
             self.nodes,
             self.spacing,
@@ -247,6 +266,10 @@ impl LeastCostParams {
             seed,
         ))
         .unwrap_or_default();
+        if !self.roots.is_empty() {
+            // Only forests add their roots, so single-tree keys stay as they were.
+            text += &serde_json::to_string(&self.roots).unwrap_or_default();
+        }
         // FNV-1a, 64 bit.
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         for b in text.bytes() {
@@ -272,6 +295,13 @@ pub struct LeastCostReport {
     pub unreachable: usize,
     /// Subgraphs built (MIG).
     pub subgraphs: usize,
+    /// MIG refinement: sphere + cone subvolumes of the level-1 graph (0 without
+    /// `[generator.refine]`).
+    pub subvolumes: usize,
+    /// MIG refinement: endpoints missing from the subvolumes' quotas (too few candidates).
+    pub quota_shortfall: usize,
+    /// Trees in the forest (1 for a single root; roots that won no endpoint are dropped).
+    pub trees: usize,
     /// Endpoints whose paths were added.
     pub endpoints: usize,
     /// Skeleton nodes.
@@ -518,6 +548,14 @@ fn build_or_load_graph(
     }
     let root = p.root.map(DVec3::from_array);
     let spacing = (p.spacing > 0.0).then_some(p.spacing);
+    if !p.roots.is_empty() {
+        let g = forest::poisson_yao_roots(p, spacing, seed ^ GRAPH_STREAM)?;
+        if let Some(f) = &file {
+            g.write(f, key)?;
+            report.cache = "saved".into();
+        }
+        return Ok(g);
+    }
     let g = graph::poisson_yao(
         &p.graph_volume(),
         p.nodes,
@@ -547,6 +585,7 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     let mut tree = match p.method.as_str() {
         "mig" => mig::grow(p, seed, base, &mut report)?,
         "bcm" => bcm::grow(p, seed, &mut report)?,
+        _ if !p.roots.is_empty() => forest::grow_mgv(p, seed, base, &mut report)?,
         _ => mgv::grow(p, seed, base, &mut report)?,
     };
     let t = Instant::now();
@@ -562,6 +601,7 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     report.skeleton_time = t.elapsed();
     report.nodes = skeleton.len();
     report.tips = tree.tips();
+    report.trees = skeleton.stats().roots;
     report.elapsed = start.elapsed();
     Ok(LeastCostTree { skeleton, report })
 }
