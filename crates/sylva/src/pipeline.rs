@@ -309,12 +309,13 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
             let r = &tree.report;
             report.interpret_time = r.elapsed;
             report.summary = format!(
-                "least-cost ({}): {} graph nodes, {} endpoints, {} tips, {} skeleton nodes in {:.1} ms (graph {:.1}, paths {:.1}, skeleton {:.1}){}",
+                "least-cost ({}): {} graph nodes, {} endpoints, {} tips, {} skeleton nodes{} in {:.1} ms (graph {:.1}, paths {:.1}, skeleton {:.1}){}",
                 p.method,
                 r.graph_nodes,
                 r.endpoints,
                 r.tips,
                 r.nodes,
+                if r.leaves > 0 { format!(", {} {}", r.leaves, p.leaves.kind) } else { String::new() },
                 r.elapsed.as_secs_f64() * 1e3,
                 r.graph_time.as_secs_f64() * 1e3,
                 r.path_time.as_secs_f64() * 1e3,

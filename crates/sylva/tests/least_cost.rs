@@ -1113,3 +1113,69 @@ fn the_refined_and_grove_presets_grow_as_described() {
     assert_eq!(g.report.trees, 4, "{:?}", g.report.warnings);
     assert_eq!(g.skeleton.parent.iter().filter(|&&q| q == sylva::NO_PARENT).count(), 4);
 }
+
+/// Leaves (§4.5): `leaf` blades centred on every tip with sizes in `size·(1 ± variation)`,
+/// `needles` within `spread` of +Y starting at the tips; deterministic, none by default,
+/// named errors for bad keys.
+#[test]
+fn leaves_and_needles_sit_at_the_tips() {
+    use sylva::grow::least_cost::leaves::LeafParams;
+    use sylva::skeleton::OrganKind;
+    let base = mgv_params(vec![]);
+    let bare = grow(&base, 4);
+    assert!(bare.skeleton.organs.is_empty(), "no leaves by default");
+    let tips: Vec<usize> = {
+        let kids = bare.skeleton.children();
+        (0..bare.skeleton.len())
+            .filter(|&i| kids.of(i).is_empty() && bare.skeleton.parent[i] != sylva::NO_PARENT)
+            .collect()
+    };
+    assert!(tips.len() > 5);
+    let leaf =
+        LeafParams { kind: "leaf".into(), count: 3, size: 0.2, size_variation: 0.25, ..Default::default() };
+    let p = LeastCostParams { leaves: leaf.clone(), ..base.clone() };
+    let t = grow(&p, 4);
+    assert_eq!(t.skeleton.len(), bare.skeleton.len(), "leaves do not change the skeleton");
+    assert_eq!(t.skeleton.position, bare.skeleton.position);
+    assert_eq!(t.skeleton.organs.len(), 3 * tips.len());
+    assert_eq!(t.report.leaves, 3 * tips.len());
+    let mut per_tip = HashMap::new();
+    let mut headings = DVec3::ZERO;
+    for o in &t.skeleton.organs {
+        assert_eq!(o.kind, OrganKind::Leaf);
+        let tip = t.skeleton.position[o.node as usize];
+        assert!(tips.contains(&(o.node as usize)), "organ on a non-tip node {}", o.node);
+        *per_tip.entry(o.node).or_insert(0) += 1;
+        assert!((0.15 - 1e-6..=0.25 + 1e-6).contains(&(o.size as f64)), "size {}", o.size);
+        let centre = o.position + o.heading * (o.size / 2.0);
+        assert!(centre.distance(tip) < 1e-5, "leaf centred on its tip");
+        assert!((o.heading.length() - 1.0).abs() < 1e-5 && o.heading.dot(o.up).abs() < 1e-5);
+        headings += o.heading.as_dvec3();
+    }
+    assert!(per_tip.values().all(|&c| c == 3));
+    // Random rotations: the headings average out (|mean| ≪ 1).
+    assert!(headings.length() / (t.skeleton.organs.len() as f64) < 0.3, "{headings}");
+    assert_eq!(grow(&p, 4).skeleton.organs, t.skeleton.organs, "deterministic");
+    // Needles: polygons from the tip within `spread` of +Y.
+    let needles =
+        LeafParams { kind: "needles".into(), count: 5, size: 0.1, spread: 30.0, ..Default::default() };
+    let n = grow(&LeastCostParams { leaves: needles, ..base.clone() }, 4);
+    assert_eq!(n.skeleton.organs.len(), 5 * tips.len());
+    for o in &n.skeleton.organs {
+        let OrganKind::Polygon(q) = &o.kind else { panic!("needles are polygons") };
+        assert_eq!(q.len(), 4);
+        let tip = n.skeleton.position[o.node as usize];
+        assert!(((q[0] + q[1]) / 2.0).distance(tip) < 1e-5, "needle starts at its tip");
+        assert!(o.heading.y >= 30f32.to_radians().cos() - 1e-5, "within the spread: {}", o.heading);
+    }
+    // Bad keys are named errors.
+    for (set, key) in [
+        ("generator.leaves.kind=\"fronds\"", "generator.leaves.kind"),
+        ("generator.leaves.count=0", "generator.leaves.count"),
+        ("generator.leaves.size=-1", "generator.leaves.size"),
+        ("generator.leaves.spread=200", "generator.leaves.spread"),
+    ] {
+        let e = recipe::load("mgv-a", &[recipe::parse_set(set).unwrap()]).unwrap_err().to_string();
+        assert!(e.contains(key), "{set}: {e}");
+    }
+}

@@ -18,6 +18,7 @@
 //!   random or spatial weights, rounds that cheapen the tree's edges.
 //! - [`graph`]: volumes, Poisson-disc nodes, Yao-k and lattice graphs, graph files.
 //! - [`paths`]: multi-source Dijkstra, BCM / MIG / MGV weights.
+//! - [`leaves`]: leaves or needles at the tips (§4.5).
 //!
 //! # Thickness (§4.3, Fig. 6.2; spec 004 §2.7)
 //!
@@ -40,6 +41,7 @@
 pub mod bcm;
 pub mod forest;
 pub mod graph;
+pub mod leaves;
 pub mod mgv;
 pub mod mig;
 pub mod paths;
@@ -130,6 +132,8 @@ pub struct LeastCostParams {
     pub smooth_iterations: u32,
     /// BCM: `[generator.bcm]` (lattice, weights, rounds).
     pub bcm: bcm::BcmParams,
+    /// Leaves or needles at the tips (`[generator.leaves]`, §4.5; default none).
+    pub leaves: leaves::LeafParams,
 }
 
 impl Default for LeastCostParams {
@@ -164,6 +168,7 @@ impl Default for LeastCostParams {
             smooth: 0.0,
             smooth_iterations: 3,
             bcm: bcm::BcmParams::default(),
+            leaves: leaves::LeafParams::default(),
         }
     }
 }
@@ -239,6 +244,7 @@ impl LeastCostParams {
         in_range("min_radius", self.min_radius, 1e-6, 1e3)?;
         in_range("pipe_exponent", self.pipe_exponent, 1.0, 4.0)?;
         in_range("smooth", self.smooth, 0.0, 1.0)?;
+        self.leaves.validate()?;
         if self.smooth_iterations > 100 {
             return bad("smooth_iterations", format!("must be at most 100, got {}", self.smooth_iterations));
         }
@@ -308,6 +314,8 @@ pub struct LeastCostReport {
     pub nodes: usize,
     /// Tips.
     pub tips: usize,
+    /// Leaf or needle organs placed at the tips (`[generator.leaves]`).
+    pub leaves: usize,
     /// `built`, `loaded` or `saved` (the graph file), empty without one.
     pub cache: String,
     /// Time to build (or load) graphs.
@@ -597,7 +605,8 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     tree.smooth(p.smooth, p.smooth_iterations);
     let reach = tree.reach();
     let radius = tree.radii(p, &reach);
-    let skeleton = tree.to_skeleton(&radius, &reach)?;
+    let mut skeleton = tree.to_skeleton(&radius, &reach)?;
+    report.leaves = leaves::place(&p.leaves, &mut skeleton, seed)?;
     report.skeleton_time = t.elapsed();
     report.nodes = skeleton.len();
     report.tips = tree.tips();
