@@ -6,7 +6,13 @@
 //! ```text
 //! cargo run --release -p sylva --example least_cost_bench            # all three sizes, 5 runs
 //! cargo run --release -p sylva --example least_cost_bench -- 600 1   # only 600 k, one run
+//! cargo run --release -p sylva --example least_cost_bench -- check     # output fingerprints
 //! ```
+//!
+//! `check` prints a fingerprint (FNV-1a over every bit) of the graph and of the grown
+//! skeleton for a few sizes and seeds, with 1, 2 and 3 rayon threads, so that a speed
+//! change can be shown not to change any output: run it on the old and the new build
+//! and compare the lines.
 //!
 //! The recipe is `bench/least-cost/mgv-bench.toml` (a 10 m cube, trunk, crown volume,
 //! two rounds of surface endpoints); the endpoint counts are split 5 % / 32 % / 63 %
@@ -50,8 +56,64 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
     (r, t.elapsed().as_secs_f64(), cpu() - c)
 }
 
+/// FNV-1a over a stream of 32-bit words.
+struct Fnv(u64);
+
+impl Fnv {
+    fn word(&mut self, w: u32) {
+        for b in w.to_le_bytes() {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+    fn vec3s(&mut self, v: &[glam::Vec3]) {
+        for p in v {
+            p.to_array().iter().for_each(|c| self.word(c.to_bits()));
+        }
+    }
+}
+
+/// Fingerprints of the graph and the tree for each (size, seed) and thread count.
+fn check() {
+    for (nodes, endpoints) in [(20_000, 1000), (150_000, 7500), (600_000, 19_000)] {
+        let p = params(nodes, endpoints);
+        for seed in [1u64, 2] {
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a thread pool");
+                let (g, t) = pool.install(|| {
+                    let g = graph::poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, seed)
+                        .expect("a graph");
+                    (g, lc::grow(&p, seed, None).expect("grows"))
+                });
+                let mut hg = Fnv(0xcbf2_9ce4_8422_2325);
+                hg.vec3s(&g.position);
+                g.offsets.iter().chain(&g.targets).for_each(|&w| hg.word(w));
+                hg.word(g.root);
+                let mut ht = Fnv(0xcbf2_9ce4_8422_2325);
+                let s = &t.skeleton;
+                ht.vec3s(&s.position);
+                ht.vec3s(&s.up);
+                s.radius.iter().for_each(|r| ht.word(r.to_bits()));
+                s.parent.iter().chain(&s.material).for_each(|&w| ht.word(w));
+                s.order.iter().for_each(|&o| ht.word(o as u32));
+                println!(
+                    "{nodes} nodes seed {seed} threads {threads}: graph {:016x} ({} edges), tree {:016x} ({} nodes, {} tips)",
+                    hg.0,
+                    g.edge_count(),
+                    ht.0,
+                    s.len(),
+                    t.report.tips
+                );
+            }
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().is_some_and(|a| a == "check") {
+        check();
+        return;
+    }
     let only: Option<usize> = args.first().and_then(|a| a.parse().ok());
     let runs: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(5);
     println!("threads: {}", rayon::current_num_threads());
