@@ -533,6 +533,7 @@ pub fn poisson(
     // lazily).
     let mut bits = vec![0u64; padded / 64 + 2];
     let mut grid = vec![[0u32; 4]; padded];
+    huge_pages(&grid);
     let put = |p: Vec3, id: u32| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), id];
     let mut pts: Vec<DVec3> = Vec::with_capacity(count);
     let idx = |p: DVec3| -> usize {
@@ -665,6 +666,37 @@ pub fn poisson(
         }
     }
     Ok(Samples { shortfall: count - pts.len().min(count), points: pts })
+}
+
+/// Asks the kernel to back `v` with transparent huge pages (Linux `madvise`; a hint
+/// that changes no value, ignored elsewhere or where the kernel declines). Randomly
+/// accessed arrays of many MiB (the Poisson cell array, Dijkstra's node state) miss the
+/// TLB on almost every access with 4 KiB pages.
+pub(crate) fn huge_pages<T>(v: &[T]) {
+    advise_huge(v.as_ptr() as usize, std::mem::size_of_val(v));
+}
+
+/// An empty vector with room for `n` items whose buffer is advised huge pages (see
+/// [`huge_pages`]) before anything is written to it.
+pub(crate) fn huge_capacity<T>(n: usize) -> Vec<T> {
+    let v = Vec::with_capacity(n);
+    advise_huge(v.as_ptr() as usize, n * std::mem::size_of::<T>());
+    v
+}
+
+fn advise_huge(start: usize, bytes: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        if bytes < 4 << 20 {
+            return;
+        }
+        let (lo, hi) = (start.next_multiple_of(4096), (start + bytes) / 4096 * 4096);
+        // SAFETY: madvise with MADV_HUGEPAGE only changes how the kernel backs these
+        // whole pages inside one allocation; their contents are unchanged.
+        unsafe {
+            libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE);
+        }
+    }
 }
 
 /// A directed graph in compressed-row form with `f32` node positions.
@@ -1155,9 +1187,9 @@ pub fn yao(position: Vec<Vec3>, k: u32, dims: u8, spacing: f32, root: u32) -> Gr
             (deg, tg)
         })
         .collect();
-    let mut offsets = Vec::with_capacity(position.len() + 1);
+    let mut offsets = huge_capacity(position.len() + 1);
     offsets.push(0u32);
-    let mut targets = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+    let mut targets = huge_capacity(parts.iter().map(|p| p.1.len()).sum());
     for (deg, tg) in parts {
         for d in deg {
             let last = *offsets.last().unwrap_or(&0);
@@ -1182,16 +1214,13 @@ pub fn spatial_sort(points: &[DVec3], cell: f64, keep: usize) -> (Vec<Vec3>, u32
     let mut idx: Vec<(u64, u32)> = points.iter().enumerate().map(|(i, p)| (key(*p), i as u32)).collect();
     idx.sort_unstable();
     let mut new_keep = 0;
-    let pos = idx
-        .iter()
-        .enumerate()
-        .map(|(new, &(_, old))| {
-            if old as usize == keep {
-                new_keep = new as u32;
-            }
-            points[old as usize].as_vec3()
-        })
-        .collect();
+    let mut pos = huge_capacity(points.len());
+    pos.extend(idx.iter().enumerate().map(|(new, &(_, old))| {
+        if old as usize == keep {
+            new_keep = new as u32;
+        }
+        points[old as usize].as_vec3()
+    }));
     (pos, new_keep)
 }
 

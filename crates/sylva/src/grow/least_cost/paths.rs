@@ -29,6 +29,18 @@ pub trait Costs {
     /// Weight of the out-edge `edge` (an index into `g.targets`) from `u` to `v`; must be
     /// finite and ≥ 0.
     fn weight(&self, g: &Graph, u: u32, v: u32, edge: usize) -> f32;
+    /// [`Costs::settle`] given `u`'s position `pu` (what [`dijkstra`] calls; the search
+    /// keeps positions next to its node state, so an implementation that needs them can
+    /// skip a lookup). Must behave exactly like `settle`, which the default calls.
+    fn settle_at(&mut self, g: &Graph, u: u32, _pu: Vec3, parent: u32, hops: u32, source: u32) {
+        self.settle(g, u, parent, hops, source);
+    }
+    /// [`Costs::weight`] given the positions `pu`, `pv` of `u` and `v` (what
+    /// [`dijkstra`] calls). Must return exactly what `weight` does, which the default
+    /// calls.
+    fn weight_at(&self, g: &Graph, u: u32, _pu: Vec3, v: u32, _pv: Vec3, edge: usize) -> f32 {
+        self.weight(g, u, v, edge)
+    }
 }
 
 /// Euclidean edge length (MIG, Fig. 4.2 step 1H).
@@ -37,6 +49,10 @@ pub struct Length;
 impl Costs for Length {
     fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
         g.position[u as usize].distance(g.position[v as usize])
+    }
+
+    fn weight_at(&self, _g: &Graph, _u: u32, pu: Vec3, _v: u32, pv: Vec3, _edge: usize) -> f32 {
+        pu.distance(pv)
     }
 }
 
@@ -89,14 +105,36 @@ pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mu
     dijkstra_until(g, sources, allowed, costs, Until::Never)
 }
 
-/// Per-node search state, packed so a relaxation touches one cache line. The top bit of
-/// `hops` marks a settled node.
+/// Per-node search state, packed so a relaxation touches one cache line: the search's
+/// own values, the node's position (for the edge weight) and its first out-edge (so
+/// `u`'s edges are `st[u].first..st[u + 1].first`, one more entry ending the last
+/// node's). The top bit of `hops` marks a settled node. 32 bytes, aligned to 32, so
+/// a node's state never straddles two cache lines.
 #[derive(Clone, Copy)]
+#[repr(C, align(32))]
 struct State {
     dist: f32,
     parent: u32,
     hops: u32,
     source: u32,
+    pos: Vec3,
+    first: u32,
+}
+
+/// Hints the processor to fetch `st[i]` into the cache (a no-op off x86-64 or when
+/// `i` is out of range; it changes no value).
+#[inline(always)]
+fn prefetch(st: &[State], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(s) = st.get(i) {
+        #[allow(unused_unsafe)]
+        // SAFETY: a prefetch of a valid reference's address; it reads nothing.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const State).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (st, i);
 }
 
 /// The "settled" bit of [`State::hops`].
@@ -143,13 +181,17 @@ pub fn dijkstra_until(
     // Unsettled nodes whose tentative hop count is ≤ k (Until::Hops).
     let mut pending = 0usize;
     // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
-    let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
-    let mut st = vec![unreached; n];
+    let unreached =
+        State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE, pos: Vec3::ZERO, first: 0 };
+    let mut st: Vec<State> = super::graph::huge_capacity(n + 1);
+    st.extend(g.position.iter().zip(&g.offsets).map(|(&pos, &first)| State { pos, first, ..unreached }));
+    st.push(State { first: g.offsets.get(n).copied().unwrap_or(0), ..unreached });
     let mut order = Vec::with_capacity(n);
     let mut heap = RadixHeap::new();
     for &src in sources {
         if (src as usize) < n && st[src as usize].source == NONE {
-            st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
+            let s = &mut st[src as usize];
+            (s.dist, s.parent, s.hops, s.source) = (0.0, NONE, 0, src);
             heap.push(src as u64);
             pending += 1;
         }
@@ -165,7 +207,7 @@ pub fn dijkstra_until(
         order.push(u);
         let su = st[ui];
         let hops = su.hops & !DONE;
-        costs.settle(g, u, su.parent, hops, su.source);
+        costs.settle_at(g, u, su.pos, su.parent, hops, su.source);
         if u == stop {
             break;
         }
@@ -180,18 +222,24 @@ pub fn dijkstra_until(
         if hops <= k {
             pending -= 1;
         }
-        let first = g.first_edge(u);
-        for (i, &v) in g.out(u).iter().enumerate() {
+        let (first, end) = (su.first as usize, st[ui + 1].first as usize);
+        let out = &g.targets[first..end];
+        // Fetch the targets' states together: their cache misses then overlap instead of
+        // stalling the relaxations below one by one.
+        for &v in out {
+            prefetch(&st, v as usize);
+        }
+        for (i, &v) in out.iter().enumerate() {
             let vi = v as usize;
             if st[vi].hops & DONE != 0 || allowed.is_some_and(|a| !a[vi]) {
                 continue;
             }
-            let w = costs.weight(g, u, v, first + i).max(0.0);
+            let w = costs.weight_at(g, u, su.pos, v, st[vi].pos, first + i).max(0.0);
             let nd = su.dist + w;
             let sv = &mut st[vi];
             if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
                 let was = sv.source != NONE && sv.hops <= k;
-                *sv = State { dist: nd, parent: u, hops: hops + 1, source: su.source };
+                (sv.dist, sv.parent, sv.hops, sv.source) = (nd, u, hops + 1, su.source);
                 heap.push((nd.to_bits() as u64) << 32 | v as u64);
                 pending = pending + usize::from(hops < k) - usize::from(was);
             }
@@ -201,6 +249,7 @@ pub fn dijkstra_until(
         }
     }
     let hops = |s: &State| if s.source == NONE { u32::MAX } else { s.hops & !DONE };
+    st.truncate(n);
     Search {
         dist: st.iter().map(|s| s.dist).collect(),
         parent: st.iter().map(|s| s.parent).collect(),
@@ -458,6 +507,37 @@ mod tests {
             assert_eq!(h.pop(), Some(b));
         }
         assert_eq!(h.pop(), None);
+    }
+
+    /// Length weights through the trait's defaults only (`settle`, `weight`).
+    struct PlainLength;
+
+    impl Costs for PlainLength {
+        fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
+            g.position[u as usize].distance(g.position[v as usize])
+        }
+    }
+
+    #[test]
+    fn positions_kept_in_the_node_state_give_the_same_search() {
+        assert_eq!((std::mem::size_of::<State>(), std::mem::align_of::<State>()), (32, 32));
+        let v = Volume::new(vec![Primitive::Box { center: [0.0, 0.5, 0.0], size: [1.0; 3] }]);
+        let g = poisson_yao(&v, 2000, None, None, 8, 3, 5).unwrap();
+        let sources = [g.root, 17, 1500];
+        let a = dijkstra(&g, &sources, None, &mut Length);
+        let b = dijkstra(&g, &sources, None, &mut PlainLength);
+        assert_eq!(a.order.len(), g.len());
+        assert_eq!(a.order, b.order);
+        assert_eq!(a.parent, b.parent);
+        assert_eq!(a.hops, b.hops);
+        assert_eq!(a.source, b.source);
+        assert!(a.dist.iter().zip(&b.dist).all(|(x, y)| x.to_bits() == y.to_bits()));
+        // The last node's out-edges (ended by the extra state entry) are relaxed too.
+        let last = g.len() as u32 - 1;
+        let c = dijkstra(&g, &[last], None, &mut Length);
+        for &t in g.out(last) {
+            assert_eq!(c.hops[t as usize], 1, "out-edge {last} → {t}");
+        }
     }
 
     #[test]
