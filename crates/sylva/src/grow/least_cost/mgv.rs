@@ -435,6 +435,11 @@ impl Costs for MgvCosts<'_> {
         mgv_weight(g.position[v as usize] - g.position[u as usize], self.guide[u as usize], self.epsilon)
     }
 
+    fn prefetch(&self, u: u32, parent: u32) {
+        super::paths::prefetch(&self.guide, parent as usize);
+        super::paths::prefetch(&self.guide, u as usize);
+    }
+
     #[inline]
     fn weight_at(&self, _g: &Graph, u: u32, pu: Vec3, _v: u32, pv: Vec3, _edge: usize) -> f32 {
         mgv_weight(pv - pu, self.guide[u as usize], self.epsilon)

@@ -41,6 +41,10 @@ pub trait Costs {
     fn weight_at(&self, g: &Graph, u: u32, _pu: Vec3, v: u32, _pv: Vec3, edge: usize) -> f32 {
         self.weight(g, u, v, edge)
     }
+    /// Told that `u` (with this parent, `NONE` for a source) is about to be settled, so
+    /// an implementation can start fetching what its [`Costs::settle_at`] will read; a
+    /// hint only (the default does nothing).
+    fn prefetch(&self, _u: u32, _parent: u32) {}
 }
 
 /// Euclidean edge length (MIG, Fig. 4.2 step 1H).
@@ -121,20 +125,20 @@ struct State {
     first: u32,
 }
 
-/// Hints the processor to fetch `st[i]` into the cache (a no-op off x86-64 or when
-/// `i` is out of range; it changes no value).
+/// Hints the processor to fetch `v[i]` into the cache (a no-op off x86-64 or when `i`
+/// is out of range; it changes no value).
 #[inline(always)]
-fn prefetch(st: &[State], i: usize) {
+pub(crate) fn prefetch<T>(v: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
-    if let Some(s) = st.get(i) {
+    if let Some(s) = v.get(i) {
         #[allow(unused_unsafe)]
         // SAFETY: a prefetch of a valid reference's address; it reads nothing.
         unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const State).cast());
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const T).cast());
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (st, i);
+    let _ = (v, i);
 }
 
 /// The "settled" bit of [`State::hops`].
@@ -197,7 +201,8 @@ pub fn dijkstra_until(
         }
     }
     let k = max_hops.unwrap_or(u32::MAX);
-    while let Some(key) = heap.pop() {
+    // Keys spread out of a bucket are the next to pop: fetch their states meanwhile.
+    while let Some(key) = heap.pop_with(|v| prefetch(&st, v as usize)) {
         let (bits, u) = ((key >> 32) as u32, key as u32);
         let ui = u as usize;
         if st[ui].hops & DONE != 0 || bits != st[ui].dist.to_bits() {
@@ -207,6 +212,15 @@ pub fn dijkstra_until(
         order.push(u);
         let su = st[ui];
         let hops = su.hops & !DONE;
+        costs.prefetch(u, su.parent);
+        // Fetch the targets' states together: their cache misses then overlap (with each
+        // other and with what `settle_at` reads) instead of stalling the relaxations below
+        // one by one.
+        let (first, end) = (su.first as usize, st[ui + 1].first as usize);
+        let out = &g.targets[first..end];
+        for &v in out {
+            prefetch(&st, v as usize);
+        }
         costs.settle_at(g, u, su.pos, su.parent, hops, su.source);
         if u == stop {
             break;
@@ -221,13 +235,6 @@ pub fn dijkstra_until(
         }
         if hops <= k {
             pending -= 1;
-        }
-        let (first, end) = (su.first as usize, st[ui + 1].first as usize);
-        let out = &g.targets[first..end];
-        // Fetch the targets' states together: their cache misses then overlap instead of
-        // stalling the relaxations below one by one.
-        for &v in out {
-            prefetch(&st, v as usize);
         }
         for (i, &v) in out.iter().enumerate() {
             let vi = v as usize;
@@ -297,7 +304,15 @@ impl RadixHeap {
         self.used |= 1 << b;
     }
 
+    #[cfg(test)]
     fn pop(&mut self) -> Option<u64> {
+        self.pop_with(|_| {})
+    }
+
+    /// Pops the least key. When it spreads a bucket of at most [`HINTED`] keys over
+    /// lower buckets (those keys pop next, before any key now in a higher bucket), it
+    /// calls `soon` with each one's node (the low 32 bits).
+    fn pop_with(&mut self, mut soon: impl FnMut(u32)) -> Option<u64> {
         if let Some(k) = self.low.pop() {
             return Some(k);
         }
@@ -309,6 +324,9 @@ impl RadixHeap {
             let items = std::mem::take(&mut self.buckets[b]);
             self.used &= !(1 << b);
             self.last = items.iter().copied().min()?;
+            if items.len() <= HINTED {
+                items.iter().for_each(|&k| soon(k as u32));
+            }
             for &k in &items {
                 let t = self.bucket(k);
                 self.buckets[t].push(k);
@@ -328,6 +346,9 @@ impl RadixHeap {
         k
     }
 }
+
+/// The largest spread bucket whose keys [`RadixHeap::pop_with`] announces.
+const HINTED: usize = 64;
 
 /// A 4-ary min-heap of `u64` keys (duplicates allowed).
 struct QuadHeap {
@@ -476,6 +497,24 @@ mod tests {
             assert_eq!(h.pop(), Some(want));
         }
         assert_eq!(h.pop(), None);
+    }
+
+    #[test]
+    fn radix_heap_announces_keys_that_pop_next() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let mut h = RadixHeap::new();
+        let mut popped = Vec::new();
+        let mut hinted = Vec::new();
+        for _ in 0..500 {
+            h.push(rng.random_range(0..1u64 << 40));
+        }
+        while let Some(k) = h.pop_with(|v| hinted.push(v)) {
+            popped.push(k as u32);
+        }
+        assert_eq!(popped.len(), 500);
+        // Every announced node is popped, at or after the pop that announced it.
+        assert!(hinted.len() >= 100, "{}", hinted.len());
+        assert!(hinted.iter().all(|v| popped.contains(v)));
     }
 
     #[test]
