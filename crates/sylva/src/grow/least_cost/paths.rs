@@ -15,6 +15,16 @@
 //! order as a binary heap of `(distance bits, node)` pairs; keys that fall below the
 //! last pop, possible when an edge adds less than half an ulp, wait in a 4-ary side
 //! heap and come out first).
+//!
+//! The search is bound by memory latency, so its node state is laid out and fetched
+//! for that (none of it changes a value or the settle order): one 32-byte entry per
+//! node holds the search values, the node's position and its first out-edge, so a
+//! relaxation reads one cache line; a settled node's neighbours' entries are
+//! prefetched together before they are relaxed; the radix heap announces the keys
+//! it is about to pop (a bucket of ≤ 64 keys spread over lower buckets) so their
+//! entries are fetched early; a [`Costs`] is told of the coming settle
+//! ([`Costs::prefetch`]) before it is asked to settle; and the state array is
+//! advised transparent huge pages (fewer TLB misses).
 
 use super::graph::{Graph, NONE};
 use glam::Vec3;
