@@ -728,6 +728,8 @@ fn advise_huge(start: usize, bytes: usize) {
             libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE);
         }
     }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (start, bytes);
 }
 
 /// A directed graph in compressed-row form with `f32` node positions.
