@@ -58,6 +58,7 @@ use crate::error::Result;
 use glam::{DVec3, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::Path;
@@ -377,16 +378,21 @@ impl MgvCosts<'_> {
 
 impl Costs for MgvCosts<'_> {
     fn settle(&mut self, g: &Graph, u: u32, parent: u32, hops: u32, source: u32) {
+        self.settle_at(g, u, g.position[u as usize], parent, hops, source);
+    }
+
+    fn settle_at(&mut self, g: &Graph, u: u32, pu: Vec3, parent: u32, hops: u32, source: u32) {
         if parent == NONE {
             if self.guide[u as usize] == Vec3::ZERO {
                 self.guide[u as usize] = Vec3::Y;
             }
             return;
         }
-        let pu = g.position[u as usize].as_dvec3();
-        let src = g.position[source as usize];
+        let pu = pu.as_dvec3();
+        // The source's position is read only by the rules that need it.
+        let src = || g.position[source as usize];
         let rule = match self.lower {
-            Some(l) if src.y < self.region_height => l,
+            Some(l) if src().y < self.region_height => l,
             _ => self.rule,
         };
         let new = if rule.is_field() {
@@ -407,7 +413,7 @@ impl Costs for MgvCosts<'_> {
                 }
                 _ => {
                     // "height": α₁ = 180°·(1 − N.y/H), N the source node.
-                    let ny = (src.as_dvec3() - self.root).y;
+                    let ny = (src().as_dvec3() - self.root).y;
                     let a1 = 180.0 * (1.0 - ny / self.height);
                     eq51(a1, rule.alpha2, rule.h0, hops)
                 }
@@ -427,6 +433,16 @@ impl Costs for MgvCosts<'_> {
 
     fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
         mgv_weight(g.position[v as usize] - g.position[u as usize], self.guide[u as usize], self.epsilon)
+    }
+
+    fn prefetch(&self, u: u32, parent: u32) {
+        super::paths::prefetch(&self.guide, parent as usize);
+        super::paths::prefetch(&self.guide, u as usize);
+    }
+
+    #[inline]
+    fn weight_at(&self, _g: &Graph, u: u32, pu: Vec3, _v: u32, pv: Vec3, _edge: usize) -> f32 {
+        mgv_weight(pv - pu, self.guide[u as usize], self.epsilon)
     }
 }
 
@@ -478,8 +494,10 @@ impl MgvState {
         if height <= 1e-9 {
             height = g.position.iter().map(|q| q.y as f64).fold(root.y, f64::max) - root.y;
         }
+        let mut guide = super::graph::huge_capacity(self.guide.len());
+        guide.extend_from_slice(&self.guide);
         let mut costs = MgvCosts {
-            guide: self.guide.clone(),
+            guide,
             rule: &it.rotation,
             lower: it.lower.as_ref(),
             region_height: it.region_height as f32,
@@ -497,6 +515,12 @@ impl MgvState {
         // candidates are the nodes exactly `hops` edges out: stop once every node with
         // at most `hops` edges is settled. `none` stops after the first settle.
         let crown_flags: Vec<bool>;
+        // Which nodes the `volume` crown contains (one parallel pass, used for the early
+        // stop and again for the candidates).
+        let inside: Option<Vec<bool>> = (it.endpoints == "volume").then(|| {
+            let crown = Volume::new(it.crown.clone());
+            g.position.par_iter().map(|q| crown.contains(q.as_dvec3())).collect()
+        });
         let until = if it.endpoints == "point" && it.direction == "any" {
             let t = DVec3::from_array(it.target).as_vec3();
             let nearest = (0..g.len() as u32)
@@ -509,11 +533,8 @@ impl MgvState {
                 })
                 .unwrap_or(NONE);
             Until::Node(nearest)
-        } else if it.endpoints == "volume" {
-            let crown = Volume::new(it.crown.clone());
-            crown_flags = (0..g.len())
-                .map(|v| self.reachable[v] && !self.in_tree[v] && crown.contains(g.position[v].as_dvec3()))
-                .collect();
+        } else if let Some(inside) = &inside {
+            crown_flags = (0..g.len()).map(|v| self.reachable[v] && !self.in_tree[v] && inside[v]).collect();
             Until::Settled(&crown_flags)
         } else if it.endpoints == "surface" {
             Until::Hops(it.hops)
@@ -526,7 +547,7 @@ impl MgvState {
         let guide = costs.guide;
         let mut rng =
             Pcg64::seed_from_u64(seed ^ 0x656e_6470_6f69_6e74 ^ (index as u64).wrapping_mul(0x9e37_79b9));
-        let ends = self.choose(g, it, &search, seed, index, &mut rng);
+        let ends = self.choose_in(g, it, &search, seed, index, &mut rng, inside.as_deref());
         for &e in &ends {
             let path = search.path(e);
             // path: e … source; add from the source side.
@@ -567,6 +588,22 @@ impl MgvState {
         index: usize,
         rng: &mut Pcg64,
     ) -> Vec<u32> {
+        self.choose_in(g, it, s, seed, index, rng, None)
+    }
+
+    /// [`MgvState::choose`], given which nodes the `volume` crown contains when known
+    /// (`inside[v] == crown.contains(position v)`, saving that test per node).
+    #[allow(clippy::too_many_arguments)]
+    fn choose_in(
+        &self,
+        g: &Graph,
+        it: &MgvIteration,
+        s: &Search,
+        seed: u64,
+        index: usize,
+        rng: &mut Pcg64,
+        inside: Option<&[bool]>,
+    ) -> Vec<u32> {
         let fresh = |v: u32| s.reached(v) && !self.in_tree[v as usize] && Self::direction_ok(g, it, s, v);
         match it.endpoints.as_str() {
             "point" => {
@@ -581,9 +618,11 @@ impl MgvState {
             }
             "volume" => {
                 let crown = Volume::new(it.crown.clone());
-                let mut cand: Vec<u32> = (0..g.len() as u32)
-                    .filter(|&v| fresh(v) && crown.contains(g.position[v as usize].as_dvec3()))
-                    .collect();
+                let contains = |v: u32| match inside {
+                    Some(f) => f[v as usize],
+                    None => crown.contains(g.position[v as usize].as_dvec3()),
+                };
+                let mut cand: Vec<u32> = (0..g.len() as u32).filter(|&v| fresh(v) && contains(v)).collect();
                 shuffle(&mut cand, rng);
                 let dmin = if it.min_distance > 0.0 {
                     it.min_distance
@@ -723,6 +762,27 @@ mod tests {
         let f = rotate_guide(up, DVec3::Y, DVec3::new(0.0, 1.0, 1.0), 0.2, up, AxisRule::Edge);
         assert!((f.angle_between(up) - 0.2).abs() < 1e-9 && f.z > 0.0);
         assert_eq!(rotate_guide(up, DVec3::Y, DVec3::Y, 0.2, up, AxisRule::Edge), up);
+    }
+
+    #[test]
+    fn crown_flags_choose_the_same_volume_endpoints() {
+        let v = Volume::new(vec![Primitive::Box { center: [0.0, 1.0, 0.0], size: [2.0; 3] }]);
+        let g = super::super::graph::poisson_yao(&v, 3000, None, None, 8, 3, 7).unwrap();
+        let it = MgvIteration {
+            endpoints: "volume".into(),
+            count: 50,
+            crown: vec![Primitive::Sphere { center: [0.0, 1.2, 0.0], radius: 0.8 }],
+            ..Default::default()
+        };
+        let p = LeastCostParams::default();
+        let mut st = MgvState::new(&g);
+        st.iterate(&g, &it, &p, 3, 0);
+        let s = st.last.clone().unwrap();
+        // The same choice by `choose`, which tests the crown itself.
+        let mut rng = Pcg64::seed_from_u64(3 ^ 0x656e_6470_6f69_6e74);
+        let want = MgvState::new(&g).choose(&g, &it, &s, 3, 0, &mut rng);
+        assert!(want.len() > 10, "{}", want.len());
+        assert_eq!(st.endpoints[0], want);
     }
 
     #[test]

@@ -15,6 +15,16 @@
 //! order as a binary heap of `(distance bits, node)` pairs; keys that fall below the
 //! last pop, possible when an edge adds less than half an ulp, wait in a 4-ary side
 //! heap and come out first).
+//!
+//! The search is bound by memory latency, so its node state is laid out and fetched
+//! for that (none of it changes a value or the settle order): one 32-byte entry per
+//! node holds the search values, the node's position and its first out-edge, so a
+//! relaxation reads one cache line; a settled node's neighbours' entries are
+//! prefetched together before they are relaxed; the radix heap announces the keys
+//! it is about to pop (a bucket of ≤ 64 keys spread over lower buckets) so their
+//! entries are fetched early; a [`Costs`] is told of the coming settle
+//! ([`Costs::prefetch`]) before it is asked to settle; and the state array is
+//! advised transparent huge pages (fewer TLB misses).
 
 use super::graph::{Graph, NONE};
 use glam::Vec3;
@@ -29,6 +39,22 @@ pub trait Costs {
     /// Weight of the out-edge `edge` (an index into `g.targets`) from `u` to `v`; must be
     /// finite and ≥ 0.
     fn weight(&self, g: &Graph, u: u32, v: u32, edge: usize) -> f32;
+    /// [`Costs::settle`] given `u`'s position `pu` (what [`dijkstra`] calls; the search
+    /// keeps positions next to its node state, so an implementation that needs them can
+    /// skip a lookup). Must behave exactly like `settle`, which the default calls.
+    fn settle_at(&mut self, g: &Graph, u: u32, _pu: Vec3, parent: u32, hops: u32, source: u32) {
+        self.settle(g, u, parent, hops, source);
+    }
+    /// [`Costs::weight`] given the positions `pu`, `pv` of `u` and `v` (what
+    /// [`dijkstra`] calls). Must return exactly what `weight` does, which the default
+    /// calls.
+    fn weight_at(&self, g: &Graph, u: u32, _pu: Vec3, v: u32, _pv: Vec3, edge: usize) -> f32 {
+        self.weight(g, u, v, edge)
+    }
+    /// Told that `u` (with this parent, `NONE` for a source) is about to be settled, so
+    /// an implementation can start fetching what its [`Costs::settle_at`] will read; a
+    /// hint only (the default does nothing).
+    fn prefetch(&self, _u: u32, _parent: u32) {}
 }
 
 /// Euclidean edge length (MIG, Fig. 4.2 step 1H).
@@ -37,6 +63,10 @@ pub struct Length;
 impl Costs for Length {
     fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
         g.position[u as usize].distance(g.position[v as usize])
+    }
+
+    fn weight_at(&self, _g: &Graph, _u: u32, pu: Vec3, _v: u32, pv: Vec3, _edge: usize) -> f32 {
+        pu.distance(pv)
     }
 }
 
@@ -89,14 +119,36 @@ pub fn dijkstra(g: &Graph, sources: &[u32], allowed: Option<&[bool]>, costs: &mu
     dijkstra_until(g, sources, allowed, costs, Until::Never)
 }
 
-/// Per-node search state, packed so a relaxation touches one cache line. The top bit of
-/// `hops` marks a settled node.
+/// Per-node search state, packed so a relaxation touches one cache line: the search's
+/// own values, the node's position (for the edge weight) and its first out-edge (so
+/// `u`'s edges are `st[u].first..st[u + 1].first`, one more entry ending the last
+/// node's). The top bit of `hops` marks a settled node. 32 bytes, aligned to 32, so
+/// a node's state never straddles two cache lines.
 #[derive(Clone, Copy)]
+#[repr(C, align(32))]
 struct State {
     dist: f32,
     parent: u32,
     hops: u32,
     source: u32,
+    pos: Vec3,
+    first: u32,
+}
+
+/// Hints the processor to fetch `v[i]` into the cache (a no-op off x86-64 or when `i`
+/// is out of range; it changes no value).
+#[inline(always)]
+pub(crate) fn prefetch<T>(v: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(s) = v.get(i) {
+        #[allow(unused_unsafe)]
+        // SAFETY: a prefetch of a valid reference's address; it reads nothing.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const T).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, i);
 }
 
 /// The "settled" bit of [`State::hops`].
@@ -143,19 +195,24 @@ pub fn dijkstra_until(
     // Unsettled nodes whose tentative hop count is ≤ k (Until::Hops).
     let mut pending = 0usize;
     // Hop counts stay below 2³¹ (fewer than 2³¹ nodes), so they never reach DONE.
-    let unreached = State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE };
-    let mut st = vec![unreached; n];
+    let unreached =
+        State { dist: f32::INFINITY, parent: NONE, hops: !DONE, source: NONE, pos: Vec3::ZERO, first: 0 };
+    let mut st: Vec<State> = super::graph::huge_capacity(n + 1);
+    st.extend(g.position.iter().zip(&g.offsets).map(|(&pos, &first)| State { pos, first, ..unreached }));
+    st.push(State { first: g.offsets.get(n).copied().unwrap_or(0), ..unreached });
     let mut order = Vec::with_capacity(n);
     let mut heap = RadixHeap::new();
     for &src in sources {
         if (src as usize) < n && st[src as usize].source == NONE {
-            st[src as usize] = State { dist: 0.0, parent: NONE, hops: 0, source: src };
+            let s = &mut st[src as usize];
+            (s.dist, s.parent, s.hops, s.source) = (0.0, NONE, 0, src);
             heap.push(src as u64);
             pending += 1;
         }
     }
     let k = max_hops.unwrap_or(u32::MAX);
-    while let Some(key) = heap.pop() {
+    // Keys spread out of a bucket are the next to pop: fetch their states meanwhile.
+    while let Some(key) = heap.pop_with(|v| prefetch(&st, v as usize)) {
         let (bits, u) = ((key >> 32) as u32, key as u32);
         let ui = u as usize;
         if st[ui].hops & DONE != 0 || bits != st[ui].dist.to_bits() {
@@ -165,7 +222,16 @@ pub fn dijkstra_until(
         order.push(u);
         let su = st[ui];
         let hops = su.hops & !DONE;
-        costs.settle(g, u, su.parent, hops, su.source);
+        costs.prefetch(u, su.parent);
+        // Fetch the targets' states together: their cache misses then overlap (with each
+        // other and with what `settle_at` reads) instead of stalling the relaxations below
+        // one by one.
+        let (first, end) = (su.first as usize, st[ui + 1].first as usize);
+        let out = &g.targets[first..end];
+        for &v in out {
+            prefetch(&st, v as usize);
+        }
+        costs.settle_at(g, u, su.pos, su.parent, hops, su.source);
         if u == stop {
             break;
         }
@@ -180,18 +246,17 @@ pub fn dijkstra_until(
         if hops <= k {
             pending -= 1;
         }
-        let first = g.first_edge(u);
-        for (i, &v) in g.out(u).iter().enumerate() {
+        for (i, &v) in out.iter().enumerate() {
             let vi = v as usize;
             if st[vi].hops & DONE != 0 || allowed.is_some_and(|a| !a[vi]) {
                 continue;
             }
-            let w = costs.weight(g, u, v, first + i).max(0.0);
+            let w = costs.weight_at(g, u, su.pos, v, st[vi].pos, first + i).max(0.0);
             let nd = su.dist + w;
             let sv = &mut st[vi];
             if nd < sv.dist || (nd == sv.dist && u < sv.parent) {
                 let was = sv.source != NONE && sv.hops <= k;
-                *sv = State { dist: nd, parent: u, hops: hops + 1, source: su.source };
+                (sv.dist, sv.parent, sv.hops, sv.source) = (nd, u, hops + 1, su.source);
                 heap.push((nd.to_bits() as u64) << 32 | v as u64);
                 pending = pending + usize::from(hops < k) - usize::from(was);
             }
@@ -201,6 +266,7 @@ pub fn dijkstra_until(
         }
     }
     let hops = |s: &State| if s.source == NONE { u32::MAX } else { s.hops & !DONE };
+    st.truncate(n);
     Search {
         dist: st.iter().map(|s| s.dist).collect(),
         parent: st.iter().map(|s| s.parent).collect(),
@@ -248,7 +314,15 @@ impl RadixHeap {
         self.used |= 1 << b;
     }
 
+    #[cfg(test)]
     fn pop(&mut self) -> Option<u64> {
+        self.pop_with(|_| {})
+    }
+
+    /// Pops the least key. When it spreads a bucket of at most [`HINTED`] keys over
+    /// lower buckets (those keys pop next, before any key now in a higher bucket), it
+    /// calls `soon` with each one's node (the low 32 bits).
+    fn pop_with(&mut self, mut soon: impl FnMut(u32)) -> Option<u64> {
         if let Some(k) = self.low.pop() {
             return Some(k);
         }
@@ -260,6 +334,9 @@ impl RadixHeap {
             let items = std::mem::take(&mut self.buckets[b]);
             self.used &= !(1 << b);
             self.last = items.iter().copied().min()?;
+            if items.len() <= HINTED {
+                items.iter().for_each(|&k| soon(k as u32));
+            }
             for &k in &items {
                 let t = self.bucket(k);
                 self.buckets[t].push(k);
@@ -279,6 +356,9 @@ impl RadixHeap {
         k
     }
 }
+
+/// The largest spread bucket whose keys [`RadixHeap::pop_with`] announces.
+const HINTED: usize = 64;
 
 /// A 4-ary min-heap of `u64` keys (duplicates allowed).
 struct QuadHeap {
@@ -430,6 +510,24 @@ mod tests {
     }
 
     #[test]
+    fn radix_heap_announces_keys_that_pop_next() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let mut h = RadixHeap::new();
+        let mut popped = Vec::new();
+        let mut hinted = Vec::new();
+        for _ in 0..500 {
+            h.push(rng.random_range(0..1u64 << 40));
+        }
+        while let Some(k) = h.pop_with(|v| hinted.push(v)) {
+            popped.push(k as u32);
+        }
+        assert_eq!(popped.len(), 500);
+        // Every announced node is popped, at or after the pop that announced it.
+        assert!(hinted.len() >= 100, "{}", hinted.len());
+        assert!(hinted.iter().all(|v| popped.contains(v)));
+    }
+
+    #[test]
     fn radix_heap_pops_the_minimum_even_below_the_last_pop() {
         let mut rng = Pcg64::seed_from_u64(9);
         let mut h = RadixHeap::new();
@@ -458,6 +556,37 @@ mod tests {
             assert_eq!(h.pop(), Some(b));
         }
         assert_eq!(h.pop(), None);
+    }
+
+    /// Length weights through the trait's defaults only (`settle`, `weight`).
+    struct PlainLength;
+
+    impl Costs for PlainLength {
+        fn weight(&self, g: &Graph, u: u32, v: u32, _edge: usize) -> f32 {
+            g.position[u as usize].distance(g.position[v as usize])
+        }
+    }
+
+    #[test]
+    fn positions_kept_in_the_node_state_give_the_same_search() {
+        assert_eq!((std::mem::size_of::<State>(), std::mem::align_of::<State>()), (32, 32));
+        let v = Volume::new(vec![Primitive::Box { center: [0.0, 0.5, 0.0], size: [1.0; 3] }]);
+        let g = poisson_yao(&v, 2000, None, None, 8, 3, 5).unwrap();
+        let sources = [g.root, 17, 1500];
+        let a = dijkstra(&g, &sources, None, &mut Length);
+        let b = dijkstra(&g, &sources, None, &mut PlainLength);
+        assert_eq!(a.order.len(), g.len());
+        assert_eq!(a.order, b.order);
+        assert_eq!(a.parent, b.parent);
+        assert_eq!(a.hops, b.hops);
+        assert_eq!(a.source, b.source);
+        assert!(a.dist.iter().zip(&b.dist).all(|(x, y)| x.to_bits() == y.to_bits()));
+        // The last node's out-edges (ended by the extra state entry) are relaxed too.
+        let last = g.len() as u32 - 1;
+        let c = dijkstra(&g, &[last], None, &mut Length);
+        for &t in g.out(last) {
+            assert_eq!(c.hops[t as usize], 1, "out-edge {last} → {t}");
+        }
     }
 
     #[test]
