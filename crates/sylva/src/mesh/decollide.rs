@@ -27,6 +27,12 @@
 //!   `lsys-fern`) are "2-D drawings with thickness": rotating a subtree out of their
 //!   plane is accepted.
 //!
+//! Siblings (internodes leaving the same node) are checked too, although the checker
+//! skips pairs that share a node: they must clear from each one's far end to the
+//! other's axis. Two twigs leaving a joint a few degrees apart, or a stub shorter than
+//! the radii, overlap along their whole length, and the joint meshers cannot separate
+//! them (on `lsys-abop-stochastic` these were all of `hull`'s self-intersections).
+//!
 //! Both steps repeat for at most [`DecollideOptions::max_rounds`] rounds; what is left
 //! is reported by node pairs ([`DecollideReport::unresolved`]), never looped on. Node
 //! `up` vectors and the organs hanging on moved nodes move with them; roots never move,
@@ -320,10 +326,50 @@ fn capsule_box(c: &Capsule, clearance: f64) -> Aabb {
     Aabb { lo: c.a.min(c.b) - pad, hi: c.a.max(c.b) + pad }
 }
 
-/// True when the internodes ending at `i` and `j` share a node.
-fn adjacent(s: &Skeleton, i: usize, j: usize) -> bool {
+/// How two internodes (named by their child nodes) meet.
+#[derive(Clone, Copy, PartialEq)]
+enum Relation {
+    /// They share no node.
+    Apart,
+    /// They leave the same node.
+    Siblings,
+    /// One ends where the other starts (never a collision: a bend).
+    Chained,
+}
+
+fn relation(s: &Skeleton, i: usize, j: usize) -> Relation {
     let (pi, pj) = (s.parent[i] as usize, s.parent[j] as usize);
-    pi == pj || pi == j || pj == i
+    if pi == j || pj == i {
+        Relation::Chained
+    } else if pi == pj {
+        Relation::Siblings
+    } else {
+        Relation::Apart
+    }
+}
+
+/// The gap between two capsules' axes with the closest points (on `x`, on `y`), or
+/// `None` for chained internodes. Capsules that share no node are measured axis to
+/// axis. Siblings always touch at their shared base, so they are measured from each
+/// one's far end to the other's axis (the smaller of the two): siblings leaving at a
+/// small angle, or a stub shorter than the radii, overlap along their whole length,
+/// which no joint mesher can resolve although the checker (which skips pairs sharing a
+/// node) does not count it.
+fn gap(x: &Capsule, y: &Capsule, rel: Relation) -> Option<(f64, DVec3, DVec3)> {
+    match rel {
+        Relation::Chained => None,
+        Relation::Apart => Some(segment_distance(x.a, x.b, y.a, y.b)),
+        Relation::Siblings => {
+            let (dx, px, qx) = segment_distance(x.b, x.b, y.a, y.b);
+            let (dy, py, qy) = segment_distance(y.b, y.b, x.a, x.b);
+            Some(if dx <= dy { (dx, px, qx) } else { (dy, qy, py) })
+        }
+    }
+}
+
+/// True when the capsules collide at `clearance`.
+fn collide(x: &Capsule, y: &Capsule, rel: Relation, clearance: f64) -> bool {
+    gap(x, y, rel).is_some_and(|(d, ..)| d < (x.r + y.r) * (1.0 + clearance))
 }
 
 /// A BVH over the internodes (items are child node ids) that can be refitted after
@@ -450,11 +496,8 @@ fn collisions(s: &Skeleton, clearance: f64) -> Vec<[usize; 2]> {
             let ci = capsule(s, i);
             let mut found = Vec::new();
             bvh.visit(&bvh.boxes[i], |j| {
-                if j > i && !adjacent(s, i, j) {
-                    let cj = capsule(s, j);
-                    if segment_distance(ci.a, ci.b, cj.a, cj.b).0 < (ci.r + cj.r) * (1.0 + clearance) {
-                        found.push([i, j]);
-                    }
+                if j > i && collide(&ci, &capsule(s, j), relation(s, i, j), clearance) {
+                    found.push([i, j]);
                 }
                 true
             });
@@ -473,7 +516,7 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
     let mut any = false;
     for &[a, b] in pairs {
         let (ca, cb) = (capsule(s, a), capsule(s, b));
-        let d = segment_distance(ca.a, ca.b, cb.a, cb.b).0;
+        let Some((d, ..)) = gap(&ca, &cb, relation(s, a, b)) else { continue };
         let sum = (ca.r + cb.r) * (1.0 + o.clearance);
         if sum <= 0.0 {
             continue;
@@ -549,7 +592,7 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
     queue.sort_unstable();
     for (_, [a, b]) in queue {
         let (ca, cb) = (capsule(s, a), capsule(s, b));
-        let (d, pa, pb) = segment_distance(ca.a, ca.b, cb.a, cb.b);
+        let Some((d, pa, pb)) = gap(&ca, &cb, relation(s, a, b)) else { continue };
         if d >= (ca.r + cb.r) * (1.0 + o.clearance) {
             continue; // already separated by an earlier move
         }
@@ -698,11 +741,10 @@ fn subtree_hits(
             r: s.radius[m].max(s.radius[pm]) as f64,
         };
         bvh.visit(&capsule_box(&cm, clearance), |j| {
-            if topo.contains(c, j) || adjacent(s, m, j) {
+            if topo.contains(c, j) {
                 return true;
             }
-            let cj = capsule(s, j);
-            if segment_distance(cm.a, cm.b, cj.a, cj.b).0 < (cm.r + cj.r) * (1.0 + clearance) {
+            if collide(&cm, &capsule(s, j), relation(s, m, j), clearance) {
                 hits += 1;
             }
             hits < limit
