@@ -38,8 +38,8 @@
 //! `up` vectors and the organs hanging on moved nodes move with them; roots never move,
 //! the topology never changes, and a skeleton without collisions is left bit-identical.
 //!
-//! Cost per round: a BVH over the internode capsules (median split, refitted after each
-//! accepted rotation), the collision search parallel over internodes with rayon, and the
+//! Cost per round: a BVH over the internode capsules (median split; its bounds grow to
+//! cover each rotated subtree), the collision search parallel over internodes with rayon, and the
 //! rotation trials of one subtree evaluated in parallel; the choices themselves are made
 //! in a fixed order, so the result is deterministic.
 
@@ -97,7 +97,7 @@ impl Default for DecollideOptions {
             candidates: 3,
             max_rounds: 8,
             max_moved: 4000,
-            work_per_node: 400,
+            work_per_node: 200,
         }
     }
 }
@@ -372,13 +372,17 @@ fn collide(x: &Capsule, y: &Capsule, rel: Relation, clearance: f64) -> bool {
     gap(x, y, rel).is_some_and(|(d, ..)| d < (x.r + y.r) * (1.0 + clearance))
 }
 
-/// A BVH over the internodes (items are child node ids) that can be refitted after
-/// nodes move.
+/// A BVH over the internodes (items are child node ids) whose bounds grow as
+/// internodes move.
 struct Bvh {
     nodes: Vec<BvhNode>,
     order: Vec<u32>,
     /// Box per skeleton node (unused for roots).
     boxes: Vec<Aabb>,
+    /// Parent of every BVH node (`u32::MAX` for the root).
+    up: Vec<u32>,
+    /// The leaf holding each skeleton node's internode.
+    leaf: Vec<u32>,
 }
 
 struct BvhNode {
@@ -439,23 +443,33 @@ impl Bvh {
             stack.push((left, start, mid));
             stack.push((left + 1, mid, end));
         }
-        Bvh { nodes, order, boxes }
-    }
-
-    /// Recomputes every bound from `boxes` (children always follow their parent).
-    fn refit(&mut self) {
-        for k in (0..self.nodes.len()).rev() {
-            let n = &self.nodes[k];
-            let mut b = Aabb::EMPTY;
+        let mut up = vec![u32::MAX; nodes.len()];
+        let mut leaf = vec![u32::MAX; s.len()];
+        for (k, n) in nodes.iter().enumerate() {
             if n.count == 0 {
-                b.grow(&self.nodes[n.first as usize].bounds);
-                b.grow(&self.nodes[n.first as usize + 1].bounds);
+                up[n.first as usize] = k as u32;
+                up[n.first as usize + 1] = k as u32;
             } else {
-                for &t in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    b.grow(&self.boxes[t as usize]);
+                for &t in &order[n.first as usize..(n.first + n.count) as usize] {
+                    leaf[t as usize] = k as u32;
                 }
             }
-            self.nodes[k].bounds = b;
+        }
+        Bvh { nodes, order, boxes, up, leaf }
+    }
+
+    /// Sets the box of item `i` and grows the bounds above it to contain it (the old box
+    /// stays inside them: the tree stays correct, only looser, for the rest of a round).
+    fn update(&mut self, i: usize, b: Aabb) {
+        self.boxes[i] = b;
+        let mut k = self.leaf[i];
+        while k != u32::MAX {
+            let n = &mut self.nodes[k as usize];
+            if n.bounds.lo.cmple(b.lo).all() && b.hi.cmple(n.bounds.hi).all() {
+                break;
+            }
+            n.bounds.grow(&b);
+            k = self.up[k as usize];
         }
     }
 
@@ -555,10 +569,10 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
         }
     }
     let mut changed = false;
-    for i in 0..n {
-        let c = cap[i] as f32;
-        if c < s.radius[i] {
-            s.radius[i] = c.max(0.0);
+    for (r, &c) in s.radius.iter_mut().zip(&cap) {
+        let c = c as f32;
+        if c < *r {
+            *r = c.max(0.0);
             changed = true;
         }
     }
@@ -756,7 +770,7 @@ fn subtree_hits(
     hits
 }
 
-/// Rotates the subtree at `c` (positions, `up` vectors, organs) and refits the BVH.
+/// Rotates the subtree at `c` (positions, `up` vectors, organs) and updates the BVH.
 fn apply(
     s: &mut Skeleton,
     topo: &Topology,
@@ -788,9 +802,8 @@ fn apply(
         }
     }
     for &m in topo.subtree(c) {
-        bvh.boxes[m as usize] = capsule_box(&capsule(s, m as usize), clearance);
+        bvh.update(m as usize, capsule_box(&capsule(s, m as usize), clearance));
     }
-    bvh.refit();
 }
 
 /// Closest distance between segments p0p1 and q0q1, with the closest points.
