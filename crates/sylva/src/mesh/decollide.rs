@@ -15,8 +15,8 @@
 //!   capsules clear; a cap is carried down to every descendant (radii stay
 //!   non-increasing from root to tip) and relaxed up the axis by at most
 //!   [`DecollideOptions::taper`] metres of radius per metre of length, so the thinning is
-//!   a smooth taper, not a notch. A distant pair that only grazes (it clears after
-//!   thinning by at most [`DecollideOptions::far_thinning`]) is thinned the same way.
+//!   a smooth taper, not a notch. A distant pair that only grazes (it clears with radii
+//!   scaled by no less than [`DecollideOptions::far_thinning`]) is thinned the same way.
 //! - **distant crossings**: the lighter branch is **rotated** rigidly about its base
 //!   node (the joint where it leaves its parent axis), by the smallest of a few angles
 //!   (both senses, about three axes: in the plane of the two branches, out of it, and
@@ -36,12 +36,13 @@
 //! Both steps repeat for at most [`DecollideOptions::max_rounds`] rounds; what is left
 //! is reported by node pairs ([`DecollideReport::unresolved`]), never looped on. Node
 //! `up` vectors and the organs hanging on moved nodes move with them; roots never move,
-//! the topology never changes, and a skeleton without collisions is left bit-identical.
+//! the topology never changes, and a skeleton the checker finds collision-free is left
+//! bit-identical.
 //!
 //! Cost per round: a BVH over the internode capsules (median split; its bounds grow to
-//! cover each rotated subtree), the collision search parallel over internodes with rayon, and the
-//! rotation trials of one subtree evaluated in parallel; the choices themselves are made
-//! in a fixed order, so the result is deterministic.
+//! cover each rotated subtree), the collision search parallel over internodes with
+//! rayon, and the rotation trials of one subtree evaluated in parallel; the choices
+//! themselves are made in a fixed order, so the result is deterministic.
 
 use crate::error::{Error, Result};
 use crate::mesh::check::skeleton_collisions;
