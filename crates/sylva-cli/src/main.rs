@@ -214,6 +214,18 @@ fn grow(args: GrowArgs) -> Result<()> {
             s.total_length,
             s.bounds.1.y - s.bounds.0.y
         );
+        if let Some(d) = &r.decollide {
+            println!(
+                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} rounds, {:.1} ms)",
+                d.before,
+                d.resolved(),
+                d.after,
+                d.thinned,
+                d.rotations,
+                d.rounds,
+                d.elapsed.as_secs_f64() * 1e3
+            );
+        }
         println!("  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices);
         println!("  wrote {}", out.display());
         if let Some(p) = &preview {

@@ -37,6 +37,8 @@ pub struct Report {
     pub interpret_time: Duration,
     /// Time spent meshing.
     pub mesh_time: Duration,
+    /// What the skeleton de-collision did (`mesh.decollide`), when it ran.
+    pub decollide: Option<crate::mesh::decollide::DecollideReport>,
     /// Surfaces (`~x`) the model places but no `.s` file provides.
     pub missing_surfaces: Vec<String>,
     /// Problems that did not stop the run (printed by the CLI).
@@ -451,11 +453,31 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
     Ok(subdivide(&mesh, &[], &opts)?)
 }
 
+/// Pulls apart the skeleton's crossing branches before meshing (`mesh.decollide`), and
+/// warns about the collisions it could not resolve.
+pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
+    use crate::mesh::decollide::{decollide, DecollideOptions};
+    let r = decollide(skeleton, &DecollideOptions::default())?;
+    if r.after > 0 {
+        report.warnings.push(format!(
+            "decollide: {} of {} skeleton collision(s) left; the mesh will intersect itself there (first internode pairs, by child node: {:?})",
+            r.after,
+            r.before,
+            &r.unresolved[..r.unresolved.len().min(4)]
+        ));
+    }
+    report.decollide = Some(r);
+    Ok(())
+}
+
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
-    let Generated { skeleton, surfaces } = skeleton(loaded, &mut report)?;
+    let Generated { mut skeleton, surfaces } = skeleton(loaded, &mut report)?;
     report.skeleton = skeleton.stats();
+    if loaded.recipe.mesh.decollides() {
+        decollide_skeleton(&mut skeleton, &mut report)?;
+    }
     if report.skeleton.segments == 0 && skeleton.organs.is_empty() {
         return Err(Error::InvalidGeometry {
             what: format!("recipe `{}`", loaded.recipe.name),

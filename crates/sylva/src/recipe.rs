@@ -163,6 +163,21 @@ pub struct MeshSection {
     /// Branch ends: `round`, `flat` or `open`.
     #[serde(default = "default_tips")]
     pub tips: String,
+    /// Pull apart branches that pass through each other before meshing
+    /// ([`crate::mesh::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
+    /// `quad`), off for `tube` (see [`MeshSection::decollides`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decollide: Option<bool>,
+}
+
+impl MeshSection {
+    /// Whether the pipeline de-collides the skeleton: `decollide` when set, else true
+    /// for the joint meshers, whose single watertight surface (and its subdivision) is
+    /// only free of self-intersections on a collision-free skeleton, and false for
+    /// `tube`, whose child tubes start inside their parents by design anyway.
+    pub fn decollides(&self) -> bool {
+        self.decollide.unwrap_or(self.method != "tube")
+    }
 }
 
 fn default_method() -> String {
@@ -177,7 +192,12 @@ fn default_tips() -> String {
 
 impl Default for MeshSection {
     fn default() -> Self {
-        MeshSection { method: default_method(), sides: default_sides(), tips: default_tips() }
+        MeshSection {
+            method: default_method(),
+            sides: default_sides(),
+            tips: default_tips(),
+            decollide: None,
+        }
     }
 }
 
@@ -544,6 +564,19 @@ mod tests {
     }
 
     #[test]
+    fn decollide_defaults_to_the_joint_meshers() {
+        assert!(!load("lsys-honda-a", &[]).unwrap().recipe.mesh.decollides(), "tube: off");
+        for m in ["hull", "sweep", "quad"] {
+            let l = load("lsys-honda-a", &sets(&[&format!("mesh.method=\"{m}\"")])).unwrap();
+            assert!(l.recipe.mesh.decollides(), "{m}: on");
+        }
+        let l = load("lsys-honda-a", &sets(&["mesh.method=\"hull\"", "mesh.decollide=false"])).unwrap();
+        assert!(!l.recipe.mesh.decollides());
+        let l = load("lsys-honda-a", &sets(&["mesh.decollide=true"])).unwrap();
+        assert!(l.recipe.mesh.decollides());
+    }
+
+    #[test]
     fn unknown_keys_are_named() {
         let e = load("lsys-honda-a", &sets(&["generator.angel=3"])).unwrap_err();
         assert!(e.to_string().contains("unknown key `generator.angel`"), "{e}");
@@ -554,6 +587,8 @@ mod tests {
         let e = load("lsys-honda-a", &sets(&["mesh.sides=many"])).unwrap_err();
         assert!(e.to_string().contains("sides") || e.to_string().contains("integer"), "{e}");
         assert!(parse_set("novalue").is_err());
+        let e = load("lsys-honda-a", &sets(&["mesh.decollide=3"])).unwrap_err();
+        assert!(e.to_string().contains("decollide") || e.to_string().contains("bool"), "{e}");
         assert!(load("no-such-preset", &[]).unwrap_err().to_string().contains("unknown preset"));
         assert!(load("missing.l", &[]).unwrap_err().to_string().contains("missing.l"));
     }

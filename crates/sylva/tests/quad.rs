@@ -509,6 +509,9 @@ fn recipe_and_pipeline_select_the_quad_mesher() {
         ("mesh.method".to_string(), s("quad")),
         ("refine.scheme".to_string(), s("catmull-clark")),
         ("refine.levels".to_string(), toml::Value::Integer(1)),
+        // De-collision (on by default for quad) removes every fallback of this preset;
+        // keep the raw skeleton so the fallback warning is exercised.
+        ("mesh.decollide".to_string(), toml::Value::Boolean(false)),
     ];
     let loaded = sylva::recipe::load("lsys-honda-c", &sets).unwrap();
     let grown = sylva::pipeline::grow(&loaded).unwrap();

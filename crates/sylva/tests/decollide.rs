@@ -1,0 +1,183 @@
+//! Skeleton de-collision (`sylva::mesh::decollide`, issue 5): crossing branches are
+//! separated, near-joint thickness overlaps are thinned, collision-free skeletons are
+//! left alone, roots and topology never change, the result is deterministic, and what
+//! cannot be resolved is reported.
+
+use glam::Vec3;
+use sylva::mesh::check::skeleton_collisions;
+use sylva::mesh::decollide::{decollide, DecollideOptions, DecollideReport};
+use sylva::skeleton::{Organ, OrganKind};
+use sylva::{Skeleton, NO_PARENT};
+
+fn run(s: &mut Skeleton) -> DecollideReport {
+    decollide(s, &DecollideOptions::default()).expect("a valid skeleton")
+}
+
+/// A trunk with two laterals in one plane: the lower one rises to the right, the upper
+/// one falls to the right and crosses it far from any shared joint. A leaf hangs on the
+/// upper lateral's tip.
+fn crossing() -> Skeleton {
+    let mut s = Skeleton::new();
+    let up = Vec3::Z;
+    let root = s.push(Vec3::ZERO, 0.06, NO_PARENT, up, 0);
+    let t1 = s.push(Vec3::new(0.0, 1.0, 0.0), 0.05, root, up, 0);
+    let t2 = s.push(Vec3::new(0.0, 2.0, 0.0), 0.05, t1, up, 0);
+    let t3 = s.push(Vec3::new(0.0, 3.0, 0.0), 0.04, t2, up, 0);
+    s.push(Vec3::new(0.0, 4.0, 0.0), 0.03, t3, up, 0);
+    let a1 = s.push(Vec3::new(0.8, 1.6, 0.0), 0.03, t1, up, 1);
+    let a2 = s.push(Vec3::new(1.6, 2.2, 0.0), 0.03, a1, up, 1);
+    s.push(Vec3::new(2.4, 2.8, 0.0), 0.02, a2, up, 1);
+    let b1 = s.push(Vec3::new(0.8, 2.8, 0.0), 0.03, t3, up, 1);
+    let b2 = s.push(Vec3::new(1.6, 2.1, 0.0), 0.03, b1, up, 1);
+    let b3 = s.push(Vec3::new(2.4, 1.4, 0.0), 0.02, b2, up, 1);
+    s.organs.push(Organ {
+        kind: OrganKind::Leaf,
+        node: b3,
+        position: s.position[b3 as usize],
+        heading: Vec3::X,
+        up: Vec3::Y,
+        size: 0.2,
+        material: 0,
+    });
+    s
+}
+
+fn assert_same_tree(before: &Skeleton, after: &Skeleton) {
+    assert_eq!(before.parent, after.parent, "topology changed");
+    assert_eq!(before.order, after.order);
+    assert_eq!(before.material, after.material);
+    assert_eq!(before.organs.len(), after.organs.len());
+    for i in 0..before.len() {
+        assert!(after.position[i].is_finite() && after.up[i].is_finite(), "node {i} not finite");
+        assert!(after.radius[i].is_finite() && after.radius[i] >= 0.0, "node {i} radius");
+        assert!(after.radius[i] <= before.radius[i], "node {i} got thicker");
+        if before.parent[i] == NO_PARENT {
+            assert_eq!(before.position[i], after.position[i], "root {i} moved");
+        } else {
+            // Rotations are rigid: internode lengths are kept.
+            let (a, b) = (before.internode_length(i), after.internode_length(i));
+            assert!((a - b).abs() < 1e-5 * a.max(1.0), "node {i}: length {a} → {b}");
+        }
+    }
+    after.validate().expect("still a valid skeleton");
+}
+
+#[test]
+fn crossing_branches_are_separated() {
+    let before = crossing();
+    assert!(!skeleton_collisions(&before, 0.01).is_empty(), "the fixture must cross");
+    let mut s = before.clone();
+    let r = run(&mut s);
+    assert!(r.before > 0 && r.after == 0, "{r:?}");
+    assert!(r.rotations > 0, "a crossing is fixed by moving a branch: {r:?}");
+    assert!(skeleton_collisions(&s, 0.01).is_empty());
+    assert!(r.unresolved.is_empty());
+    assert_same_tree(&before, &s);
+    // The leaf moved with its node.
+    let o = &s.organs[0];
+    assert!(o.position.distance(s.position[o.node as usize]) < 1e-5, "the leaf stayed behind");
+    assert!((o.heading.length() - 1.0).abs() < 1e-5 && (o.up.length() - 1.0).abs() < 1e-5);
+}
+
+/// A thick trunk of short internodes and a lateral leaving it steeply: the lateral's
+/// first internode (45°) overlaps the trunk's next internode (3 internodes apart).
+fn near_joint() -> Skeleton {
+    let mut s = Skeleton::new();
+    let up = Vec3::Z;
+    let root = s.push(Vec3::ZERO, 0.1, NO_PARENT, up, 0);
+    let mut prev = root;
+    let mut trunk = vec![root];
+    for k in 1..=6 {
+        prev = s.push(Vec3::new(0.0, 0.2 * k as f32, 0.0), 0.1 - 0.005 * k as f32, prev, up, 0);
+        trunk.push(prev);
+    }
+    let l1 = s.push(Vec3::new(0.3, 0.5, 0.0), 0.06, trunk[1], up, 1);
+    s.push(Vec3::new(0.8, 1.0, 0.0), 0.04, l1, up, 1);
+    s
+}
+
+#[test]
+fn near_joint_thickness_is_thinned_smoothly() {
+    let before = near_joint();
+    let pairs = skeleton_collisions(&before, 0.01);
+    assert!(!pairs.is_empty(), "the fixture must collide");
+    let mut s = before.clone();
+    let r = run(&mut s);
+    assert_eq!((r.after, r.near_joint), (0, r.before), "{r:?}");
+    assert!(r.thinned > 0, "{r:?}");
+    assert_eq!(r.rotations, 0, "thinning alone clears a near-joint overlap: {r:?}");
+    assert_eq!(s.position, before.position, "nothing moved");
+    assert_same_tree(&before, &s);
+    // Radii stay non-increasing along each axis, and the thinning is smooth: no trunk
+    // node is thinner than its child by more than the taper allows.
+    let taper = DecollideOptions::default().taper as f32;
+    for i in 1..s.len() {
+        let p = s.parent[i] as usize;
+        if s.order[i] == s.order[p] {
+            assert!(s.radius[i] <= s.radius[p], "radius grows at node {i}: {:?}", s.radius);
+            let len = s.internode_length(i) as f32;
+            assert!(s.radius[p] - s.radius[i] <= before.radius[p] - before.radius[i] + taper * len + 1e-6);
+        }
+    }
+}
+
+#[test]
+fn a_collision_free_skeleton_is_left_bit_identical() {
+    let loaded = sylva::recipe::load("lsys-binary-tree", &[]).unwrap();
+    let before = sylva::pipeline::skeleton(&loaded, &mut Default::default()).unwrap().skeleton;
+    let mut s = before.clone();
+    let r = run(&mut s);
+    assert_eq!((r.before, r.after, r.thinned, r.rotations, r.rounds), (0, 0, 0, 0, 0));
+    assert_eq!(s, before);
+    // A plain fork too.
+    let mut f = Skeleton::new();
+    let root = f.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
+    let a = f.push(Vec3::Y, 0.1, root, Vec3::X, 0);
+    f.push(Vec3::new(0.0, 2.0, 0.0), 0.05, a, Vec3::X, 0);
+    f.push(Vec3::new(1.0, 2.0, 0.0), 0.05, a, Vec3::X, 1);
+    let copy = f.clone();
+    run(&mut f);
+    assert_eq!(f, copy);
+}
+
+#[test]
+fn decollide_is_deterministic_and_keeps_the_tree() {
+    let loaded = sylva::recipe::load("lsys-honda-c", &[]).unwrap();
+    let before = sylva::pipeline::skeleton(&loaded, &mut Default::default()).unwrap().skeleton;
+    let (mut a, mut b) = (before.clone(), before.clone());
+    let (mut ra, mut rb) = (run(&mut a), run(&mut b));
+    ra.elapsed = Default::default();
+    rb.elapsed = Default::default();
+    assert_eq!(ra, rb);
+    assert_eq!(a, b, "two runs differ");
+    assert_same_tree(&before, &a);
+    assert!(ra.after < ra.before, "{ra:?}");
+    assert_eq!(ra.after, skeleton_collisions(&a, 0.01).len());
+}
+
+#[test]
+fn an_unresolvable_crossing_is_reported_and_terminates() {
+    // Two single-internode trees through each other: no joint to rotate about, and far
+    // too deep to thin.
+    let mut s = Skeleton::new();
+    let r1 = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
+    let t1 = s.push(Vec3::new(0.0, 2.0, 0.0), 0.1, r1, Vec3::X, 0);
+    let r2 = s.push(Vec3::new(-1.0, 1.0, 0.0), 0.1, NO_PARENT, Vec3::Y, 0);
+    let t2 = s.push(Vec3::new(1.0, 1.0, 0.0), 0.1, r2, Vec3::Y, 0);
+    let before = s.clone();
+    let r = run(&mut s);
+    assert_eq!((r.before, r.after), (1, 1), "{r:?}");
+    assert_eq!(r.unresolved, vec![[t1 as usize, t2 as usize]]);
+    assert!(r.rounds <= DecollideOptions::default().max_rounds);
+    assert_eq!(s, before);
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let mut s = crossing();
+    s.position[3].x = f32::NAN;
+    assert!(decollide(&mut s, &DecollideOptions::default()).is_err());
+    let mut s = crossing();
+    let e = decollide(&mut s, &DecollideOptions { angles: vec![-5.0], ..Default::default() }).unwrap_err();
+    assert!(e.to_string().contains("angles"), "{e}");
+}
