@@ -475,8 +475,14 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
     let Generated { mut skeleton, surfaces } = skeleton(loaded, &mut report)?;
     report.skeleton = skeleton.stats();
-    if loaded.recipe.mesh.decollides() {
+    if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
         decollide_skeleton(&mut skeleton, &mut report)?;
+    } else if loaded.recipe.mesh.decollides() {
+        report.warnings.push(format!(
+            "decollide skipped: {} skeleton nodes is over the automatic limit of {} (the pass would take many seconds); set mesh.decollide = true to run it",
+            skeleton.len(),
+            crate::recipe::DECOLLIDE_AUTO_NODES
+        ));
     }
     if report.skeleton.segments == 0 && skeleton.organs.is_empty() {
         return Err(Error::InvalidGeometry {

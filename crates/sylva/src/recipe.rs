@@ -165,7 +165,8 @@ pub struct MeshSection {
     pub tips: String,
     /// Pull apart branches that pass through each other before meshing
     /// ([`crate::mesh::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
-    /// `quad`), off for `tube` (see [`MeshSection::decollides`]).
+    /// `quad`) on skeletons of up to [`DECOLLIDE_AUTO_NODES`] nodes, off for `tube`
+    /// (see [`MeshSection::decollides`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decollide: Option<bool>,
 }
@@ -178,7 +179,22 @@ impl MeshSection {
     pub fn decollides(&self) -> bool {
         self.decollide.unwrap_or(self.method != "tube")
     }
+
+    /// Whether the pipeline de-collides a skeleton of `nodes` nodes: as
+    /// [`MeshSection::decollides`], except that the unset default skips skeletons of
+    /// more than [`DECOLLIDE_AUTO_NODES`] nodes (the pass takes 15–20 s there; set
+    /// `decollide = true` to run it anyway).
+    pub fn decollides_nodes(&self, nodes: usize) -> bool {
+        match self.decollide {
+            Some(on) => on,
+            None => self.decollides() && nodes <= DECOLLIDE_AUTO_NODES,
+        }
+    }
 }
+
+/// Largest skeleton the unset `mesh.decollide` de-collides by default (the Weber–Penn
+/// trees of 100 k nodes take 15–20 s in the pass on a 2-core machine).
+pub const DECOLLIDE_AUTO_NODES: usize = 50_000;
 
 fn default_method() -> String {
     "tube".into()
@@ -574,6 +590,11 @@ mod tests {
         assert!(!l.recipe.mesh.decollides());
         let l = load("lsys-honda-a", &sets(&["mesh.decollide=true"])).unwrap();
         assert!(l.recipe.mesh.decollides());
+        assert!(l.recipe.mesh.decollides_nodes(10 * DECOLLIDE_AUTO_NODES), "explicit: any size");
+        // Unset: the joint meshers skip very large skeletons.
+        let l = load("lsys-honda-a", &sets(&["mesh.method=\"hull\""])).unwrap();
+        assert!(l.recipe.mesh.decollides_nodes(DECOLLIDE_AUTO_NODES));
+        assert!(!l.recipe.mesh.decollides_nodes(DECOLLIDE_AUTO_NODES + 1));
     }
 
     #[test]
