@@ -270,8 +270,8 @@ const DECOLLIDED_CLEAN_CI: &[(&str, &[&str])] = &[
     ("lsys-honda-h", &["hull", "sweep", "quad"]),
     ("lsys-abop-stochastic", &["hull"]),
     ("bcm-elm", &["hull", "sweep"]),
-    ("mig-i", &["hull"]),
-    ("mig-roots", &["hull"]),
+    ("mig-i", &["hull", "sweep"]),
+    ("mig-roots", &["hull", "sweep"]),
 ];
 
 #[test]

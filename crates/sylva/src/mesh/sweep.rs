@@ -84,7 +84,12 @@
 //!    junction (this is what meshes narrow whorls that fit a plane within
 //!    `coplanar_deg` but whose template folds, e.g. every junction of
 //!    `lsys-ternary-tree`); in a round where no junction changed that way, the marked
-//!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). A junction with
+//!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). Once the
+//!    control mesh is clean, it is refined [`SweepOptions::check_levels`] times with
+//!    Loop and the faces refined from coplanar-template junctions are searched for
+//!    intersections among themselves: a template that folds only under subdivision
+//!    is rebuilt as a general junction too (level 1 is enough on the presets: the
+//!    folds it finds are the ones level 2 shows). A junction with
 //!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
 //!    [`SweepOptions::general_junctions`] off, a non-coplanar one or one with more than
 //!    `max_children` children) falls back from the start. A
@@ -166,6 +171,13 @@ pub struct SweepOptions {
     /// The seed's "Tile V": `v` runs from 0 to 1 along every internode instead of along
     /// the longest root-to-tip path (default false).
     pub tile_v: bool,
+    /// Loop levels at which the repair also checks the coplanar-template junctions
+    /// (default 2, 0 = off, at most 3): once the control mesh is clean, it is refined
+    /// this many times and a template junction whose refined faces intersect each
+    /// other (a template that folds only under subdivision) is rebuilt as a general
+    /// junction (module docs, step 7). Costs one refinement and a check of the
+    /// template junctions' refined faces per round.
+    pub check_levels: u32,
 }
 
 /// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
@@ -211,6 +223,7 @@ impl Default for SweepOptions {
             tips: SweepTips::Cone,
             u_mapping: UMapping::Reflected,
             tile_v: false,
+            check_levels: 1,
         }
     }
 }
@@ -235,6 +248,9 @@ impl SweepOptions {
         }
         if !(self.asymmetric_ratio.is_finite() && (0.0..=1.0).contains(&self.asymmetric_ratio)) {
             return bad(format!("asymmetric_ratio = {}; it must be in 0..=1", self.asymmetric_ratio));
+        }
+        if self.check_levels > 3 {
+            return bad(format!("check_levels = {}; it must be in 0..=3", self.check_levels));
         }
         Ok(())
     }
@@ -1184,6 +1200,52 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
     (mesh, b.owner, b.max_twist, b.open_loops)
 }
 
+/// Coplanar-template junctions whose faces intersect each other after `levels` Loop
+/// refinements of `mesh` (empty when `levels` is 0 or there is no such junction). Only
+/// the faces refined from template-junction faces are searched; Loop numbers the
+/// children of face `f` `4f..4f + 4`, so a level-`L` face descends from control face
+/// `f >> 2L`.
+fn folded_templates(plan: &Plan, mesh: &Mesh, owner: &[[u32; 2]], levels: u32) -> HashSet<u32> {
+    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+    let mut out = HashSet::new();
+    let template = |f: usize| {
+        let j = owner[f][0];
+        (j != NONE
+            && owner[f][1] == NONE
+            && plan.kind[j as usize] == Kind::Junction
+            && !plan.general[j as usize])
+            .then_some(j)
+    };
+    if levels == 0 || !(0..mesh.face_count()).any(|f| template(f).is_some()) {
+        return out;
+    }
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme: Scheme::Loop, levels, ..Default::default() },
+        ..Default::default()
+    };
+    let Ok(mut fine) = subdivide(mesh, &[], &opts) else { return out };
+    let shift = 2 * levels;
+    let mut sub = Mesh::new();
+    let mut parent = Vec::new();
+    for f in 0..fine.face_count() {
+        if let Some(j) = template(f >> shift) {
+            sub.push_face(fine.face(f));
+            parent.push(j);
+        }
+    }
+    sub.positions = std::mem::take(&mut fine.positions);
+    let rep = check_mesh(
+        &sub,
+        &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
+    );
+    for &[a, b] in &rep.intersections {
+        if parent[a] == parent[b] {
+            out.insert(parent[a]);
+        }
+    }
+    out
+}
+
 /// Meshes `skeleton` with hexagonal sweeps and junction templates (see the module docs).
 ///
 /// Errors: [`Error::InvalidGeometry`] for options out of range or a mesh beyond `u32`
@@ -1236,6 +1298,11 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         for &f in &rep.degenerate_faces {
             mark(f, &mut bad);
         }
+        // A clean control mesh: check the templates once more after refinement.
+        let refined_only = bad.is_empty();
+        if refined_only {
+            bad = folded_templates(&plan, &mesh, &owner, opts.check_levels);
+        }
         if bad.is_empty() {
             break (mesh, twist, loops);
         }
@@ -1257,6 +1324,10 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             }
         }
         if !escalated {
+            if refined_only {
+                // Only general junctions fold there: nothing left to try.
+                break (mesh, twist, loops);
+            }
             for o in bad {
                 fallback[o as usize] = true;
             }
