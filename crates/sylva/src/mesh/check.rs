@@ -657,8 +657,10 @@ fn self_intersections(positions: &[Vec3], tris: &[([u32; 3], u32)], limit: usize
     pairs
 }
 
-/// True when an edge of either triangle passes through the other's interior.
-fn triangles_cross(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+/// True when an edge of either triangle passes through the other's interior (the
+/// checker's intersection test; triangles sharing a vertex should be skipped by the
+/// caller).
+pub(crate) fn triangles_cross(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     (0..3).any(|i| segment_hits(a[i], a[(i + 1) % 3], b))
         || (0..3).any(|i| segment_hits(b[i], b[(i + 1) % 3], a))
 }

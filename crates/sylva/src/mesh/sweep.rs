@@ -118,11 +118,12 @@
 //! Deterministic; every valid skeleton gives a mesh, never a panic.
 
 use crate::error::{Error, Result};
-use crate::mesh::check::{check_mesh, CheckOptions};
+use crate::mesh::check::{check_mesh, triangles_cross, CheckOptions};
 use crate::mesh::hull::{cap_hull, CapLoop};
 use crate::mesh::{Crease, FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec2};
+use rayon::prelude::*;
 use std::collections::HashSet;
 use std::f64::consts::{FRAC_PI_3, PI};
 
@@ -1205,7 +1206,16 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
 /// the faces refined from template-junction faces are searched; Loop numbers the
 /// children of face `f` `4f..4f + 4`, so a level-`L` face descends from control face
 /// `f >> 2L`.
-fn folded_templates(plan: &Plan, mesh: &Mesh, owner: &[[u32; 2]], levels: u32) -> HashSet<u32> {
+///
+/// A template's faces depend only on its own rings, so a junction searched once
+/// (`checked`) is not searched again in later repair rounds.
+fn folded_templates(
+    plan: &Plan,
+    mesh: &Mesh,
+    owner: &[[u32; 2]],
+    levels: u32,
+    checked: &mut [bool],
+) -> HashSet<u32> {
     use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
     let mut out = HashSet::new();
     let template = |f: usize| {
@@ -1213,7 +1223,8 @@ fn folded_templates(plan: &Plan, mesh: &Mesh, owner: &[[u32; 2]], levels: u32) -
         (j != NONE
             && owner[f][1] == NONE
             && plan.kind[j as usize] == Kind::Junction
-            && !plan.general[j as usize])
+            && !plan.general[j as usize]
+            && !checked[j as usize])
             .then_some(j)
     };
     if levels == 0 || !(0..mesh.face_count()).any(|f| template(f).is_some()) {
@@ -1223,26 +1234,44 @@ fn folded_templates(plan: &Plan, mesh: &Mesh, owner: &[[u32; 2]], levels: u32) -
         refine: RefineOptions { scheme: Scheme::Loop, levels, ..Default::default() },
         ..Default::default()
     };
-    let Ok(mut fine) = subdivide(mesh, &[], &opts) else { return out };
+    let Ok(fine) = subdivide(mesh, &[], &opts) else { return out };
     let shift = 2 * levels;
-    let mut sub = Mesh::new();
-    let mut parent = Vec::new();
-    for f in 0..fine.face_count() {
-        if let Some(j) = template(f >> shift) {
-            sub.push_face(fine.face(f));
-            parent.push(j);
-        }
+    // The refined triangles of each template junction, searched pairwise (a junction
+    // has a few hundred at level 1, so this is far cheaper than a BVH over the mesh).
+    let mut groups: Vec<(u32, [u32; 3])> = (0..fine.face_count())
+        .filter_map(|f| {
+            let v = fine.face(f);
+            template(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]]))
+        })
+        .collect();
+    groups.sort_by_key(|g| g.0);
+    for g in &groups {
+        checked[g.0 as usize] = true;
     }
-    sub.positions = std::mem::take(&mut fine.positions);
-    let rep = check_mesh(
-        &sub,
-        &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
-    );
-    for &[a, b] in &rep.intersections {
-        if parent[a] == parent[b] {
-            out.insert(parent[a]);
-        }
-    }
+    let pos = &fine.positions;
+    let folded: Vec<u32> = groups
+        .chunk_by(|a, b| a.0 == b.0)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .filter_map(|g| {
+            let tri: Vec<[DVec3; 3]> = g.iter().map(|t| t.1.map(|v| pos[v as usize].as_dvec3())).collect();
+            let bx: Vec<(DVec3, DVec3)> =
+                tri.iter().map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c))).collect();
+            for a in 0..g.len() {
+                for b in a + 1..g.len() {
+                    let overlap = bx[a].0.cmple(bx[b].1).all() && bx[b].0.cmple(bx[a].1).all();
+                    if overlap
+                        && !g[a].1.iter().any(|v| g[b].1.contains(v))
+                        && triangles_cross(&tri[a], &tri[b])
+                    {
+                        return Some(g[0].0);
+                    }
+                }
+            }
+            None
+        })
+        .collect();
+    out.extend(folded);
     out
 }
 
@@ -1264,6 +1293,8 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
     let mut plan = Plan::new(skeleton, opts);
     let n = skeleton.len();
     let mut fallback: Vec<bool> = plan.forced.clone();
+    // Template junctions already searched after refinement ([`folded_templates`]).
+    let mut checked = vec![false; n];
     let mut round = 0;
     let (mesh, max_twist, open_loops) = loop {
         let (mesh, owner, twist, loops) = build(&plan, opts, &fallback);
@@ -1301,7 +1332,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         // A clean control mesh: check the templates once more after refinement.
         let refined_only = bad.is_empty();
         if refined_only {
-            bad = folded_templates(&plan, &mesh, &owner, opts.check_levels);
+            bad = folded_templates(&plan, &mesh, &owner, opts.check_levels, &mut checked);
         }
         if bad.is_empty() {
             break (mesh, twist, loops);
