@@ -1022,7 +1022,7 @@ fn forest_endpoints_join_the_tree_that_reaches_them_cheapest() {
     }
     // MGV with α ≡ 0, iteration by iteration: every endpoint's path starts at the tree
     // whose nodes reach it cheapest and crosses no other tree.
-    let mut st = forest::mgv_state(&g, &roots);
+    let mut st = MgvState::with_roots(&g, &roots);
     for (i, it) in p.iterations.iter().enumerate() {
         let own = owners(&st);
         let trees: Vec<Vec<u32>> = roots

@@ -7,7 +7,7 @@
 //!   spacing `d`, so all nodes stay at least `d` apart and each root is a graph node
 //!   (roots closer than `d` to each other are an error). The Yao graph is built over
 //!   the result as usual ([`poisson_yao_roots`]).
-//! - **MGV** ([`grow_mgv`]): every root starts in the tree with the guide `up`, so each
+//! - **MGV** ([`super::mgv::grow`], [`super::mgv::MgvState::with_roots`]): every root starts in the tree with the guide `up`, so each
 //!   iteration's Dijkstra runs from all current trees at once and every endpoint's path
 //!   starts at the tree node — hence the tree — that reaches it cheapest. Rules that
 //!   refer to "the root" (`eq52`, `height`, the direct fields) use the first root.
@@ -20,7 +20,7 @@
 //! exactly one root per grown tree (`report.trees`).
 
 use super::graph::{auto_spacing, poisson, spatial_sort, yao, Graph, NONE};
-use super::mgv::{default_iterations, shuffle, tree_of, MgvState};
+use super::mgv::shuffle;
 use super::mig::{shell_candidates, End, LEVEL1_STREAM};
 use super::paths::{dijkstra, Length};
 use super::{bad, finite, main_graph, LeastCostParams, LeastCostReport, PathTree};
@@ -138,57 +138,6 @@ pub fn root_nodes(p: &LeastCostParams, g: &Graph) -> Result<Vec<u32>> {
             Ok(best)
         })
         .collect()
-}
-
-/// Grows an MGV forest: the iterations of [`super::mgv`] with every root in the tree
-/// from the start (see the module docs).
-pub fn grow_mgv(
-    p: &LeastCostParams,
-    seed: u64,
-    base: Option<&Path>,
-    report: &mut LeastCostReport,
-) -> Result<PathTree> {
-    let g = main_graph(p, seed, base, report)?;
-    if g.shortfall > 0 {
-        report.warnings.push(format!(
-            "the graph volume holds only {} of the {} nodes at spacing {:.4}",
-            g.len(),
-            p.nodes,
-            g.spacing
-        ));
-    }
-    let t = Instant::now();
-    let roots = root_nodes(p, &g)?;
-    let defaults;
-    let iters = if p.iterations.is_empty() {
-        defaults = default_iterations();
-        &defaults
-    } else {
-        &p.iterations
-    };
-    let mut st = mgv_state(&g, &roots);
-    report.unreachable = st.reachable.iter().filter(|r| !**r).count();
-    for (i, it) in iters.iter().enumerate() {
-        st.iterate(&g, it, p, seed, i);
-    }
-    report.endpoints = st.endpoints.iter().map(Vec::len).sum();
-    report.path_time = t.elapsed();
-    Ok(drop_lone_roots(&tree_of(&g, &st), report))
-}
-
-/// An MGV state whose tree is the given roots (each with the guide `up`), reachability
-/// from all of them.
-pub fn mgv_state(g: &Graph, roots: &[u32]) -> MgvState {
-    let mut st = MgvState::new(g);
-    for &r in roots {
-        if !st.in_tree[r as usize] {
-            st.in_tree[r as usize] = true;
-            st.guide[r as usize] = glam::Vec3::Y;
-            st.nodes.push(r);
-        }
-    }
-    st.reachable = g.reachable(roots);
-    st
 }
 
 /// Adds the path of graph node `e` (following `parent` back to a node already in the

@@ -470,19 +470,30 @@ pub struct MgvState {
 impl MgvState {
     /// A tree holding the graph's root with guide `up`.
     pub fn new(g: &Graph) -> MgvState {
+        MgvState::with_roots(g, &[g.root])
+    }
+
+    /// A tree (a forest) holding the given root nodes, each with guide `up`;
+    /// reachability from all of them.
+    pub fn with_roots(g: &Graph, roots: &[u32]) -> MgvState {
         let n = g.len();
         let mut s = MgvState {
             in_tree: vec![false; n],
             parent: vec![NONE; n],
             guide: vec![Vec3::ZERO; n],
             depth: vec![0; n],
-            nodes: vec![g.root],
+            nodes: Vec::with_capacity(roots.len()),
             endpoints: Vec::new(),
             last: None,
-            reachable: g.reachable(&[g.root]),
+            reachable: g.reachable(roots),
         };
-        s.in_tree[g.root as usize] = true;
-        s.guide[g.root as usize] = Vec3::Y;
+        for &r in roots {
+            if !s.in_tree[r as usize] {
+                s.in_tree[r as usize] = true;
+                s.guide[r as usize] = Vec3::Y;
+                s.nodes.push(r);
+            }
+        }
         s
     }
 
@@ -699,7 +710,9 @@ pub(crate) fn shuffle(v: &mut [u32], rng: &mut Pcg64) {
     }
 }
 
-/// Grows an MGV tree as a path union over the graph.
+/// Grows an MGV tree as a path union over the graph; with `generator.roots`, a forest:
+/// every root starts in the tree, and roots that won no endpoint are dropped
+/// ([`super::forest`]).
 pub fn grow(
     p: &LeastCostParams,
     seed: u64,
@@ -716,7 +729,7 @@ pub fn grow(
         ));
     }
     let t = Instant::now();
-
+    let roots = if p.roots.is_empty() { vec![g.root] } else { super::forest::root_nodes(p, &g)? };
     let defaults;
     let iters = if p.iterations.is_empty() {
         defaults = default_iterations();
@@ -724,14 +737,15 @@ pub fn grow(
     } else {
         &p.iterations
     };
-    let mut st = MgvState::new(&g);
+    let mut st = MgvState::with_roots(&g, &roots);
     report.unreachable = st.reachable.iter().filter(|r| !**r).count();
     for (i, it) in iters.iter().enumerate() {
         st.iterate(&g, it, p, seed, i);
     }
     report.endpoints = st.endpoints.iter().map(Vec::len).sum();
     report.path_time = t.elapsed();
-    Ok(tree_of(&g, &st))
+    let tree = tree_of(&g, &st);
+    Ok(if p.roots.is_empty() { tree } else { super::forest::drop_lone_roots(&tree, report) })
 }
 
 /// The path union of an MGV state as a [`PathTree`] (graph ids compacted in tree order).

@@ -593,7 +593,6 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     let mut tree = match p.method.as_str() {
         "mig" => mig::grow(p, seed, base, &mut report)?,
         "bcm" => bcm::grow(p, seed, &mut report)?,
-        _ if !p.roots.is_empty() => forest::grow_mgv(p, seed, base, &mut report)?,
         _ => mgv::grow(p, seed, base, &mut report)?,
     };
     let t = Instant::now();
