@@ -446,37 +446,42 @@ fn newell(mesh: &Mesh, face: &[u32]) -> DVec3 {
     n
 }
 
-/// An axis-aligned box.
-#[derive(Clone, Copy)]
-struct Aabb {
-    lo: DVec3,
-    hi: DVec3,
+/// An axis-aligned box (shared with [`crate::mesh::decollide`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Aabb {
+    pub(crate) lo: DVec3,
+    pub(crate) hi: DVec3,
 }
 
 impl Aabb {
+    /// The empty box: overlaps nothing, grows to whatever it is grown by.
+    pub(crate) const EMPTY: Aabb =
+        Aabb { lo: DVec3::splat(f64::INFINITY), hi: DVec3::splat(f64::NEG_INFINITY) };
     fn empty() -> Self {
-        Self { lo: DVec3::splat(f64::MAX), hi: DVec3::splat(f64::MIN) }
+        Self::EMPTY
     }
-    fn grow(&mut self, o: &Aabb) {
+    pub(crate) fn grow(&mut self, o: &Aabb) {
         self.lo = self.lo.min(o.lo);
         self.hi = self.hi.max(o.hi);
     }
-    fn overlaps(&self, o: &Aabb) -> bool {
+    pub(crate) fn overlaps(&self, o: &Aabb) -> bool {
         self.lo.cmple(o.hi).all() && o.lo.cmple(self.hi).all()
     }
 }
 
-/// A BVH node: a box and either two children or a range of leaf triangles.
-struct Node {
-    bounds: Aabb,
+/// A BVH node: a box and either two children or a range of leaf items.
+pub(crate) struct Node {
+    pub(crate) bounds: Aabb,
     /// Leaves: start into `order`; inner: index of the left child (right = left + 1).
-    first: u32,
-    /// Leaf triangle count; 0 for an inner node.
-    count: u32,
+    pub(crate) first: u32,
+    /// Leaf item count; 0 for an inner node.
+    pub(crate) count: u32,
 }
 
-/// Builds the BVH over `boxes`; `order` is permuted so each leaf owns a contiguous range.
-fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
+/// Builds the BVH over `boxes` of the items in `order` (median split on the longest
+/// axis of the centres, ties by item id); `order` is permuted so each leaf owns a
+/// contiguous range.
+pub(crate) fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
     const LEAF: usize = 4;
     let mut nodes = vec![Node { bounds: Aabb::empty(), first: 0, count: order.len() as u32 }];
     let mut stack = vec![(0usize, 0usize, order.len())];
@@ -504,7 +509,8 @@ fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
         };
         let mid = (start + end) / 2;
         let key = |t: &u32| boxes[*t as usize].lo[axis] + boxes[*t as usize].hi[axis];
-        order[start..end].select_nth_unstable_by(mid - start, |a, b| key(a).total_cmp(&key(b)));
+        order[start..end]
+            .select_nth_unstable_by(mid - start, |a, b| key(a).total_cmp(&key(b)).then(a.cmp(b)));
         let left = nodes.len();
         nodes.push(Node { bounds: Aabb::empty(), first: 0, count: 0 });
         nodes.push(Node { bounds: Aabb::empty(), first: 0, count: 0 });
@@ -584,6 +590,11 @@ fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
 
 /// Closest distance between segments p0p1 and q0q1.
 fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+    segment_closest(p0, p1, q0, q1).0
+}
+
+/// Closest distance between segments p0p1 and q0q1, with the closest points on each.
+pub(crate) fn segment_closest(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> (f64, DVec3, DVec3) {
     let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
     let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
     let (s, t) = if a <= 1e-30 && e <= 1e-30 {
@@ -609,7 +620,8 @@ fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
             (s, t)
         }
     };
-    (p0 + d1 * s).distance(q0 + d2 * t)
+    let (x, y) = (p0 + d1 * s, q0 + d2 * t);
+    (x.distance(y), x, y)
 }
 
 /// Pairs of faces whose triangles cross (each pair once, smaller triangle index first).

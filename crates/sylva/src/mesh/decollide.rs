@@ -45,7 +45,7 @@
 //! themselves are made in a fixed order, so the result is deterministic.
 
 use crate::error::{Error, Result};
-use crate::mesh::check::skeleton_collisions;
+use crate::mesh::check::{build_bvh, segment_closest, skeleton_collisions, Aabb, Node};
 use crate::skeleton::{OrganKind, Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3};
 use rayon::prelude::*;
@@ -287,24 +287,6 @@ fn hops(s: &Skeleton, t: &Topology, a: usize, b: usize, limit: usize) -> Option<
     Some(h)
 }
 
-/// An axis-aligned box in f64.
-#[derive(Clone, Copy, Debug)]
-struct Aabb {
-    lo: DVec3,
-    hi: DVec3,
-}
-
-impl Aabb {
-    const EMPTY: Aabb = Aabb { lo: DVec3::splat(f64::INFINITY), hi: DVec3::splat(f64::NEG_INFINITY) };
-    fn grow(&mut self, o: &Aabb) {
-        self.lo = self.lo.min(o.lo);
-        self.hi = self.hi.max(o.hi);
-    }
-    fn overlaps(&self, o: &Aabb) -> bool {
-        self.lo.cmple(o.hi).all() && o.lo.cmple(self.hi).all()
-    }
-}
-
 /// One internode as a capsule: base, tip, radius (the larger end radius).
 #[derive(Clone, Copy)]
 struct Capsule {
@@ -359,10 +341,10 @@ fn relation(s: &Skeleton, i: usize, j: usize) -> Relation {
 fn gap(x: &Capsule, y: &Capsule, rel: Relation) -> Option<(f64, DVec3, DVec3)> {
     match rel {
         Relation::Chained => None,
-        Relation::Apart => Some(segment_distance(x.a, x.b, y.a, y.b)),
+        Relation::Apart => Some(segment_closest(x.a, x.b, y.a, y.b)),
         Relation::Siblings => {
-            let (dx, px, qx) = segment_distance(x.b, x.b, y.a, y.b);
-            let (dy, py, qy) = segment_distance(y.b, y.b, x.a, x.b);
+            let (dx, px, qx) = segment_closest(x.b, x.b, y.a, y.b);
+            let (dy, py, qy) = segment_closest(y.b, y.b, x.a, x.b);
             Some(if dx <= dy { (dx, px, qx) } else { (dy, qy, py) })
         }
     }
@@ -376,7 +358,7 @@ fn collide(x: &Capsule, y: &Capsule, rel: Relation, clearance: f64) -> bool {
 /// A BVH over the internodes (items are child node ids) whose bounds grow as
 /// internodes move.
 struct Bvh {
-    nodes: Vec<BvhNode>,
+    nodes: Vec<Node>,
     order: Vec<u32>,
     /// Box per skeleton node (unused for roots).
     boxes: Vec<Aabb>,
@@ -384,14 +366,6 @@ struct Bvh {
     up: Vec<u32>,
     /// The leaf holding each skeleton node's internode.
     leaf: Vec<u32>,
-}
-
-struct BvhNode {
-    bounds: Aabb,
-    /// Leaves: start into `order`; inner: index of the left child (right = left + 1).
-    first: u32,
-    /// Leaf item count; 0 for an inner node.
-    count: u32,
 }
 
 impl Bvh {
@@ -408,42 +382,7 @@ impl Bvh {
                 .collect();
         let mut order: Vec<u32> =
             (0..s.len() as u32).filter(|&i| s.parent[i as usize] != NO_PARENT).collect();
-        let mut nodes = vec![BvhNode { bounds: Aabb::EMPTY, first: 0, count: order.len() as u32 }];
-        let mut stack = vec![(0usize, 0usize, order.len())];
-        while let Some((id, start, end)) = stack.pop() {
-            let mut b = Aabb::EMPTY;
-            let mut centres = Aabb::EMPTY;
-            for &t in &order[start..end] {
-                b.grow(&boxes[t as usize]);
-                let c = (boxes[t as usize].lo + boxes[t as usize].hi) * 0.5;
-                centres.grow(&Aabb { lo: c, hi: c });
-            }
-            nodes[id].bounds = b;
-            let extent = centres.hi - centres.lo;
-            if end - start <= 4 || extent.max_element() <= 0.0 {
-                nodes[id].first = start as u32;
-                nodes[id].count = (end - start) as u32;
-                continue;
-            }
-            let axis = if extent.x >= extent.y && extent.x >= extent.z {
-                0
-            } else if extent.y >= extent.z {
-                1
-            } else {
-                2
-            };
-            let mid = (start + end) / 2;
-            let key = |t: &u32| boxes[*t as usize].lo[axis] + boxes[*t as usize].hi[axis];
-            order[start..end]
-                .select_nth_unstable_by(mid - start, |a, b| key(a).total_cmp(&key(b)).then(a.cmp(b)));
-            let left = nodes.len();
-            nodes.push(BvhNode { bounds: Aabb::EMPTY, first: 0, count: 0 });
-            nodes.push(BvhNode { bounds: Aabb::EMPTY, first: 0, count: 0 });
-            nodes[id].first = left as u32;
-            nodes[id].count = 0;
-            stack.push((left, start, mid));
-            stack.push((left + 1, mid, end));
-        }
+        let nodes = build_bvh(&boxes, &mut order);
         let mut up = vec![u32::MAX; nodes.len()];
         let mut leaf = vec![u32::MAX; s.len()];
         for (k, n) in nodes.iter().enumerate() {
@@ -805,35 +744,4 @@ fn apply(
     for &m in topo.subtree(c) {
         bvh.update(m as usize, capsule_box(&capsule(s, m as usize), clearance));
     }
-}
-
-/// Closest distance between segments p0p1 and q0q1, with the closest points.
-fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> (f64, DVec3, DVec3) {
-    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
-    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
-    let (s, t) = if a <= 1e-30 && e <= 1e-30 {
-        (0.0, 0.0)
-    } else if a <= 1e-30 {
-        (0.0, (f / e).clamp(0.0, 1.0))
-    } else {
-        let c = d1.dot(r);
-        if e <= 1e-30 {
-            ((-c / a).clamp(0.0, 1.0), 0.0)
-        } else {
-            let b = d1.dot(d2);
-            let denom = a * e - b * b;
-            let mut s = if denom > 1e-30 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
-            let mut t = (b * s + f) / e;
-            if t < 0.0 {
-                t = 0.0;
-                s = (-c / a).clamp(0.0, 1.0);
-            } else if t > 1.0 {
-                t = 1.0;
-                s = ((b - c) / a).clamp(0.0, 1.0);
-            }
-            (s, t)
-        }
-    };
-    let (x, y) = (p0 + d1 * s, q0 + d2 * t);
-    (x.distance(y), x, y)
 }

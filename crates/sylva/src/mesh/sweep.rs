@@ -118,7 +118,7 @@
 //! Deterministic; every valid skeleton gives a mesh, never a panic.
 
 use crate::error::{Error, Result};
-use crate::mesh::check::{check_mesh, triangles_cross, CheckOptions};
+use crate::mesh::check::{check_mesh, triangles_cross, Aabb, CheckOptions};
 use crate::mesh::hull::{cap_hull, CapLoop};
 use crate::mesh::{Crease, FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
@@ -1255,12 +1255,11 @@ fn folded_templates(
         .into_par_iter()
         .filter_map(|g| {
             let tri: Vec<[DVec3; 3]> = g.iter().map(|t| t.1.map(|v| pos[v as usize].as_dvec3())).collect();
-            let bx: Vec<(DVec3, DVec3)> =
-                tri.iter().map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c))).collect();
+            let bx: Vec<Aabb> =
+                tri.iter().map(|[a, b, c]| Aabb { lo: a.min(*b).min(*c), hi: a.max(*b).max(*c) }).collect();
             for a in 0..g.len() {
                 for b in a + 1..g.len() {
-                    let overlap = bx[a].0.cmple(bx[b].1).all() && bx[b].0.cmple(bx[a].1).all();
-                    if overlap
+                    if bx[a].overlaps(&bx[b])
                         && !g[a].1.iter().any(|v| g[b].1.contains(v))
                         && triangles_cross(&tri[a], &tri[b])
                     {
