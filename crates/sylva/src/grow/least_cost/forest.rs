@@ -19,12 +19,12 @@
 //! endpoint are dropped with a warning ([`drop_lone_roots`]), so the skeleton has
 //! exactly one root per grown tree (`report.trees`).
 
-use super::graph::{auto_spacing, poisson, spatial_sort, yao, Graph, NONE};
+use super::graph::{poisson, resolve_spacing, spatial_sort, yao, Graph, NONE};
 use super::mgv::shuffle;
 use super::mig::{shell_candidates, End, LEVEL1_STREAM};
 use super::paths::{dijkstra, Length};
 use super::{bad, finite, main_graph, LeastCostParams, LeastCostReport, PathTree};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -78,16 +78,7 @@ pub fn poisson_yao_roots(p: &LeastCostParams, spacing: Option<f64>, seed: u64) -
     let volume = p.graph_volume();
     let dims = p.dims;
     super::graph::check_sectors(p.sectors, dims)?;
-    let d = match spacing {
-        Some(d) => d,
-        None => {
-            let m = volume.measure(dims, seed);
-            if m.is_nan() || m <= 0.0 {
-                return Err(Error::Recipe("the graph volume is empty".into()));
-            }
-            auto_spacing(m, p.nodes, dims)
-        }
-    };
+    let d = resolve_spacing(&volume, p.nodes, spacing, dims, seed)?;
     for i in 0..roots.len() {
         for j in i + 1..roots.len() {
             let dist = roots[i].distance(roots[j]);

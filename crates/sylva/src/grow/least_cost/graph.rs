@@ -481,6 +481,27 @@ fn random_in(rng: &mut Pcg64, lo: DVec3, ext: DVec3, dims: u8) -> DVec3 {
     DVec3::new(x, y, z)
 }
 
+/// `spacing`, or when `None` the [`auto_spacing`] of `count` nodes in `volume` (its
+/// measure estimated with `seed`). Errors when the volume is empty.
+pub fn resolve_spacing(
+    volume: &Volume,
+    count: usize,
+    spacing: Option<f64>,
+    dims: u8,
+    seed: u64,
+) -> Result<f64> {
+    match spacing {
+        Some(d) => Ok(d),
+        None => {
+            let m = volume.measure(dims, seed);
+            if m.is_nan() || m <= 0.0 {
+                return Err(Error::Recipe("the graph volume is empty".into()));
+            }
+            Ok(auto_spacing(m, count, dims))
+        }
+    }
+}
+
 /// The spacing `d` that puts `count` nodes in a region of measure `measure` at about
 /// 48 % (3D) / 65 % (2D) of the dart-throwing jamming density (see the module docs).
 pub fn auto_spacing(measure: f64, count: usize, dims: u8) -> f64 {
@@ -1270,16 +1291,7 @@ pub fn poisson_yao(
     seed: u64,
 ) -> Result<Graph> {
     check_sectors(k, dims)?;
-    let d = match spacing {
-        Some(d) => d,
-        None => {
-            let m = volume.measure(dims, seed);
-            if m.is_nan() || m <= 0.0 {
-                return Err(Error::Recipe("the graph volume is empty".into()));
-            }
-            auto_spacing(m, count, dims)
-        }
-    };
+    let d = resolve_spacing(volume, count, spacing, dims, seed)?;
     let root = root.unwrap_or_else(|| volume.bottom_center(dims));
     let mut rng = Pcg64::seed_from_u64(seed);
     let s = poisson(volume, count, d, Some(root), dims, &mut rng)?;
