@@ -162,25 +162,29 @@ fn unbranched_chain_has_4_k_plus_1_vertices() {
 
 #[test]
 fn fork_and_backward_counts() {
-    // One fork with two leaf children (case d): V = 20, F = 18, E = 36.
-    let q = full_check("Y fork", &y_fork(), &QuadOptions::default());
+    // One fork with two leaf children (case d): V = 20, F = 18, E = 36 — the seed's
+    // construction, without elbows.
+    let seed = QuadOptions { elbow_angle: 90.0, ..Default::default() };
+    let q = full_check("Y fork", &y_fork(), &seed);
     let t = check("Y fork", &q.mesh);
     assert_eq!((t.vertices, t.faces, t.edges), (20, 18, 36));
     assert_eq!(q.cases.boxes, 1);
+    assert_eq!(q.cases.elbows, 0);
     assert!(q.fallbacks.is_empty(), "{:?}", q.fallbacks);
     // Without pull-back the counts are the same.
-    let q = full_check(
-        "Y fork, no pull-back",
-        &y_fork(),
-        &QuadOptions { pull_back: false, ..Default::default() },
-    );
+    let q = full_check("Y fork, no pull-back", &y_fork(), &QuadOptions { pull_back: false, ..seed.clone() });
     assert_eq!(check("", &q.mesh).vertices, 20);
+    // Each elbow adds one ring (4 vertices) and one band (4 faces).
+    let q = full_check("Y fork, elbows", &y_fork(), &QuadOptions::default());
+    let t = check("Y fork, elbows", &q.mesh);
+    let e = q.cases.elbows;
+    assert_eq!((t.vertices, t.faces, t.edges), (20 + 4 * e, 18 + 4 * e, 36 + 8 * e));
     // A single backward child (case c): V = 16, F = 14.
     for angle in [90.0f32, 90.1, 120.0, 135.0, 150.0] {
         let a = angle.to_radians();
         let s =
             chain(&[Vec3::ZERO, Vec3::Y * 3.0, Vec3::Y * 3.0 + Vec3::new(a.sin(), a.cos(), 0.0) * 2.0], 0.2);
-        let q = full_check(&format!("backward {angle}"), &s, &QuadOptions::default());
+        let q = full_check(&format!("backward {angle}"), &s, &seed);
         let t = check("backward", &q.mesh);
         assert_eq!((t.vertices, t.faces), (16, 14), "backward {angle}°");
         assert_eq!(q.cases.backward, 1);
@@ -638,4 +642,46 @@ fn first_child_subtree_is_meshed_first() {
     };
     assert!(ring_of(thick) < ring_of(grand), "thick child before its child");
     assert!(ring_of(grand) < ring_of(thin), "the thick child's subtree before the thin sibling");
+}
+
+/// Elbows (`QuadOptions::elbow_angle`): a side child leaving its side face obliquely
+/// starts from the face seen nearly edge-on; without an elbow its first tube is a
+/// twisted blade that folds into its sibling under Catmull–Clark. Forks with the first
+/// child at 25° and a second child at 30°–75° from the parent, at four azimuths and three
+/// box orientations: with elbows (the default) none self-intersects at level 2; without
+/// them some do.
+#[test]
+fn elbows_keep_oblique_side_children_clean_after_refinement() {
+    let level2 = |sk: &Skeleton, opts: &QuadOptions| {
+        let q = quad_mesh(sk, opts).unwrap();
+        let o = SubdivideOptions {
+            refine: RefineOptions { scheme: Scheme::CatmullClark, levels: 2, ..Default::default() },
+            ..Default::default()
+        };
+        let fine = subdivide(&q.mesh, &[], &o).unwrap();
+        (check_mesh(&fine, &CheckOptions::default()).intersection_count.unwrap(), q.cases.elbows)
+    };
+    let off = QuadOptions { elbow_angle: 90.0, ..Default::default() };
+    let (mut without, mut elbows) = (0, 0);
+    for upx in [0.0f32, 0.4, 1.0] {
+        let up = Vec3::new(upx, 0.0, 1.0).normalize();
+        for side in [30.0f32, 45.0, 60.0, 75.0] {
+            for az in [0.0f32, 45.0, 90.0, 180.0] {
+                let mut s = Skeleton::new();
+                let r = s.push(Vec3::ZERO, 0.2, NO_PARENT, up, 0);
+                let a = s.push(Vec3::Y * 3.0, 0.2, r, up, 0);
+                let t = 25f32.to_radians();
+                s.push(Vec3::Y * 3.0 + Vec3::new(t.sin(), t.cos(), 0.0) * 2.0, 0.16, a, up, 1);
+                let (sa, az) = (side.to_radians(), (180.0 + az).to_radians());
+                let dir = Vec3::new(sa.sin() * az.cos(), sa.cos(), sa.sin() * az.sin());
+                s.push(Vec3::Y * 3.0 + dir * 2.0, 0.14, a, up, 1);
+                let (with, e) = level2(&s, &QuadOptions::default());
+                assert_eq!(with, 0, "side child at {side}°, azimuth {az}, up {up}: level-2 intersections");
+                elbows += e;
+                without += level2(&s, &off).0;
+            }
+        }
+    }
+    assert!(elbows > 0, "no elbow was built");
+    assert!(without > 0, "the forks do not exercise the elbows");
 }

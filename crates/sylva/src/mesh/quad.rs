@@ -131,6 +131,12 @@ pub struct QuadOptions {
     /// Shortest tube between two sections as a fraction of the local corner distance
     /// (default 0.1, range 1e-4–10).
     pub min_length: f32,
+    /// Largest angle in degrees between a side child and its side face's normal that the
+    /// child's tube may start at directly; beyond it an *elbow* ring first leaves the face
+    /// along the half direction (default 30, range 0–90; 90 turns elbows off). Without
+    /// it a child leaving nearly along the box starts from the face seen edge-on, and its
+    /// first tube flattens into a twisted blade that folds under Catmull–Clark.
+    pub elbow_angle: f32,
 }
 
 impl Default for QuadOptions {
@@ -143,6 +149,7 @@ impl Default for QuadOptions {
             max_chain: 3,
             min_radius: 0.02,
             min_length: 0.1,
+            elbow_angle: 30.0,
         }
     }
 }
@@ -164,6 +171,9 @@ impl QuadOptions {
         }
         if !(self.min_length.is_finite() && (1e-4..=10.0).contains(&self.min_length)) {
             return bad(format!("min_length = {}; it must be in 1e-4..=10", self.min_length));
+        }
+        if !(self.elbow_angle.is_finite() && (0.0..=90.0).contains(&self.elbow_angle)) {
+            return bad(format!("elbow_angle = {}; it must be in 0..=90 degrees", self.elbow_angle));
         }
         Ok(())
     }
@@ -208,6 +218,8 @@ pub struct CaseCounts {
     pub boxes: usize,
     /// Chained boxes on side faces holding several children.
     pub chained: usize,
+    /// Elbow rings between a side face and a child leaving it obliquely.
+    pub elbows: usize,
 }
 
 /// The result of [`quad_mesh`].
@@ -267,6 +279,7 @@ struct Builder<'a> {
     kids: Vec<u32>,
     floor: f32,
     cos_side: f32,
+    cos_elbow: f32,
     positions: Vec<Vec3>,
     indices: Vec<u32>,
     uv_values: Vec<Vec2>,
@@ -318,6 +331,7 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
         kids,
         floor: floor.max(1e-9),
         cos_side: opts.max_side_angle.to_radians().cos(),
+        cos_elbow: opts.elbow_angle.to_radians().cos(),
         positions: Vec::with_capacity(n * 5),
         indices: Vec::with_capacity(n * 20),
         uv_values: Vec::with_capacity(n * 6),
@@ -624,13 +638,91 @@ impl Builder<'_> {
         let e = if back >= 0.0 {
             let c = p - d * back;
             let tv = Self::next_tex_v(&r, c, rho);
-            let e = self.ring_miter(c, d, h, r.up, rho, tv);
+            let up = self.box_up(r.up, d, h, p, &kids);
+            let e = self.ring_miter(c, d, h, up, rho, tv);
             self.band(&r, &e);
             e
         } else {
             r
         };
         self.junction(e, d, node, &kids, 0);
+    }
+
+    /// The elbow of a side child (see [`QuadOptions::elbow_angle`]): when `kid` leaves
+    /// the side face `r` more than the elbow angle from its normal, a ring of the child's
+    /// size perpendicular to the half direction of the face normal and the child, a short
+    /// neck (half the face's corner distance, at most a quarter of the way to the child)
+    /// out of the face. Returns the ring the child's tube starts from.
+    fn elbow(&mut self, r: Ring, kid: u32) -> Ring {
+        let p = self.pos(kid);
+        let to = p - r.center;
+        let dk = unit_or(to, r.normal);
+        if dk.dot(r.normal) >= self.cos_elbow {
+            return r;
+        }
+        let rho = self.rho(kid);
+        let h = unit_or(r.normal + dk, r.normal);
+        // The ring is tilted by β = ∠(h, face normal): its low corners dip ρ·sin β back
+        // towards the face, so the neck clears that plus half the face's size.
+        let sin_b = h.cross(r.normal).length();
+        let len = (rho * sin_b + 0.5 * r.rho).min(0.3 * to.length());
+        if len < 2.0 * self.min_len(rho.max(r.rho)) {
+            return r;
+        }
+        let c = r.center + h * len;
+        let tv = Self::next_tex_v(&r, c, rho);
+        let e = self.ring_perp(c, h, r.up, rho, tv);
+        self.band(&r, &e);
+        self.cases.elbows += 1;
+        e
+    }
+
+    /// Up vector of a junction box's base ring, turned about the internode so that the
+    /// side faces look at the side children (`kids[1..]`) as squarely as possible: of 24
+    /// turns over the square's 90° period, the one with the largest sum over side
+    /// children of the cosine to their best face normal (a child sharing a face with an
+    /// earlier one, which would need a chained box, counts −1). Of the four equivalent
+    /// labellings of that square, the one closest to the incoming `up` is returned, so
+    /// the band before the box twists by at most 45°. Without the turn a child may leave
+    /// its face up to 45° further off its normal.
+    fn box_up(&self, up: Vec3, d: Vec3, h: Vec3, p: Vec3, kids: &[u32]) -> Vec3 {
+        let dirs: Vec<Vec3> = kids[1..].iter().map(|&k| unit_or(self.pos(k) - p, Vec3::ZERO)).collect();
+        let cur = perp(up, d);
+        let x = perp(cur, h);
+        let y = h.cross(x);
+        let score = |psi: f32| {
+            let mut used = [false; 4];
+            let mut total = 0.0;
+            for &dk in &dirs {
+                let (best, dot) = (0..4)
+                    .map(|k| {
+                        let t = psi + std::f32::consts::FRAC_PI_2 * k as f32;
+                        (k, (x * t.cos() + y * t.sin()).dot(dk))
+                    })
+                    .fold((0, f32::MIN), |a, v| if v.1 > a.1 { v } else { a });
+                total += if used[best] { -1.0 } else { dot };
+                used[best] = true;
+            }
+            total
+        };
+        // ψ is the azimuth of face 0's normal about h, measured from `x`.
+        let steps = 24;
+        let psi = (0..steps)
+            .map(|i| std::f32::consts::FRAC_PI_2 * i as f32 / steps as f32)
+            .fold((0.0f32, f32::MIN), |a, psi| {
+                let sc = score(psi);
+                if sc > a.1 + 1e-6 {
+                    (psi, sc)
+                } else {
+                    a
+                }
+            })
+            .0;
+        // Face 0's normal lies halfway between corners 0 and 1: corner 0 at ψ − 45°.
+        let t = psi - std::f32::consts::FRAC_PI_4;
+        let a = perp(x * t.cos() + y * t.sin(), d);
+        let b = d.cross(a);
+        [a, b, -a, -b].into_iter().fold(a, |best, c| if c.dot(cur) > best.dot(cur) { c } else { best })
     }
 
     /// `l + x` for `kids` (sorted) leaving a base of normal `n` towards `d0`.
@@ -731,6 +823,7 @@ impl Builder<'_> {
             };
             let set = std::mem::take(&mut sets[k]);
             if set.len() == 1 {
+                let ring = self.elbow(ring, set[0]);
                 self.stack.push(Task::Segment { ring, node: set[0] });
             } else if depth < self.opts.max_chain {
                 self.cases.chained += 1;
