@@ -429,6 +429,18 @@ impl Builder<'_> {
             let db = unit_or(self.pos(b) - p, Vec3::ZERO).dot(d);
             rb.total_cmp(&ra).then(db.total_cmp(&da)).then(a.cmp(&b))
         });
+        // A thickest child that points back (≥ 90°) would make the whole junction a
+        // backward box with every other child — the forward continuation included — on
+        // its sides. When a forward child is nearly as thick (≥ 3/4 of its radius), that
+        // one leads instead.
+        let dot = |c: u32| unit_or(self.pos(c) - p, Vec3::ZERO).dot(d);
+        if k.len() > 1 && dot(k[0]) <= 0.0 {
+            let r0 = self.sk.radius[k[0] as usize];
+            if let Some(i) = k.iter().position(|&c| dot(c) > 0.0 && self.sk.radius[c as usize] >= 0.75 * r0) {
+                let lead = k.remove(i);
+                k.insert(0, lead);
+            }
+        }
         k
     }
 
