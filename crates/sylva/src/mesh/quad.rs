@@ -47,6 +47,21 @@
 //!
 //! # Choices where the seed is ambiguous or silent
 //!
+//! * **Box orientation**: the base ring of a case (d) box is turned about the internode
+//!   so that the side faces look at the side children as squarely as possible (24 turns
+//!   over the square's 90° period, scored by each side child's cosine to its best face),
+//!   then labelled so the band before it twists by at most 45°. The seed carries up
+//!   unchanged, which can leave a child 45° off its face for no reason.
+//! * **Elbows**: a side child leaving its face more than [`QuadOptions::elbow_angle`]
+//!   (default 30°) off the face normal starts from an extra ring of its own size, a short
+//!   neck out of the face along the half direction of the normal and the child. The seed
+//!   sweeps straight from the face; when the child leaves nearly along the box the face
+//!   is seen edge-on from the child and its first tube is a twisted blade that folds into
+//!   the sibling under Catmull–Clark.
+//! * **Leading child**: children are sorted by diameter (J §3.5), except that a thickest
+//!   child pointing back (≥ 90°) gives the lead to a forward child at least 3/4 as thick —
+//!   otherwise a near-equal lateral turns the whole junction, the stem's continuation
+//!   included, into a backward box.
 //! * **Several children on one side** (spec 003 §2 inference): the side face is the end of
 //!   a virtual zero-length segment and gets its own box (a *chained box*), recursively up
 //!   to [`QuadOptions::max_chain`] levels.
