@@ -86,10 +86,12 @@
 //!    `lsys-ternary-tree`); in a round where no junction changed that way, the marked
 //!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). Once the
 //!    control mesh is clean, it is refined [`SweepOptions::check_levels`] times with
-//!    Loop and the faces refined from coplanar-template junctions are searched for
-//!    intersections among themselves: a template that folds only under subdivision
-//!    is rebuilt as a general junction too (level 1 is enough on the presets: the
-//!    folds it finds are the ones level 2 shows). A junction with
+//!    Loop and the faces refined from each coplanar-template junction and from the
+//!    first strips of its children are searched for intersections among themselves
+//!    (sweep and prune along x): a template that folds, or lets its children's tubes
+//!    cross, only under subdivision is rebuilt as a general junction too (default
+//!    level 2, the level the acceptance checks: level 1 missed children
+//!    crossing at level 2 on `mgv-a/r/grove`). A junction with
 //!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
 //!    [`SweepOptions::general_junctions`] off, a non-coplanar one or one with more than
 //!    `max_children` children) falls back from the start. A
@@ -174,10 +176,10 @@ pub struct SweepOptions {
     pub tile_v: bool,
     /// Loop levels at which the repair also checks the coplanar-template junctions
     /// (default 2, 0 = off, at most 3): once the control mesh is clean, it is refined
-    /// this many times and a template junction whose refined faces intersect each
-    /// other (a template that folds only under subdivision) is rebuilt as a general
-    /// junction (module docs, step 7). Costs one refinement and a check of the
-    /// template junctions' refined faces per round.
+    /// this many times and a template junction whose refined faces, or those of its
+    /// children's first strips, intersect each other (a template that folds only under
+    /// subdivision) is rebuilt as a general junction (module docs, step 7). Costs one
+    /// refinement and a check of the template junctions' refined faces per round.
     pub check_levels: u32,
 }
 
@@ -224,7 +226,7 @@ impl Default for SweepOptions {
             tips: SweepTips::Cone,
             u_mapping: UMapping::Reflected,
             tile_v: false,
-            check_levels: 1,
+            check_levels: 2,
         }
     }
 }
@@ -1218,10 +1220,11 @@ fn folded_templates(
 ) -> HashSet<u32> {
     use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
     let mut out = HashSet::new();
+    // A template junction's own faces and the first strips of its children.
     let template = |f: usize| {
         let j = owner[f][0];
         (j != NONE
-            && owner[f][1] == NONE
+            && (owner[f][1] == NONE || plan.par[owner[f][1] as usize] == j)
             && plan.kind[j as usize] == Kind::Junction
             && !plan.general[j as usize]
             && !checked[j as usize])
@@ -1257,8 +1260,14 @@ fn folded_templates(
             let tri: Vec<[DVec3; 3]> = g.iter().map(|t| t.1.map(|v| pos[v as usize].as_dvec3())).collect();
             let bx: Vec<Aabb> =
                 tri.iter().map(|[a, b, c]| Aabb { lo: a.min(*b).min(*c), hi: a.max(*b).max(*c) }).collect();
-            for a in 0..g.len() {
-                for b in a + 1..g.len() {
+            // Sweep and prune along x: only boxes whose x ranges overlap are compared.
+            let mut order: Vec<usize> = (0..g.len()).collect();
+            order.sort_by(|&a, &b| bx[a].lo.x.total_cmp(&bx[b].lo.x));
+            for (i, &a) in order.iter().enumerate() {
+                for &b in &order[i + 1..] {
+                    if bx[b].lo.x > bx[a].hi.x {
+                        break;
+                    }
                     if bx[a].overlaps(&bx[b])
                         && !g[a].1.iter().any(|v| g[b].1.contains(v))
                         && triangles_cross(&tri[a], &tri[b])
