@@ -114,6 +114,14 @@ use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{Vec2, Vec3};
 use std::f32::consts::TAU;
 
+/// A side child closer than this to the first child's direction is aligned with it:
+/// beyond [`QuadOptions::max_side_angle`] it is detached, not elbowed (degrees).
+const ALIGNED_DEG: f32 = 10.0;
+
+/// A child closer than this to the reversed parent direction runs back inside the
+/// parent's tube: beyond [`QuadOptions::max_side_angle`] it is detached (degrees).
+const REVERSED_DEG: f32 = 2.0;
+
 /// How the box length `l + x` of a junction is computed (seed 003, J Eq. 4; spec 003 §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BoxLength {
@@ -136,8 +144,17 @@ pub struct QuadOptions {
     /// the node (default true, as J §3.5 did for the liver data).
     pub pull_back: bool,
     /// Largest angle in degrees between a child and the outward normal of the side face
-    /// it attaches to; beyond it the child is detached (default 80, range 10–89).
+    /// it attaches to; beyond it the child is detached (default 80, range 10–89) —
+    /// unless it points back (see [`QuadOptions::max_back_angle`]).
     pub max_side_angle: f32,
+    /// The same limit for a child pointing back against the box's axis (but more than 2°
+    /// from straight back along its parent), or forward but more than 10° from the
+    /// first child (default 120, range 90–150): such a child (a lateral folding back
+    /// along its parent, a narrow fork) leaves its face through an elbow instead of
+    /// becoming a separate cage inside the parent, as the seed's limit would make it. A
+    /// child within 10° of the first child or 2° of the reversed parent runs inside
+    /// their tube and is still detached.
+    pub max_back_angle: f32,
     /// Most chained boxes below one branching node (default 3, range 0–16).
     pub max_chain: u32,
     /// Smallest section corner distance as a fraction of the skeleton's largest radius
@@ -161,6 +178,7 @@ impl Default for QuadOptions {
             box_length: BoxLength::SumSquares,
             pull_back: true,
             max_side_angle: 80.0,
+            max_back_angle: 120.0,
             max_chain: 3,
             min_radius: 0.02,
             min_length: 0.1,
@@ -177,6 +195,9 @@ impl QuadOptions {
         }
         if !(self.max_side_angle.is_finite() && (10.0..=89.0).contains(&self.max_side_angle)) {
             return bad(format!("max_side_angle = {}; it must be in 10..=89 degrees", self.max_side_angle));
+        }
+        if !(self.max_back_angle.is_finite() && (90.0..=150.0).contains(&self.max_back_angle)) {
+            return bad(format!("max_back_angle = {}; it must be in 90..=150 degrees", self.max_back_angle));
         }
         if self.max_chain > 16 {
             return bad(format!("max_chain = {}; it must be in 0..=16", self.max_chain));
@@ -294,6 +315,7 @@ struct Builder<'a> {
     kids: Vec<u32>,
     floor: f32,
     cos_side: f32,
+    cos_back: f32,
     cos_elbow: f32,
     positions: Vec<Vec3>,
     indices: Vec<u32>,
@@ -346,6 +368,7 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
         kids,
         floor: floor.max(1e-9),
         cos_side: opts.max_side_angle.to_radians().cos(),
+        cos_back: opts.max_back_angle.to_radians().cos(),
         cos_elbow: opts.elbow_angle.to_radians().cos(),
         positions: Vec::with_capacity(n * 5),
         indices: Vec::with_capacity(n * 20),
@@ -787,7 +810,7 @@ impl Builder<'_> {
         let c = e.center + h * lx;
         let tv = Self::next_tex_v(&e, c, rho0);
         let t = self.ring_perp(c, h, e.up, rho0, tv);
-        self.sides(&e, &t, node, &kids[1..], depth);
+        self.sides(&e, &t, node, &kids[1..], depth, (base, Some(d0)));
         self.stack.push(Task::Segment { ring: t, node: k0 });
     }
 
@@ -799,13 +822,16 @@ impl Builder<'_> {
         let tv = Self::next_tex_v(&m, c, rho);
         let top = self.ring_perp(c, m.normal, m.up, rho, tv);
         self.cap(&top, true);
-        self.sides(&m, &top, node, kids, 0);
+        self.sides(&m, &top, node, kids, 0, (m.normal, None));
     }
 
     /// Side faces `[B_k, B_k+1, T_k+1, T_k]` of the box `b → t`: `kids` (sorted) are
     /// assigned to the face whose outward normal is most aligned with them; used faces
     /// start their children (a chained box for several), unused ones are closed.
-    fn sides(&mut self, b: &Ring, t: &Ring, node: u32, kids: &[u32], depth: u32) {
+    /// `dirs`: the parent internode's direction and the first child's (none for a
+    /// backward box).
+    fn sides(&mut self, b: &Ring, t: &Ring, node: u32, kids: &[u32], depth: u32, dirs: (Vec3, Option<Vec3>)) {
+        let (parent_dir, first) = dirs;
         let mut faces = [[0u32; 4]; 4];
         let mut normals = [Vec3::ZERO; 4];
         for k in 0..4 {
@@ -814,6 +840,7 @@ impl Builder<'_> {
             normals[k] = quad_normal(faces[k].map(|i| self.positions[i as usize]));
         }
         let p = self.pos(node);
+        let axis = unit_or(t.center - b.center, b.normal);
         let mut sets: [Vec<u32>; 4] = Default::default();
         for &kid in kids {
             let dk = unit_or(self.pos(kid) - p, Vec3::ZERO);
@@ -821,7 +848,15 @@ impl Builder<'_> {
                 (0..4)
                     .map(|k| (k, normals[k].dot(dk)))
                     .fold((0, f32::MIN), |a, x| if x.1 > a.1 { x } else { a });
-            if dot >= self.cos_side && dk != Vec3::ZERO {
+            // Beyond `max_side_angle` a child runs along the box: it may still leave
+            // through an elbow when it points back, or forward but clear of the first
+            // child's direction (≥ ALIGNED_DEG away); inside the first child's tube or
+            // the parent's, or along a backward box's capped top, it is detached.
+            let aligned = ALIGNED_DEG.to_radians().cos();
+            let back = dk.dot(axis) < 0.0 && -dk.dot(parent_dir) < REVERSED_DEG.to_radians().cos();
+            let clear = first.is_some_and(|f| f.dot(dk) < aligned);
+            let limit = if back || clear { self.cos_back } else { self.cos_side };
+            if dot >= limit && dk != Vec3::ZERO {
                 sets[best].push(kid);
             } else {
                 self.fallback(kid, FallbackReason::Detached);
@@ -957,7 +992,9 @@ mod tests {
         for o in [
             QuadOptions { cs_scale: 0.0, ..Default::default() },
             QuadOptions { max_side_angle: 95.0, ..Default::default() },
+            QuadOptions { max_back_angle: 155.0, ..Default::default() },
             QuadOptions { min_length: f32::NAN, ..Default::default() },
+            QuadOptions { elbow_angle: 91.0, ..Default::default() },
         ] {
             assert!(matches!(quad_mesh(&s, &o), Err(Error::InvalidGeometry { .. })));
         }
