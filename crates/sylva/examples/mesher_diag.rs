@@ -1,0 +1,255 @@
+//! Where a joint mesher's self-intersections come from (issue 5, a developer tool).
+//!
+//! Grows a preset's skeleton, runs `decollide` (as the pipeline does for the joint
+//! meshers), meshes it with `hull`, `sweep` or `quad`, refines the control mesh to level
+//! 2 (Loop, or Catmull–Clark for `quad`: the level the issue's acceptance checks) and
+//! groups the self-intersecting face pairs by the skeleton joint they lie at (each face
+//! is given to the internode nearest its centre, in radii; a pair is counted at the
+//! node the two internodes share, or at the first one's parent). It prints the joints
+//! with the most pairs and their children (radius, length, angle to the parent,
+//! grandchildren count). With `--joint N` it also renders the refined faces within
+//! `--radius R` of node `N` (intersecting ones red) and the control faces there, from
+//! three sides, to `DIR/joint-{0,1,2}.png` and `DIR/control-{0,1,2}.png`.
+//!
+//! ```text
+//! cargo run --release -p sylva --example mesher_diag -- mgv-c quad
+//! cargo run --release -p sylva --example mesher_diag -- mgv-c quad --joint 921 --radius 0.15 --out /tmp
+//! cargo run --release -p sylva --example mesher_diag -- lsys-abop-a hull --control
+//! ```
+//!
+//! `--control` groups the control mesh's own intersections instead of level 2's.
+
+use glam::Vec3;
+use std::collections::{BTreeMap, HashMap, HashSet};
+use sylva::mesh::check::{check_mesh, CheckOptions};
+use sylva::mesh::decollide::{decollide, DecollideOptions};
+use sylva::mesh::hull::{hull_mesh, HullOptions};
+use sylva::mesh::quad::{quad_mesh, QuadOptions};
+use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
+use sylva::mesh::{Material, Model, Part};
+use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+use sylva::{Mesh, Skeleton, NO_PARENT};
+
+/// Pairs mapped back to the skeleton at most (the nearest-internode search is brute force).
+const MAX_PAIRS: usize = 5_000;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1));
+    let takes_value = |a: &str| matches!(a, "--joint" | "--radius" | "--out");
+    let positional: Vec<&String> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| !a.starts_with("--") && (*i == 0 || !takes_value(&args[i - 1])))
+        .map(|(_, a)| a)
+        .collect();
+    let Some(preset) = positional.first() else {
+        eprintln!(
+            "usage: mesher_diag PRESET [hull|sweep|quad] [--control] [--joint N] [--radius R] [--out DIR]"
+        );
+        std::process::exit(2);
+    };
+    let mesher = positional.get(1).map_or("quad", |s| s.as_str());
+    let control_only = args.iter().any(|a| a == "--control");
+    let joint: Option<usize> = flag("--joint").map(|s| s.parse()).transpose()?;
+    let radius: f32 = flag("--radius").map(|s| s.parse()).transpose()?.unwrap_or(0.15);
+    let out = flag("--out").cloned().unwrap_or_else(|| std::env::temp_dir().display().to_string());
+
+    let loaded = sylva::recipe::load(preset, &[])?;
+    let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
+    let d = decollide(&mut sk, &DecollideOptions::default())?;
+    println!("{preset}: {} nodes, skeleton collisions {} -> {}", sk.len(), d.before, d.after);
+    let (mesh, scheme) = match mesher {
+        "hull" => {
+            let h = hull_mesh(&sk, &HullOptions { caps: true, ..Default::default() })?;
+            println!(
+                "hull: {} fallbacks, {} collapsed, {} clamped",
+                h.fallbacks.len(),
+                h.collapsed.len(),
+                h.clamped.len()
+            );
+            (h.mesh, Scheme::Loop)
+        }
+        "sweep" => {
+            let w = sweep_mesh(&sk, &SweepOptions { caps: true, ..Default::default() })?;
+            println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
+            (w.mesh, Scheme::Loop)
+        }
+        "quad" => {
+            let q = quad_mesh(&sk, &QuadOptions::default())?;
+            let mut by: BTreeMap<String, usize> = BTreeMap::new();
+            for f in &q.fallbacks {
+                *by.entry(format!("{:?}", f.reason)).or_default() += 1;
+            }
+            println!("quad: fallbacks {by:?}, cases {:?}", q.cases);
+            (q.mesh, Scheme::CatmullClark)
+        }
+        other => return Err(format!("unknown mesher {other:?}: hull, sweep or quad").into()),
+    };
+    let listed = CheckOptions { max_listed: MAX_PAIRS, ..Default::default() };
+    let c = check_mesh(&mesh, &listed);
+    let (fine, report) = if control_only {
+        (mesh.clone(), c.clone())
+    } else {
+        let opts = SubdivideOptions {
+            refine: RefineOptions { scheme, levels: 2, ..Default::default() },
+            ..Default::default()
+        };
+        let fine = subdivide(&mesh, &[], &opts)?;
+        let r = check_mesh(&fine, &listed);
+        (fine, r)
+    };
+    println!(
+        "self-intersecting pairs: control {:?}, level 2 {}",
+        c.intersection_count,
+        if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
+    );
+
+    let mut joints: BTreeMap<u32, usize> = BTreeMap::new();
+    for pair in &report.intersections {
+        let a = nearest_internode(&sk, centroid(&fine, pair[0]));
+        let b = nearest_internode(&sk, centroid(&fine, pair[1]));
+        let (pa, pb) = (sk.parent[a], sk.parent[b]);
+        // The node the two internodes share, else the first one's base.
+        let at = if pb as usize == a {
+            a as u32
+        } else if pa as usize == b {
+            b as u32
+        } else {
+            pa
+        };
+        *joints.entry(at).or_default() += 1;
+    }
+    let mut ranked: Vec<(u32, usize)> = joints.into_iter().collect();
+    ranked.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+    let ch = sk.children();
+    for &(j, n) in ranked.iter().take(20) {
+        println!("joint {j}: {n} pairs; {}", describe(&sk, &ch, j as usize));
+    }
+    if let Some(j) = joint {
+        if j >= sk.len() {
+            return Err(format!("--joint {j}: the skeleton has {} nodes", sk.len()).into());
+        }
+        let hits: HashSet<usize> = report.intersections.iter().flat_map(|p| [p[0], p[1]]).collect();
+        let c = sk.position[j];
+        render(&fine, &hits, c, radius, &format!("{out}/joint"))?;
+        render(&mesh, &HashSet::new(), c, radius, &format!("{out}/control"))?;
+        println!("wrote {out}/joint-{{0,1,2}}.png and {out}/control-{{0,1,2}}.png");
+    }
+    Ok(())
+}
+
+/// Centre of face `f`.
+fn centroid(m: &Mesh, f: usize) -> Vec3 {
+    let v = m.face(f);
+    v.iter().map(|&i| m.positions[i as usize]).sum::<Vec3>() / v.len() as f32
+}
+
+/// The internode (named by its child node) nearest `p`, distance measured in radii.
+fn nearest_internode(sk: &Skeleton, p: Vec3) -> usize {
+    let mut best = (f32::MAX, 0);
+    for i in 0..sk.len() {
+        let par = sk.parent[i];
+        if par == NO_PARENT {
+            continue;
+        }
+        let a = sk.position[par as usize];
+        let ab = sk.position[i] - a;
+        let t = ((p - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+        let d = (a + ab * t - p).length() / sk.radius[i].max(1e-6);
+        if d < best.0 {
+            best = (d, i);
+        }
+    }
+    best.1
+}
+
+/// A node's radius, incoming internode and children (radius, length, angle to the
+/// incoming direction, grandchildren).
+fn describe(sk: &Skeleton, ch: &sylva::skeleton::Children, j: usize) -> String {
+    let par = sk.parent[j];
+    let (dir, len) = if par == NO_PARENT {
+        (Vec3::Y, 0.0)
+    } else {
+        let v = sk.position[j] - sk.position[par as usize];
+        (v.normalize_or_zero(), v.length())
+    };
+    let kids: Vec<String> = ch
+        .of(j)
+        .iter()
+        .map(|&k| {
+            let v = sk.position[k as usize] - sk.position[j];
+            let ang = dir.dot(v.normalize_or_zero()).clamp(-1.0, 1.0).acos().to_degrees();
+            format!(
+                "[{k} r={:.3} len={:.3} {ang:.0}° kids={}]",
+                sk.radius[k as usize],
+                v.length(),
+                ch.of(k as usize).len()
+            )
+        })
+        .collect();
+    format!("r={:.3}, internode {len:.3}; children {}", sk.radius[j], kids.join(" "))
+}
+
+/// The faces of `m` whose centre lies within `r` of `c` and that `keep` accepts, as a
+/// compact mesh.
+fn crop(m: &Mesh, c: Vec3, r: f32, keep: &dyn Fn(usize) -> bool) -> Mesh {
+    let mut out = Mesh::new();
+    let mut map = HashMap::new();
+    for f in 0..m.face_count() {
+        if centroid(m, f).distance(c) < r && keep(f) {
+            let v: Vec<u32> = m
+                .face(f)
+                .iter()
+                .map(|&i| {
+                    *map.entry(i).or_insert_with(|| {
+                        out.positions.push(m.positions[i as usize]);
+                        (out.positions.len() - 1) as u32
+                    })
+                })
+                .collect();
+            out.push_face(&v);
+        }
+    }
+    out
+}
+
+/// Renders the crop around `c` from three azimuths, `hits` in red.
+fn render(
+    m: &Mesh,
+    hits: &HashSet<usize>,
+    c: Vec3,
+    r: f32,
+    stem: &str,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let material = |rgb: [f32; 3]| Material {
+        base_color: [rgb[0], rgb[1], rgb[2], 1.0],
+        double_sided: true,
+        ..Material::bark()
+    };
+    let model = Model {
+        parts: vec![
+            Part {
+                name: "clear".into(),
+                mesh: crop(m, c, r, &|f| !hits.contains(&f)),
+                material: material([0.6; 3]),
+            },
+            Part {
+                name: "hits".into(),
+                mesh: crop(m, c, r, &|f| hits.contains(&f)),
+                material: material([0.9, 0.05, 0.05]),
+            },
+        ],
+    };
+    for (i, az) in [0.0f32, 90.0, 180.0].into_iter().enumerate() {
+        let opts = sylva::preview::PreviewOptions {
+            width: 400,
+            height: 400,
+            view: Some(sylva::preview::ViewAngles { azimuth_deg: az, elevation_deg: 20.0 }),
+            ..Default::default()
+        };
+        let img = sylva::preview::render(&model, &opts)?;
+        sylva::preview::write_png(&img, std::path::Path::new(&format!("{stem}-{i}.png")))?;
+    }
+    Ok(())
+}
