@@ -260,16 +260,20 @@ fn decollided(preset: &str, meshers: &[&str], level2_faces: usize) -> Option<Dec
 }
 
 /// Presets (and joint meshers) that `decollide` makes collision-free and whose meshes
-/// then have no self-intersection, also at Loop / Catmull–Clark level 2 (issue 5's
-/// acceptance), small enough for CI. `decollide_table_of_every_preset` (ignored, run in
+/// then have no self-intersection at Loop / Catmull–Clark level 2 (issue 5's
+/// acceptance; the hull and sweep control meshes too), small enough for CI. `decollide_table_of_every_preset` (ignored, run in
 /// release) covers every preset and prints the table in `docs/meshers.md`.
 const DECOLLIDED_CLEAN_CI: &[(&str, &[&str])] = &[
     ("lsys-binary-tree", &["hull", "sweep", "quad"]),
+    ("lsys-honda-a", &["hull", "sweep", "quad"]),
     ("lsys-honda-c", &["hull", "sweep", "quad"]),
     ("lsys-honda-g", &["hull", "sweep", "quad"]),
     ("lsys-honda-h", &["hull", "sweep", "quad"]),
+    ("lsys-ternary-tree", &["sweep", "quad"]),
     ("lsys-abop-stochastic", &["hull"]),
-    ("bcm-elm", &["hull", "sweep"]),
+    ("bcm-elm", &["hull", "sweep", "quad"]),
+    ("colonize-shrub", &["hull", "quad"]),
+    ("mgv-c", &["hull", "sweep"]),
     ("mig-i", &["hull", "sweep"]),
     ("mig-roots", &["hull", "sweep"]),
 ];
@@ -277,12 +281,17 @@ const DECOLLIDED_CLEAN_CI: &[(&str, &[&str])] = &[
 #[test]
 fn decollided_presets_mesh_without_self_intersections() {
     for &(preset, meshers) in DECOLLIDED_CLEAN_CI {
-        let d = decollided(preset, meshers, 600_000).unwrap_or_else(|| panic!("{preset} does not grow"));
+        let d = decollided(preset, meshers, 2_000_000).unwrap_or_else(|| panic!("{preset} does not grow"));
         assert!(d.before > 0 || preset == "lsys-binary-tree", "{preset}: nothing to decollide");
         assert_eq!(d.after, 0, "{preset}: skeleton collisions left");
         for (k, m) in meshers.iter().enumerate() {
-            assert_eq!(d.control[k], 0, "{preset} {m}: control-mesh intersections");
-            assert_eq!(d.level2[k].unwrap_or(0), 0, "{preset} {m}: level-2 intersections");
+            // The quad cage is Catmull–Clark's control polygon, not a surface (its
+            // corners lie outside the limit surface, and crotch cages may cross where
+            // the limit surface does not): only its refinement must be clean.
+            if *m != "quad" {
+                assert_eq!(d.control[k], 0, "{preset} {m}: control-mesh intersections");
+            }
+            assert_eq!(d.level2[k], Some(0), "{preset} {m}: level-2 intersections");
         }
     }
 }
