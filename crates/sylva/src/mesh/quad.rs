@@ -460,18 +460,16 @@ impl Builder<'_> {
     fn sorted_kids(&self, node: u32, d: Vec3) -> Vec<u32> {
         let mut k = self.kids(node).to_vec();
         let p = self.pos(node);
+        let dot = |c: u32| unit_or(self.pos(c) - p, Vec3::ZERO).dot(d);
         k.sort_by(|&a, &b| {
             let ra = self.sk.radius[a as usize];
             let rb = self.sk.radius[b as usize];
-            let da = unit_or(self.pos(a) - p, Vec3::ZERO).dot(d);
-            let db = unit_or(self.pos(b) - p, Vec3::ZERO).dot(d);
-            rb.total_cmp(&ra).then(db.total_cmp(&da)).then(a.cmp(&b))
+            rb.total_cmp(&ra).then(dot(b).total_cmp(&dot(a))).then(a.cmp(&b))
         });
         // A thickest child that points back (≥ 90°) would make the whole junction a
         // backward box with every other child — the forward continuation included — on
         // its sides. When a forward child is nearly as thick (≥ 3/4 of its radius), that
         // one leads instead.
-        let dot = |c: u32| unit_or(self.pos(c) - p, Vec3::ZERO).dot(d);
         if k.len() > 1 && dot(k[0]) <= 0.0 {
             let r0 = self.sk.radius[k[0] as usize];
             if let Some(i) = k.iter().position(|&c| dot(c) > 0.0 && self.sk.radius[c as usize] >= 0.75 * r0) {
@@ -701,8 +699,8 @@ impl Builder<'_> {
     /// The elbow of a side child (see [`QuadOptions::elbow_angle`]): when `kid` leaves
     /// the side face `r` more than the elbow angle from its normal, a ring of the child's
     /// size perpendicular to the half direction of the face normal and the child, a short
-    /// neck (half the face's corner distance, at most a quarter of the way to the child)
-    /// out of the face. Returns the ring the child's tube starts from.
+    /// neck (`ρ_child·sin β + ρ_face/2`, β the ring's tilt, at most 0.3 of the way to the
+    /// child) out of the face. Returns the ring the child's tube starts from.
     fn elbow(&mut self, r: Ring, kid: u32) -> Ring {
         let p = self.pos(kid);
         let to = p - r.center;
@@ -741,15 +739,21 @@ impl Builder<'_> {
         let x = perp(cur, h);
         let y = h.cross(x);
         let score = |psi: f32| {
+            let (sin, cos) = psi.sin_cos();
+            // Face normals at ψ, ψ + 90°, ψ + 180°, ψ + 270°.
+            let n0 = x * cos + y * sin;
+            let n1 = h.cross(n0);
+            let normals = [n0, n1, -n0, -n1];
             let mut used = [false; 4];
             let mut total = 0.0;
             for &dk in &dirs {
-                let (best, dot) = (0..4)
-                    .map(|k| {
-                        let t = psi + std::f32::consts::FRAC_PI_2 * k as f32;
-                        (k, (x * t.cos() + y * t.sin()).dot(dk))
-                    })
-                    .fold((0, f32::MIN), |a, v| if v.1 > a.1 { v } else { a });
+                let (best, dot) = (0..4).map(|k| (k, normals[k].dot(dk))).fold((0, f32::MIN), |a, v| {
+                    if v.1 > a.1 {
+                        v
+                    } else {
+                        a
+                    }
+                });
                 total += if used[best] { -1.0 } else { dot };
                 used[best] = true;
             }
@@ -841,6 +845,7 @@ impl Builder<'_> {
         }
         let p = self.pos(node);
         let axis = unit_or(t.center - b.center, b.normal);
+        let (cos_aligned, cos_reversed) = (ALIGNED_DEG.to_radians().cos(), REVERSED_DEG.to_radians().cos());
         let mut sets: [Vec<u32>; 4] = Default::default();
         for &kid in kids {
             let dk = unit_or(self.pos(kid) - p, Vec3::ZERO);
@@ -852,9 +857,8 @@ impl Builder<'_> {
             // through an elbow when it points back, or forward but clear of the first
             // child's direction (≥ ALIGNED_DEG away); inside the first child's tube or
             // the parent's, or along a backward box's capped top, it is detached.
-            let aligned = ALIGNED_DEG.to_radians().cos();
-            let back = dk.dot(axis) < 0.0 && -dk.dot(parent_dir) < REVERSED_DEG.to_radians().cos();
-            let clear = first.is_some_and(|f| f.dot(dk) < aligned);
+            let back = dk.dot(axis) < 0.0 && -dk.dot(parent_dir) < cos_reversed;
+            let clear = first.is_some_and(|f| f.dot(dk) < cos_aligned);
             let limit = if back || clear { self.cos_back } else { self.cos_side };
             if dot >= limit && dk != Vec3::ZERO {
                 sets[best].push(kid);
