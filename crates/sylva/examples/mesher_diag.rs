@@ -59,6 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
     let d = decollide(&mut sk, &DecollideOptions::default())?;
     println!("{preset}: {} nodes, skeleton collisions {} -> {}", sk.len(), d.before, d.after);
+    let mut face_node: Vec<u32> = Vec::new();
     let (mesh, scheme) = match mesher {
         "hull" => {
             let h = hull_mesh(&sk, &HullOptions { caps: true, ..Default::default() })?;
@@ -76,17 +77,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             (w.mesh, Scheme::Loop)
         }
         "quad" => {
-            let q = quad_mesh(&sk, &QuadOptions::default())?;
+            let mut o = QuadOptions::default();
+            if let Some(v) = std::env::var("SYLVA_QUAD_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
+                o.min_radius = v;
+            }
+            if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
+                o.repair_rounds = v;
+            }
+            let t = std::time::Instant::now();
+            let q = quad_mesh(&sk, &o)?;
+            println!("quad_mesh: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
             let mut by: BTreeMap<String, usize> = BTreeMap::new();
             for f in &q.fallbacks {
                 *by.entry(format!("{:?}", f.reason)).or_default() += 1;
             }
-            println!("quad: fallbacks {by:?}, cases {:?}", q.cases);
+            println!("quad: fallbacks {by:?}, cases {:?}, repair rounds {}", q.cases, q.repair_rounds);
+            face_node = q.face_node.clone();
             (q.mesh, Scheme::CatmullClark)
         }
         other => return Err(format!("unknown mesher {other:?}: hull, sweep or quad").into()),
     };
     let listed = CheckOptions { max_listed: MAX_PAIRS, ..Default::default() };
+    let t0 = std::time::Instant::now();
     let c = check_mesh(&mesh, &listed);
     let (fine, report) = if control_only {
         (mesh.clone(), c.clone())
@@ -95,8 +107,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             refine: RefineOptions { scheme, levels: 2, ..Default::default() },
             ..Default::default()
         };
+        let t1 = std::time::Instant::now();
         let fine = subdivide(&mesh, &[], &opts)?;
+        let t2 = std::time::Instant::now();
         let r = check_mesh(&fine, &listed);
+        println!(
+            "times: control check {:.0} ms, level-2 refine {:.0} ms ({} faces), level-2 check {:.0} ms",
+            (t1 - t0).as_secs_f64() * 1e3,
+            (t2 - t1).as_secs_f64() * 1e3,
+            fine.face_count(),
+            t2.elapsed().as_secs_f64() * 1e3
+        );
         (fine, r)
     };
     println!(
@@ -105,6 +126,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
     );
 
+    if !face_node.is_empty() {
+        // The nodes the quad mesher made each crossing face for, and their parents.
+        let shift = if control_only { 0 } else { 4 };
+        let mut seen: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+        for pair in &report.intersections {
+            let (a, b) = (face_node[pair[0] >> shift], face_node[pair[1] >> shift]);
+            *seen.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+        let par = |o: u32| if o == u32::MAX { u32::MAX } else { sk.parent[o as usize] };
+        for ((a, b), n) in seen.iter().take(20) {
+            // Steps up from each to their lowest common ancestor.
+            let chain = |mut o: u32| {
+                let mut c = Vec::new();
+                while o != u32::MAX && c.len() < 64 {
+                    c.push(o);
+                    o = par(o);
+                }
+                c
+            };
+            let (ca, cb) = (chain(*a), chain(*b));
+            let lca = ca
+                .iter()
+                .position(|x| cb.contains(x))
+                .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
+            println!("faces of nodes {a} (parent {}) and {b} (parent {}): {n} pairs; steps to common ancestor {lca:?}", par(*a), par(*b));
+        }
+    }
     let mut joints: BTreeMap<u32, usize> = BTreeMap::new();
     for pair in &report.intersections {
         let a = nearest_internode(&sk, centroid(&fine, pair[0]));

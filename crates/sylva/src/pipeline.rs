@@ -391,7 +391,7 @@ pub fn mesh(
         if !q.fallbacks.is_empty() {
             let first: Vec<u32> = q.fallbacks.iter().take(8).map(|f| f.node).collect();
             report.warnings.push(format!(
-                "quad mesher: {} node(s) fell back (detached capped cages or shortened junctions; first nodes {first:?})",
+                "quad mesher: {} node(s) fell back (detached or separated capped cages, unboxed or shortened junctions; first nodes {first:?})",
                 q.fallbacks.len()
             ));
         }

@@ -270,12 +270,12 @@ const DECOLLIDED_CLEAN_CI: &[(&str, &[&str])] = &[
     ("lsys-honda-g", &["hull", "sweep", "quad"]),
     ("lsys-honda-h", &["hull", "sweep", "quad"]),
     ("lsys-ternary-tree", &["sweep", "quad"]),
-    ("lsys-abop-stochastic", &["hull"]),
+    ("lsys-abop-stochastic", &["hull", "quad"]),
     ("bcm-elm", &["hull", "sweep", "quad"]),
     ("colonize-shrub", &["hull", "quad"]),
-    ("mgv-c", &["hull", "sweep"]),
-    ("mig-i", &["hull", "sweep"]),
-    ("mig-roots", &["hull", "sweep"]),
+    ("mgv-c", &["hull", "sweep", "quad"]),
+    ("mig-i", &["hull", "sweep", "quad"]),
+    ("mig-roots", &["hull", "sweep", "quad"]),
 ];
 
 #[test]

@@ -63,14 +63,20 @@ fn catmull_clark(m: &Mesh, levels: u32) -> Mesh {
     subdivide(m, &[], &opts).expect("Catmull–Clark subdivision of the quad cage")
 }
 
-/// Components expected from the report: one per tree plus one per detached subtree.
+/// Components expected from the report: one per tree plus one per detached or
+/// separated subtree.
 fn expected_components(sk: &Skeleton, q: &QuadMesh) -> usize {
     let ch = sk.children();
     let trees = (0..sk.len()).filter(|&i| sk.parent[i] == NO_PARENT && !ch.of(i).is_empty()).count();
     let detached = q
         .fallbacks
         .iter()
-        .filter(|f| matches!(f.reason, FallbackReason::Detached | FallbackReason::ChainLimit))
+        .filter(|f| {
+            matches!(
+                f.reason,
+                FallbackReason::Detached | FallbackReason::ChainLimit | FallbackReason::Separated
+            )
+        })
         .count();
     trees + detached
 }
@@ -521,8 +527,8 @@ fn recipe_and_pipeline_select_the_quad_mesher() {
     let grown = sylva::pipeline::grow(&loaded).unwrap();
     let bark = &grown.model.parts[0].mesh;
     let t = check("honda-c pipeline", bark);
-    assert_eq!(t.components, 1);
     let q = quad_mesh(&grown.skeleton, &QuadOptions::default()).unwrap();
+    assert_eq!(t.components, q.components);
     assert_eq!(bark.face_count(), 4 * q.mesh.face_count());
     assert!(!q.fallbacks.is_empty());
     assert!(
@@ -661,7 +667,9 @@ fn elbows_keep_oblique_side_children_clean_after_refinement() {
         let fine = subdivide(&q.mesh, &[], &o).unwrap();
         (check_mesh(&fine, &CheckOptions::default()).intersection_count.unwrap(), q.cases.elbows)
     };
-    let off = QuadOptions { elbow_angle: 90.0, ..Default::default() };
+    // The repair would separate what the elbows leave crossing: off, to test the elbows.
+    let on = QuadOptions { repair_rounds: 0, ..Default::default() };
+    let off = QuadOptions { elbow_angle: 90.0, ..on.clone() };
     let (mut without, mut elbows) = (0, 0);
     for upx in [0.0f32, 0.4, 1.0] {
         let up = Vec3::new(upx, 0.0, 1.0).normalize();
@@ -675,7 +683,7 @@ fn elbows_keep_oblique_side_children_clean_after_refinement() {
                 let (sa, az) = (side.to_radians(), (180.0 + az).to_radians());
                 let dir = Vec3::new(sa.sin() * az.cos(), sa.cos(), sa.sin() * az.sin());
                 s.push(Vec3::Y * 3.0 + dir * 2.0, 0.14, a, up, 1);
-                let (with, e) = level2(&s, &QuadOptions::default());
+                let (with, e) = level2(&s, &on);
                 assert_eq!(with, 0, "side child at {side}°, azimuth {az}, up {up}: level-2 intersections");
                 elbows += e;
                 without += level2(&s, &off).0;
@@ -684,4 +692,66 @@ fn elbows_keep_oblique_side_children_clean_after_refinement() {
     }
     assert!(elbows > 0, "no elbow was built");
     assert!(without > 0, "the forks do not exercise the elbows");
+}
+
+/// The repair (module docs, "Repair"): narrow forks whose tubes cross only after
+/// Catmull–Clark are clean at level 2 with the default options, because the crossing
+/// side child is separated (and reported); without the repair some of them cross.
+#[test]
+fn repair_separates_narrow_forks_that_cross_after_refinement() {
+    let level2 = |sk: &Skeleton, opts: &QuadOptions| {
+        let q = quad_mesh(sk, opts).unwrap();
+        assert_eq!(q.face_node.len(), q.mesh.face_count());
+        assert!(q.face_node.iter().all(|&n| (n as usize) < sk.len()));
+        let o = SubdivideOptions {
+            refine: RefineOptions { scheme: Scheme::CatmullClark, levels: 2, ..Default::default() },
+            ..Default::default()
+        };
+        let fine = subdivide(&q.mesh, &[], &o).unwrap();
+        (check_mesh(&fine, &CheckOptions::default()).intersection_count.unwrap(), q)
+    };
+    let off = QuadOptions { repair_rounds: 0, ..Default::default() };
+    let mut crossed = 0;
+    // Short, thick internodes (8–12 radii, as in the `mgv-*` trees), both children on
+    // one side of the parent, 15–25° apart.
+    for t0 in [45.0f32, 70.0] {
+        for t1 in [t0 - 15.0, t0 - 25.0] {
+            for az in [0.0f32, 20.0] {
+                for ratio in [0.8f32, 1.0] {
+                    let mut s = Skeleton::new();
+                    let r = s.push(Vec3::ZERO, 0.03, NO_PARENT, Vec3::Z, 0);
+                    let a = s.push(Vec3::Y * 0.25, 0.03, r, Vec3::Z, 0);
+                    let dir = |t: f32, az: f32| {
+                        let (t, z) = (t.to_radians(), az.to_radians());
+                        Vec3::new(t.sin() * z.cos(), t.cos(), t.sin() * z.sin())
+                    };
+                    let k0 = s.push(Vec3::Y * 0.25 + dir(t0, 0.0) * 0.37, 0.024, a, Vec3::Z, 0);
+                    let k1 = s.push(Vec3::Y * 0.25 + dir(t1, az) * 0.3, 0.024 * ratio, a, Vec3::Z, 1);
+                    let name = format!("fork at {t0}° and {t1}° (azimuth {az}°), ratio {ratio}");
+                    let (with, q) = level2(&s, &QuadOptions::default());
+                    assert_eq!(with, 0, "{name}: level-2 intersections after the repair");
+                    check(&name, &q.mesh);
+                    let (without, q0) = level2(&s, &off);
+                    assert_eq!(q0.repair_rounds, 0);
+                    assert!(q0.fallbacks.iter().all(|f| f.reason != FallbackReason::Separated));
+                    if without > 0 {
+                        crossed += 1;
+                        assert!(q.repair_rounds > 0, "{name}: crossed, yet no repair round");
+                        assert!(
+                            q.fallbacks
+                                .iter()
+                                .any(|f| (f.node == k1 || f.node == k0)
+                                    && f.reason == FallbackReason::Separated),
+                            "{name}: crossed, yet no child separated: {:?}",
+                            q.fallbacks
+                        );
+                        assert_eq!(q.components, 2, "{name}: the separated child is its own piece");
+                    } else {
+                        assert_eq!(q.mesh, q0.mesh, "{name}: clean without the repair, yet changed");
+                    }
+                }
+            }
+        }
+    }
+    assert!(crossed > 0, "no fork crossed without the repair: the test does not exercise it");
 }

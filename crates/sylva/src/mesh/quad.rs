@@ -112,6 +112,7 @@ use crate::error::{Error, Result};
 use crate::mesh::{FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::f32::consts::TAU;
 
 /// A side child closer than this to the first child's direction is aligned with it:
@@ -121,6 +122,13 @@ const ALIGNED_DEG: f32 = 10.0;
 /// A child closer than this to the reversed parent direction runs back inside the
 /// parent's tube: beyond [`QuadOptions::max_side_angle`] it is detached (degrees).
 const REVERSED_DEG: f32 = 2.0;
+
+/// No node.
+const NONE: u32 = u32::MAX;
+
+/// A separated child's start ring keeps this multiple of the two radii from its parent's
+/// axes (see [`FallbackReason::Separated`]).
+const GAP_MARGIN: f32 = 1.25;
 
 /// How the box length `l + x` of a junction is computed (seed 003, J Eq. 4; spec 003 §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -169,6 +177,15 @@ pub struct QuadOptions {
     /// it a child leaving nearly along the box starts from the face seen edge-on, and its
     /// first tube flattens into a twisted blade that folds under Catmull–Clark.
     pub elbow_angle: f32,
+    /// Repair rounds after refinement (default 4, range 0–16; 0 turns the repair off):
+    /// the cage is refined [`QuadOptions::check_levels`] times with Catmull–Clark, the
+    /// refined faces of each junction are searched for crossings among themselves, and
+    /// the children (or whole junctions) they come from are separated (see the module
+    /// docs, "Repair").
+    pub repair_rounds: u32,
+    /// Catmull–Clark levels at which the repair looks for crossings (default 2, the
+    /// level the junction acceptance checks; range 1–3).
+    pub check_levels: u32,
 }
 
 impl Default for QuadOptions {
@@ -180,9 +197,11 @@ impl Default for QuadOptions {
             max_side_angle: 80.0,
             max_back_angle: 120.0,
             max_chain: 3,
-            min_radius: 0.02,
+            min_radius: 0.005,
             min_length: 0.1,
             elbow_angle: 30.0,
+            repair_rounds: 4,
+            check_levels: 2,
         }
     }
 }
@@ -211,6 +230,12 @@ impl QuadOptions {
         if !(self.elbow_angle.is_finite() && (0.0..=90.0).contains(&self.elbow_angle)) {
             return bad(format!("elbow_angle = {}; it must be in 0..=90 degrees", self.elbow_angle));
         }
+        if self.repair_rounds > 16 {
+            return bad(format!("repair_rounds = {}; it must be in 0..=16", self.repair_rounds));
+        }
+        if !(1..=3).contains(&self.check_levels) {
+            return bad(format!("check_levels = {}; it must be in 1..=3", self.check_levels));
+        }
         Ok(())
     }
 }
@@ -230,6 +255,13 @@ pub enum FallbackReason {
     /// than its box, a sharp kink): the node was skipped, boxed on its start section or
     /// extended (see the module docs).
     Short,
+    /// The repair found this child's refined surface crossing its junction (a narrow
+    /// fork, a crowded whorl): it starts as a separate capped cage a small gap away from
+    /// its parent's tubes instead of from a side face.
+    Separated,
+    /// The repair found this junction's own box folding under refinement: every child but
+    /// the first is separated and the node becomes a plain connection.
+    Unboxed,
 }
 
 /// One node meshed by a fallback.
@@ -270,8 +302,16 @@ pub struct QuadMesh {
     /// Nodes with one child skipped because their section would cross the previous one
     /// (short internodes; see the module docs), in the order met.
     pub merged: Vec<u32>,
-    /// Closed pieces: one per tree with geometry plus one per detached subtree.
+    /// Closed pieces: one per tree with geometry plus one per detached or separated
+    /// subtree.
     pub components: usize,
+    /// The skeleton node each face was made for, parallel to the faces: a tube's bands
+    /// and end cap belong to the node it runs to, a junction's box to its branching
+    /// node, an elbow to its child (for per-branch selection, and for the repair).
+    pub face_node: Vec<u32>,
+    /// Repair rounds that changed the cage (0 when the first cage was clean or the repair
+    /// is off).
+    pub repair_rounds: u32,
 }
 
 /// Box length `l + x` of a junction (seed 003, J Eq. 4): `diameters` are the children's
@@ -306,13 +346,32 @@ enum Task {
     Segment { ring: Ring, node: u32 },
     /// Mesh `node`'s subtree as a separate cage starting at its parent.
     Detach { node: u32 },
+    /// Mesh `node`'s subtree as a separate cage a gap away from its parent's tubes.
+    Separate { node: u32 },
+}
+
+/// What the repair changed at a node (see [`FallbackReason::Separated`] and
+/// [`FallbackReason::Unboxed`]).
+#[derive(Debug, Clone, Default)]
+struct Repairs {
+    separated: Vec<bool>,
+    unboxed: Vec<bool>,
+    /// The junctions the next round searches (empty: all): those next to a change.
+    dirty: Vec<bool>,
 }
 
 struct Builder<'a> {
     sk: &'a Skeleton,
     opts: &'a QuadOptions,
-    offsets: Vec<u32>,
-    kids: Vec<u32>,
+    offsets: &'a [u32],
+    kids: &'a [u32],
+    repairs: &'a Repairs,
+    /// The node each face was made for (parallel to the faces).
+    owner: Vec<u32>,
+    /// The node the faces being made belong to.
+    cur: u32,
+    /// Each branching node's first (leading) child.
+    lead: Vec<u32>,
     floor: f32,
     cos_side: f32,
     cos_back: f32,
@@ -361,41 +420,201 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
         let st = skeleton.stats();
         ((st.bounds.1 - st.bounds.0).length() * 0.002).max(1e-4)
     };
-    let mut b = Builder {
-        sk: skeleton,
-        opts,
-        offsets,
-        kids,
-        floor: floor.max(1e-9),
-        cos_side: opts.max_side_angle.to_radians().cos(),
-        cos_back: opts.max_back_angle.to_radians().cos(),
-        cos_elbow: opts.elbow_angle.to_radians().cos(),
-        positions: Vec::with_capacity(n * 5),
-        indices: Vec::with_capacity(n * 20),
-        uv_values: Vec::with_capacity(n * 6),
-        uv_indices: Vec::with_capacity(n * 20),
-        fallbacks: Vec::new(),
-        cases: CaseCounts::default(),
-        merged: Vec::new(),
-        components: 0,
-        stack: Vec::new(),
-    };
-    for root in 0..n {
-        if skeleton.parent[root] == NO_PARENT {
-            b.root(root as u32);
+    let mut repairs = Repairs { separated: vec![false; n], unboxed: vec![false; n], dirty: Vec::new() };
+    let mut rounds = 0;
+    loop {
+        let mut b = Builder {
+            sk: skeleton,
+            opts,
+            offsets: &offsets,
+            kids: &kids,
+            repairs: &repairs,
+            owner: Vec::with_capacity(n * 5),
+            cur: NONE,
+            lead: vec![NONE; n],
+            floor: floor.max(1e-9),
+            cos_side: opts.max_side_angle.to_radians().cos(),
+            cos_back: opts.max_back_angle.to_radians().cos(),
+            cos_elbow: opts.elbow_angle.to_radians().cos(),
+            positions: Vec::with_capacity(n * 5),
+            indices: Vec::with_capacity(n * 20),
+            uv_values: Vec::with_capacity(n * 6),
+            uv_indices: Vec::with_capacity(n * 20),
+            fallbacks: Vec::new(),
+            cases: CaseCounts::default(),
+            merged: Vec::new(),
+            components: 0,
+            stack: Vec::new(),
+        };
+        for root in 0..n {
+            if skeleton.parent[root] == NO_PARENT {
+                b.root(root as u32);
+            }
+            b.drain();
         }
-        b.drain();
+        let Builder {
+            positions,
+            indices,
+            owner,
+            lead,
+            uv_values,
+            uv_indices,
+            fallbacks,
+            cases,
+            merged,
+            components,
+            ..
+        } = b;
+        let faces = indices.len() / 4;
+        let mesh = Mesh {
+            positions,
+            face_offsets: (0..=faces as u32).map(|f| 4 * f).collect(),
+            face_indices: indices,
+            uvs: None,
+            normals: None,
+            creases: Vec::new(),
+        };
+        let changed = rounds < opts.repair_rounds
+            && repair(skeleton, &mesh, &owner, &lead, opts.check_levels, &mut repairs);
+        if !changed {
+            let mesh = Mesh { uvs: Some(FaceVarying { values: uv_values, indices: uv_indices }), ..mesh };
+            return Ok(QuadMesh {
+                mesh,
+                fallbacks,
+                cases,
+                merged,
+                components,
+                face_node: owner,
+                repair_rounds: rounds,
+            });
+        }
+        rounds += 1;
     }
-    let faces = b.indices.len() / 4;
-    let mesh = Mesh {
-        positions: b.positions,
-        face_offsets: (0..=faces as u32).map(|f| 4 * f).collect(),
-        face_indices: b.indices,
-        uvs: Some(FaceVarying { values: b.uv_values, indices: b.uv_indices }),
-        normals: None,
-        creases: Vec::new(),
+}
+
+/// One repair round (see the module docs, "Repair"): refines `mesh` `levels` times with
+/// Catmull–Clark, searches the refined faces of each branching node's neighbourhood —
+/// the faces made for the node, its children and its grandchildren — for crossings, and
+/// records in `repairs` what to change. Returns whether anything changed. After the
+/// first round only the junctions next to a change are searched again (a separation
+/// changes its child's start and its parent's box, nothing else).
+fn repair(
+    sk: &Skeleton,
+    mesh: &Mesh,
+    owner: &[u32],
+    lead: &[u32],
+    levels: u32,
+    repairs: &mut Repairs,
+) -> bool {
+    use crate::mesh::check::group_crossings;
+    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+    let opts = SubdivideOptions {
+        refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
+        ..Default::default()
     };
-    Ok(QuadMesh { mesh, fallbacks: b.fallbacks, cases: b.cases, merged: b.merged, components: b.components })
+    let Ok(fine) = subdivide(mesh, &[], &opts) else { return false };
+    let parent = |o: u32| if o == NONE { NONE } else { sk.parent[o as usize] };
+    // Catmull–Clark numbers the children of quad `f` `4f..4f + 4`, so a level-L face
+    // descends from control face `f >> 2L`.
+    let shift = 2 * levels;
+    let branching = |j: u32| j != NONE && lead[j as usize] != NONE;
+    // The junctions each control face is searched with: its node's, its parent's and its
+    // grandparent's, where that node branches (and, after the first round, is due).
+    let due = |j: u32| branching(j) && (repairs.dirty.is_empty() || repairs.dirty[j as usize]);
+    let keys: Vec<[u32; 3]> = (0..mesh.face_count())
+        .into_par_iter()
+        .map(|f| {
+            let o = owner[f];
+            let (p, g) = (parent(o), parent(parent(o)));
+            [o, p, g].map(|j| if due(j) { j } else { NONE })
+        })
+        .collect();
+    let mut tris: Vec<(u32, [u32; 3], u32)> = Vec::with_capacity(fine.face_count() * 3);
+    for f in 0..fine.face_count() {
+        let v = fine.face(f);
+        for key in keys[f >> shift] {
+            if key != NONE {
+                tris.push((key, [v[0], v[1], v[2]], f as u32));
+                tris.push((key, [v[0], v[2], v[3]], f as u32));
+            }
+        }
+    }
+    // The child of `j` on the way to `o` (`None` for `j` itself).
+    let path = |o: u32, j: u32| {
+        if o == j {
+            None
+        } else if parent(o) == j {
+            Some(o)
+        } else {
+            Some(parent(o))
+        }
+    };
+    let mut touched: Vec<u32> = Vec::new();
+    let crossings = group_crossings(&fine.positions, tris, 64, |_, _| false);
+    // Next round: the junctions that crossed (they may hold more than the pairs listed)
+    // and those whose searched faces a change can have moved.
+    let mut dirty = vec![false; sk.len()];
+    for (j, fa, fb) in crossings {
+        dirty[j as usize] = true;
+        let (oa, ob) = (owner[fa as usize >> shift], owner[fb as usize >> shift]);
+        let (ca, cb) = (path(oa, j), path(ob, j));
+        if let Some(c) = ca.filter(|_| ca == cb) {
+            // Inside one child's subtree: its own junction's business, unless the child's
+            // own faces (its first tube, its elbow) fold and it has no junction (or one
+            // already unboxed).
+            let boxed = branching(c) && !repairs.unboxed[c as usize];
+            if oa != c || ob != c || boxed || c == lead[j as usize] {
+                continue;
+            }
+        }
+        // The thinner side child is separated (the other one when that one already is);
+        // when both are, a grandchild on the way that is a side child of its own parent.
+        let thinner = |v: &mut Vec<u32>| {
+            v.sort_by(|&a, &b| sk.radius[a as usize].total_cmp(&sk.radius[b as usize]).then(b.cmp(&a)))
+        };
+        let mut side: Vec<u32> = [ca, cb].into_iter().flatten().filter(|&c| c != lead[j as usize]).collect();
+        thinner(&mut side);
+        let mut deeper: Vec<u32> = [oa, ob]
+            .into_iter()
+            .filter(|&o| o != j && parent(o) != j && lead[parent(o) as usize] != o)
+            .collect();
+        thinner(&mut deeper);
+        let free = |c: &&u32| !repairs.separated[**c as usize];
+        match side.iter().find(free).or_else(|| deeper.iter().find(free)) {
+            Some(&c) => {
+                repairs.separated[c as usize] = true;
+                touched.push(c);
+            }
+            None if !side.is_empty() => {}
+            None if !repairs.unboxed[j as usize] => {
+                repairs.unboxed[j as usize] = true;
+                touched.push(j);
+            }
+            None => {}
+        }
+    }
+    // A change at junction `j` (a child separated, or `j` unboxed) rebuilds `j`'s box,
+    // which turns to its remaining side children, and sections carry their up vector
+    // down the tree: everything below `j` may move. `j`, the two junctions above it
+    // (which search `j`'s faces) and `j`'s whole subtree are searched again (parents
+    // precede children, so one pass marks the subtrees).
+    let mut below = vec![false; sk.len()];
+    for &t in &touched {
+        let j = if repairs.unboxed[t as usize] { t } else { parent(t) };
+        below[j as usize] = true;
+        for k in [parent(j), parent(parent(j))] {
+            if k != NONE {
+                dirty[k as usize] = true;
+            }
+        }
+    }
+    for c in 0..sk.len() {
+        let p = sk.parent[c];
+        below[c] |= p != NO_PARENT && below[p as usize];
+        dirty[c] |= below[c];
+    }
+    repairs.dirty = dirty;
+    !touched.is_empty()
 }
 
 /// Unit `v`, or `fallback` when `v` is (nearly) zero or not finite.
@@ -451,6 +670,7 @@ impl Builder<'_> {
             match t {
                 Task::Segment { ring, node } => self.segment(ring, node),
                 Task::Detach { node } => self.detach(node),
+                Task::Separate { node } => self.separate(node),
             }
         }
     }
@@ -480,6 +700,30 @@ impl Builder<'_> {
         k
     }
 
+    /// [`Self::sorted_kids`] less the children the repair separated (or, at an unboxed
+    /// node, all but the first), which are queued as separate cages and reported.
+    fn kids_for(&mut self, node: u32, d: Vec3) -> Vec<u32> {
+        let mut k = self.sorted_kids(node, d);
+        if k.len() < 2 {
+            return k;
+        }
+        let first = k[0];
+        self.lead[node as usize] = first;
+        let unboxed = self.repairs.unboxed[node as usize];
+        if unboxed {
+            self.fallback(node, FallbackReason::Unboxed);
+        }
+        k.retain(|&c| {
+            let keep = c == first || !(unboxed || self.repairs.separated[c as usize]);
+            if !keep {
+                self.fallbacks.push(QuadFallback { node: c, reason: FallbackReason::Separated });
+                self.stack.push(Task::Separate { node: c });
+            }
+            keep
+        });
+        k
+    }
+
     fn vertex(&mut self, p: Vec3) -> u32 {
         self.positions.push(p);
         (self.positions.len() - 1) as u32
@@ -497,6 +741,7 @@ impl Builder<'_> {
     fn quad(&mut self, v: [u32; 4], uv: [u32; 4]) {
         self.indices.extend_from_slice(&v);
         self.uv_indices.extend_from_slice(&uv);
+        self.owner.push(self.cur);
     }
 
     /// `v` of a ring at `center` following `prev`.
@@ -553,7 +798,8 @@ impl Builder<'_> {
 
     /// A root: a capped start ring, then its child (or a box for several children).
     fn root(&mut self, root: u32) {
-        let kids = self.sorted_kids(root, Vec3::Y);
+        self.cur = root;
+        let kids = self.kids_for(root, Vec3::Y);
         let Some(&k0) = kids.first() else { return };
         let p = self.pos(root);
         let d0 = unit_or(self.pos(k0) - p, Vec3::Y);
@@ -572,6 +818,7 @@ impl Builder<'_> {
 
     /// A detached subtree: a capped start ring at the parent node, then the child.
     fn detach(&mut self, node: u32) {
+        self.cur = node;
         let parent = self.sk.parent[node as usize];
         let from = if parent == NO_PARENT { self.pos(node) } else { self.pos(parent) };
         let d = unit_or(self.pos(node) - from, Vec3::Y);
@@ -583,8 +830,45 @@ impl Builder<'_> {
         self.stack.push(Task::Segment { ring, node });
     }
 
+    /// A separated subtree (see [`FallbackReason::Separated`]): a capped start ring of
+    /// the child's size on the child's axis, far enough out that it keeps
+    /// `GAP_MARGIN × (ρ_axis + ρ_child)` from the parent node and from the parent's
+    /// incoming and leading axes (each a half-line from the node), at most 3/4 of the way
+    /// to the child.
+    fn separate(&mut self, node: u32) {
+        self.cur = node;
+        let parent = self.sk.parent[node as usize];
+        let pp = self.pos(parent);
+        let to = self.pos(node) - pp;
+        let dk = unit_or(to, Vec3::Y);
+        let rho = self.rho(node);
+        let rp = self.rho(parent);
+        let mut t = GAP_MARGIN * (rp + rho);
+        let gp = self.sk.parent[parent as usize];
+        let lead = self.lead[parent as usize];
+        let axes = [
+            (gp != NO_PARENT).then(|| (unit_or(self.pos(gp) - pp, Vec3::ZERO), rp)),
+            (lead != NONE && lead != node)
+                .then(|| (unit_or(self.pos(lead) - pp, Vec3::ZERO), rp.max(self.rho(lead)))),
+        ];
+        for (a, ra) in axes.into_iter().flatten() {
+            let c = dk.dot(a);
+            if c > 0.0 {
+                let sin = (1.0 - c * c).max(0.0).sqrt().max(0.05);
+                t = t.max(GAP_MARGIN * (ra + rho) / sin);
+            }
+        }
+        let t = t.min(0.75 * to.length());
+        let up = self.sk.up[node as usize];
+        let ring = self.ring_perp(pp + dk * t, dk, up, rho, 0.0);
+        self.cap(&ring, false);
+        self.components += 1;
+        self.stack.push(Task::Segment { ring, node });
+    }
+
     /// The internode from `r` to `node` and the structure at `node` (J §3.2 cases).
     fn segment(&mut self, r: Ring, node: u32) {
+        self.cur = node;
         let p = self.pos(node);
         let rho = self.rho(node);
         let min_len = self.min_len(rho.max(r.rho));
@@ -592,7 +876,7 @@ impl Builder<'_> {
         let along = v.dot(r.normal);
         let short = along < min_len;
         let d = if short { r.normal } else { unit_or(v, r.normal) };
-        let kids = self.sorted_kids(node, d);
+        let kids = self.kids_for(node, d);
         if short {
             let parent = self.sk.parent[node as usize];
             let internode = if parent == NO_PARENT { 0.0 } else { p.distance(self.pos(parent)) };
@@ -720,7 +1004,9 @@ impl Builder<'_> {
         let c = r.center + h * len;
         let tv = Self::next_tex_v(&r, c, rho);
         let e = self.ring_perp(c, h, r.up, rho, tv);
+        let at = std::mem::replace(&mut self.cur, kid);
         self.band(&r, &e);
+        self.cur = at;
         self.cases.elbows += 1;
         e
     }

@@ -120,12 +120,11 @@
 //! Deterministic; every valid skeleton gives a mesh, never a panic.
 
 use crate::error::{Error, Result};
-use crate::mesh::check::{check_mesh, triangles_cross, Aabb, CheckOptions};
+use crate::mesh::check::{check_mesh, group_crossings, CheckOptions};
 use crate::mesh::hull::{cap_hull, CapLoop};
 use crate::mesh::{Crease, FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec2};
-use rayon::prelude::*;
 use std::collections::HashSet;
 use std::f64::consts::{FRAC_PI_3, PI};
 
@@ -1239,46 +1238,17 @@ fn folded_templates(
     };
     let Ok(fine) = subdivide(mesh, &[], &opts) else { return out };
     let shift = 2 * levels;
-    // The refined triangles of each template junction, searched pairwise (a junction
-    // has a few hundred at level 1, so this is far cheaper than a BVH over the mesh).
-    let mut groups: Vec<(u32, [u32; 3])> = (0..fine.face_count())
+    // The refined triangles of each template junction, searched among themselves.
+    let tris: Vec<(u32, [u32; 3], u32)> = (0..fine.face_count())
         .filter_map(|f| {
             let v = fine.face(f);
-            template(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]]))
+            template(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]], f as u32))
         })
         .collect();
-    groups.sort_by_key(|g| g.0);
-    for g in &groups {
-        checked[g.0 as usize] = true;
+    for t in &tris {
+        checked[t.0 as usize] = true;
     }
-    let pos = &fine.positions;
-    let folded: Vec<u32> = groups
-        .chunk_by(|a, b| a.0 == b.0)
-        .collect::<Vec<_>>()
-        .into_par_iter()
-        .filter_map(|g| {
-            let tri: Vec<[DVec3; 3]> = g.iter().map(|t| t.1.map(|v| pos[v as usize].as_dvec3())).collect();
-            let bx: Vec<Aabb> =
-                tri.iter().map(|[a, b, c]| Aabb { lo: a.min(*b).min(*c), hi: a.max(*b).max(*c) }).collect();
-            // Sweep and prune along x: only boxes whose x ranges overlap are compared.
-            let mut order: Vec<usize> = (0..g.len()).collect();
-            order.sort_by(|&a, &b| bx[a].lo.x.total_cmp(&bx[b].lo.x));
-            for (i, &a) in order.iter().enumerate() {
-                for &b in &order[i + 1..] {
-                    if bx[b].lo.x > bx[a].hi.x {
-                        break;
-                    }
-                    if bx[a].overlaps(&bx[b])
-                        && !g[a].1.iter().any(|v| g[b].1.contains(v))
-                        && triangles_cross(&tri[a], &tri[b])
-                    {
-                        return Some(g[0].0);
-                    }
-                }
-            }
-            None
-        })
-        .collect();
+    let folded = group_crossings(&fine.positions, tris, 1, |_, _| false).into_iter().map(|c| c.0);
     out.extend(folded);
     out
 }
