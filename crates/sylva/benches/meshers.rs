@@ -40,6 +40,8 @@ fn bench(c: &mut Criterion) {
     g.bench_function("tube", |b| b.iter(|| black_box(tube_mesh(&sk, &TubeOptions::default()).unwrap())));
     g.bench_function("hull", |b| b.iter(|| black_box(hull_mesh(&sk, &HullOptions::default()).unwrap())));
     g.bench_function("quad", |b| b.iter(|| black_box(quad_mesh(&sk, &QuadOptions::default()).unwrap())));
+    let quad_plain = QuadOptions { repair_rounds: 0, ..Default::default() };
+    g.bench_function("quad (no repair)", |b| b.iter(|| black_box(quad_mesh(&sk, &quad_plain).unwrap())));
     let no_repair = SweepOptions { repair_rounds: 0, ..Default::default() };
     g.bench_function("sweep (no repair)", |b| b.iter(|| black_box(sweep_mesh(&sk, &no_repair).unwrap())));
     g.bench_function("sweep", |b| b.iter(|| black_box(sweep_mesh(&sk, &SweepOptions::default()).unwrap())));

@@ -386,7 +386,21 @@ pub fn mesh(
         h.mesh
     } else if recipe.mesh.method == "quad" {
         use crate::mesh::quad::{quad_mesh, QuadOptions};
-        let q = quad_mesh(skeleton, &QuadOptions::default())?;
+        // The level-2 repair costs seconds per 10 k nodes: above the de-collision limit
+        // (where the skeleton is not de-collided either) the cage is left as built.
+        let big = skeleton.len() > crate::recipe::DECOLLIDE_AUTO_NODES;
+        let defaults = QuadOptions::default();
+        let q = quad_mesh(
+            skeleton,
+            &QuadOptions { repair_rounds: if big { 0 } else { defaults.repair_rounds }, ..defaults },
+        )?;
+        if big {
+            report.warnings.push(format!(
+                "quad mesher: level-2 repair skipped on {} skeleton nodes (over the automatic limit of {}; the cage may cross itself after subdivision)",
+                skeleton.len(),
+                crate::recipe::DECOLLIDE_AUTO_NODES
+            ));
+        }
         report.axes = q.components;
         if !q.fallbacks.is_empty() {
             let first: Vec<u32> = q.fallbacks.iter().take(8).map(|f| f.node).collect();

@@ -353,8 +353,8 @@ fn output_is_deterministic() {
 
 #[test]
 fn every_preset_meshes_into_a_closed_manifold() {
-    println!("| preset | nodes | vertices | faces | components | fallbacks (detached/chain/short box/short) | merged | ms |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| preset | nodes | vertices | faces | components | fallbacks (detached/chain/short box/short/separated/unboxed) | merged | repair rounds | ms |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     let mut meshed = 0;
     let mut total_fallbacks = 0;
     for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
@@ -377,7 +377,7 @@ fn every_preset_meshes_into_a_closed_manifold() {
         }
         let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
         println!(
-            "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}) | {} | {ms:.1} |",
+            "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}/{}/{}) | {} | {} | {ms:.1} |",
             p.name,
             sk.len(),
             t.vertices,
@@ -388,7 +388,10 @@ fn every_preset_meshes_into_a_closed_manifold() {
             by(FallbackReason::ChainLimit),
             by(FallbackReason::ShortBox),
             by(FallbackReason::Short),
-            q.merged.len()
+            by(FallbackReason::Separated),
+            by(FallbackReason::Unboxed),
+            q.merged.len(),
+            q.repair_rounds
         );
         total_fallbacks += q.fallbacks.len();
         meshed += 1;

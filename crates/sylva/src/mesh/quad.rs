@@ -98,6 +98,27 @@
 //! * Zero radii are raised to `min_radius · max radius` (or a fraction of the bounding
 //!   box when every radius is 0), so no face has zero area and nothing is NaN.
 //!
+//! # Repair (beyond the seed)
+//!
+//! The seed only promises a valid topology. After the cage is built it is refined
+//! [`QuadOptions::check_levels`] times with Catmull–Clark (2: the level issue 5's
+//! acceptance checks), and each branching node's refined faces — those made for the node,
+//! its children and its grandchildren ([`QuadMesh::face_node`]) — are searched for
+//! crossings among themselves. For a crossing, with `a`, `b` the junction's children on
+//! the way to the two faces: the thinner of them that is not the leading child is
+//! **separated** ([`FallbackReason::Separated`]: its subtree starts as a capped cage on
+//! its own axis, `1.25·(ρ_axis + ρ_child)` clear of the parent node and of the parent's
+//! incoming and leading axes, at most 3/4 of the way to the child); when both already
+//! are, a grandchild on the way that is a side child of its own parent; when no side
+//! child is involved (the box against its leading child or itself) the junction is
+//! **unboxed** ([`FallbackReason::Unboxed`]: every child but the first is separated).
+//! Crossings inside one child's subtree are left to that child's junction, unless they
+//! are the child's own first tube folding and it has no box (then it is separated). The
+//! cage is rebuilt and the changed junctions' subtrees (sections carry their up vector
+//! down the tree) and the two junctions above each are searched again, for up to
+//! [`QuadOptions::repair_rounds`] rounds. Faces further apart in the tree than a
+//! grandparent are not searched: crossings there are skeleton near misses, not junctions.
+//!
 //! # UVs (the seed has none)
 //!
 //! Face-varying: `u = k/4` at corner `k` of each ring, the seam between corner 3 and
@@ -106,7 +127,9 @@
 //! unsubdivided cage). A side face that starts a child restarts `u` at its corner 0 and
 //! keeps the box's `v`. Caps map their corners to `(½ ± ½, ½ ± ½)` around the centre.
 //!
-//! Cost: O(nodes); one task stack (no recursion on skeleton depth), no hashing.
+//! Cost: the cage is O(nodes), one task stack (no recursion on skeleton depth), no
+//! hashing; the repair refines the cage to level 2 (16 faces per quad) and searches each
+//! junction's few thousand refined triangles, which dominates (see BENCHMARKS.md).
 
 use crate::error::{Error, Result};
 use crate::mesh::{FaceVarying, Mesh};
@@ -166,7 +189,8 @@ pub struct QuadOptions {
     /// Most chained boxes below one branching node (default 3, range 0–16).
     pub max_chain: u32,
     /// Smallest section corner distance as a fraction of the skeleton's largest radius
-    /// (default 0.02, range 1e-6–1).
+    /// (default 0.005, range 1e-6–1; 0.02 made thin tips fatter than their skeleton,
+    /// 0.001 lets zero-radius tips fold under refinement).
     pub min_radius: f32,
     /// Shortest tube between two sections as a fraction of the local corner distance
     /// (default 0.1, range 1e-4–10).

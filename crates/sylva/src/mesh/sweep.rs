@@ -88,7 +88,7 @@
 //!    control mesh is clean, it is refined [`SweepOptions::check_levels`] times with
 //!    Loop and the faces refined from each coplanar-template junction and from the
 //!    first strips of its children are searched for intersections among themselves
-//!    (sweep and prune along x): a template that folds, or lets its children's tubes
+//!    ([`check::group_crossings`](crate::mesh::check)): a template that folds, or lets its children's tubes
 //!    cross, only under subdivision is rebuilt as a general junction too (default
 //!    level 2, the level the acceptance checks: level 1 missed children
 //!    crossing at level 2 on `mgv-a/r/grove`). A junction with
