@@ -17,7 +17,11 @@
 //! cargo run --release -p sylva --example mesher_diag -- lsys-abop-a hull --control
 //! ```
 //!
-//! `--control` groups the control mesh's own intersections instead of level 2's.
+//! `--control` groups the control mesh's own intersections instead of level 2's. For
+//! `quad` it also lists the crossing pairs by the nodes their faces were made for
+//! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
+//! mesher's time; `SYLVA_QUAD_MIN_RADIUS` and `SYLVA_QUAD_REPAIR_ROUNDS` override those
+//! options.
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -92,7 +96,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 *by.entry(format!("{:?}", f.reason)).or_default() += 1;
             }
             println!("quad: fallbacks {by:?}, cases {:?}, repair rounds {}", q.cases, q.repair_rounds);
-            face_node = q.face_node.clone();
+            face_node = q.face_node;
             (q.mesh, Scheme::CatmullClark)
         }
         other => return Err(format!("unknown mesher {other:?}: hull, sweep or quad").into()),
@@ -134,17 +138,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (a, b) = (face_node[pair[0] >> shift], face_node[pair[1] >> shift]);
             *seen.entry((a.min(b), a.max(b))).or_default() += 1;
         }
-        let par = |o: u32| if o == u32::MAX { u32::MAX } else { sk.parent[o as usize] };
+        let par = |o: u32| if o == NO_PARENT { NO_PARENT } else { sk.parent[o as usize] };
+        // A node and its ancestors (at most 64), to count the steps to a common one.
+        let chain = |mut o: u32| {
+            let mut c = Vec::new();
+            while o != NO_PARENT && c.len() < 64 {
+                c.push(o);
+                o = par(o);
+            }
+            c
+        };
         for ((a, b), n) in seen.iter().take(20) {
-            // Steps up from each to their lowest common ancestor.
-            let chain = |mut o: u32| {
-                let mut c = Vec::new();
-                while o != u32::MAX && c.len() < 64 {
-                    c.push(o);
-                    o = par(o);
-                }
-                c
-            };
             let (ca, cb) = (chain(*a), chain(*b));
             let lca = ca
                 .iter()

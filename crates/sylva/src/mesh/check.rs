@@ -673,15 +673,13 @@ fn self_intersections(positions: &[Vec3], tris: &[([u32; 3], u32)], limit: usize
 /// `(group, corners, face)`; each group's triangles are searched among themselves by
 /// sweep and prune along the group's longest extent (a junction has a few hundred to a
 /// few thousand refined triangles; this measured 5× faster than a BVH per group and far
-/// cheaper than one over the whole mesh), triangles sharing
-/// a vertex are skipped as in [`check_mesh`], and so are pairs of faces `skip` names
-/// (say, two refined faces of one control face). Returns `(group, face, face)` with at
-/// most `per_group` pairs per group, groups ascending; parallel over groups.
+/// cheaper than one over the whole mesh), triangles sharing a vertex are skipped as in
+/// [`check_mesh`]. Returns `(group, face, face)` with at most `per_group` pairs per
+/// group, groups ascending; parallel over groups.
 pub(crate) fn group_crossings(
     positions: &[Vec3],
     mut tris: Vec<(u32, [u32; 3], u32)>,
     per_group: usize,
-    skip: impl Fn(u32, u32) -> bool + Sync,
 ) -> Vec<(u32, u32, u32)> {
     tris.sort_unstable_by_key(|t| (t.0, t.2));
     let groups: Vec<&[(u32, [u32; 3], u32)]> = tris.chunk_by(|a, b| a.0 == b.0).collect();
@@ -706,7 +704,6 @@ pub(crate) fn group_crossings(
                     }
                     if bx[a].overlaps(&bx[b])
                         && !g[a].1.iter().any(|v| g[b].1.contains(v))
-                        && !skip(g[a].2, g[b].2)
                         && triangles_cross(&tri[a], &tri[b])
                     {
                         found.push((g[0].0, g[a].2.min(g[b].2), g[a].2.max(g[b].2)));
@@ -787,12 +784,11 @@ mod tests {
             Vec3::new(10.0, 9.0, 9.0),
         ];
         let (a, b, far) = ([0, 1, 2], [3, 4, 5], [6, 7, 8]);
-        let same = group_crossings(&p, vec![(7, a, 0), (7, b, 1), (7, far, 2)], 8, |_, _| false);
+        let same = group_crossings(&p, vec![(7, a, 0), (7, b, 1), (7, far, 2)], 8);
         assert_eq!(same, vec![(7, 0, 1)]);
-        assert!(group_crossings(&p, vec![(1, a, 0), (2, b, 1)], 8, |_, _| false).is_empty());
-        assert!(group_crossings(&p, vec![(7, a, 0), (7, b, 1)], 8, |f, g| f + g == 1).is_empty());
+        assert!(group_crossings(&p, vec![(1, a, 0), (2, b, 1)], 8).is_empty());
         // Sharing a vertex: not tested (neighbours on a surface).
-        assert!(group_crossings(&p, vec![(1, a, 0), (1, [3, 4, 0], 1)], 8, |_, _| false).is_empty());
+        assert!(group_crossings(&p, vec![(1, a, 0), (1, [3, 4, 0], 1)], 8).is_empty());
     }
 
     fn cube(offset: Vec3) -> Mesh {

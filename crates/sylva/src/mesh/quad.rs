@@ -380,7 +380,8 @@ enum Task {
 struct Repairs {
     separated: Vec<bool>,
     unboxed: Vec<bool>,
-    /// The junctions the next round searches (empty: all): those next to a change.
+    /// The junctions the next round searches (empty: all): those that crossed, and the
+    /// changed junctions' subtrees and the two junctions above each.
     dirty: Vec<bool>,
 }
 
@@ -520,8 +521,8 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
 /// Catmull–Clark, searches the refined faces of each branching node's neighbourhood —
 /// the faces made for the node, its children and its grandchildren — for crossings, and
 /// records in `repairs` what to change. Returns whether anything changed. After the
-/// first round only the junctions next to a change are searched again (a separation
-/// changes its child's start and its parent's box, nothing else).
+/// first round only the junctions that crossed and those a change can have moved are
+/// searched again (see the end of this function).
 fn repair(
     sk: &Skeleton,
     mesh: &Mesh,
@@ -574,7 +575,7 @@ fn repair(
         }
     };
     let mut touched: Vec<u32> = Vec::new();
-    let crossings = group_crossings(&fine.positions, tris, 64, |_, _| false);
+    let crossings = group_crossings(&fine.positions, tris, 64);
     // Next round: the junctions that crossed (they may hold more than the pairs listed)
     // and those whose searched faces a change can have moved.
     let mut dirty = vec![false; sk.len()];
@@ -740,7 +741,7 @@ impl Builder<'_> {
         k.retain(|&c| {
             let keep = c == first || !(unboxed || self.repairs.separated[c as usize]);
             if !keep {
-                self.fallbacks.push(QuadFallback { node: c, reason: FallbackReason::Separated });
+                self.fallback(c, FallbackReason::Separated);
                 self.stack.push(Task::Separate { node: c });
             }
             keep
@@ -1309,6 +1310,9 @@ mod tests {
             QuadOptions { max_back_angle: 155.0, ..Default::default() },
             QuadOptions { min_length: f32::NAN, ..Default::default() },
             QuadOptions { elbow_angle: 91.0, ..Default::default() },
+            QuadOptions { repair_rounds: 17, ..Default::default() },
+            QuadOptions { check_levels: 0, ..Default::default() },
+            QuadOptions { check_levels: 4, ..Default::default() },
         ] {
             assert!(matches!(quad_mesh(&s, &o), Err(Error::InvalidGeometry { .. })));
         }

@@ -88,8 +88,9 @@
 //!    control mesh is clean, it is refined [`SweepOptions::check_levels`] times with
 //!    Loop and the faces refined from each coplanar-template junction and from the
 //!    first strips of its children are searched for intersections among themselves
-//!    ([`check::group_crossings`](crate::mesh::check)): a template that folds, or lets its children's tubes
-//!    cross, only under subdivision is rebuilt as a general junction too (default
+//!    (the checker's grouped search, [`crate::mesh::check`]): a template that folds,
+//!    or lets its children's tubes cross, only under subdivision is rebuilt as a
+//!    general junction too (default
 //!    level 2, the level the acceptance checks: level 1 missed children
 //!    crossing at level 2 on `mgv-a/r/grove`). A junction with
 //!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
@@ -1248,7 +1249,7 @@ fn folded_templates(
     for t in &tris {
         checked[t.0 as usize] = true;
     }
-    let folded = group_crossings(&fine.positions, tris, 1, |_, _| false).into_iter().map(|c| c.0);
+    let folded = group_crossings(&fine.positions, tris, 1).into_iter().map(|c| c.0);
     out.extend(folded);
     out
 }
