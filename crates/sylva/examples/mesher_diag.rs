@@ -17,7 +17,10 @@
 //! cargo run --release -p sylva --example mesher_diag -- lsys-abop-a hull --control
 //! ```
 //!
-//! `--control` groups the control mesh's own intersections instead of level 2's. For
+//! `--control` groups the control mesh's own intersections instead of level 2's;
+//! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
+//! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
+//! overrides its rounds). For
 //! `quad` it also lists the crossing pairs by the nodes their faces were made for
 //! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
 //! mesher's time; `SYLVA_QUAD_MIN_RADIUS` and `SYLVA_QUAD_REPAIR_ROUNDS` override those
@@ -61,8 +64,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let loaded = sylva::recipe::load(preset, &[])?;
     let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
-    let d = decollide(&mut sk, &DecollideOptions::default())?;
-    println!("{preset}: {} nodes, skeleton collisions {} -> {}", sk.len(), d.before, d.after);
+    let mut dopts = DecollideOptions::default();
+    if let Some(v) = std::env::var("SYLVA_DECOLLIDE_ROUNDS").ok().and_then(|v| v.parse().ok()) {
+        dopts.max_rounds = v;
+    }
+    let d = if args.iter().any(|a| a == "--raw") {
+        let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
+        sylva::mesh::decollide::DecollideReport {
+            before: left.len(),
+            after: left.len(),
+            unresolved: left,
+            ..Default::default()
+        }
+    } else {
+        decollide(&mut sk, &dopts)?
+    };
+    println!(
+        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {:.0} ms)",
+        sk.len(),
+        d.before,
+        d.after,
+        d.rounds,
+        d.rotations,
+        d.thinned,
+        d.elapsed.as_secs_f64() * 1e3
+    );
+    if args.iter().any(|a| a == "--decollide") {
+        describe_unresolved(&sk, &d.unresolved);
+        return Ok(());
+    }
     let mut face_node: Vec<u32> = Vec::new();
     let (mesh, scheme) = match mesher {
         "hull" => {
@@ -189,6 +219,77 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("wrote {out}/joint-{{0,1,2}}.png and {out}/control-{{0,1,2}}.png");
     }
     Ok(())
+}
+
+/// The collisions `decollide` left: per pair, the steps from each internode to their
+/// common ancestor, the radii, the axis gap in units of the radius sum (sampled), and
+/// the subtree sizes at the nearest branching above each internode.
+fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
+    let ch = sk.children();
+    let chain = |mut o: usize| {
+        let mut c = vec![o];
+        while sk.parent[o] != NO_PARENT {
+            o = sk.parent[o] as usize;
+            c.push(o);
+        }
+        c
+    };
+    let size = |c: usize| {
+        let (mut n, mut stack) = (0usize, vec![c]);
+        while let Some(x) = stack.pop() {
+            n += 1;
+            stack.extend(ch.of(x).iter().map(|&k| k as usize));
+        }
+        n
+    };
+    let joint_above = |mut c: usize| {
+        while sk.parent[c] != NO_PARENT {
+            let p = sk.parent[c] as usize;
+            if ch.of(p).len() > 1 || sk.order[c] != sk.order[p] {
+                return c;
+            }
+            c = p;
+        }
+        c
+    };
+    let seg = |i: usize, t: f32| {
+        let a = sk.position[sk.parent[i] as usize];
+        a + (sk.position[i] - a) * t
+    };
+    for &[a, b] in pairs.iter().take(40) {
+        let (ca, cb) = (chain(a), chain(b));
+        let lca = ca
+            .iter()
+            .position(|x| cb.contains(x))
+            .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
+        let mut gap = f32::MAX;
+        for i in 0..=32 {
+            for j in 0..=32 {
+                gap = gap.min(seg(a, i as f32 / 32.0).distance(seg(b, j as f32 / 32.0)));
+            }
+        }
+        let r = |i: usize| sk.radius[i].max(sk.radius[sk.parent[i] as usize]);
+        let len = |i: usize| sk.position[i].distance(sk.position[sk.parent[i] as usize]);
+        // Internodes strictly between the two (through their common ancestor).
+        let between: f32 = lca.map_or(0.0, |(i, j)| {
+            let side = |chain: &[usize], k: usize| chain[1.min(k)..k].iter().map(|&x| len(x)).sum::<f32>();
+            side(&ca, i) + side(&cb, j)
+        });
+        let (ja, jb) = (joint_above(a), joint_above(b));
+        println!(
+            "{a} (order {}, r {:.4}) x {b} (order {}, r {:.4}): gap/(ra+rb) {:.2}, lengths {:.3}/{:.3}, path between {:.3}, steps to common ancestor {lca:?}, joint above {ja} ({} nodes) / {jb} ({} nodes)",
+            sk.order[a],
+            r(a),
+            sk.order[b],
+            r(b),
+            gap / (r(a) + r(b)),
+            len(a),
+            len(b),
+            between,
+            size(ja),
+            size(jb)
+        );
+    }
 }
 
 /// Centre of face `f`.

@@ -102,11 +102,16 @@ fn mesh_and_check(preset: &str, mesher: &str, sk: &Skeleton, collisions: usize) 
             rr.intersection_count.unwrap_or(0)
         });
     if mesher != "tube" && collisions == 0 {
-        assert_eq!(
-            r.intersection_count.unwrap_or(0),
-            0,
-            "{preset} {mesher}: intersections without collisions"
-        );
+        // The quad cage is a control polygon: the acceptance is on its Catmull–Clark
+        // level 2 (thick forks of short internodes cross in the cage and not after
+        // refinement, e.g. raw `colonize-broadleaf`: 20 cage pairs, 0 at level 2).
+        if mesher != "quad" {
+            assert_eq!(
+                r.intersection_count.unwrap_or(0),
+                0,
+                "{preset} {mesher}: intersections without collisions"
+            );
+        }
         assert_eq!(refined_intersections.unwrap_or(0), 0, "{preset} {mesher}: level-2 intersections");
     }
     Row {

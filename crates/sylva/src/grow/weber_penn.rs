@@ -26,7 +26,10 @@
 //! - Every stem is one axis of skeleton nodes, `order` = its level. The trunk starts at
 //!   a root node at the origin; every other stem starts at a node *on its parent's
 //!   axis*, inserted there at the child's offset, so a child's base lies exactly on the
-//!   parent's axis. Split clones start at the parent path's segment-end node.
+//!   parent's axis; a child within two parent radii of a node already on the axis (a
+//!   segment end, or another child's base) hangs on that node and starts there, so no
+//!   internode is shorter than the radii around it. Split clones start at the parent
+//!   path's segment-end node.
 //! - Nodes are written at every segment end, plus extra stations where the radius
 //!   profile needs them (the trunk flare, spherical ends, periodic taper) and eight per
 //!   helix turn.
@@ -59,6 +62,10 @@ pub const MAX_CURVE_RES: u32 = 1000;
 pub const MAX_PER_STEM: u32 = 1_000_000;
 /// Nodes per helix turn (one turn per segment when `n_curve_v < 0`).
 const HELIX_STEPS: usize = 8;
+/// A child whose offset falls within this many parent radii (at the offset) of a node
+/// on the parent's axis hangs on that node instead of a new one: an internode shorter
+/// than the radii on both sides lies inside the joint, and the joint meshers fold there.
+const SNAP_RADII: f64 = 2.0;
 /// Most radius-profile stations on one stem (periodic taper).
 const MAX_STATIONS: usize = 4096;
 
@@ -1317,6 +1324,11 @@ impl Grower<'_> {
             by_path[pl.path].push(ci);
         }
         let mut child_node = vec![NO_PARENT; children.len()];
+        // Where each child's base ends up: a child within `snap` of a node on its path
+        // hangs on that node and starts there (no stub internodes, which lie inside the
+        // joint and fold the meshers' tubes).
+        let mut child_origin: Vec<Option<(DVec3, f64)>> = vec![None; children.len()];
+        let snap = |d: f64| SNAP_RADII * radius_at(d);
         // Per path: (distance, node) of every node on it, base included.
         let mut path_nodes: Vec<Vec<(f64, u32)>> = Vec::with_capacity(paths.len());
         let mut point_node: Vec<Vec<u32>> = Vec::with_capacity(paths.len());
@@ -1339,6 +1351,10 @@ impl Grower<'_> {
             let mut pt_i = 0;
             let mut prev = base;
             let mut prev_dist = pa.start_dist;
+            let mut prev_pos = match pa.parent {
+                None => task.origin,
+                Some((pp, pt)) => paths[pp].pts[pt].pos,
+            };
             loop {
                 let child_dist = list.get(li).map(|&c| children[c].0.dist);
                 let pt = pa.pts.get(pt_i);
@@ -1346,13 +1362,18 @@ impl Grower<'_> {
                     (None, None) => break,
                     (None, Some(_)) => true,
                     (Some(_), None) => false,
-                    (Some(pt), Some(cd)) => cd < pt.dist - eps,
+                    // A child just before the next point waits for it when nearer to
+                    // it than to the previous node.
+                    (Some(pt), Some(cd)) => {
+                        cd < pt.dist - eps && (cd < pt.dist - snap(cd) || cd - prev_dist <= pt.dist - cd)
+                    }
                 };
                 if child_first {
                     let ci = list[li];
                     let pl = children[ci].0;
-                    if pl.dist <= prev_dist + eps {
+                    if pl.dist <= prev_dist + snap(pl.dist).max(eps) {
                         child_node[ci] = prev;
+                        child_origin[ci] = Some((prev_pos, prev_dist));
                     } else {
                         let up = self.normal_to_world(pl.seg_frame.y);
                         let n = self.skeleton.push(
@@ -1365,6 +1386,7 @@ impl Grower<'_> {
                         nodes.push((pl.dist, n));
                         prev = n;
                         prev_dist = pl.dist;
+                        prev_pos = pl.pos;
                         child_node[ci] = n;
                     }
                     li += 1;
@@ -1384,10 +1406,12 @@ impl Grower<'_> {
                 nodes.push((pt.dist, n));
                 prev = n;
                 prev_dist = pt.dist;
+                prev_pos = pt.pos;
                 pt_i += 1;
-                // Children at this very point hang on it.
+                // Children at this very point (or waiting for it) hang on it.
                 while li < list.len() && children[list[li]].0.dist <= pt.dist + eps {
                     child_node[list[li]] = n;
+                    child_origin[list[li]] = Some((pt.pos, pt.dist));
                     li += 1;
                 }
             }
@@ -1439,6 +1463,11 @@ impl Grower<'_> {
         // Children, pushed so that they pop in order (depth first, parents first).
         for (ci, (pl, mut t)) in children.into_iter().enumerate().rev() {
             t.base_node = child_node[ci];
+            if let Some((origin, dist)) = child_origin[ci] {
+                // Hung on a node further up: limited by the parent's radius there.
+                t.origin = origin;
+                t.radius_limit = t.radius_limit.min(radius_at(dist));
+            }
             t.parent_stem = Some(stem_records + pl.path as u32);
             stack.push(t);
         }

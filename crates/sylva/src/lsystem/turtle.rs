@@ -25,7 +25,10 @@
 //! material index. Other modules have no turtle meaning and are ignored, as in cpfg.
 //!
 //! One skeleton node is written per `F` end point; a root node is written where a
-//! drawn axis starts (at the beginning, and after an `f` move).
+//! drawn axis starts (at the beginning, and after an `f` move). Axes that start
+//! exactly where a root already is share it: `[&F…][^F…]` at the start of an axiom is
+//! one plant with several stems (ABOP's bush, Fig. 1.25), not several plants whose
+//! bases overlap.
 //!
 //! **Tropism** (ABOP §2.2, cpfg view files): after every drawn `F` the heading turns
 //! toward each tropism vector T about H × T by α = e·‖H × T‖ (e the elasticity; T
@@ -363,6 +366,8 @@ fn run(
     for (k, t) in opts.tropisms.iter().enumerate() {
         st.elasticity[k] = t.elasticity;
     }
+    // Root nodes by exact position (see `Cmd::Draw`).
+    let mut roots: std::collections::HashMap<[u64; 3], u32> = std::collections::HashMap::new();
     let tropisms: Vec<(DVec3, Option<f64>)> = opts
         .tropisms
         .iter()
@@ -389,14 +394,25 @@ fn run(
             }
             Cmd::Draw => {
                 if st.node == NO_PARENT {
-                    st.node = sk.push(
-                        st.pos.as_vec3(),
-                        (st.width * 0.5) as f32,
-                        NO_PARENT,
-                        st.u.as_vec3(),
-                        st.order,
-                    );
-                    *sk.material.last_mut().expect("just pushed") = st.material;
+                    // Branches starting where a root already is share it (an axiom
+                    // `[F…][F…]` is one plant with several stems, not several plants
+                    // whose bases overlap).
+                    let key = st.pos.to_array().map(|c| (c + 0.0).to_bits());
+                    st.node = match roots.get(&key) {
+                        Some(&r) => r,
+                        None => {
+                            let r = sk.push(
+                                st.pos.as_vec3(),
+                                (st.width * 0.5) as f32,
+                                NO_PARENT,
+                                st.u.as_vec3(),
+                                st.order,
+                            );
+                            *sk.material.last_mut().expect("just pushed") = st.material;
+                            roots.insert(key, r);
+                            r
+                        }
+                    };
                 }
                 let start = st.pos;
                 st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
@@ -668,6 +684,9 @@ mod tests {
         let s = run("FfF");
         assert_eq!(s.parent, vec![NO_PARENT, 0, NO_PARENT, 2]);
         assert!(close(s.position[3], [0.0, 3.0, 0.0]));
+        // Stems drawn from the same starting point share one root.
+        let s = run("[+F][-F]fF");
+        assert_eq!(s.parent, vec![NO_PARENT, 0, 0, NO_PARENT, 3]);
     }
 
     #[test]

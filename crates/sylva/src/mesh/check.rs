@@ -523,24 +523,40 @@ pub(crate) fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
 }
 
 /// Pairs of internodes (each named by its child node, smaller first) of `skeleton`
-/// whose capsules overlap although they share no node: branches that pass through each
-/// other in the skeleton itself, so no mesher can keep their surfaces apart. A capsule
-/// is the segment parent → child swept by the larger of the two radii; overlaps shallower
-/// than `tolerance × (r_a + r_b)` are ignored.
+/// whose capsules overlap where the tree does not join them: branches that pass
+/// through each other in the skeleton itself, so no mesher can keep their surfaces
+/// apart. A capsule is the segment parent → child swept by the larger of the two radii;
+/// overlaps shallower than `tolerance × (r_a + r_b)` are ignored.
+///
+/// How the tree joins the two decides how they are measured (`Meeting`):
+/// - siblings, and branches of one node joined through internodes shorter in all than
+///   `r_a + r_b`, always overlap at their joint whatever their angle; they collide only
+///   when the far end of one that is at least `r_a + r_b` long comes within the radii of
+///   the other's axis (two twigs leaving a fork a few degrees apart). A stub shorter than
+///   that lies inside the joint and is measured only from the other's far end;
+/// - one internode hanging below the other through such short internodes collides when
+///   the bends between them fold a tube of their radii (a zig-zag of two sharp bends
+///   over a stub does; a straight run of short stations does not);
+/// - internodes linked through a chain shorter than twice their radii collide only
+///   where their axes come closer than half the chain (a gently curved stem of short,
+///   thick internodes is not a collision);
+/// - chained internodes (one ends where the other starts) never collide: that is a
+///   bend.
 pub fn skeleton_collisions(skeleton: &crate::Skeleton, tolerance: f64) -> Vec<[usize; 2]> {
     let seg: Vec<usize> = (0..skeleton.len()).filter(|&i| skeleton.parent[i] != crate::NO_PARENT).collect();
     if seg.is_empty() {
         return Vec::new();
     }
+    let depth = node_depths(&skeleton.parent);
     let ends = |s: usize| {
         let i = seg[s];
         let p = skeleton.parent[i] as usize;
         let r = skeleton.radius[i].max(skeleton.radius[p]) as f64;
-        (skeleton.position[p].as_dvec3(), skeleton.position[i].as_dvec3(), r, p, i)
+        ([skeleton.position[p].as_dvec3(), skeleton.position[i].as_dvec3()], r, i)
     };
     let boxes: Vec<Aabb> = (0..seg.len())
         .map(|s| {
-            let (a, b, r, ..) = ends(s);
+            let ([a, b], r, _) = ends(s);
             Aabb { lo: a.min(b) - r, hi: a.max(b) + r }
         })
         .collect();
@@ -550,13 +566,18 @@ pub fn skeleton_collisions(skeleton: &crate::Skeleton, tolerance: f64) -> Vec<[u
         .into_par_iter()
         .flat_map_iter(|s| {
             let mut found = Vec::new();
-            let (a0, a1, ra, pa, ia) = ends(s);
+            let (x, ra, ia) = ends(s);
             for o in query(&nodes, &order, &boxes[s]) {
-                let (b0, b1, rb, pb, ib) = ends(o);
-                if o <= s || pa == pb || pa == ib || pb == ia || !boxes[o].overlaps(&boxes[s]) {
+                let (y, rb, ib) = ends(o);
+                if o <= s || !boxes[o].overlaps(&boxes[s]) {
                     continue;
                 }
-                if segment_distance(a0, a1, b0, b1) < (ra + rb) * (1.0 - tolerance) {
+                let limit = (ra + rb) * (1.0 - tolerance);
+                if segment_distance(x[0], x[1], y[0], y[1]) >= limit {
+                    continue; // joined pairs are never closer than their axes
+                }
+                let m = meeting(skeleton, &depth, ia, ib, ra + rb);
+                if meeting_gap(x, y, m, ra + rb).is_some_and(|(d, ..)| d < limit) {
                     found.push([ia.min(ib), ia.max(ib)]);
                 }
             }
@@ -565,6 +586,145 @@ pub fn skeleton_collisions(skeleton: &crate::Skeleton, tolerance: f64) -> Vec<[u
         .collect();
     pairs.sort_unstable();
     pairs
+}
+
+/// How two internodes (named by their child nodes) meet in the tree, for the
+/// skeleton-collision rule ([`skeleton_collisions`], and `decollide`, which pulls
+/// apart exactly what it counts). `short` below is the sum of the two radii.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Meeting {
+    /// One ends where the other starts: a bend, never a collision.
+    Chained,
+    /// Siblings, or branches of a common node joined through internodes shorter in
+    /// all than `short`: their capsules overlap at the joint whatever their angle, so
+    /// each is measured from its far end (its child node) to the other's axis.
+    Joined,
+    /// One hangs below the other through internodes of total length `path` under
+    /// `short` (a stub, or a run of short stations): their axes are always that close,
+    /// so what matters is whether the bends between them fold a tube of their radii,
+    /// i.e. whether `path < short / 2 × bends`, `bends` the sum of `tan(β/2)` over the
+    /// bends `β` at the nodes from one to the other (a straight run never folds, a
+    /// U-turn always does).
+    Folded {
+        /// Length of the internodes between the two.
+        path: f64,
+        /// Sum of `tan(β/2)` over the bends between them (capped).
+        bends: f64,
+    },
+    /// Joined through internodes of total length `P` between `short` and
+    /// `short / LINK_FOLD`: their axes may come as close as `P` without anything
+    /// folding (a gently curved stem of short, thick internodes), so they collide only
+    /// where the axes come closer than `LINK_FOLD × P`.
+    Linked(f64),
+    /// Measured axis to axis.
+    Apart,
+}
+
+/// Steps walked up the tree at most when looking for a close joint (a chain of
+/// zero-length internodes must not make the walk unbounded).
+const MAX_JOINED_HOPS: usize = 64;
+
+/// See [`Meeting::Linked`]: the fraction of the chain between two linked internodes
+/// their axes may come to before they count as folded onto each other. It makes the
+/// rule continuous in the radii (at `P = short / LINK_FOLD` the linked threshold is the
+/// radii), so thinning never turns a chain into a new collision.
+const LINK_FOLD: f64 = 0.5;
+
+/// The depth of every node (parents precede their children in a valid skeleton).
+pub(crate) fn node_depths(parent: &[u32]) -> Vec<u32> {
+    let mut depth = vec![0u32; parent.len()];
+    for i in 0..parent.len() {
+        if let Some(&d) = depth.get(parent[i] as usize).filter(|_| (parent[i] as usize) < i) {
+            depth[i] = d + 1;
+        }
+    }
+    depth
+}
+
+/// How internodes `i` and `j` meet (see [`Meeting`]); `short` is the sum of their radii.
+pub(crate) fn meeting(s: &crate::Skeleton, depth: &[u32], i: usize, j: usize, short: f64) -> Meeting {
+    let (pi, pj) = (s.parent[i] as usize, s.parent[j] as usize);
+    if pi == j || pj == i {
+        return Meeting::Chained;
+    }
+    let limit = short / LINK_FOLD;
+    // Walk both up to their common ancestor, adding the internodes passed on the way
+    // (not `i`'s and `j`'s own).
+    let (mut at, mut moved, mut path, mut bends) = ([i, j], [false; 2], 0.0, 0.0);
+    let pos = |n: usize| s.position[n].as_dvec3();
+    for _ in 0..MAX_JOINED_HOPS {
+        if at[0] == at[1] {
+            return match (path < short, moved) {
+                (true, [false, _] | [_, false]) => Meeting::Folded { path, bends },
+                (true, _) => Meeting::Joined,
+                (false, _) => Meeting::Linked(path),
+            };
+        }
+        let side = usize::from(depth[at[1]] > depth[at[0]]);
+        let n = at[side];
+        let p = s.parent[n];
+        if p == crate::NO_PARENT {
+            return Meeting::Apart;
+        }
+        if moved[side] {
+            path += s.internode_length(n);
+            if path >= limit {
+                return Meeting::Apart;
+            }
+        }
+        moved[side] = true;
+        // The bend at `p`, between its own internode and the one walked up.
+        let p = p as usize;
+        if let Some(&g) = s.parent.get(p).filter(|&&g| g != crate::NO_PARENT) {
+            let (u, v) =
+                ((pos(p) - pos(g as usize)).normalize_or_zero(), (pos(n) - pos(p)).normalize_or_zero());
+            let half = 0.5 * u.dot(v).clamp(-1.0, 1.0).acos();
+            bends += half.tan().min(MAX_BEND_TAN);
+        }
+        at[side] = p;
+    }
+    Meeting::Apart
+}
+
+/// Cap on one bend's `tan(β/2)` in [`Meeting::Folded`] (a U-turn).
+const MAX_BEND_TAN: f64 = 1e6;
+
+/// The gap between two internode axes `x` and `y` (parent end, child end) met as `m`,
+/// with the closest points (on `x`, on `y`), to be compared with the radii `short` as
+/// for any pair: for [`Meeting::Linked`] the axis gap is scaled up by
+/// `short / (LINK_FOLD × P)` when that is over 1; for [`Meeting::Folded`] it is
+/// `2 × path / bends` (under `short` exactly when the bends fold the tube). `None` for chained internodes, and for
+/// joined ones that are both shorter than `short` (each lies inside the joint, so
+/// neither has a far end to measure from).
+pub(crate) fn meeting_gap(
+    x: [DVec3; 2],
+    y: [DVec3; 2],
+    m: Meeting,
+    short: f64,
+) -> Option<(f64, DVec3, DVec3)> {
+    match m {
+        Meeting::Chained => None,
+        Meeting::Apart => Some(segment_closest(x[0], x[1], y[0], y[1])),
+        Meeting::Folded { path, bends } => {
+            let (_, p, q) = segment_closest(x[0], x[1], y[0], y[1]);
+            Some((if bends > 0.0 { 2.0 * path / bends } else { f64::INFINITY }, p, q))
+        }
+        Meeting::Linked(path) => {
+            let (d, p, q) = segment_closest(x[0], x[1], y[0], y[1]);
+            Some((d * (short / (LINK_FOLD * path).max(f64::MIN_POSITIVE)).max(1.0), p, q))
+        }
+        Meeting::Joined => {
+            let from = |far: DVec3, axis: [DVec3; 2], own: [DVec3; 2]| {
+                (own[0].distance(own[1]) >= short).then(|| segment_closest(far, far, axis[0], axis[1]))
+            };
+            let dx = from(x[1], y, x);
+            let dy = from(y[1], x, y).map(|(d, p, q)| (d, q, p));
+            match (dx, dy) {
+                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            }
+        }
+    }
 }
 
 /// Leaf items of the BVH whose node boxes overlap `b` (candidates; callers re-test).
@@ -837,6 +997,66 @@ mod tests {
                 .abs()
                 < 1e-12
         );
+    }
+
+    /// A skeleton from (position, radius, parent) triples.
+    fn skeleton_of(nodes: &[([f32; 3], f32, u32)]) -> crate::Skeleton {
+        let mut s = crate::Skeleton::new();
+        for &(p, r, parent) in nodes {
+            s.push(Vec3::from(p), r, parent, Vec3::X, 0);
+        }
+        s
+    }
+
+    #[test]
+    fn siblings_collide_only_when_a_far_end_lies_in_the_other() {
+        use crate::NO_PARENT;
+        let fork = |deg: f32, len: f32| {
+            let (sn, cs) = deg.to_radians().sin_cos();
+            skeleton_of(&[
+                ([0.0; 3], 0.1, NO_PARENT),
+                ([0.0, 1.0, 0.0], 0.1, 0),
+                ([0.0, 1.0 + len, 0.0], 0.1, 1),
+                ([len * sn, 1.0 + len * cs, 0.0], 0.1, 1),
+            ])
+        };
+        // Two twigs 3° apart overlap along their length; 40° apart they clear.
+        assert_eq!(skeleton_collisions(&fork(3.0, 1.0), 0.01), vec![[2, 3]]);
+        assert!(skeleton_collisions(&fork(40.0, 1.0), 0.01).is_empty());
+        // A stub shorter than the radii lies inside the joint: its sibling leaving at
+        // 40° does not collide with it, however close the stub's end is.
+        let mut s = fork(40.0, 1.0);
+        s.position[2] = Vec3::new(0.0, 1.05, 0.0);
+        assert!(skeleton_collisions(&s, 0.01).is_empty());
+    }
+
+    #[test]
+    fn a_run_of_short_internodes_collides_only_where_it_folds() {
+        use crate::NO_PARENT;
+        // A straight stem of radius 0.1 written with 0.05-long stations: no collision,
+        // although every internode's capsule overlaps the next-but-one's.
+        let mut nodes = vec![([0.0f32; 3], 0.1f32, NO_PARENT)];
+        for k in 1..=20u32 {
+            nodes.push(([0.0, 0.05 * k as f32, 0.0], 0.1, k - 1));
+        }
+        assert!(skeleton_collisions(&skeleton_of(&nodes), 0.01).is_empty());
+        // A gentle curve of the same stations (2° per node): still none.
+        let mut p = Vec3::ZERO;
+        let mut curved = vec![([0.0f32; 3], 0.1f32, NO_PARENT)];
+        for k in 1..=20u32 {
+            let a = (2.0 * k as f32).to_radians();
+            p += Vec3::new(a.sin(), a.cos(), 0.0) * 0.05;
+            curved.push((p.to_array(), 0.1, k - 1));
+        }
+        assert!(skeleton_collisions(&skeleton_of(&curved), 0.01).is_empty());
+        // A U-turn over a 0.05 stub: the stem folds back onto itself.
+        let u = skeleton_of(&[
+            ([0.0; 3], 0.1, NO_PARENT),
+            ([0.0, 1.0, 0.0], 0.1, 0),
+            ([0.05, 1.0, 0.0], 0.1, 1),
+            ([0.05, 0.0, 0.0], 0.1, 2),
+        ]);
+        assert_eq!(skeleton_collisions(&u, 0.01), vec![[1, 3]]);
     }
 
     #[test]

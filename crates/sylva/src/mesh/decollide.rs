@@ -9,14 +9,23 @@
 //! `docs/meshers.md`). This pass runs before the mesher (recipe key
 //! `mesh.decollide`) and fixes the two kinds of collision the presets have:
 //!
+//! What counts as a collision is the checker's rule, shared through
+//! `check::meeting`: internodes that share no node are measured axis to axis;
+//! siblings (and branches of one node joined through a stub shorter than their radii)
+//! from each one's far end to the other's axis, since they always overlap at their
+//! joint; one internode hanging below another through a run of short internodes by
+//! whether the bends between them fold a tube of their radii; chained internodes never.
+//!
 //! - **near a joint** (the two internodes are at most [`DecollideOptions::near_joint_hops`]
-//!   internodes apart in the tree): thick branches with short internodes overlap a
-//!   sibling's next internode. The radii of the four end nodes are **capped** so the
-//!   capsules clear; a cap is carried down to every descendant (radii stay
-//!   non-increasing from root to tip) and relaxed up the axis by at most
-//!   [`DecollideOptions::taper`] metres of radius per metre of length, so the thinning is
-//!   a smooth taper, not a notch. A distant pair that only grazes (it clears with radii
-//!   scaled by no less than [`DecollideOptions::far_thinning`]) is thinned the same way.
+//!   internodes apart in the tree, or joined through internodes shorter than
+//!   [`DecollideOptions::near_joint_path`] times their radius sum): thick branches with
+//!   short internodes overlap a sibling's next internode. The radii of the four end
+//!   nodes are **capped** so the capsules clear; a cap is carried down to every
+//!   descendant (radii stay non-increasing from root to tip) and relaxed up the axis by
+//!   at most [`DecollideOptions::taper`] metres of radius per metre of length, so the
+//!   thinning is a smooth taper, not a notch. A distant pair that only grazes (it clears
+//!   with radii scaled by no less than [`DecollideOptions::far_thinning`]) is thinned the
+//!   same way.
 //! - **distant crossings**: the lighter branch is **rotated** rigidly about its base
 //!   node (the joint where it leaves its parent axis), by the smallest of a few angles
 //!   (both senses, about three axes: in the plane of the two branches, out of it, and
@@ -26,18 +35,16 @@
 //!   each of the two internodes. Planar figures (`lsys-abop-a`, `lsys-abop-c`,
 //!   `lsys-fern`) are "2-D drawings with thickness": rotating a subtree out of their
 //!   plane is accepted.
+//! - **the last resort**, after the rounds: a pair left where one internode ends at a
+//!   tip is cleared by **pulling the tip back** along its internode (to at most half its
+//!   length). This frees closed figures such as the Koch snowflake, whose last internode
+//!   ends on its first and has no joint to rotate about.
 //!
-//! Siblings (internodes leaving the same node) are checked too, although the checker
-//! skips pairs that share a node: they must clear from each one's far end to the
-//! other's axis. Two twigs leaving a joint a few degrees apart, or a stub shorter than
-//! the radii, overlap along their whole length, and the joint meshers cannot separate
-//! them (on `lsys-abop-stochastic` these were all of `hull`'s self-intersections).
-//!
-//! Both steps repeat for at most [`DecollideOptions::max_rounds`] rounds; what is left
-//! is reported by node pairs ([`DecollideReport::unresolved`]), never looped on. Node
-//! `up` vectors and the organs hanging on moved nodes move with them; roots never move,
-//! the topology never changes, and a skeleton the checker finds collision-free is left
-//! bit-identical.
+//! Thinning and rotating repeat for at most [`DecollideOptions::max_rounds`] rounds;
+//! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
+//! looped on. Node `up` vectors and the organs hanging on moved nodes move with them;
+//! roots never move, the topology never changes, and a skeleton the checker finds
+//! collision-free is left bit-identical.
 //!
 //! Cost per round: a BVH over the internode capsules (median split; its bounds grow to
 //! cover each rotated subtree), the collision search parallel over internodes with
@@ -45,7 +52,9 @@
 //! themselves are made in a fixed order, so the result is deterministic.
 
 use crate::error::{Error, Result};
-use crate::mesh::check::{build_bvh, segment_closest, skeleton_collisions, Aabb, Node};
+use crate::mesh::check::{
+    build_bvh, meeting, meeting_gap, node_depths, segment_closest, skeleton_collisions, Aabb, Meeting, Node,
+};
 use crate::skeleton::{OrganKind, Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3};
 use rayon::prelude::*;
@@ -61,6 +70,10 @@ pub struct DecollideOptions {
     /// Internodes at most this many internodes apart in the tree collide "near a joint"
     /// and are fixed by thinning.
     pub near_joint_hops: usize,
+    /// Internodes joined through internodes shorter in all than this many times their
+    /// radius sum also collide "near a joint" (clusters of stubs, where the hop count
+    /// says little).
+    pub near_joint_path: f64,
     /// A near-joint pair is thinned when that needs a radius factor of at least this
     /// (so radii shrink at most to this fraction); below it, it is moved like a crossing.
     pub min_thinning: f64,
@@ -91,11 +104,12 @@ impl Default for DecollideOptions {
         Self {
             clearance: 0.08,
             near_joint_hops: 3,
+            near_joint_path: 4.0,
             min_thinning: 0.3,
             far_thinning: 0.8,
             taper: 0.1,
-            angles: vec![3.0, 6.0, 10.0, 15.0, 22.0, 30.0, 45.0, 60.0],
-            candidates: 3,
+            angles: vec![3.0, 6.0, 10.0, 15.0, 22.0, 30.0, 45.0, 60.0, 90.0],
+            candidates: 5,
             max_rounds: 8,
             max_moved: 4000,
             work_per_node: 200,
@@ -116,6 +130,9 @@ pub struct DecollideReport {
     pub thinned: usize,
     /// Subtree rotations applied.
     pub rotations: usize,
+    /// Tips pulled back along their internode (the last resort, for pairs rotation
+    /// could not clear).
+    pub retracted: usize,
     /// Rounds run.
     pub rounds: usize,
     /// The collisions left (internodes named by their child node, smaller first).
@@ -148,22 +165,25 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
         return Ok(report);
     }
     let topo = Topology::new(skeleton);
-    report.near_joint =
-        first.iter().filter(|p| hops(skeleton, &topo, p[0], p[1], opts.near_joint_hops).is_some()).count();
+    report.near_joint = first.iter().filter(|p| near_joint(skeleton, &topo, p[0], p[1], opts)).count();
     let original_radius = skeleton.radius.clone();
     for _ in 0..opts.max_rounds {
-        let pairs = collisions(skeleton, opts.clearance);
+        let pairs = collisions(skeleton, &topo, opts.clearance);
         if pairs.is_empty() {
             break;
         }
         report.rounds += 1;
         let thinned = thin(skeleton, &topo, &pairs, opts);
-        let pairs = if thinned { collisions(skeleton, opts.clearance) } else { pairs };
+        let pairs = if thinned { collisions(skeleton, &topo, opts.clearance) } else { pairs };
         let moved = rotate_pairs(skeleton, &topo, &pairs, opts);
         report.rotations += moved;
         if !thinned && moved == 0 {
             break;
         }
+    }
+    let left = collisions(skeleton, &topo, opts.clearance);
+    if !left.is_empty() {
+        report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance);
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
     report.unresolved = skeleton_collisions(skeleton, CHECK_TOLERANCE);
@@ -181,6 +201,9 @@ fn check_options(o: &DecollideOptions) -> Result<()> {
         if !(v.is_finite() && v > 0.0 && v <= 1.0) {
             return bad(format!("{name} must be in (0, 1], got {v}"));
         }
+    }
+    if !(o.near_joint_path.is_finite() && o.near_joint_path >= 0.0) {
+        return bad(format!("near_joint_path must be finite and non-negative, got {}", o.near_joint_path));
     }
     if !(o.taper.is_finite() && o.taper >= 0.0) {
         return bad(format!("taper must be finite and non-negative, got {}", o.taper));
@@ -210,11 +233,10 @@ impl Topology {
     fn new(s: &Skeleton) -> Self {
         let n = s.len();
         let children = s.children();
-        let mut depth = vec![0u32; n];
+        let depth = node_depths(&s.parent);
         let mut child_count = vec![0u32; n];
         for i in 0..n {
             if s.parent[i] != NO_PARENT {
-                depth[i] = depth[s.parent[i] as usize] + 1;
                 child_count[s.parent[i] as usize] += 1;
             }
         }
@@ -287,6 +309,15 @@ fn hops(s: &Skeleton, t: &Topology, a: usize, b: usize, limit: usize) -> Option<
     Some(h)
 }
 
+/// True when internodes `a` and `b` collide "near a joint": at most
+/// [`DecollideOptions::near_joint_hops`] apart, or joined through internodes shorter
+/// than [`DecollideOptions::near_joint_path`] × their radius sum.
+fn near_joint(s: &Skeleton, topo: &Topology, a: usize, b: usize, o: &DecollideOptions) -> bool {
+    let short = (capsule(s, a).r + capsule(s, b).r) * o.near_joint_path;
+    hops(s, topo, a, b, o.near_joint_hops).is_some()
+        || matches!(meeting(s, &topo.depth, a, b, short), Meeting::Joined)
+}
+
 /// One internode as a capsule: base, tip, radius (the larger end radius).
 #[derive(Clone, Copy)]
 struct Capsule {
@@ -309,50 +340,36 @@ fn capsule_box(c: &Capsule, clearance: f64) -> Aabb {
     Aabb { lo: c.a.min(c.b) - pad, hi: c.a.max(c.b) + pad }
 }
 
-/// How two internodes (named by their child nodes) meet.
-#[derive(Clone, Copy, PartialEq)]
-enum Relation {
-    /// They share no node.
-    Apart,
-    /// They leave the same node.
-    Siblings,
-    /// One ends where the other starts (never a collision: a bend).
-    Chained,
-}
-
-fn relation(s: &Skeleton, i: usize, j: usize) -> Relation {
-    let (pi, pj) = (s.parent[i] as usize, s.parent[j] as usize);
-    if pi == j || pj == i {
-        Relation::Chained
-    } else if pi == pj {
-        Relation::Siblings
-    } else {
-        Relation::Apart
+/// The gap between internodes `i` and `j` (capsules `x` and `y`, which may be moved
+/// copies: rigid moves keep every internode length) with the closest points, as the
+/// checker measures it ([`meeting`]: siblings and internodes joined by a stub from
+/// their far ends, chained ones never). When their axes are at least `within` apart the
+/// axis gap is returned without looking up how they meet (a joined gap is never smaller).
+fn gap(
+    s: &Skeleton,
+    topo: &Topology,
+    (i, x): (usize, &Capsule),
+    (j, y): (usize, &Capsule),
+    within: f64,
+) -> Option<(f64, DVec3, DVec3)> {
+    let (x, y, short) = ([x.a, x.b], [y.a, y.b], x.r + y.r);
+    let axes = segment_closest(x[0], x[1], y[0], y[1]);
+    if axes.0 >= within {
+        return (meeting(s, &topo.depth, i, j, short) != Meeting::Chained).then_some(axes);
     }
+    meeting_gap(x, y, meeting(s, &topo.depth, i, j, short), short)
 }
 
-/// The gap between two capsules' axes with the closest points (on `x`, on `y`), or
-/// `None` for chained internodes. Capsules that share no node are measured axis to
-/// axis. Siblings always touch at their shared base, so they are measured from each
-/// one's far end to the other's axis (the smaller of the two): siblings leaving at a
-/// small angle, or a stub shorter than the radii, overlap along their whole length,
-/// which no joint mesher can resolve although the checker (which skips pairs sharing a
-/// node) does not count it.
-fn gap(x: &Capsule, y: &Capsule, rel: Relation) -> Option<(f64, DVec3, DVec3)> {
-    match rel {
-        Relation::Chained => None,
-        Relation::Apart => Some(segment_closest(x.a, x.b, y.a, y.b)),
-        Relation::Siblings => {
-            let (dx, px, qx) = segment_closest(x.b, x.b, y.a, y.b);
-            let (dy, py, qy) = segment_closest(y.b, y.b, x.a, x.b);
-            Some(if dx <= dy { (dx, px, qx) } else { (dy, qy, py) })
-        }
-    }
-}
-
-/// True when the capsules collide at `clearance`.
-fn collide(x: &Capsule, y: &Capsule, rel: Relation, clearance: f64) -> bool {
-    gap(x, y, rel).is_some_and(|(d, ..)| d < (x.r + y.r) * (1.0 + clearance))
+/// True when internodes `i` and `j` (capsules `x`, `y`) collide at `clearance`.
+fn collide(
+    s: &Skeleton,
+    topo: &Topology,
+    x: (usize, &Capsule),
+    y: (usize, &Capsule),
+    clearance: f64,
+) -> bool {
+    let limit = (x.1.r + y.1.r) * (1.0 + clearance);
+    gap(s, topo, x, y, limit).is_some_and(|(d, ..)| d < limit)
 }
 
 /// A BVH over the internodes (items are child node ids) whose bounds grow as
@@ -440,7 +457,7 @@ impl Bvh {
 
 /// Colliding internode pairs at `clearance` (axes closer than `(r_a + r_b)(1 + clearance)`),
 /// sorted, each `[smaller, larger]` child node.
-fn collisions(s: &Skeleton, clearance: f64) -> Vec<[usize; 2]> {
+fn collisions(s: &Skeleton, topo: &Topology, clearance: f64) -> Vec<[usize; 2]> {
     let bvh = Bvh::build(s, clearance);
     let mut pairs: Vec<[usize; 2]> = bvh
         .order
@@ -450,7 +467,7 @@ fn collisions(s: &Skeleton, clearance: f64) -> Vec<[usize; 2]> {
             let ci = capsule(s, i);
             let mut found = Vec::new();
             bvh.visit(&bvh.boxes[i], |j| {
-                if j > i && collide(&ci, &capsule(s, j), relation(s, i, j), clearance) {
+                if j > i && collide(s, topo, (i, &ci), (j, &capsule(s, j)), clearance) {
                     found.push([i, j]);
                 }
                 true
@@ -470,13 +487,13 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
     let mut any = false;
     for &[a, b] in pairs {
         let (ca, cb) = (capsule(s, a), capsule(s, b));
-        let Some((d, ..)) = gap(&ca, &cb, relation(s, a, b)) else { continue };
+        let Some((d, ..)) = gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY) else { continue };
         let sum = (ca.r + cb.r) * (1.0 + o.clearance);
         if sum <= 0.0 {
             continue;
         }
         let f = d / sum;
-        let near = hops(s, topo, a, b, o.near_joint_hops).is_some();
+        let near = near_joint(s, topo, a, b, o);
         if f >= 1.0 || f < if near { o.min_thinning } else { o.far_thinning } {
             continue;
         }
@@ -546,7 +563,7 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
     queue.sort_unstable();
     for (_, [a, b]) in queue {
         let (ca, cb) = (capsule(s, a), capsule(s, b));
-        let Some((d, pa, pb)) = gap(&ca, &cb, relation(s, a, b)) else { continue };
+        let Some((d, pa, pb)) = gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY) else { continue };
         if d >= (ca.r + cb.r) * (1.0 + o.clearance) {
             continue; // already separated by an earlier move
         }
@@ -694,20 +711,89 @@ fn subtree_hits(
             b: rotated(s, m, pivot, rot),
             r: s.radius[m].max(s.radius[pm]) as f64,
         };
-        bvh.visit(&capsule_box(&cm, clearance), |j| {
-            if topo.contains(c, j) {
-                return true;
-            }
-            if collide(&cm, &capsule(s, j), relation(s, m, j), clearance) {
-                hits += 1;
-            }
-            hits < limit
-        });
+        hits += capsule_hits(s, topo, bvh, c, (m, &cm), clearance, limit - hits);
         if hits >= limit {
             break;
         }
     }
     hits
+}
+
+/// Collisions (at most `limit`) of internode `m`, moved to the capsule `cm`, with every
+/// internode outside the subtree at `c`.
+fn capsule_hits(
+    s: &Skeleton,
+    topo: &Topology,
+    bvh: &Bvh,
+    c: usize,
+    (m, cm): (usize, &Capsule),
+    clearance: f64,
+    limit: usize,
+) -> usize {
+    let mut hits = 0;
+    bvh.visit(&capsule_box(cm, clearance), |j| {
+        if topo.contains(c, j) {
+            return true;
+        }
+        if collide(s, topo, (m, cm), (j, &capsule(s, j)), clearance) {
+            hits += 1;
+        }
+        hits < limit
+    });
+    hits
+}
+
+/// Lengths (fractions of the internode) a colliding tip internode is shortened to,
+/// mildest first.
+const RETRACT: [f64; 5] = [0.9, 0.8, 0.7, 0.6, 0.5];
+
+/// The last resort for what rotation left: a pair where one internode ends at a tip
+/// (a node without children) is cleared by pulling that tip back along its internode,
+/// by the mildest of [`RETRACT`] that leaves it with no collision (the shorter change
+/// of the two when both are tips). This is what frees a closed figure such as the Koch
+/// snowflake, whose last internode ends on its first and has no joint to rotate about.
+/// Returns the tips pulled back.
+fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearance: f64) -> usize {
+    let mut bvh = Bvh::build(s, clearance);
+    let mut pulled = 0;
+    for &[a, b] in pairs {
+        if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
+            continue; // cleared by an earlier retraction
+        }
+        let mut best: Option<(usize, usize, DVec3)> = None; // (step, tip, new position)
+        for x in [a, b] {
+            if topo.child_count[x] != 0 {
+                continue;
+            }
+            let base = s.position[s.parent[x] as usize].as_dvec3();
+            let tip = s.position[x].as_dvec3();
+            for (k, &f) in RETRACT.iter().enumerate() {
+                if best.is_some_and(|(bk, ..)| bk <= k) {
+                    break;
+                }
+                let cm = Capsule { a: base, b: base + (tip - base) * f, r: capsule(s, x).r };
+                if capsule_hits(s, topo, &bvh, x, (x, &cm), clearance, 1) == 0 {
+                    best = Some((k, x, cm.b));
+                    break;
+                }
+            }
+        }
+        let Some((_, x, to)) = best else { continue };
+        let delta = (to - s.position[x].as_dvec3()).as_vec3();
+        s.position[x] = to.as_vec3();
+        for &k in &topo.organ_list[topo.organ_offsets[x] as usize..topo.organ_offsets[x + 1] as usize] {
+            let org = &mut s.organs[k as usize];
+            org.position += delta;
+            if let OrganKind::Polygon(vs) = &mut org.kind {
+                for v in vs.iter_mut() {
+                    *v += delta;
+                }
+            }
+        }
+        bvh.update(x, capsule_box(&capsule(s, x), clearance));
+        pulled += 1;
+    }
+    pulled
 }
 
 /// Rotates the subtree at `c` (positions, `up` vectors, organs) and updates the BVH.
