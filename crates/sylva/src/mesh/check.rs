@@ -531,9 +531,8 @@ pub(crate) fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
 /// How the tree joins the two decides how they are measured (`Meeting`):
 /// - siblings, and branches of one node joined through internodes shorter in all than
 ///   `r_a + r_b`, always overlap at their joint whatever their angle; they collide only
-///   when the far end of one that is at least `r_a + r_b` long comes within the radii of
-///   the other's axis (two twigs leaving a fork a few degrees apart). A stub shorter than
-///   that lies inside the joint and is measured only from the other's far end;
+///   when the far end of one comes within the radii of the other's axis (two twigs
+///   leaving a fork a few degrees apart, or a stub shorter than the radii);
 /// - one internode hanging below the other through such short internodes collides when
 ///   the bends between them fold a tube of their radii (a zig-zag of two sharp bends
 ///   over a stub does; a straight run of short stations does not);
@@ -693,9 +692,8 @@ const MAX_BEND_TAN: f64 = 1e6;
 /// with the closest points (on `x`, on `y`), to be compared with the radii `short` as
 /// for any pair: for [`Meeting::Linked`] the axis gap is scaled up by
 /// `short / (LINK_FOLD × P)` when that is over 1; for [`Meeting::Folded`] it is
-/// `2 × path / bends` (under `short` exactly when the bends fold the tube). `None` for chained internodes, and for
-/// joined ones that are both shorter than `short` (each lies inside the joint, so
-/// neither has a far end to measure from).
+/// `2 × path / bends` (under `short` exactly when the bends fold the tube). `None` for
+/// chained internodes.
 pub(crate) fn meeting_gap(
     x: [DVec3; 2],
     y: [DVec3; 2],
@@ -714,15 +712,9 @@ pub(crate) fn meeting_gap(
             Some((d * (short / (LINK_FOLD * path).max(f64::MIN_POSITIVE)).max(1.0), p, q))
         }
         Meeting::Joined => {
-            let from = |far: DVec3, axis: [DVec3; 2], own: [DVec3; 2]| {
-                (own[0].distance(own[1]) >= short).then(|| segment_closest(far, far, axis[0], axis[1]))
-            };
-            let dx = from(x[1], y, x);
-            let dy = from(y[1], x, y).map(|(d, p, q)| (d, q, p));
-            match (dx, dy) {
-                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-                (a, b) => a.or(b),
-            }
+            let (dx, px, qx) = segment_closest(x[1], x[1], y[0], y[1]);
+            let (dy, py, qy) = segment_closest(y[1], y[1], x[0], x[1]);
+            Some(if dx <= dy { (dx, px, qx) } else { (dy, qy, py) })
         }
     }
 }
@@ -1023,11 +1015,12 @@ mod tests {
         // Two twigs 3° apart overlap along their length; 40° apart they clear.
         assert_eq!(skeleton_collisions(&fork(3.0, 1.0), 0.01), vec![[2, 3]]);
         assert!(skeleton_collisions(&fork(40.0, 1.0), 0.01).is_empty());
-        // A stub shorter than the radii lies inside the joint: its sibling leaving at
-        // 40° does not collide with it, however close the stub's end is.
+        // A stub shorter than the radii ends inside its sibling, at any angle: the joint
+        // meshers fold there (clusters of such stubs at `lsys-honda-f`'s tips), so it
+        // counts.
         let mut s = fork(40.0, 1.0);
         s.position[2] = Vec3::new(0.0, 1.05, 0.0);
-        assert!(skeleton_collisions(&s, 0.01).is_empty());
+        assert_eq!(skeleton_collisions(&s, 0.01), vec![[2, 3]]);
     }
 
     #[test]
