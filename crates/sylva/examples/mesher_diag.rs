@@ -184,7 +184,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .iter()
                 .position(|x| cb.contains(x))
                 .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
-            println!("faces of nodes {a} (parent {}) and {b} (parent {}): {n} pairs; steps to common ancestor {lca:?}", par(*a), par(*b));
+            let (a_, b_) = (*a as usize, *b as usize);
+            let gap = if par(*a) == NO_PARENT || par(*b) == NO_PARENT {
+                f32::NAN
+            } else {
+                let r = |i: usize| sk.radius[i].max(sk.radius[sk.parent[i] as usize]);
+                sampled_gap(&sk, a_, b_) / (r(a_) + r(b_))
+            };
+            println!(
+                "faces of nodes {a} (parent {}) and {b} (parent {}): {n} pairs; steps to common ancestor {lca:?}; axis gap/(ra+rb) {gap:.2}",
+                par(*a),
+                par(*b)
+            );
         }
     }
     let mut joints: BTreeMap<u32, usize> = BTreeMap::new();
@@ -252,22 +263,13 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
         }
         c
     };
-    let seg = |i: usize, t: f32| {
-        let a = sk.position[sk.parent[i] as usize];
-        a + (sk.position[i] - a) * t
-    };
     for &[a, b] in pairs.iter().take(40) {
         let (ca, cb) = (chain(a), chain(b));
         let lca = ca
             .iter()
             .position(|x| cb.contains(x))
             .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
-        let mut gap = f32::MAX;
-        for i in 0..=32 {
-            for j in 0..=32 {
-                gap = gap.min(seg(a, i as f32 / 32.0).distance(seg(b, j as f32 / 32.0)));
-            }
-        }
+        let gap = sampled_gap(sk, a, b);
         let r = |i: usize| sk.radius[i].max(sk.radius[sk.parent[i] as usize]);
         let len = |i: usize| sk.position[i].distance(sk.position[sk.parent[i] as usize]);
         // Internodes strictly between the two (through their common ancestor).
@@ -290,6 +292,21 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
             size(jb)
         );
     }
+}
+
+/// The gap between the axes of internodes `a` and `b` (sampled at 33 points each).
+fn sampled_gap(sk: &Skeleton, a: usize, b: usize) -> f32 {
+    let seg = |i: usize, t: f32| {
+        let p = sk.position[sk.parent[i] as usize];
+        p + (sk.position[i] - p) * t
+    };
+    let mut gap = f32::MAX;
+    for i in 0..=32 {
+        for j in 0..=32 {
+            gap = gap.min(seg(a, i as f32 / 32.0).distance(seg(b, j as f32 / 32.0)));
+        }
+    }
+    gap
 }
 
 /// Centre of face `f`.
