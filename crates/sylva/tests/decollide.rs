@@ -176,6 +176,23 @@ fn an_unresolvable_crossing_is_reported_and_terminates() {
 }
 
 #[test]
+fn a_deep_graze_no_rotation_clears_is_thinned() {
+    // Two single-internode trees passing 0.7 radius sums apart: no joint to rotate
+    // about, too deep for the far-pair thinning (0.8), within the near-joint one (0.3).
+    let mut s = Skeleton::new();
+    let r1 = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
+    s.push(Vec3::new(0.0, 2.0, 0.0), 0.1, r1, Vec3::X, 0);
+    let r2 = s.push(Vec3::new(-1.0, 1.0, 0.14), 0.1, NO_PARENT, Vec3::Y, 0);
+    s.push(Vec3::new(1.0, 1.0, 0.14), 0.1, r2, Vec3::Y, 0);
+    let before = s.clone();
+    let r = run(&mut s);
+    assert_eq!((r.before, r.after, r.rotations, r.retracted), (1, 0, 0, 0), "{r:?}");
+    assert_eq!(r.thinned, 4);
+    assert_same_tree(&before, &s);
+    assert!(s.radius.iter().all(|&x| x > 0.06 && x < 0.07), "{:?}", s.radius);
+}
+
+#[test]
 fn a_closed_figure_is_opened_by_pulling_its_tip_back() {
     // One axis around a square whose last internode ends where the first starts (the
     // Koch snowflake's case): no joint to rotate about, too deep to thin.

@@ -35,10 +35,12 @@
 //!   each of the two internodes. Planar figures (`lsys-abop-a`, `lsys-abop-c`,
 //!   `lsys-fern`) are "2-D drawings with thickness": rotating a subtree out of their
 //!   plane is accepted.
-//! - **the last resort**, after the rounds: a pair left where one internode ends at a
-//!   tip is cleared by **pulling the tip back** along its internode (to at most half its
-//!   length). This frees closed figures such as the Koch snowflake, whose last internode
-//!   ends on its first and has no joint to rotate about.
+//! - **the last resorts**, after the rounds: a pair rotation could not clear is thinned
+//!   like a near-joint pair (radii down to [`DecollideOptions::min_thinning`]); then a
+//!   pair left where one internode ends at a tip is cleared by **pulling the tip back**
+//!   along its internode (to at most half its length). This frees closed figures such
+//!   as the Koch snowflake, whose last internode ends on its first and has no joint to
+//!   rotate about.
 //!
 //! Thinning and rotating repeat for at most [`DecollideOptions::max_rounds`] rounds;
 //! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
@@ -181,8 +183,14 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
             break;
         }
     }
-    let left = collisions(skeleton, &topo, opts.clearance);
+    let mut left = collisions(skeleton, &topo, opts.clearance);
     if !left.is_empty() {
+        // What rotation could not clear is thinned like a near-joint pair (down to
+        // `min_thinning`), then tips are pulled back.
+        let deep = DecollideOptions { far_thinning: opts.min_thinning, ..opts.clone() };
+        if thin(skeleton, &topo, &left, &deep) {
+            left = collisions(skeleton, &topo, opts.clearance);
+        }
         report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance);
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
