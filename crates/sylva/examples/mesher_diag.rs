@@ -169,27 +169,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             *seen.entry((a.min(b), a.max(b))).or_default() += 1;
         }
         let par = |o: u32| if o == NO_PARENT { NO_PARENT } else { sk.parent[o as usize] };
-        // A node and its ancestors (at most 64), to count the steps to a common one.
-        let chain = |mut o: u32| {
-            let mut c = Vec::new();
-            while o != NO_PARENT && c.len() < 64 {
-                c.push(o);
-                o = par(o);
-            }
-            c
-        };
         for ((a, b), n) in seen.iter().take(20) {
-            let (ca, cb) = (chain(*a), chain(*b));
-            let lca = ca
-                .iter()
-                .position(|x| cb.contains(x))
-                .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
             let (a_, b_) = (*a as usize, *b as usize);
+            let lca = common_ancestor_steps(&ancestors(&sk, a_), &ancestors(&sk, b_));
             let gap = if par(*a) == NO_PARENT || par(*b) == NO_PARENT {
                 f32::NAN
             } else {
-                let r = |i: usize| sk.radius[i].max(sk.radius[sk.parent[i] as usize]);
-                sampled_gap(&sk, a_, b_) / (r(a_) + r(b_))
+                sampled_gap(&sk, a_, b_) / (capsule_radius(&sk, a_) + capsule_radius(&sk, b_))
             };
             println!(
                 "faces of nodes {a} (parent {}) and {b} (parent {}): {n} pairs; steps to common ancestor {lca:?}; axis gap/(ra+rb) {gap:.2}",
@@ -237,14 +223,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// the subtree sizes at the nearest branching above each internode.
 fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
     let ch = sk.children();
-    let chain = |mut o: usize| {
-        let mut c = vec![o];
-        while sk.parent[o] != NO_PARENT {
-            o = sk.parent[o] as usize;
-            c.push(o);
-        }
-        c
-    };
     let size = |c: usize| {
         let (mut n, mut stack) = (0usize, vec![c]);
         while let Some(x) = stack.pop() {
@@ -264,17 +242,16 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
         c
     };
     for &[a, b] in pairs.iter().take(40) {
-        let (ca, cb) = (chain(a), chain(b));
-        let lca = ca
-            .iter()
-            .position(|x| cb.contains(x))
-            .map(|i| (i, cb.iter().position(|y| *y == ca[i]).unwrap_or(0)));
+        let (ca, cb) = (ancestors(sk, a), ancestors(sk, b));
+        let lca = common_ancestor_steps(&ca, &cb);
         let gap = sampled_gap(sk, a, b);
-        let r = |i: usize| sk.radius[i].max(sk.radius[sk.parent[i] as usize]);
+        let r = |i: usize| capsule_radius(sk, i);
         let len = |i: usize| sk.position[i].distance(sk.position[sk.parent[i] as usize]);
         // Internodes strictly between the two (through their common ancestor).
         let between: f32 = lca.map_or(0.0, |(i, j)| {
-            let side = |chain: &[usize], k: usize| chain[1.min(k)..k].iter().map(|&x| len(x)).sum::<f32>();
+            let side = |chain: &[usize], k: usize| {
+                chain.get(1..k).unwrap_or(&[]).iter().map(|&x| len(x)).sum::<f32>()
+            };
             side(&ca, i) + side(&cb, j)
         });
         let (ja, jb) = (joint_above(a), joint_above(b));
@@ -292,6 +269,27 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
             size(jb)
         );
     }
+}
+
+/// Node `n` and its ancestors up to the root.
+fn ancestors(sk: &Skeleton, mut n: usize) -> Vec<usize> {
+    let mut chain = vec![n];
+    while sk.parent[n] != NO_PARENT {
+        n = sk.parent[n] as usize;
+        chain.push(n);
+    }
+    chain
+}
+
+/// Steps from each of two ancestor chains to their first common node.
+fn common_ancestor_steps(ca: &[usize], cb: &[usize]) -> Option<(usize, usize)> {
+    let i = ca.iter().position(|x| cb.contains(x))?;
+    Some((i, cb.iter().position(|y| *y == ca[i])?))
+}
+
+/// An internode's capsule radius (the larger of its two end radii).
+fn capsule_radius(sk: &Skeleton, i: usize) -> f32 {
+    sk.radius[i].max(sk.radius[sk.parent[i] as usize])
 }
 
 /// The gap between the axes of internodes `a` and `b` (sampled at 33 points each).

@@ -571,9 +571,12 @@ pub fn skeleton_collisions(skeleton: &crate::Skeleton, tolerance: f64) -> Vec<[u
                 if o <= s || !boxes[o].overlaps(&boxes[s]) {
                     continue;
                 }
+                // Axes this far apart never collide: a joined or linked gap is never
+                // smaller than the axis gap, and a folded pair's axes are closer (the
+                // stub between them is shorter than the radii).
                 let limit = (ra + rb) * (1.0 - tolerance);
-                if segment_distance(x[0], x[1], y[0], y[1]) >= limit {
-                    continue; // joined pairs are never closer than their axes
+                if segment_distance(x[0], x[1], y[0], y[1]) >= limit.max(ra + rb) {
+                    continue;
                 }
                 let m = meeting(skeleton, &depth, ia, ib, ra + rb);
                 if meeting_gap(x, y, m, ra + rb).is_some_and(|(d, ..)| d < limit) {
@@ -633,8 +636,9 @@ const LINK_FOLD: f64 = 0.5;
 pub(crate) fn node_depths(parent: &[u32]) -> Vec<u32> {
     let mut depth = vec![0u32; parent.len()];
     for i in 0..parent.len() {
-        if let Some(&d) = depth.get(parent[i] as usize).filter(|_| (parent[i] as usize) < i) {
-            depth[i] = d + 1;
+        let p = parent[i] as usize; // NO_PARENT is never below `i`
+        if p < i {
+            depth[i] = depth[p] + 1;
         }
     }
     depth

@@ -6,8 +6,7 @@
 //! needs a skeleton whose internode capsules do not overlap: a mesher cannot keep two
 //! surfaces apart when the skeleton itself crosses them (see
 //! [`skeleton_collisions`](crate::mesh::check::skeleton_collisions) and
-//! `docs/meshers.md`). This pass runs before the mesher (recipe key
-//! `mesh.decollide`) and fixes the two kinds of collision the presets have:
+//! `docs/meshers.md`). This pass runs before the mesher (recipe key `mesh.decollide`).
 //!
 //! What counts as a collision is the checker's rule, shared through
 //! `check::meeting`: internodes that share no node are measured axis to axis;
@@ -15,6 +14,8 @@
 //! from each one's far end to the other's axis, since they always overlap at their
 //! joint; one internode hanging below another through a run of short internodes by
 //! whether the bends between them fold a tube of their radii; chained internodes never.
+//! The pass fixes the two kinds of collision the presets have, then tries two last
+//! resorts:
 //!
 //! - **near a joint** (the two internodes are at most [`DecollideOptions::near_joint_hops`]
 //!   internodes apart in the tree, or joined through internodes shorter than
@@ -58,7 +59,7 @@ use crate::mesh::check::{
     build_bvh, meeting, meeting_gap, node_depths, segment_closest, skeleton_collisions, Aabb, Meeting, Node,
 };
 use crate::skeleton::{OrganKind, Skeleton, NO_PARENT};
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -72,9 +73,9 @@ pub struct DecollideOptions {
     /// Internodes at most this many internodes apart in the tree collide "near a joint"
     /// and are fixed by thinning.
     pub near_joint_hops: usize,
-    /// Internodes joined through internodes shorter in all than this many times their
-    /// radius sum also collide "near a joint" (clusters of stubs, where the hop count
-    /// says little).
+    /// Branches of one node joined through internodes shorter in all than this many
+    /// times their radius sum also collide "near a joint" (clusters of stubs, where the
+    /// hop count says little).
     pub near_joint_path: f64,
     /// A near-joint pair is thinned when that needs a radius factor of at least this
     /// (so radii shrink at most to this fraction); below it, it is moved like a crossing.
@@ -318,8 +319,9 @@ fn hops(s: &Skeleton, t: &Topology, a: usize, b: usize, limit: usize) -> Option<
 }
 
 /// True when internodes `a` and `b` collide "near a joint": at most
-/// [`DecollideOptions::near_joint_hops`] apart, or joined through internodes shorter
-/// than [`DecollideOptions::near_joint_path`] × their radius sum.
+/// [`DecollideOptions::near_joint_hops`] apart, or branches of one node joined through
+/// internodes shorter than [`DecollideOptions::near_joint_path`] × their radius sum
+/// (one internode below the other counts by hops only).
 fn near_joint(s: &Skeleton, topo: &Topology, a: usize, b: usize, o: &DecollideOptions) -> bool {
     let short = (capsule(s, a).r + capsule(s, b).r) * o.near_joint_path;
     hops(s, topo, a, b, o.near_joint_hops).is_some()
@@ -352,7 +354,9 @@ fn capsule_box(c: &Capsule, clearance: f64) -> Aabb {
 /// copies: rigid moves keep every internode length) with the closest points, as the
 /// checker measures it ([`meeting`]: siblings and internodes joined by a stub from
 /// their far ends, chained ones never). When their axes are at least `within` apart the
-/// axis gap is returned without looking up how they meet (a joined gap is never smaller).
+/// axis gap is returned without walking the tree: a joined or linked gap is never
+/// smaller than the axis gap, and a folded pair's axes are closer than the radii (the
+/// stub between them is shorter than that).
 fn gap(
     s: &Skeleton,
     topo: &Topology,
@@ -363,7 +367,8 @@ fn gap(
     let (x, y, short) = ([x.a, x.b], [y.a, y.b], x.r + y.r);
     let axes = segment_closest(x[0], x[1], y[0], y[1]);
     if axes.0 >= within {
-        return (meeting(s, &topo.depth, i, j, short) != Meeting::Chained).then_some(axes);
+        let chained = s.parent[i] as usize == j || s.parent[j] as usize == i;
+        return (!chained).then_some(axes);
     }
     meeting_gap(x, y, meeting(s, &topo.depth, i, j, short), short)
 }
@@ -789,19 +794,33 @@ fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
         let Some((_, x, to)) = best else { continue };
         let delta = (to - s.position[x].as_dvec3()).as_vec3();
         s.position[x] = to.as_vec3();
-        for &k in &topo.organ_list[topo.organ_offsets[x] as usize..topo.organ_offsets[x + 1] as usize] {
-            let org = &mut s.organs[k as usize];
-            org.position += delta;
-            if let OrganKind::Polygon(vs) = &mut org.kind {
-                for v in vs.iter_mut() {
-                    *v += delta;
-                }
-            }
-        }
+        move_organs(s, topo, x, |p| p + delta, |d| d);
         bvh.update(x, capsule_box(&capsule(s, x), clearance));
         pulled += 1;
     }
     pulled
+}
+
+/// Moves the organs hanging on `node`: points (position, polygon outline) by `point`,
+/// directions (heading, up) by `dir`.
+fn move_organs(
+    s: &mut Skeleton,
+    topo: &Topology,
+    node: usize,
+    point: impl Fn(Vec3) -> Vec3,
+    dir: impl Fn(Vec3) -> Vec3,
+) {
+    for &k in &topo.organ_list[topo.organ_offsets[node] as usize..topo.organ_offsets[node + 1] as usize] {
+        let org = &mut s.organs[k as usize];
+        org.position = point(org.position);
+        org.heading = dir(org.heading);
+        org.up = dir(org.up);
+        if let OrganKind::Polygon(vs) = &mut org.kind {
+            for v in vs.iter_mut() {
+                *v = point(*v);
+            }
+        }
+    }
 }
 
 /// Rotates the subtree at `c` (positions, `up` vectors, organs) and updates the BVH.
@@ -823,17 +842,7 @@ fn apply(
         if up.is_finite() {
             s.up[m] = up;
         }
-        for &k in &topo.organ_list[topo.organ_offsets[m] as usize..topo.organ_offsets[m + 1] as usize] {
-            let org = &mut s.organs[k as usize];
-            org.position = pivot_f + rot_f * (org.position - pivot_f);
-            org.heading = rot_f * org.heading;
-            org.up = rot_f * org.up;
-            if let OrganKind::Polygon(vs) = &mut org.kind {
-                for v in vs.iter_mut() {
-                    *v = pivot_f + rot_f * (*v - pivot_f);
-                }
-            }
-        }
+        move_organs(s, topo, m, |p| pivot_f + rot_f * (p - pivot_f), |d| rot_f * d);
     }
     for &m in topo.subtree(c) {
         bvh.update(m as usize, capsule_box(&capsule(s, m as usize), clearance));
