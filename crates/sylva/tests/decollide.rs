@@ -221,4 +221,8 @@ fn bad_input_is_an_error() {
     let mut s = crossing();
     let e = decollide(&mut s, &DecollideOptions { angles: vec![-5.0], ..Default::default() }).unwrap_err();
     assert!(e.to_string().contains("angles"), "{e}");
+    let mut s = crossing();
+    let e =
+        decollide(&mut s, &DecollideOptions { near_joint_path: f64::NAN, ..Default::default() }).unwrap_err();
+    assert!(e.to_string().contains("near_joint_path"), "{e}");
 }
