@@ -227,6 +227,17 @@ fn grow(args: GrowArgs) -> Result<()> {
                 d.elapsed.as_secs_f64() * 1e3
             );
         }
+        if let Some(c) = &r.clear {
+            let pairs = |n: Option<usize>| n.map_or("not searched".to_string(), |n| n.to_string());
+            println!(
+                "  clear: {} crossing face pair(s) in the refined mesh, {} left ({} nodes thinned, {} rounds, {:.1} ms)",
+                pairs(c.before),
+                pairs(c.after),
+                c.thinned,
+                c.rounds,
+                c.elapsed.as_secs_f64() * 1e3
+            );
+        }
         println!("  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices);
         println!("  wrote {}", out.display());
         if let Some(p) = &preview {

@@ -39,6 +39,8 @@ pub struct Report {
     pub mesh_time: Duration,
     /// What the skeleton de-collision did (`mesh.decollide`), when it ran.
     pub decollide: Option<crate::mesh::decollide::DecollideReport>,
+    /// What the mesh-checked thinning did (`mesh.clear`), when it ran.
+    pub clear: Option<crate::mesh::clear::ClearReport>,
     /// Surfaces (`~x`) the model places but no `.s` file provides.
     pub missing_surfaces: Vec<String>,
     /// Problems that did not stop the run (printed by the CLI).
@@ -365,6 +367,26 @@ pub fn mesh(
     report: &mut Report,
 ) -> Result<Model> {
     let t = Instant::now();
+    let control = control_mesh(recipe, skeleton, report)?;
+    report.mesh_time = t.elapsed();
+    let bark = refine_bark(recipe, control)?;
+    let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
+    if !skeleton.organs.is_empty() {
+        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
+        report.missing_surfaces = missing;
+        if leaves.face_count() > 0 {
+            parts.push(Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() });
+        }
+    }
+    let model = Model { parts };
+    report.triangles = model.triangle_count();
+    report.vertices = model.vertex_count();
+    Ok(model)
+}
+
+/// The bark's control mesh of `skeleton` by the recipe's mesher (its warnings and axis
+/// count go to `report`).
+fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Mesh> {
     let tips = match recipe.mesh.tips.as_str() {
         "flat" => TipStyle::Flat,
         "open" => TipStyle::Open,
@@ -431,20 +453,7 @@ pub fn mesh(
         report.axes = tube.axes;
         tube.mesh
     };
-    report.mesh_time = t.elapsed();
-    let bark = refine_bark(recipe, control)?;
-    let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
-    if !skeleton.organs.is_empty() {
-        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
-        report.missing_surfaces = missing;
-        if leaves.face_count() > 0 {
-            parts.push(Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() });
-        }
-    }
-    let model = Model { parts };
-    report.triangles = model.triangle_count();
-    report.vertices = model.vertex_count();
-    Ok(model)
+    Ok(control)
 }
 
 /// Subdivides the bark control mesh as `[refine]` says (unchanged for `none` or 0 levels).
@@ -484,6 +493,35 @@ pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Resul
     Ok(())
 }
 
+/// Thins the skeleton where the recipe's mesh, refined as `[refine]` says (the control
+/// mesh itself for `refine.scheme = "none"`), still crosses itself (`mesh.clear`, see
+/// [`crate::mesh::clear`]), and warns about what is left.
+pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
+    use crate::mesh::clear::{clear_crossings, ClearOptions};
+    use crate::refine::Scheme;
+    let (scheme, levels) = match recipe.refine.scheme.as_str() {
+        "loop" => (Scheme::Loop, recipe.refine.levels.min(3)),
+        "catmull-clark" => (Scheme::CatmullClark, recipe.refine.levels.min(3)),
+        _ => (Scheme::Loop, 0),
+    };
+    let opts = ClearOptions { levels, ..Default::default() };
+    let (_, r) =
+        clear_crossings(skeleton, &opts, |s| Ok((control_mesh(recipe, s, &mut Report::default())?, scheme)))?;
+    match (r.before, r.after) {
+        (None, _) => report.warnings.push(format!(
+            "mesh clearing skipped: the refined mesh would have over {} faces",
+            opts.max_faces
+        )),
+        (_, Some(left)) if left > 0 => report.warnings.push(format!(
+            "mesh clearing: {left} crossing face pair(s) left after {} round(s); the surface intersects itself near internodes {:?}",
+            r.rounds, r.unresolved
+        )),
+        _ => {}
+    }
+    report.clear = Some(r);
+    Ok(())
+}
+
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
@@ -503,6 +541,9 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
             what: format!("recipe `{}`", loaded.recipe.name),
             why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
+    }
+    if loaded.recipe.mesh.clears_nodes(skeleton.len()) {
+        clear_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;
     }
     let model = mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?;
     Ok(Grown { skeleton, model, report })

@@ -169,6 +169,11 @@ pub struct MeshSection {
     /// (see [`MeshSection::decollides`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decollide: Option<bool>,
+    /// After meshing, thin the skeleton where the surface, refined as `[refine]` says,
+    /// still crosses itself, and mesh again ([`crate::mesh::clear`]). Unset: whenever
+    /// the skeleton is de-collided (see [`MeshSection::clears_nodes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clear: Option<bool>,
 }
 
 impl MeshSection {
@@ -189,6 +194,15 @@ impl MeshSection {
             Some(on) => on,
             None => self.decollides() && nodes <= DECOLLIDE_AUTO_NODES,
         }
+    }
+}
+
+impl MeshSection {
+    /// Whether the pipeline runs the mesh-checked thinning on a skeleton of `nodes`
+    /// nodes: `clear` when set (never for `tube`, whose child tubes start inside their
+    /// parents by design), else whenever it de-collides the skeleton.
+    pub fn clears_nodes(&self, nodes: usize) -> bool {
+        self.method != "tube" && self.clear.unwrap_or_else(|| self.decollides_nodes(nodes))
     }
 }
 
@@ -213,6 +227,7 @@ impl Default for MeshSection {
             sides: default_sides(),
             tips: default_tips(),
             decollide: None,
+            clear: None,
         }
     }
 }
@@ -595,6 +610,15 @@ mod tests {
         let l = load("lsys-honda-a", &sets(&["mesh.method=\"hull\""])).unwrap();
         assert!(l.recipe.mesh.decollides_nodes(DECOLLIDE_AUTO_NODES));
         assert!(!l.recipe.mesh.decollides_nodes(DECOLLIDE_AUTO_NODES + 1));
+        // Mesh clearing follows de-collision unless set, and never runs for tubes.
+        assert!(l.recipe.mesh.clears_nodes(100) && !l.recipe.mesh.clears_nodes(DECOLLIDE_AUTO_NODES + 1));
+        let l = load("lsys-honda-a", &sets(&["mesh.method=\"hull\"", "mesh.clear=false"])).unwrap();
+        assert!(l.recipe.mesh.decollides_nodes(100) && !l.recipe.mesh.clears_nodes(100));
+        let l =
+            load("lsys-honda-a", &sets(&["mesh.method=\"quad\"", "mesh.decollide=false", "mesh.clear=true"]))
+                .unwrap();
+        assert!(l.recipe.mesh.clears_nodes(10 * DECOLLIDE_AUTO_NODES), "explicit: any size");
+        assert!(!load("lsys-honda-a", &sets(&["mesh.clear=true"])).unwrap().recipe.mesh.clears_nodes(100));
     }
 
     #[test]

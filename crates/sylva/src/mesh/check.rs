@@ -724,7 +724,7 @@ pub(crate) fn meeting_gap(
 }
 
 /// Leaf items of the BVH whose node boxes overlap `b` (candidates; callers re-test).
-fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
+pub(crate) fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
     let mut out = Vec::new();
     let mut stack = vec![0u32];
     while let Some(n) = stack.pop() {
@@ -781,7 +781,11 @@ pub(crate) fn segment_closest(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> (f6
 }
 
 /// Pairs of faces whose triangles cross (each pair once, smaller triangle index first).
-fn self_intersections(positions: &[Vec3], tris: &[([u32; 3], u32)], limit: usize) -> Vec<[usize; 2]> {
+pub(crate) fn self_intersections(
+    positions: &[Vec3],
+    tris: &[([u32; 3], u32)],
+    limit: usize,
+) -> Vec<[usize; 2]> {
     use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
     if tris.is_empty() {
         return Vec::new();

@@ -519,16 +519,22 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
         }
         any = true;
     }
-    if !any {
-        return false;
-    }
+    any && apply_caps(s, cap, o.taper)
+}
+
+/// Lowers every radius to its cap in `cap` (one per node, `INFINITY` for none) after
+/// relaxing each cap up its axis by at most `taper` metres of radius per metre of length
+/// and carrying it down to every descendant (radii stay non-increasing towards the tips
+/// and the thinning is a smooth taper, not a notch). Returns whether any radius changed.
+pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64) -> bool {
+    let n = s.len();
     // Relax up each axis (a child continuing its parent's order), children first.
     for i in (0..n).rev() {
         let p = s.parent[i];
         if p == NO_PARENT || !cap[i].is_finite() || s.order[i] != s.order[p as usize] {
             continue;
         }
-        let up = cap[i] + o.taper * s.internode_length(i);
+        let up = cap[i] + taper * s.internode_length(i);
         cap[p as usize] = cap[p as usize].min(up);
     }
     // Carry every cap down to the descendants (radii non-increasing towards the tips).

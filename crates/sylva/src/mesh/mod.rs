@@ -8,6 +8,7 @@
 //! material. Architecture: "Core types".
 
 pub mod check;
+pub mod clear;
 pub mod decollide;
 pub mod hull;
 pub mod obj_read;
