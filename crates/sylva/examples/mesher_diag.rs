@@ -23,8 +23,8 @@
 //! overrides its rounds). For
 //! `quad` it also lists the crossing pairs by the nodes their faces were made for
 //! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
-//! mesher's time; `SYLVA_QUAD_MIN_RADIUS` and `SYLVA_QUAD_REPAIR_ROUNDS` override those
-//! options.
+//! mesher's time; `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT` and
+//! `SYLVA_QUAD_REPAIR_ROUNDS` override those options.
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -114,6 +114,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut o = QuadOptions::default();
             if let Some(v) = std::env::var("SYLVA_QUAD_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
                 o.min_radius = v;
+            }
+            if let Some(v) = std::env::var("SYLVA_QUAD_SUPPORT").ok().and_then(|v| v.parse().ok()) {
+                o.support = v;
             }
             if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
                 o.repair_rounds = v;

@@ -9,7 +9,7 @@ mod random_tree;
 use glam::Vec3;
 use proptest::prelude::*;
 use random_tree::random_tree;
-use sylva::mesh::check::{check_mesh, CheckOptions};
+use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
 use sylva::mesh::quad::{quad_mesh, FallbackReason, QuadMesh, QuadOptions};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton, NO_PARENT};
@@ -156,7 +156,9 @@ fn unbranched_chain_has_4_k_plus_1_vertices() {
         let pts: Vec<Vec3> = (0..=k)
             .map(|i| Vec3::new((i as f32 * 0.9).sin() * 0.4, i as f32, (i as f32 * 0.5).cos() * 0.3))
             .collect();
-        let q = full_check(&format!("chain {k}"), &chain(&pts, 0.1), &QuadOptions::default());
+        // The seed's cage: no support rings (tested below).
+        let seed = QuadOptions { support: 0.0, ..Default::default() };
+        let q = full_check(&format!("chain {k}"), &chain(&pts, 0.1), &seed);
         let t = check("chain", &q.mesh);
         assert_eq!(t.vertices, 4 * (k + 1), "V = 4(k+1)");
         assert_eq!(t.faces, 4 * k + 2, "F = 4k + 2");
@@ -166,11 +168,69 @@ fn unbranched_chain_has_4_k_plus_1_vertices() {
     }
 }
 
+/// Support rings (`QuadOptions::support`): a tube of one face per internode lets
+/// Catmull–Clark cut the corner of a bend by a fraction of the internode's length; with
+/// a support ring before each bend the refined surface stays within about its radius of
+/// the skeleton. A zig-zag of 20-radius internodes bent by 45°–90°: one ring (4
+/// vertices) per long internode, and the level-2 surface's farthest point from the axis
+/// polyline within 2 ρ (measured: 0.94, 1.01 and 1.91 ρ at 45°, 60° and 90°; a 90°
+/// miter's corners lie 1.41 ρ out), under 1/1.8 of the distance without them (2.90,
+/// 3.39, 3.52 ρ). (Bends past 90° are the seed's backward boxes.)
+#[test]
+fn support_rings_hold_bends_under_refinement() {
+    for bend in [45.0f32, 60.0, 90.0] {
+        let (b, mut dir, mut at) = (bend.to_radians(), Vec3::Y, Vec3::ZERO);
+        let mut pts = vec![at];
+        for i in 0..4 {
+            at += dir * 2.0;
+            pts.push(at);
+            let turn = if i % 2 == 0 { b } else { -b };
+            dir = Vec3::new(
+                dir.x * turn.cos() - dir.y * turn.sin(),
+                dir.x * turn.sin() + dir.y * turn.cos(),
+                0.0,
+            );
+        }
+        let sk = chain(&pts, 0.1);
+        let off = |opts: &QuadOptions| {
+            let q = full_check(&format!("zig-zag {bend}°"), &sk, opts);
+            let o = SubdivideOptions {
+                refine: RefineOptions { scheme: Scheme::CatmullClark, levels: 2, ..Default::default() },
+                ..Default::default()
+            };
+            let fine = subdivide(&q.mesh, &[], &o).unwrap();
+            let far = fine
+                .positions
+                .iter()
+                .map(|&p| {
+                    pts.windows(2)
+                        .map(|w| {
+                            let (a, ab) = (w[0], w[1] - w[0]);
+                            let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+                            p.distance(a + ab * t)
+                        })
+                        .fold(f32::MAX, f32::min)
+                })
+                .fold(0.0f32, f32::max);
+            (q, far / 0.1)
+        };
+        let (seed, seed_far) = off(&QuadOptions { support: 0.0, ..Default::default() });
+        let (q, far) = off(&QuadOptions::default());
+        assert_eq!(
+            q.mesh.positions.len(),
+            seed.mesh.positions.len() + 4 * 4,
+            "{bend}°: one ring per internode"
+        );
+        assert!(far <= 2.0, "{bend}°: the refined surface reaches {far} ρ from the axis");
+        assert!(seed_far > 1.8 * far, "{bend}°: without support rings {seed_far} ρ, with {far} ρ");
+    }
+}
+
 #[test]
 fn fork_and_backward_counts() {
     // One fork with two leaf children (case d): V = 20, F = 18, E = 36 — the seed's
     // construction, without elbows.
-    let seed = QuadOptions { elbow_angle: 90.0, ..Default::default() };
+    let seed = QuadOptions { elbow_angle: 90.0, support: 0.0, ..Default::default() };
     let q = full_check("Y fork", &y_fork(), &seed);
     let t = check("Y fork", &q.mesh);
     assert_eq!((t.vertices, t.faces, t.edges), (20, 18, 36));
@@ -181,7 +241,7 @@ fn fork_and_backward_counts() {
     let q = full_check("Y fork, no pull-back", &y_fork(), &QuadOptions { pull_back: false, ..seed.clone() });
     assert_eq!(check("", &q.mesh).vertices, 20);
     // Each elbow adds one ring (4 vertices) and one band (4 faces).
-    let q = full_check("Y fork, elbows", &y_fork(), &QuadOptions::default());
+    let q = full_check("Y fork, elbows", &y_fork(), &QuadOptions { support: 0.0, ..Default::default() });
     let t = check("Y fork, elbows", &q.mesh);
     let e = q.cases.elbows;
     assert_eq!((t.vertices, t.faces, t.edges), (20 + 4 * e, 18 + 4 * e, 36 + 8 * e));
@@ -494,7 +554,7 @@ fn detach_reasons() {
 fn uvs_wrap_around_and_grow_along() {
     let k = 4;
     let pts: Vec<Vec3> = (0..=k).map(|i| Vec3::Y * i as f32).collect();
-    let q = quad_mesh(&chain(&pts, 0.1), &QuadOptions::default()).unwrap();
+    let q = quad_mesh(&chain(&pts, 0.1), &QuadOptions { support: 0.0, ..Default::default() }).unwrap();
     let uv = q.mesh.uvs.as_ref().unwrap();
     let at = |c: usize| uv.values[uv.indices[c] as usize];
     // Faces: root cap, 4 bands of 4 quads, tip cap.
@@ -673,7 +733,7 @@ fn elbows_keep_oblique_side_children_clean_after_refinement() {
     // The repair would separate what the elbows leave crossing: off, to test the elbows.
     let on = QuadOptions { repair_rounds: 0, ..Default::default() };
     let off = QuadOptions { elbow_angle: 90.0, ..on.clone() };
-    let (mut without, mut elbows) = (0, 0);
+    let (mut without, mut elbows, mut asserted) = (0, 0, 0);
     for upx in [0.0f32, 0.4, 1.0] {
         let up = Vec3::new(upx, 0.0, 1.0).normalize();
         for side in [30.0f32, 45.0, 60.0, 75.0] {
@@ -687,13 +747,22 @@ fn elbows_keep_oblique_side_children_clean_after_refinement() {
                 let dir = Vec3::new(sa.sin() * az.cos(), sa.cos(), sa.sin() * az.sin());
                 s.push(Vec3::Y * 3.0 + dir * 2.0, 0.14, a, up, 1);
                 let (with, e) = level2(&s, &on);
-                assert_eq!(with, 0, "side child at {side}°, azimuth {az}, up {up}: level-2 intersections");
+                // A side child within a few degrees of the first child overlaps it in the
+                // skeleton itself (a sibling collision): no mesher keeps those apart.
+                if skeleton_collisions(&s, 0.01).is_empty() {
+                    assert_eq!(
+                        with, 0,
+                        "side child at {side}°, azimuth {az}, up {up}: level-2 intersections"
+                    );
+                    asserted += 1;
+                }
                 elbows += e;
                 without += level2(&s, &off).0;
             }
         }
     }
     assert!(elbows > 0, "no elbow was built");
+    assert!(asserted >= 40, "only {asserted} of 48 forks are collision-free");
     assert!(without > 0, "the forks do not exercise the elbows");
 }
 
