@@ -230,8 +230,9 @@ fn grow(args: GrowArgs) -> Result<()> {
         if let Some(c) = &r.clear {
             let pairs = |n: Option<usize>| n.map_or("not searched".to_string(), |n| n.to_string());
             println!(
-                "  clear: {} crossing face pair(s) in the refined mesh, {} left ({} nodes thinned, {} rounds, {:.1} ms)",
+                "  clear: {} crossing face pair(s) in the refined mesh, {}{} left ({} nodes thinned, {} rounds, {:.1} ms)",
                 pairs(c.before),
+                if c.truncated { "at least " } else { "" },
                 pairs(c.after),
                 c.thinned,
                 c.rounds,

@@ -513,8 +513,10 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
             opts.max_faces
         )),
         (_, Some(left)) if left > 0 => report.warnings.push(format!(
-            "mesh clearing: {left} crossing face pair(s) left after {} round(s); the surface intersects itself near internodes {:?}",
-            r.rounds, r.unresolved
+            "mesh clearing: {}{left} crossing face pair(s) left after {} round(s); the surface intersects itself near internodes {:?}",
+            if r.truncated { "at least " } else { "" },
+            r.rounds,
+            r.unresolved
         )),
         _ => {}
     }

@@ -90,6 +90,9 @@ pub struct ClearReport {
     pub rounds: usize,
     /// Nodes whose radius the pass lowered.
     pub thinned: usize,
+    /// The search of the mesh returned stopped at [`ClearOptions::max_pairs`]: `after` is
+    /// a lower bound.
+    pub truncated: bool,
     /// Internodes (by child node) the crossings left lie on, at most 16.
     pub unresolved: Vec<u32>,
     /// Wall time, meshing included.
@@ -106,6 +109,9 @@ fn check_options(o: &ClearOptions) -> Result<()> {
     }
     if !(o.taper.is_finite() && o.taper >= 0.0) {
         return bad(format!("taper must be finite and non-negative, got {}", o.taper));
+    }
+    if o.max_pairs == 0 {
+        return bad("max_pairs must be at least 1 (0 would report every mesh clean)".into());
     }
     if o.levels > 4 {
         return bad(format!("levels must be at most 4, got {}", o.levels));
@@ -167,6 +173,7 @@ where
     }
     if let Some((count, radius, best_mesh)) = best {
         report.after = Some(count);
+        report.truncated = count >= opts.max_pairs;
         skeleton.radius = radius;
         mesh = best_mesh;
         if count > 0 {
@@ -336,6 +343,7 @@ mod tests {
             ClearOptions { min_factor: 0.0, ..Default::default() },
             ClearOptions { taper: -1.0, ..Default::default() },
             ClearOptions { levels: 9, ..Default::default() },
+            ClearOptions { max_pairs: 0, ..Default::default() },
         ] {
             let e = clear_crossings(&mut s, &o, sweep).unwrap_err();
             assert!(e.to_string().contains("mesh clearing"), "{e}");
