@@ -228,16 +228,16 @@ fn grow(args: GrowArgs) -> Result<()> {
             );
         }
         if let Some(c) = &r.clear {
-            let pairs = |n: Option<usize>| n.map_or("not searched".to_string(), |n| n.to_string());
-            println!(
-                "  clear: {} crossing face pair(s) in the refined mesh, {}{} left ({} nodes thinned, {} rounds, {:.1} ms)",
-                pairs(c.before),
-                if c.truncated { "at least " } else { "" },
-                pairs(c.after),
-                c.thinned,
-                c.rounds,
-                c.elapsed.as_secs_f64() * 1e3
-            );
+            match (c.before, c.after) {
+                (Some(before), Some(after)) => println!(
+                    "  clear: {before} crossing face pair(s) in the refined mesh, {}{after} left ({} nodes thinned, {} rounds, {:.1} ms)",
+                    if c.truncated { "at least " } else { "" },
+                    c.thinned,
+                    c.rounds,
+                    c.elapsed.as_secs_f64() * 1e3
+                ),
+                _ => println!("  clear: not searched (the refined mesh is too large; see the warning)"),
+            }
         }
         println!("  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices);
         println!("  wrote {}", out.display());

@@ -119,6 +119,13 @@ fn readme_commands() {
     let r = sylva(&["grow", "lsys-fern", "-o", "fern.ply", "--no-preview"], &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     gltf_validator::assert_valid_gltf(&[d.join("fern.gltf").as_path()]);
+    // The joint mesher line: de-collided, then cleared at level 2, with nothing left.
+    let args = ["grow", "mig-k-literal", "--set", "mesh.method=quad", "--set", "refine.scheme=catmull-clark"];
+    let r = sylva(&[&args[..], &["--set", "refine.levels=2", "-o", "mig.glb", "--no-preview"]].concat(), &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("decollide: 256 skeleton collision(s)"), "{}", r.stdout);
+    assert!(r.stdout.contains("clear: 0 crossing face pair(s) in the refined mesh, 0 left"), "{}", r.stdout);
+    gltf_validator::assert_valid_gltf(&[d.join("mig.glb").as_path()]);
     let _ = std::fs::remove_dir_all(&d);
 }
 
