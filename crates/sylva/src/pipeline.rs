@@ -369,6 +369,17 @@ pub fn mesh(
     let t = Instant::now();
     let control = control_mesh(recipe, skeleton, report)?;
     report.mesh_time = t.elapsed();
+    finish(recipe, control, skeleton, surfaces, report)
+}
+
+/// Refines the bark's control mesh and adds the leaves: the model.
+fn finish(
+    recipe: &Recipe,
+    control: Mesh,
+    skeleton: &Skeleton,
+    surfaces: &HashMap<String, Mesh>,
+    report: &mut Report,
+) -> Result<Model> {
     let bark = refine_bark(recipe, control)?;
     let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
     if !skeleton.organs.is_empty() {
@@ -495,8 +506,10 @@ pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Resul
 
 /// Thins the skeleton where the recipe's mesh, refined as `[refine]` says (the control
 /// mesh itself for `refine.scheme = "none"`), still crosses itself (`mesh.clear`, see
-/// [`crate::mesh::clear`]), and warns about what is left.
-pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
+/// [`crate::mesh::clear`]), and warns about what is left. Returns the control mesh of the
+/// skeleton it leaves when that was the last one meshed (its axes, warnings and meshing
+/// time then go to `report`), so the caller need not mesh it again.
+pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<Option<Mesh>> {
     use crate::mesh::clear::{clear_crossings, ClearOptions};
     use crate::refine::Scheme;
     let (scheme, levels) = match recipe.refine.scheme.as_str() {
@@ -505,8 +518,16 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
         _ => (Scheme::Loop, 0),
     };
     let opts = ClearOptions { levels, ..Default::default() };
-    let (_, r) =
-        clear_crossings(skeleton, &opts, |s| Ok((control_mesh(recipe, s, &mut Report::default())?, scheme)))?;
+    // The last meshing's report and the radii it was made with.
+    let mut last: Option<(Report, Vec<f32>)> = None;
+    let (control, r) = clear_crossings(skeleton, &opts, |s| {
+        let t = Instant::now();
+        let mut own = Report::default();
+        let mesh = control_mesh(recipe, s, &mut own)?;
+        own.mesh_time = t.elapsed();
+        last = Some((own, s.radius.clone()));
+        Ok((mesh, scheme))
+    })?;
     match (r.before, r.after) {
         (None, _) => report.warnings.push(format!(
             "mesh clearing skipped: the refined mesh would have over {} faces",
@@ -521,7 +542,15 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
         _ => {}
     }
     report.clear = Some(r);
-    Ok(())
+    match last {
+        Some((own, radius)) if radius == skeleton.radius => {
+            report.axes = own.axes;
+            report.mesh_time = own.mesh_time;
+            report.warnings.extend(own.warnings);
+            Ok(Some(control))
+        }
+        _ => Ok(None),
+    }
 }
 
 /// Runs the whole pipeline of a loaded recipe.
@@ -544,9 +573,14 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
             why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
     }
-    if loaded.recipe.mesh.clears_nodes(skeleton.len()) {
-        clear_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;
-    }
-    let model = mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?;
+    let cleared = if loaded.recipe.mesh.clears_nodes(skeleton.len()) {
+        clear_skeleton(&loaded.recipe, &mut skeleton, &mut report)?
+    } else {
+        None
+    };
+    let model = match cleared {
+        Some(control) => finish(&loaded.recipe, control, &skeleton, &surfaces, &mut report)?,
+        None => mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?,
+    };
     Ok(Grown { skeleton, model, report })
 }

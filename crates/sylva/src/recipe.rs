@@ -195,9 +195,7 @@ impl MeshSection {
             None => self.decollides() && nodes <= DECOLLIDE_AUTO_NODES,
         }
     }
-}
 
-impl MeshSection {
     /// Whether the pipeline runs the mesh-checked thinning on a skeleton of `nodes`
     /// nodes: `clear` when set (never for `tube`, whose child tubes start inside their
     /// parents by design), else whenever it de-collides the skeleton.
