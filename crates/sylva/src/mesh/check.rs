@@ -419,13 +419,7 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     }
 
     // Self-intersections, only on meshes whose positions and references are sound.
-    let mut tris: Vec<([u32; 3], u32)> = Vec::with_capacity(mesh.face_indices.len());
-    for f in (0..nf).filter(|&f| good[f]) {
-        let face = mesh.face(f);
-        for k in 1..face.len() - 1 {
-            tris.push(([face[0], face[k], face[k + 1]], f as u32));
-        }
-    }
+    let tris = fan_triangles(mesh, |f| good[f]);
     r.triangles = tris.len();
     if opts.self_intersections && r.non_finite_count == 0 {
         let pairs = self_intersections(&mesh.positions, &tris, opts.max_intersections);
@@ -434,6 +428,19 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         r.intersections = pairs.into_iter().take(max).collect();
     }
     r
+}
+
+/// The faces `keep` accepts, split into fans from their first corner: `(corners, face)`
+/// per triangle, the input of [`self_intersections`].
+pub(crate) fn fan_triangles(mesh: &Mesh, keep: impl Fn(usize) -> bool) -> Vec<([u32; 3], u32)> {
+    let mut tris = Vec::with_capacity(mesh.face_indices.len());
+    for f in (0..mesh.face_count()).filter(|&f| keep(f)) {
+        let face = mesh.face(f);
+        for k in 1..face.len().saturating_sub(1) {
+            tris.push(([face[0], face[k], face[k + 1]], f as u32));
+        }
+    }
+    tris
 }
 
 fn newell(mesh: &Mesh, face: &[u32]) -> DVec3 {

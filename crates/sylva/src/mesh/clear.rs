@@ -32,7 +32,7 @@
 //! (reported, not an error).
 
 use crate::error::{Error, Result};
-use crate::mesh::check::{build_bvh, query, self_intersections, Aabb};
+use crate::mesh::check::{build_bvh, fan_triangles, query, self_intersections, Aabb};
 use crate::mesh::decollide::apply_caps;
 use crate::mesh::Mesh;
 use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
@@ -208,20 +208,13 @@ fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Op
             why: format!("the control mesh does not refine: {e}"),
         })?
     };
-    let mut tris: Vec<([u32; 3], u32)> = Vec::with_capacity(fine.face_indices.len());
-    for f in 0..fine.face_count() {
-        let face = fine.face(f);
-        for k in 1..face.len().saturating_sub(1) {
-            tris.push(([face[0], face[k], face[k + 1]], f as u32));
-        }
-    }
     if fine.positions.iter().any(|p| !p.is_finite()) {
         return Err(Error::InvalidGeometry {
             what: "mesh clearing".into(),
             why: "the refined mesh has a non-finite position".into(),
         });
     }
-    let pairs = self_intersections(&fine.positions, &tris, opts.max_pairs);
+    let pairs = self_intersections(&fine.positions, &fan_triangles(&fine, |_| true), opts.max_pairs);
     let centre = |f: usize| {
         let face = fine.face(f);
         face.iter().map(|&v| fine.positions[v as usize].as_dvec3()).sum::<DVec3>() / face.len() as f64

@@ -835,12 +835,14 @@ impl Builder<'_> {
             return;
         }
         let d = axis / len;
-        let c = e.normal.dot(d).abs().max(0.2);
-        let a = e.rho * (1.0 - c * c).max(0.0).sqrt() / c + g * e.rho;
-        // The start section's own reach along the tube, which the ring must clear too.
-        let c0 = r.normal.dot(d).abs().max(0.2);
-        let a0 = r.rho * (1.0 - c0 * c0).max(0.0).sqrt() / c0;
-        if len < a0 + a + g * r.rho.max(e.rho) {
+        // How far a section's corners reach along the tube: ρ·tan of its tilt.
+        let reach = |s: &Ring| {
+            let c = s.normal.dot(d).abs().max(0.2);
+            s.rho * (1.0 - c * c).max(0.0).sqrt() / c
+        };
+        let a = reach(e) + g * e.rho;
+        // The start section's reach, which the ring must clear too.
+        if len < reach(r) + a + g * r.rho.max(e.rho) {
             self.band(r, e);
             return;
         }
