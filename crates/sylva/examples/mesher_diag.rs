@@ -18,6 +18,8 @@
 //! ```
 //!
 //! `--control` groups the control mesh's own intersections instead of level 2's;
+//! `--clear` runs the pipeline's mesh clearing (`sylva::mesh::clear`) first and
+//! diagnoses what it leaves;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
 //! overrides its rounds). For
@@ -29,6 +31,7 @@
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use sylva::mesh::check::{check_mesh, CheckOptions};
+use sylva::mesh::clear::{clear_crossings, ClearOptions};
 use sylva::mesh::decollide::{decollide, DecollideOptions};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
@@ -93,47 +96,74 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         describe_unresolved(&sk, &d.unresolved);
         return Ok(());
     }
-    let mut face_node: Vec<u32> = Vec::new();
-    let (mesh, scheme) = match mesher {
-        "hull" => {
-            let h = hull_mesh(&sk, &HullOptions { caps: true, ..Default::default() })?;
-            println!(
-                "hull: {} fallbacks, {} collapsed, {} clamped",
-                h.fallbacks.len(),
-                h.collapsed.len(),
-                h.clamped.len()
-            );
-            (h.mesh, Scheme::Loop)
-        }
-        "sweep" => {
-            let w = sweep_mesh(&sk, &SweepOptions { caps: true, ..Default::default() })?;
-            println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
-            (w.mesh, Scheme::Loop)
-        }
-        "quad" => {
-            let mut o = QuadOptions::default();
-            if let Some(v) = std::env::var("SYLVA_QUAD_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
-                o.min_radius = v;
+    let mut quad_opts = QuadOptions::default();
+    if let Some(v) = std::env::var("SYLVA_QUAD_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
+        quad_opts.min_radius = v;
+    }
+    if let Some(v) = std::env::var("SYLVA_QUAD_SUPPORT").ok().and_then(|v| v.parse().ok()) {
+        quad_opts.support = v;
+    }
+    if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
+        quad_opts.repair_rounds = v;
+    }
+    // One meshing: the control mesh, its scheme and (quad only) the node each face is for.
+    let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
+        Ok(match mesher {
+            "hull" => {
+                let h = hull_mesh(sk, &HullOptions { caps: true, ..Default::default() })?;
+                if verbose {
+                    println!(
+                        "hull: {} fallbacks, {} collapsed, {} clamped",
+                        h.fallbacks.len(),
+                        h.collapsed.len(),
+                        h.clamped.len()
+                    );
+                }
+                (h.mesh, Scheme::Loop, Vec::new())
             }
-            if let Some(v) = std::env::var("SYLVA_QUAD_SUPPORT").ok().and_then(|v| v.parse().ok()) {
-                o.support = v;
+            "sweep" => {
+                let w = sweep_mesh(sk, &SweepOptions { caps: true, ..Default::default() })?;
+                if verbose {
+                    println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
+                }
+                (w.mesh, Scheme::Loop, Vec::new())
             }
-            if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
-                o.repair_rounds = v;
+            _ => {
+                let t = std::time::Instant::now();
+                let q = quad_mesh(sk, &quad_opts)?;
+                if verbose {
+                    println!("quad_mesh: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+                    let mut by: BTreeMap<String, usize> = BTreeMap::new();
+                    for f in &q.fallbacks {
+                        *by.entry(format!("{:?}", f.reason)).or_default() += 1;
+                    }
+                    println!(
+                        "quad: fallbacks {by:?}, cases {:?}, repair rounds {}",
+                        q.cases, q.repair_rounds
+                    );
+                }
+                (q.mesh, Scheme::CatmullClark, q.face_node)
             }
-            let t = std::time::Instant::now();
-            let q = quad_mesh(&sk, &o)?;
-            println!("quad_mesh: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
-            let mut by: BTreeMap<String, usize> = BTreeMap::new();
-            for f in &q.fallbacks {
-                *by.entry(format!("{:?}", f.reason)).or_default() += 1;
-            }
-            println!("quad: fallbacks {by:?}, cases {:?}, repair rounds {}", q.cases, q.repair_rounds);
-            face_node = q.face_node;
-            (q.mesh, Scheme::CatmullClark)
-        }
-        other => return Err(format!("unknown mesher {other:?}: hull, sweep or quad").into()),
+        })
     };
+    if !matches!(mesher, "hull" | "sweep" | "quad") {
+        return Err(format!("unknown mesher {mesher:?}: hull, sweep or quad").into());
+    }
+    if args.iter().any(|a| a == "--clear") {
+        let (_, r) = clear_crossings(&mut sk, &ClearOptions::default(), |s| {
+            run(s, false).map(|(m, scheme, _)| (m, scheme))
+        })?;
+        println!(
+            "clear: {:?} -> {:?} in {} rounds, {} thinned, {:.1} s; unresolved internodes {:?}",
+            r.before,
+            r.after,
+            r.rounds,
+            r.thinned,
+            r.elapsed.as_secs_f64(),
+            r.unresolved
+        );
+    }
+    let (mesh, scheme, face_node) = run(&sk, true)?;
     let listed = CheckOptions { max_listed: MAX_PAIRS, ..Default::default() };
     let t0 = std::time::Instant::now();
     let c = check_mesh(&mesh, &listed);

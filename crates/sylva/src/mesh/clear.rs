@@ -222,9 +222,37 @@ fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Op
     Ok(Some(pairs.iter().flat_map(|&[a, b]| [centre(a), centre(b)]).collect()))
 }
 
-/// The internodes (by child node, sorted, each once) whose surface lies nearest each of
-/// `points` (see the module docs, step 3).
+/// The internodes (by child node, sorted, each once) the crossings of `points` (the two
+/// face centres of each crossing pair, in turn) lie on (see the module docs, step 3):
+/// each face's nearest internode, and, where a pair's two faces are nearest the same
+/// internode or two that share a node, each face's second nearest too (one of the two
+/// faces then stands out of another internode's surface — a junction box or a fold —
+/// and the internode it was made for is likely the runner-up).
 fn nearest_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<u32> {
+    let ranked = ranked_internodes(s, points);
+    let touch = |a: u32, b: u32| {
+        let (pa, pb) = (s.parent[a as usize], s.parent[b as usize]);
+        a == b || pa == b || pb == a || pa == pb
+    };
+    let mut out = Vec::new();
+    for pair in ranked.chunks(2) {
+        let firsts: Vec<u32> = pair.iter().filter_map(|r| r[0]).collect();
+        out.extend(&firsts);
+        if let [a, b] = firsts[..] {
+            if touch(a, b) {
+                out.extend(pair.iter().filter_map(|r| r[1]));
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// For each of `points`, the internodes (by child node) whose surface lies nearest it,
+/// best first (`| distance to the axis − radius there |`, over the internodes whose
+/// capsule grown by 1.5 radii contains the point).
+fn ranked_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<[Option<u32>; 2]> {
     let seg: Vec<u32> = (0..s.len() as u32).filter(|&i| s.parent[i as usize] != NO_PARENT).collect();
     let ends = |i: u32| {
         let p = s.parent[i as usize] as usize;
@@ -242,11 +270,11 @@ fn nearest_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<u32> {
     }
     let mut order = seg.clone();
     let nodes = build_bvh(&boxes, &mut order);
-    let mut out: Vec<u32> = points
+    points
         .iter()
-        .filter_map(|&p| {
+        .map(|&p| {
             let q = Aabb { lo: p, hi: p };
-            query(&nodes, &order, &q)
+            let mut near: Vec<(f64, u32)> = query(&nodes, &order, &q)
                 .into_iter()
                 .filter(|&i| boxes[i].overlaps(&q))
                 .map(|i| {
@@ -260,13 +288,11 @@ fn nearest_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<u32> {
                     let miss = ((p - (a + ab * t)).length() - (ra + (rb - ra) * t)).abs();
                     (miss, i as u32)
                 })
-                .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
-                .map(|(_, i)| i)
+                .collect();
+            near.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            [near.first().map(|x| x.1), near.get(1).map(|x| x.1)]
         })
-        .collect();
-    out.sort_unstable();
-    out.dedup();
-    out
+        .collect()
 }
 
 #[cfg(test)]

@@ -587,6 +587,9 @@ struct Geo {
     first_vertex: u32,
     first_uv: u32,
     v0: f64,
+    /// A root's virtual base loop (see [`root_base`]): one ring at the root node, no
+    /// segments, closed by a fan; not a branch.
+    base: bool,
 }
 
 impl Geo {
@@ -735,7 +738,28 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
             loops = kept;
         }
         let has_in = loops.first().is_some_and(|l| l.at_end);
-        let plan = if loops.len() < 2 {
+        // A root whose stems all leave within a cone gets a virtual base loop (see
+        // `root_base`); without it the hull of their loops is a thin lens.
+        let based = if !work.branch[j] && detached.is_empty() {
+            root_base(skeleton, j, &geo, &loops).and_then(|b| {
+                geo.push(b);
+                let mut with = vec![LoopRef { slot: (geo.len() - 1) as u32, at_end: false }];
+                with.extend(loops.iter().copied());
+                match hull_joint(&geo, &with, s, opts.aligned_epsilon) {
+                    Some(t) => Some((t, with)),
+                    None => {
+                        geo.pop();
+                        None
+                    }
+                }
+            })
+        } else {
+            None
+        };
+        let plan = if let Some((t, with)) = based {
+            loops = with;
+            Plan::Hull(t)
+        } else if loops.len() < 2 {
             Plan::Fallback
         } else if loops.len() == 2 && has_in {
             let (a, b) = (&geo[loops[0].slot as usize], &geo[loops[1].slot as usize]);
@@ -777,6 +801,14 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
     let mut counts = (0u64, 0u64, 0u64); // vertices, uvs, triangles
     for gi in 0..geo.len() {
         let g = geo[gi];
+        if g.base {
+            let g = &mut geo[gi];
+            g.first_vertex = counts.0.min(u32::MAX as u64) as u32;
+            g.first_uv = counts.1.min(u32::MAX as u64) as u32;
+            counts.0 += su as u64;
+            counts.1 += su as u64 + 1;
+            continue;
+        }
         let l = (g.len - g.off_s - g.off_e).max(0.0);
         let (_, rs) = g.end_loop(false);
         let (_, re) = g.end_loop(true);
@@ -822,7 +854,8 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
             .filter(|(p, _)| matches!(p, Plan::Fallback))
             .map(|(_, l)| l.len() as u64)
             .sum::<u64>()
-        + joint_detached.iter().map(|d| d.len() as u64).sum::<u64>();
+        + joint_detached.iter().map(|d| d.len() as u64).sum::<u64>()
+        + geo.iter().filter(|g| g.base).count() as u64;
     let joint_tris: u64 = joint_loops.iter().map(|l| (l.len() as u64) * (su as u64 + 2)).sum();
     let limit = u32::MAX as u64 / 4;
     if counts.0 + extra_caps >= limit
@@ -849,7 +882,7 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
         let (c1, r1) = g.end_loop(true);
         let nseg = g.segments;
         for i in 0..=nseg {
-            let t = i as f64 / nseg as f64;
+            let t = if nseg == 0 { 0.0 } else { i as f64 / nseg as f64 };
             let c = c0.lerp(c1, t);
             let r = r0 + (r1 - r0) * t;
             for j in 0..s {
@@ -873,6 +906,9 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
                 e.tri([a, b, c], [ua, ua + 1, uc]);
                 e.tri([b, d, c], [ua + 1, uc + 1, uc]);
             }
+        }
+        if g.base {
+            continue;
         }
         let sj = work.start_joint[g.node as usize];
         branches.push(BranchSpan {
@@ -918,6 +954,9 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
                 let uvs = joint_uvs(&mut e, &geo, loops, &faces, s);
                 for (f, uv) in faces.iter().zip(uvs) {
                     e.tri(*f, uv);
+                }
+                for l in loops.iter().filter(|l| geo[l.slot as usize].base) {
+                    e.cap(&geo[l.slot as usize], true, s);
                 }
                 JointKind::Hull
             }
@@ -979,6 +1018,55 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
         clamped: work.clamped,
         dropped: work.dropped,
         open_loops,
+    })
+}
+
+/// A virtual base loop for root node `j` whose stems (`loops`, all starting there) leave
+/// within 60° of their mean direction `m`: a ring of the root's radius at the node in
+/// the plane normal to `m`, facing away from the stems (a zero-length tube pointing
+/// down `−m`, closed at once by a fan facing `−m`). Beyond the seed: the hull of stem
+/// loops that all lie in one narrow cone is a thin lens whose two faces cross after
+/// the loops are moved back from the sphere (`mig-k`'s four stems 3°–8° apart); with
+/// the base the joint is a dome over a flat base at the node, and the root stays
+/// closed as before. `None` when the stems are not in such a cone, or when a stem's
+/// loop dips below the base plane.
+fn root_base(sk: &Skeleton, j: usize, geo: &[Geo], loops: &[LoopRef]) -> Option<Geo> {
+    if loops.len() < 2 || loops.iter().any(|l| l.at_end) {
+        return None;
+    }
+    let m = loops.iter().map(|l| geo[l.slot as usize].d).sum::<DVec3>().normalize_or_zero();
+    if m == DVec3::ZERO {
+        return None;
+    }
+    let mut r = sk.radius[j] as f64;
+    for l in loops {
+        let g = &geo[l.slot as usize];
+        let (c, rl) = g.end_loop(false);
+        let cos = g.d.dot(m);
+        // The loop's lowest point above the base plane, with a margin of its radius.
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        if cos < 0.5 || (c - g.start).dot(m) - rl * sin < 0.25 * rl {
+            return None;
+        }
+        r = r.max(g.r0);
+    }
+    if !(r.is_finite() && r > 0.0) {
+        return None;
+    }
+    let d = -m;
+    let up = sk.up[j].as_dvec3();
+    let u = up - d * up.dot(d);
+    let u = if u.length_squared() > 1e-12 { u.normalize() } else { d.any_orthonormal_vector() };
+    Some(Geo {
+        node: j as u32,
+        start: sk.position[j].as_dvec3(),
+        d,
+        r0: r,
+        r1: r,
+        u,
+        w: d.cross(u),
+        base: true,
+        ..Geo::default()
     })
 }
 
