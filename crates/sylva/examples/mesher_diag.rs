@@ -19,14 +19,15 @@
 //!
 //! `--control` groups the control mesh's own intersections instead of level 2's;
 //! `--clear` runs the pipeline's mesh clearing (`sylva::mesh::clear`) first and
-//! diagnoses what it leaves;
+//! diagnoses what it leaves; `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
 //! overrides its rounds). For
 //! `quad` it also lists the crossing pairs by the nodes their faces were made for
 //! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
-//! mesher's time; `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT` and
-//! `SYLVA_QUAD_REPAIR_ROUNDS` override those options.
+//! mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
+//! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
+//! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options.
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -46,7 +47,7 @@ const MAX_PAIRS: usize = 5_000;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1));
-    let takes_value = |a: &str| matches!(a, "--joint" | "--radius" | "--out");
+    let takes_value = |a: &str| matches!(a, "--joint" | "--radius" | "--out" | "--describe");
     let positional: Vec<&String> = args
         .iter()
         .enumerate()
@@ -92,6 +93,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         d.thinned,
         d.elapsed.as_secs_f64() * 1e3
     );
+    if let Some(f) = std::env::var("SYLVA_RADIUS_SCALE").ok().and_then(|v| v.parse::<f32>().ok()) {
+        sk.radius.iter_mut().for_each(|r| *r *= f);
+    }
     if args.iter().any(|a| a == "--decollide") {
         describe_unresolved(&sk, &d.unresolved);
         return Ok(());
@@ -105,6 +109,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
         quad_opts.repair_rounds = v;
+    }
+    if let Some(v) = std::env::var("SYLVA_QUAD_ELBOW").ok().and_then(|v| v.parse().ok()) {
+        quad_opts.elbow_angle = v;
     }
     // One meshing: the control mesh, its scheme and (quad only) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
@@ -163,6 +170,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.unresolved
         );
     }
+    if let Some(list) = flag("--describe") {
+        let ch = sk.children();
+        for n in list.split(',').filter_map(|x| x.parse::<usize>().ok()).filter(|&n| n < sk.len()) {
+            println!(
+                "node {n} (parent {}) at {:.3}: {}",
+                sk.parent[n] as i64,
+                sk.position[n],
+                describe(&sk, &ch, n)
+            );
+        }
+    }
     let (mesh, scheme, face_node) = run(&sk, true)?;
     let listed = CheckOptions { max_listed: MAX_PAIRS, ..Default::default() };
     let t0 = std::time::Instant::now();
@@ -193,6 +211,44 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
     );
 
+    if let Some(n) = std::env::var("SYLVA_FACES_OF").ok().and_then(|v| v.parse::<u32>().ok()) {
+        // The control faces made for node `n`: corners relative to its parent node.
+        let at = sk.position[sk.parent[n as usize] as usize];
+        for f in (0..mesh.face_count()).filter(|&f| face_node.get(f) == Some(&n)) {
+            let c: Vec<String> =
+                mesh.face(f).iter().map(|&v| format!("{:.3}", mesh.positions[v as usize] - at)).collect();
+            println!("  face {f} of node {n}: {}", c.join(" "));
+        }
+    }
+    if !face_node.is_empty() && std::env::var("SYLVA_BIG_FACES").is_ok() {
+        // Control faces with a corner over 6 radii from the internode of the node they
+        // were made for.
+        let mut big: Vec<(f32, usize, u32)> = (0..mesh.face_count())
+            .filter_map(|f| {
+                let n = face_node[f] as usize;
+                let p = sk.parent[n];
+                let a = if p == NO_PARENT { sk.position[n] } else { sk.position[p as usize] };
+                let b = sk.position[n];
+                let far = mesh
+                    .face(f)
+                    .iter()
+                    .map(|&v| {
+                        let q = mesh.positions[v as usize];
+                        let ab = b - a;
+                        let t = ((q - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+                        q.distance(a + ab * t)
+                    })
+                    .fold(0.0f32, f32::max);
+                let x = far / sk.radius[n].max(1e-9);
+                (x > 6.0).then_some((x, f, n as u32))
+            })
+            .collect();
+        big.sort_by(|a, b| b.0.total_cmp(&a.0));
+        println!("control faces with a corner over 6 radii from their internode: {}", big.len());
+        for (x, f, n) in big.iter().take(12) {
+            println!("  face {f} of node {n} (parent {}): {x:.1} radii off", sk.parent[*n as usize] as i64);
+        }
+    }
     if !face_node.is_empty() {
         // The nodes the quad mesher made each crossing face for, and their parents.
         let shift = if control_only { 0 } else { 4 };
@@ -200,6 +256,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for pair in &report.intersections {
             let (a, b) = (face_node[pair[0] >> shift], face_node[pair[1] >> shift]);
             *seen.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+        if std::env::var("SYLVA_PAIRS").is_ok() {
+            for pair in report.intersections.iter().take(12) {
+                let (a, b) = (pair[0] >> shift, pair[1] >> shift);
+                println!(
+                    "  pair: control face {a} (node {}) at {:.3} x control face {b} (node {}) at {:.3}",
+                    face_node[a],
+                    centroid(&fine, pair[0]),
+                    face_node[b],
+                    centroid(&fine, pair[1])
+                );
+            }
         }
         let par = |o: u32| if o == NO_PARENT { NO_PARENT } else { sk.parent[o as usize] };
         for ((a, b), n) in seen.iter().take(20) {

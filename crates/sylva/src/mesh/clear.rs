@@ -15,7 +15,9 @@
 //! 3. give each crossing face to the internode whose surface is nearest its centre
 //!    (`| distance to the axis − radius there |`, over the internodes whose capsule,
 //!    grown by 1.5 radii, contains the centre) and cap the radii of both end nodes of
-//!    each such internode at [`ClearOptions::step`] times their radius, never below
+//!    each such internode — and, where an end node is a branching node, the radii of all
+//!    its children, since a junction's box, blend or hull is sized by every radius
+//!    meeting there — at [`ClearOptions::step`] times their radius, never below
 //!    [`ClearOptions::min_factor`] times the radius the pass started with; caps are
 //!    relaxed up the axis by [`ClearOptions::taper`] and carried down to descendants
 //!    exactly as `decollide`'s thinning does (a smooth taper, not a notch);
@@ -157,12 +159,22 @@ where
             break;
         }
         let internodes = nearest_internodes(skeleton, &faces);
+        let children = skeleton.children();
         let mut cap = vec![f64::INFINITY; skeleton.len()];
+        let mut thin = |node: u32| {
+            let (r, r0) = (skeleton.radius[node as usize] as f64, start_radius[node as usize] as f64);
+            let c = (opts.step * r).max(opts.min_factor * r0);
+            cap[node as usize] = cap[node as usize].min(c);
+        };
         for &x in &internodes {
             for node in [x, skeleton.parent[x as usize]] {
-                let (r, r0) = (skeleton.radius[node as usize] as f64, start_radius[node as usize] as f64);
-                let c = (opts.step * r).max(opts.min_factor * r0);
-                cap[node as usize] = cap[node as usize].min(c);
+                thin(node);
+                // A junction's surface (box, blend, hull) is sized by every radius meeting
+                // there: thin them all, not only the one the face landed on.
+                let kids = children.of(node as usize);
+                if kids.len() > 1 {
+                    kids.iter().for_each(|&k| thin(k));
+                }
             }
         }
         if !apply_caps(skeleton, cap, opts.taper) {

@@ -59,11 +59,13 @@
 //!   (`mig-m`: 8.8 ρ off the axis, into a neighbouring branch); with the ring, by about
 //!   ρ. `support = 0` gives the seed's cage exactly.
 //! * **Elbows**: a side child leaving its face more than [`QuadOptions::elbow_angle`]
-//!   (default 30°) off the face normal starts from an extra ring of its own size, a short
-//!   neck out of the face along the half direction of the normal and the child. The seed
-//!   sweeps straight from the face; when the child leaves nearly along the box the face
-//!   is seen edge-on from the child and its first tube is a twisted blade that folds into
-//!   the sibling under Catmull–Clark.
+//!   (default 0°: every side child) off the face normal starts from an extra ring of its
+//!   own size, a short neck out of the face along the half direction of the normal and
+//!   the child. The seed sweeps straight from the face; when the child leaves nearly
+//!   along the box the face is seen edge-on from the child and its first tube is a
+//!   twisted blade that folds into the sibling under Catmull–Clark, and even a square
+//!   exit starts from a box-long rectangle, a flat blade over the child's whole first
+//!   face.
 //! * **Leading child**: children are sorted by diameter (J §3.5), except that a thickest
 //!   child pointing back (≥ 90°) gives the lead to a forward child at least 3/4 as thick —
 //!   otherwise a near-equal lateral turns the whole junction, the stem's continuation
@@ -203,9 +205,14 @@ pub struct QuadOptions {
     pub min_length: f32,
     /// Largest angle in degrees between a side child and its side face's normal that the
     /// child's tube may start at directly; beyond it an *elbow* ring first leaves the face
-    /// along the half direction (default 30, range 0–90; 90 turns elbows off). Without
-    /// it a child leaving nearly along the box starts from the face seen edge-on, and its
-    /// first tube flattens into a twisted blade that folds under Catmull–Clark.
+    /// along the half direction (default 0: every side child gets one; range 0–90; 90
+    /// turns elbows off). Without it a child leaving nearly along the box starts from the
+    /// face seen edge-on, and its first tube flattens into a twisted blade that folds
+    /// under Catmull–Clark; and even a child leaving squarely starts from the whole side
+    /// face, a box-long rectangle, so its tube is a flat blade over its whole first face
+    /// (session 9: 30° left `mig-b`'s 70° trifurcation blades 5 ρ wide into a
+    /// neighbour; 0 took `mig-m` 110 → 0, `lsys-abop-c` 60 → 0, `mig-refined` 165 → 33
+    /// crossing pairs at level 2).
     pub elbow_angle: f32,
     /// Support rings (beyond the seed): on a tube longer than its sections, an extra
     /// ring of the end section's size is placed this many section corner distances (ρ)
@@ -238,7 +245,7 @@ impl Default for QuadOptions {
             max_chain: 3,
             min_radius: 0.005,
             min_length: 0.1,
-            elbow_angle: 30.0,
+            elbow_angle: 0.0,
             support: 1.0,
             repair_rounds: 4,
             check_levels: 2,
