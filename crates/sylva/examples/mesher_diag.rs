@@ -27,7 +27,8 @@
 //! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
 //! mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
 //! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
-//! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options.
+//! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options
+//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's).
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -129,7 +130,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (h.mesh, Scheme::Loop, Vec::new())
             }
             "sweep" => {
-                let w = sweep_mesh(sk, &SweepOptions { caps: true, ..Default::default() })?;
+                let mut o = SweepOptions { caps: true, ..Default::default() };
+                if let Some(v) = std::env::var("SYLVA_SWEEP_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
+                    o.min_radius = v;
+                }
+                let w = sweep_mesh(sk, &o)?;
                 if verbose {
                     println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
                 }
@@ -211,6 +216,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
     );
 
+    if let Some(n) = std::env::var("SYLVA_CHAIN").ok().and_then(|v| v.parse::<usize>().ok()) {
+        // Node `n`'s ancestors, with the number of control faces made for each.
+        let mut owned = vec![0usize; sk.len()];
+        face_node.iter().for_each(|&o| owned[o as usize] += 1);
+        for a in ancestors(&sk, n) {
+            println!(
+                "  chain {a} at {:.3}: {} faces, {} children",
+                sk.position[a],
+                owned[a],
+                sk.children().of(a).len()
+            );
+        }
+    }
     if let Some(n) = std::env::var("SYLVA_FACES_OF").ok().and_then(|v| v.parse::<u32>().ok()) {
         // The control faces made for node `n`: corners relative to its parent node.
         let at = sk.position[sk.parent[n as usize] as usize];
@@ -282,6 +300,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "faces of nodes {a} (parent {}) and {b} (parent {}): {n} pairs; steps to common ancestor {lca:?}; axis gap/(ra+rb) {gap:.2}",
                 par(*a),
                 par(*b)
+            );
+        }
+    }
+    if std::env::var("SYLVA_NEAREST").is_ok() {
+        // Each crossing face's nearest internode and its distance from that axis, in
+        // radii (1 = on the capsule's surface).
+        let off = |i: usize, p: Vec3| {
+            let a = sk.position[sk.parent[i] as usize];
+            let ab = sk.position[i] - a;
+            let t = ((p - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+            (a + ab * t - p).length() / sk.radius[i].max(1e-6)
+        };
+        for pair in report.intersections.iter().take(16) {
+            let (pa, pb) = (centroid(&fine, pair[0]), centroid(&fine, pair[1]));
+            let (a, b) = (nearest_internode(&sk, pa), nearest_internode(&sk, pb));
+            println!(
+                "  pair at {pa:.3}: internode {a} ({:.2} r off its axis) x internode {b} ({:.2} r off)",
+                off(a, pa),
+                off(b, pb)
             );
         }
     }

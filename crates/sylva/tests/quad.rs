@@ -827,3 +827,49 @@ fn repair_separates_narrow_forks_that_cross_after_refinement() {
     }
     assert!(crossed > 0, "no fork crossed without the repair: the test does not exercise it");
 }
+
+/// A chain that turns back on itself must not be carried past the turn. The merge rule
+/// skips a node whose section would lie too close to its start ring, and before session
+/// 9 it also skipped a node whose child lies *behind* that ring: the ring was carried
+/// through the hairpin, every later node lay behind it too, and the whole chain became
+/// one tube from the root to the tip (`mgv-r`: 38 nodes, a straight tube 4.8 m through
+/// the crown). Here a short first internode is merged, the chain bends 67° and then 92°
+/// back, and runs on for 3 m: every node owns faces, every face made for a node lies
+/// near that node's internode, and the level-2 surface does not cross itself.
+#[test]
+fn a_hairpin_is_not_carried_past() {
+    let mut s = Skeleton::new();
+    let up = Vec3::Z;
+    let mut at = s.push(Vec3::ZERO, 0.05, NO_PARENT, up, 0);
+    let turn = |deg: f32| Vec3::new(deg.to_radians().sin(), deg.to_radians().cos(), 0.0);
+    let mut p = Vec3::ZERO;
+    for (dir, len) in [
+        (turn(0.0), 0.03),
+        (turn(67.0), 0.12),
+        (turn(159.0), 0.47),
+        (turn(165.0), 1.0),
+        (turn(170.0), 1.0),
+        (turn(170.0), 1.0),
+    ] {
+        p += dir * len;
+        at = s.push(p, 0.05, at, up, 0);
+    }
+    let q = full_check("hairpin", &s, &QuadOptions::default());
+    for n in 3..s.len() {
+        assert!(q.face_node.iter().any(|&o| o as usize == n), "node {n} owns no face: skipped");
+    }
+    for (f, &o) in q.face_node.iter().enumerate() {
+        let o = o as usize;
+        let a = s.position[s.parent[o].min(o as u32) as usize];
+        let b = s.position[o];
+        let far = q.mesh.face(f).iter().map(|&v| {
+            let x = q.mesh.positions[v as usize];
+            let t = ((x - a).dot(b - a) / (b - a).length_squared().max(1e-12)).clamp(0.0, 1.0);
+            x.distance(a + (b - a) * t)
+        });
+        let far = far.fold(0.0f32, f32::max);
+        assert!(far < 0.5, "face {f} of node {o} reaches {far} m from its internode");
+    }
+    let fine = catmull_clark(&q.mesh, 2);
+    assert_eq!(check_mesh(&fine, &CheckOptions::default()).intersection_count, Some(0));
+}

@@ -97,12 +97,16 @@
 //!   with one child the node is skipped (the tube runs on to the child), with several
 //!   the box sits directly on the start ring, a tip is extended to `min_length · ρ`.
 //!   Reported as [`FallbackReason::Short`] unless the internode itself is shorter than
-//!   that (then it is merged and listed in [`QuadMesh::merged`]).
+//!   that (then it is merged and listed in [`QuadMesh::merged`]). A lone child that lies
+//!   behind the start ring too (a hairpin) is not carried on: the tube ends as a tip
+//!   would and the child is **detached** ([`FallbackReason::Detached`]); carried on, the
+//!   ring skipped every later node that also lay behind it.
 //! * A node with one child closer to its start ring than `ρ·(tan α_R + tan α_n) +
 //!   min_length · ρ` — `α_R` the start ring's tilt against the internode, `α_n` half the
 //!   bend at the node — is **merged**: its section would cross the start ring inside the
-//!   tube, so the tube runs on to the child. Listed in [`QuadMesh::merged`] (a chain of
-//!   tiny internodes thus becomes one tube).
+//!   tube, so the tube runs on to the child — only when the child lies ahead of the start
+//!   ring. Listed in [`QuadMesh::merged`] (a chain of tiny internodes thus becomes one
+//!   tube).
 //! * Zero radii are raised to `min_radius · max radius` (or a fraction of the bounding
 //!   box when every radius is 0), so no face has zero area and nothing is NaN.
 //!
@@ -971,8 +975,20 @@ impl Builder<'_> {
             } else {
                 self.merged.push(node);
             }
+            // A lone child the start ring also faces away from (a hairpin) is not carried
+            // on: carrying `r` past a turn back would skip node after node (`mgv-r`: a
+            // 38-node chain became one tube from the root to a branch 4.8 m away). The
+            // tube ends here and the child starts its own cage.
+            let hairpin = match kids[..] {
+                [k] => (self.pos(k) - r.center).dot(r.normal) < self.min_len(self.rho(k).max(r.rho)),
+                _ => false,
+            };
+            if hairpin {
+                self.fallback(kids[0], FallbackReason::Detached);
+                self.stack.push(Task::Detach { node: kids[0] });
+            }
             match kids.len() {
-                0 => {
+                _ if hairpin || kids.is_empty() => {
                     let c = r.center + r.normal * min_len;
                     let tv = Self::next_tex_v(&r, c, rho);
                     let e = self.ring_perp(c, r.normal, r.up, rho, tv);
@@ -1002,7 +1018,10 @@ impl Builder<'_> {
             let tilt = |c: f32| (1.0 - c * c).max(0.0).sqrt() / c.max(0.5);
             let half = ((1.0 + d.dot(d0).max(0.0)) * 0.5).sqrt();
             let reach = rho.max(r.rho) * (tilt(r.normal.dot(d)) + tilt(half)) + min_len;
-            if along < reach {
+            // Merged only when the child lies ahead of the start ring (see the hairpin
+            // above); otherwise the node gets its own section.
+            let ahead = (self.pos(k) - r.center).dot(r.normal) >= self.min_len(self.rho(k).max(r.rho));
+            if along < reach && ahead {
                 self.merged.push(node);
                 self.stack.push(Task::Segment { ring: r, node: k });
                 return;

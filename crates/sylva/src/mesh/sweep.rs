@@ -181,6 +181,11 @@ pub struct SweepOptions {
     /// subdivision) is rebuilt as a general junction (module docs, step 7). Costs one
     /// refinement and a check of the template junctions' refined faces per round.
     pub check_levels: u32,
+    /// Smallest ring radius as a fraction of the skeleton's largest radius (default
+    /// 0.005, range 1e-6–1, as the quad mesher's `min_radius`): thinner tips are raised to
+    /// it. At 0.001 (until session 9) a Weber–Penn tip tapering to zero (`r` 3·10⁻⁴ m
+    /// over 0.46 m internodes) folded under Loop subdivision.
+    pub min_radius: f64,
 }
 
 /// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
@@ -227,6 +232,7 @@ impl Default for SweepOptions {
             u_mapping: UMapping::Reflected,
             tile_v: false,
             check_levels: 2,
+            min_radius: 0.005,
         }
     }
 }
@@ -236,6 +242,9 @@ impl SweepOptions {
         let bad = |why: String| Err(Error::InvalidGeometry { what: "sweep mesher".into(), why });
         if !(self.tip_size.is_finite() && (0.0..=100.0).contains(&self.tip_size)) {
             return bad(format!("tip_size = {}; it must be in 0..=100", self.tip_size));
+        }
+        if !(self.min_radius.is_finite() && (1e-6..=1.0).contains(&self.min_radius)) {
+            return bad(format!("min_radius = {}; it must be in 1e-6..=1", self.min_radius));
         }
         if !(2..=64).contains(&self.max_children) {
             return bad(format!("max_children = {}; it must be in 2..=64", self.max_children));
@@ -463,7 +472,8 @@ impl Plan {
         let pos: Vec<DVec3> = s.position.iter().map(|p| p.as_dvec3()).collect();
         let rmax = s.radius.iter().fold(0.0f32, |a, &b| a.max(b)) as f64;
         let scale = pos.iter().fold(0.0f64, |a, p| a.max(p.abs().max_element()));
-        let rmin = if rmax > 0.0 { 1e-3 * rmax } else { 1e-3 * scale.max(1e-3) };
+        let f = opts.min_radius;
+        let rmin = if rmax > 0.0 { f * rmax } else { f * scale.max(1e-3) };
         let rad: Vec<f64> = s.radius.iter().map(|&r| (r as f64).max(rmin)).collect();
         let up: Vec<DVec3> = s.up.iter().map(|u| u.as_dvec3()).collect();
         // Collapse zero-length internodes.
