@@ -226,3 +226,35 @@ fn bad_input_is_an_error() {
         decollide(&mut s, &DecollideOptions { near_joint_path: f64::NAN, ..Default::default() }).unwrap_err();
     assert!(e.to_string().contains("near_joint_path"), "{e}");
 }
+
+/// Zero-radius tips (Weber–Penn's) are raised to the floor, 0.005 of the largest radius
+/// (the joint meshers' own), before the search, so twigs that pass 2 mm apart collide as
+/// the 1.5 mm tubes the meshers will draw and are pulled apart; no thinning goes below
+/// the floor; `min_radius = 0` keeps the radius-0 capsules, which never collide.
+#[test]
+fn zero_radius_twigs_collide_at_the_floor() {
+    let twigs = || {
+        let mut s = Skeleton::new();
+        let root = s.push(Vec3::ZERO, 0.3, NO_PARENT, Vec3::Z, 0);
+        let top = s.push(Vec3::Y * 3.0, 0.2, root, Vec3::Z, 0);
+        // Two twigs from different limbs that pass each other 2 mm apart.
+        for (x, z) in [(1.0f32, 0.0f32), (-1.0, 0.002)] {
+            let limb = s.push(Vec3::new(x, 3.5, 0.0), 0.05, top, Vec3::Z, 1);
+            let a = s.push(Vec3::new(x * 0.5, 4.0, z - 0.5), 0.0, limb, Vec3::Z, 2);
+            s.push(Vec3::new(-x * 0.5, 4.0, z + 0.5), 0.0, a, Vec3::Z, 2);
+        }
+        s
+    };
+    let mut s = twigs();
+    let r = decollide(&mut s, &DecollideOptions::default()).unwrap();
+    let floor = 0.005 * 0.3;
+    assert!(r.before > 0, "the floored twigs should collide: {r:?}");
+    assert_eq!(r.after, 0, "{r:?}");
+    assert_eq!(r.raised, 4, "{r:?}");
+    assert!(s.radius.iter().all(|&x| x >= floor * (1.0 - 1e-6)), "{:?}", s.radius);
+    let mut s = twigs();
+    let r = decollide(&mut s, &DecollideOptions { min_radius: 0.0, ..Default::default() }).unwrap();
+    assert_eq!((r.before, r.raised), (0, 0), "{r:?}");
+    assert_eq!(s, twigs());
+    assert!(decollide(&mut s, &DecollideOptions { min_radius: 2.0, ..Default::default() }).is_err());
+}

@@ -35,7 +35,7 @@
 
 use crate::error::{Error, Result};
 use crate::mesh::check::{build_bvh, fan_triangles, query, self_intersections, Aabb};
-use crate::mesh::decollide::apply_caps;
+use crate::mesh::decollide::{apply_caps, floor_of, raise_to_floor};
 use crate::mesh::Mesh;
 use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use crate::skeleton::{Skeleton, NO_PARENT};
@@ -63,6 +63,11 @@ pub struct ClearOptions {
     /// At most this many crossing pairs are searched for per round (the rest wait for
     /// the next round).
     pub max_pairs: usize,
+    /// Radius floor as a fraction of the largest radius (default 0.005, as
+    /// [`DecollideOptions::min_radius`](crate::mesh::decollide::DecollideOptions::min_radius)):
+    /// radii under it are raised to it first and thinning never goes below it (the
+    /// joint meshers draw thinner sections at that size anyway).
+    pub min_radius: f64,
 }
 
 impl Default for ClearOptions {
@@ -76,6 +81,7 @@ impl Default for ClearOptions {
             patience: 2,
             max_faces: 4_000_000,
             max_pairs: 100_000,
+            min_radius: 0.005,
         }
     }
 }
@@ -112,6 +118,9 @@ fn check_options(o: &ClearOptions) -> Result<()> {
     if !(o.taper.is_finite() && o.taper >= 0.0) {
         return bad(format!("taper must be finite and non-negative, got {}", o.taper));
     }
+    if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
+        return bad(format!("min_radius must be in 0..=1, got {}", o.min_radius));
+    }
     if o.max_pairs == 0 {
         return bad("max_pairs must be at least 1 (0 would report every mesh clean)".into());
     }
@@ -139,6 +148,8 @@ where
     let t0 = Instant::now();
     check_options(opts)?;
     skeleton.validate()?;
+    raise_to_floor(skeleton, opts.min_radius);
+    let floor = floor_of(skeleton, opts.min_radius);
     let start_radius = skeleton.radius.clone();
     let mut report = ClearReport::default();
     let (mut mesh, scheme) = mesher(skeleton)?;
@@ -177,7 +188,7 @@ where
                 }
             }
         }
-        if !apply_caps(skeleton, cap, opts.taper) {
+        if !apply_caps(skeleton, cap, opts.taper, floor) {
             break;
         }
         report.rounds += 1;

@@ -47,7 +47,9 @@
 //! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
 //! looped on. Node `up` vectors and the organs hanging on moved nodes move with them;
 //! roots never move, the topology never changes, and a skeleton the checker finds
-//! collision-free is left bit-identical.
+//! collision-free is left bit-identical, except that radii under the floor
+//! ([`DecollideOptions::min_radius`], 0.005 of the largest: the joint meshers' own floor)
+//! are first raised to it, since the meshers draw them that thick.
 //!
 //! Cost per round: a BVH over the internode capsules (median split; its bounds grow to
 //! cover each rotated subtree), the collision search parallel over internodes with
@@ -100,6 +102,14 @@ pub struct DecollideOptions {
     /// per trial) per skeleton node are spent on rotation trials (counted, not timed, so the result stays
     /// deterministic); pairs left when it runs out are reported.
     pub work_per_node: usize,
+    /// Radius floor as a fraction of the skeleton's largest radius (default 0.005; 0
+    /// turns it off): smaller radii are raised to it first, and no thinning goes below
+    /// it. The joint meshers raise thinner sections to this size anyway (`quad` and
+    /// `sweep` `min_radius`), so a Weber–Penn tip the skeleton draws at zero radius is
+    /// meshed, and must be kept apart, as a tube of that radius (session 9: twigs 5 mm
+    /// apart on `wp-balsam-fir` crossed as 1.5 mm tubes while their capsules, of radius
+    /// 0, were "clear").
+    pub min_radius: f64,
 }
 
 impl Default for DecollideOptions {
@@ -116,6 +126,7 @@ impl Default for DecollideOptions {
             max_rounds: 8,
             max_moved: 4000,
             work_per_node: 200,
+            min_radius: 0.005,
         }
     }
 }
@@ -138,6 +149,8 @@ pub struct DecollideReport {
     pub retracted: usize,
     /// Rounds run.
     pub rounds: usize,
+    /// Nodes whose radius was raised to the floor ([`DecollideOptions::min_radius`]).
+    pub raised: usize,
     /// The collisions left (internodes named by their child node, smaller first).
     pub unresolved: Vec<[usize; 2]>,
     /// Wall time.
@@ -161,8 +174,9 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     let t0 = Instant::now();
     skeleton.validate()?;
     check_options(opts)?;
+    let raised = raise_to_floor(skeleton, opts.min_radius);
     let first = skeleton_collisions(skeleton, CHECK_TOLERANCE);
-    let mut report = DecollideReport { before: first.len(), ..Default::default() };
+    let mut report = DecollideReport { before: first.len(), raised, ..Default::default() };
     if first.is_empty() {
         report.elapsed = t0.elapsed();
         return Ok(report);
@@ -210,6 +224,9 @@ fn check_options(o: &DecollideOptions) -> Result<()> {
         if !(v.is_finite() && v > 0.0 && v <= 1.0) {
             return bad(format!("{name} must be in (0, 1], got {v}"));
         }
+    }
+    if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
+        return bad(format!("min_radius must be in 0..=1, got {}", o.min_radius));
     }
     if !(o.near_joint_path.is_finite() && o.near_joint_path >= 0.0) {
         return bad(format!("near_joint_path must be finite and non-negative, got {}", o.near_joint_path));
@@ -519,14 +536,14 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
         }
         any = true;
     }
-    any && apply_caps(s, cap, o.taper)
+    any && apply_caps(s, cap, o.taper, floor_of(s, o.min_radius))
 }
 
 /// Lowers every radius to its cap in `cap` (one per node, `INFINITY` for none) after
 /// relaxing each cap up its axis by at most `taper` metres of radius per metre of length
 /// and carrying it down to every descendant (radii stay non-increasing towards the tips
 /// and the thinning is a smooth taper, not a notch). Returns whether any radius changed.
-pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64) -> bool {
+pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64, floor: f32) -> bool {
     let n = s.len();
     // Relax up each axis (a child continuing its parent's order), children first.
     for i in (0..n).rev() {
@@ -546,13 +563,31 @@ pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64) -> boo
     }
     let mut changed = false;
     for (r, &c) in s.radius.iter_mut().zip(&cap) {
-        let c = c as f32;
+        let c = (c as f32).max(floor).max(0.0);
         if c < *r {
-            *r = c.max(0.0);
+            *r = c;
             changed = true;
         }
     }
     changed
+}
+
+/// The radius floor: `fraction` of the skeleton's largest radius.
+pub(crate) fn floor_of(s: &Skeleton, fraction: f64) -> f32 {
+    let rmax = s.radius.iter().fold(0.0f32, |m, &r| m.max(r));
+    (fraction * rmax as f64) as f32
+}
+
+/// Raises every radius under the floor (`fraction` of the largest radius) to it;
+/// returns how many were raised.
+pub(crate) fn raise_to_floor(s: &mut Skeleton, fraction: f64) -> usize {
+    let floor = floor_of(s, fraction);
+    let mut raised = 0;
+    for r in s.radius.iter_mut().filter(|r| **r < floor) {
+        *r = floor;
+        raised += 1;
+    }
+    raised
 }
 
 /// A subtree rotation to try (about the subtree root's parent node).
