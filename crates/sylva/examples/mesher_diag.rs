@@ -19,7 +19,7 @@
 //!
 //! `--control` groups the control mesh's own intersections instead of level 2's;
 //! `--clear` runs the pipeline's mesh clearing (`sylva::mesh::clear`) first and
-//! diagnoses what it leaves; `--describe N,M` prints those nodes' children;
+//! diagnoses what it leaves (`SYLVA_CLEAR_PATIENCE` overrides its patience); `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
 //! overrides its rounds). For
@@ -28,7 +28,7 @@
 //! mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
 //! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
 //! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options
-//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's).
+//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's, `SYLVA_HULL_MAX_SEGMENTS` the hull's).
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -118,7 +118,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
         Ok(match mesher {
             "hull" => {
-                let h = hull_mesh(sk, &HullOptions { caps: true, ..Default::default() })?;
+                let mut o = HullOptions { caps: true, ..Default::default() };
+                if let Some(v) = std::env::var("SYLVA_HULL_MAX_SEGMENTS").ok().and_then(|v| v.parse().ok()) {
+                    o.max_segments = v;
+                }
+                let h = hull_mesh(sk, &o)?;
                 if verbose {
                     println!(
                         "hull: {} fallbacks, {} collapsed, {} clamped",
@@ -162,9 +166,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err(format!("unknown mesher {mesher:?}: hull, sweep or quad").into());
     }
     if args.iter().any(|a| a == "--clear") {
-        let (_, r) = clear_crossings(&mut sk, &ClearOptions::default(), |s| {
-            run(s, false).map(|(m, scheme, _)| (m, scheme))
-        })?;
+        let mut co = ClearOptions::default();
+        if let Some(v) = std::env::var("SYLVA_CLEAR_PATIENCE").ok().and_then(|v| v.parse().ok()) {
+            co.patience = v;
+        }
+        let (_, r) = clear_crossings(&mut sk, &co, |s| run(s, false).map(|(m, scheme, _)| (m, scheme)))?;
         println!(
             "clear: {:?} -> {:?} in {} rounds, {} thinned, {:.1} s; unresolved internodes {:?}",
             r.before,

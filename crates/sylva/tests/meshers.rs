@@ -316,7 +316,11 @@ const DECOLLIDED_CLEAN_CI: &[(&str, &[&str])] = &[
     // seed's collapse) and the quad support rings (72 pairs before them).
     ("lsys-abop-a", &["hull", "sweep", "quad"]),
     ("lsys-abop-bush", &["sweep", "quad"]),
-    ("mig-k-literal", &["sweep", "quad"]),
+    // Hull clean since session 9's root base loop (76 level-2 pairs before it); mig-m
+    // quad since every side child's elbow ring (110 before).
+    ("mig-k", &["hull"]),
+    ("mig-k-literal", &["hull", "sweep", "quad"]),
+    ("mig-m", &["hull", "quad"]),
 ];
 
 #[test]

@@ -46,7 +46,12 @@
 //!    the rest still get their joint. A joint whose hull fails (or that keeps fewer
 //!    than two loops) falls back whole: its branches run to O untrimmed and each loop
 //!    there is closed by a fan (separate closed tubes meeting at O). Both are reported
-//!    in [`HullMesh::fallbacks`].
+//!    in [`HullMesh::fallbacks`]. *Beyond the seed*: a root whose stems all leave
+//!    within 60° of their mean direction `m` gets a virtual **base loop** ([`root_base`]):
+//!    a ring of the root's radius at the root node, normal to `m`, that takes part in
+//!    the hull and is closed by a flat fan facing `−m` (the joint is a dome on a flat
+//!    base at the node; without it the hull of loops in one narrow cone is a thin lens
+//!    whose two sides cross once the loops are moved back from the sphere).
 //! 6. **UVs** (seed 000 §4.3.2–4.3.3). Branches: `u = j/s` (the wrap column `u = 1`),
 //!    `v = v₀ + i/2`. A branch that continues its parent through a band starts at the
 //!    parent's last `v` plus the band's length in the same unit, so chains of internodes
