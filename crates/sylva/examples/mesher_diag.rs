@@ -22,7 +22,7 @@
 //! diagnoses what it leaves (`SYLVA_CLEAR_PATIENCE` overrides its patience); `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
-//! overrides its rounds). For
+//! overrides its rounds, `SYLVA_DECOLLIDE_FLOOR` its radius floor). For
 //! `quad` it also lists the crossing pairs by the nodes their faces were made for
 //! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
 //! mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
@@ -72,6 +72,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut dopts = DecollideOptions::default();
     if let Some(v) = std::env::var("SYLVA_DECOLLIDE_ROUNDS").ok().and_then(|v| v.parse().ok()) {
         dopts.max_rounds = v;
+    }
+    if let Some(v) = std::env::var("SYLVA_DECOLLIDE_FLOOR").ok().and_then(|v| v.parse().ok()) {
+        dopts.min_radius = v;
     }
     let d = if args.iter().any(|a| a == "--raw") {
         let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
