@@ -159,6 +159,10 @@ where
     let (mut mesh, scheme) = mesher(skeleton)?;
     let mut best: Option<(usize, Vec<f32>, Mesh)> = None;
     let mut stalled = 0;
+    // Narrow thinning first (each face's nearest internode, as in session 8); once it
+    // has stalled for `patience` rounds, wide thinning (runner-ups and whole junctions)
+    // with the full patience again.
+    let mut wide = false;
     while let Some(faces) = crossing_faces(&mesh, scheme, opts)? {
         let count = faces.len() / 2;
         if report.before.is_none() {
@@ -170,10 +174,14 @@ where
         } else {
             stalled += 1;
         }
+        if !wide && stalled >= opts.patience && count > 0 {
+            wide = true;
+            stalled = 0;
+        }
         if count == 0 || report.rounds >= opts.max_rounds || stalled >= opts.patience {
             break;
         }
-        let internodes = nearest_internodes(skeleton, &faces);
+        let internodes = nearest_internodes(skeleton, &faces, wide);
         let children = skeleton.children();
         let mut cap = vec![f64::INFINITY; skeleton.len()];
         let mut thin = |node: u32| {
@@ -187,7 +195,7 @@ where
                 // A junction's surface (box, blend, hull) is sized by every radius meeting
                 // there: thin them all, not only the one the face landed on.
                 let kids = children.of(node as usize);
-                if kids.len() > 1 {
+                if wide && kids.len() > 1 {
                     kids.iter().for_each(|&k| thin(k));
                 }
             }
@@ -205,7 +213,7 @@ where
         mesh = best_mesh;
         if count > 0 {
             if let Some(faces) = crossing_faces(&mesh, scheme, opts)? {
-                let mut left = nearest_internodes(skeleton, &faces);
+                let mut left = nearest_internodes(skeleton, &faces, false);
                 left.truncate(16);
                 report.unresolved = left;
             }
@@ -251,11 +259,11 @@ fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Op
 
 /// The internodes (by child node, sorted, each once) the crossings of `points` (the two
 /// face centres of each crossing pair, in turn) lie on (see the module docs, step 3):
-/// each face's nearest internode, and, where a pair's two faces are nearest the same
+/// each face's nearest internode, and with `runner_ups`, where a pair's two faces are nearest the same
 /// internode or two that share a node, each face's second nearest too (one of the two
 /// faces then stands out of another internode's surface — a junction box or a fold —
 /// and the internode it was made for is likely the runner-up).
-fn nearest_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<u32> {
+fn nearest_internodes(s: &Skeleton, points: &[DVec3], runner_ups: bool) -> Vec<u32> {
     let ranked = ranked_internodes(s, points);
     let touch = |a: u32, b: u32| {
         let (pa, pb) = (s.parent[a as usize], s.parent[b as usize]);
@@ -266,7 +274,7 @@ fn nearest_internodes(s: &Skeleton, points: &[DVec3]) -> Vec<u32> {
         let firsts: Vec<u32> = pair.iter().filter_map(|r| r[0]).collect();
         out.extend(&firsts);
         if let [a, b] = firsts[..] {
-            if touch(a, b) {
+            if runner_ups && touch(a, b) {
                 out.extend(pair.iter().filter_map(|r| r[1]));
             }
         }
