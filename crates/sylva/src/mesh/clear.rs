@@ -14,11 +14,12 @@
 //!    [`check_mesh`](crate::mesh::check::check_mesh)'s test);
 //! 3. give each crossing face to the internode whose surface is nearest its centre
 //!    (`| distance to the axis − radius there |`, over the internodes whose capsule,
-//!    grown by 1.5 radii, contains the centre) — and, where a pair's two faces land on
-//!    one internode or on two that share a node, each face's runner-up too (one of the
-//!    faces then stands out of a neighbour's surface: a box or a fold made for another
-//!    internode) — and cap the radii of both end nodes of
-//!    each such internode — and, where an end node is a branching node, the radii of all
+//!    grown by 1.5 radii, contains the centre) — and, in *wide* rounds (after the narrow
+//!    rule has stalled for [`ClearOptions::patience`] rounds), where a pair's two faces
+//!    land on one internode or on two that share a node, each face's runner-up too (one
+//!    of the faces then stands out of a neighbour's surface: a box or a fold made for
+//!    another internode) — and cap the radii of both end nodes of
+//!    each such internode — and, in wide rounds, where an end node is a branching node, the radii of all
 //!    its children, since a junction's box, blend or hull is sized by every radius
 //!    meeting there — at [`ClearOptions::step`] times their radius, never below
 //!    [`ClearOptions::min_factor`] times the radius the pass started with nor below the
