@@ -70,10 +70,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let loaded = sylva::recipe::load(preset, &[])?;
     let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
     let mut dopts = DecollideOptions::default();
-    if let Some(v) = std::env::var("SYLVA_DECOLLIDE_ROUNDS").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_DECOLLIDE_ROUNDS") {
         dopts.max_rounds = v;
     }
-    if let Some(v) = std::env::var("SYLVA_DECOLLIDE_FLOOR").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_DECOLLIDE_FLOOR") {
         dopts.min_radius = v;
     }
     let d = if args.iter().any(|a| a == "--raw") {
@@ -97,7 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         d.thinned,
         d.elapsed.as_secs_f64() * 1e3
     );
-    if let Some(f) = std::env::var("SYLVA_RADIUS_SCALE").ok().and_then(|v| v.parse::<f32>().ok()) {
+    if let Some(f) = env_value::<f32>("SYLVA_RADIUS_SCALE") {
         sk.radius.iter_mut().for_each(|r| *r *= f);
     }
     if args.iter().any(|a| a == "--decollide") {
@@ -105,27 +105,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
     let mut quad_opts = QuadOptions::default();
-    if let Some(v) = std::env::var("SYLVA_QUAD_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_QUAD_MIN_RADIUS") {
         quad_opts.min_radius = v;
     }
-    if let Some(v) = std::env::var("SYLVA_QUAD_SUPPORT").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_QUAD_SUPPORT") {
         quad_opts.support = v;
     }
-    if let Some(v) = std::env::var("SYLVA_QUAD_REPAIR_ROUNDS").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_QUAD_REPAIR_ROUNDS") {
         quad_opts.repair_rounds = v;
     }
-    if let Some(v) = std::env::var("SYLVA_QUAD_ELBOW").ok().and_then(|v| v.parse().ok()) {
+    if let Some(v) = env_value("SYLVA_QUAD_ELBOW") {
         quad_opts.elbow_angle = v;
+    }
+    let mut hull_opts = HullOptions { caps: true, ..Default::default() };
+    if let Some(v) = env_value("SYLVA_HULL_MAX_SEGMENTS") {
+        hull_opts.max_segments = v;
+    }
+    let mut sweep_opts = SweepOptions { caps: true, ..Default::default() };
+    if let Some(v) = env_value("SYLVA_SWEEP_MIN_RADIUS") {
+        sweep_opts.min_radius = v;
     }
     // One meshing: the control mesh, its scheme and (quad only) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
         Ok(match mesher {
             "hull" => {
-                let mut o = HullOptions { caps: true, ..Default::default() };
-                if let Some(v) = std::env::var("SYLVA_HULL_MAX_SEGMENTS").ok().and_then(|v| v.parse().ok()) {
-                    o.max_segments = v;
-                }
-                let h = hull_mesh(sk, &o)?;
+                let h = hull_mesh(sk, &hull_opts)?;
                 if verbose {
                     println!(
                         "hull: {} fallbacks, {} collapsed, {} clamped",
@@ -137,11 +141,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (h.mesh, Scheme::Loop, Vec::new())
             }
             "sweep" => {
-                let mut o = SweepOptions { caps: true, ..Default::default() };
-                if let Some(v) = std::env::var("SYLVA_SWEEP_MIN_RADIUS").ok().and_then(|v| v.parse().ok()) {
-                    o.min_radius = v;
-                }
-                let w = sweep_mesh(sk, &o)?;
+                let w = sweep_mesh(sk, &sweep_opts)?;
                 if verbose {
                     println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
                 }
@@ -170,7 +170,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if args.iter().any(|a| a == "--clear") {
         let mut co = ClearOptions::default();
-        if let Some(v) = std::env::var("SYLVA_CLEAR_PATIENCE").ok().and_then(|v| v.parse().ok()) {
+        if let Some(v) = env_value("SYLVA_CLEAR_PATIENCE") {
             co.patience = v;
         }
         let (_, r) = clear_crossings(&mut sk, &co, |s| run(s, false).map(|(m, scheme, _)| (m, scheme)))?;
@@ -225,20 +225,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
     );
 
-    if let Some(n) = std::env::var("SYLVA_CHAIN").ok().and_then(|v| v.parse::<usize>().ok()) {
+    if let Some(n) = env_value::<usize>("SYLVA_CHAIN") {
         // Node `n`'s ancestors, with the number of control faces made for each.
         let mut owned = vec![0usize; sk.len()];
         face_node.iter().for_each(|&o| owned[o as usize] += 1);
+        let ch = sk.children();
         for a in ancestors(&sk, n) {
-            println!(
-                "  chain {a} at {:.3}: {} faces, {} children",
-                sk.position[a],
-                owned[a],
-                sk.children().of(a).len()
-            );
+            println!("  chain {a} at {:.3}: {} faces, {} children", sk.position[a], owned[a], ch.of(a).len());
         }
     }
-    if let Some(n) = std::env::var("SYLVA_FACES_OF").ok().and_then(|v| v.parse::<u32>().ok()) {
+    if let Some(n) = env_value::<u32>("SYLVA_FACES_OF") {
         // The control faces made for node `n`: corners relative to its parent node.
         let at = sk.position[sk.parent[n as usize] as usize];
         for f in (0..mesh.face_count()).filter(|&f| face_node.get(f) == Some(&n)) {
@@ -416,6 +412,11 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
             size(jb)
         );
     }
+}
+
+/// The value of environment variable `name`, when it is set and parses as `T`.
+fn env_value<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok()?.parse().ok()
 }
 
 /// Node `n` and its ancestors up to the root.
