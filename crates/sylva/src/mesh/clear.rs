@@ -399,6 +399,8 @@ mod tests {
             ClearOptions { taper: -1.0, ..Default::default() },
             ClearOptions { levels: 9, ..Default::default() },
             ClearOptions { max_pairs: 0, ..Default::default() },
+            ClearOptions { min_radius: 2.0, ..Default::default() },
+            ClearOptions { min_radius: f64::NAN, ..Default::default() },
         ] {
             let e = clear_crossings(&mut s, &o, sweep).unwrap_err();
             assert!(e.to_string().contains("mesh clearing"), "{e}");
