@@ -23,9 +23,10 @@
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
 //! overrides its rounds, `SYLVA_DECOLLIDE_FLOOR` its radius floor). For
-//! `quad` it also lists the crossing pairs by the nodes their faces were made for
-//! (`QuadMesh::face_node`) with the steps to their common ancestor, and prints the
-//! mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
+//! `quad` and `sweep` it also lists the crossing pairs by the nodes their faces were
+//! made for (`QuadMesh::face_node`; `SweepMesh::face_owner`: a strip's internode, named
+//! by its end node, or the junction node) with the steps to their common ancestor
+//! (`SYLVA_PAIRS` prints the first pairs); for `quad` it prints the mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
 //! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
 //! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options
 //! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's, `SYLVA_HULL_MAX_SEGMENTS` the hull's).
@@ -125,7 +126,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env_value("SYLVA_SWEEP_MIN_RADIUS") {
         sweep_opts.min_radius = v;
     }
-    // One meshing: the control mesh, its scheme and (quad only) the node each face is for.
+    // One meshing: the control mesh, its scheme and (quad and sweep) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
         Ok(match mesher {
             "hull" => {
@@ -145,7 +146,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if verbose {
                     println!("sweep: {} fallbacks, {} general junctions", w.fallbacks.len(), w.general.len());
                 }
-                (w.mesh, Scheme::Loop, Vec::new())
+                // A strip's faces go to its internode (its child node), a junction's to
+                // the junction node.
+                let node = w.face_owner.iter().map(|o| if o[1] != u32::MAX { o[1] } else { o[0] }).collect();
+                (w.mesh, Scheme::Loop, node)
             }
             _ => {
                 let t = std::time::Instant::now();

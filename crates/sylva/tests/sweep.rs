@@ -932,3 +932,67 @@ fn zero_radius_tips_are_raised_to_the_floor() {
         assert!(sweep_mesh(&sk, &SweepOptions { min_radius: bad, ..Default::default() }).is_err());
     }
 }
+
+/// Distance from `p` to the polyline through `pts`.
+fn polyline_distance(p: DVec3, pts: &[DVec3]) -> f64 {
+    pts.windows(2)
+        .map(|w| {
+            let ab = w[1] - w[0];
+            let t = ((p - w[0]).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+            (w[0] + ab * t - p).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Bend rings (module docs, step 4b): an 82° bend between internodes 40 radii long keeps
+/// its level-2 surface within 1.5 radii of the skeleton near the bend, where without
+/// them Loop rounds the corner over the whole internodes (`mig-m`'s crossing). Each
+/// bend adds two rings (12 vertices, 24 triangles), and with Tile V their `v` is their
+/// fraction of the internode.
+#[test]
+fn a_sharp_bend_keeps_its_corner() {
+    let r = 0.02f32;
+    let b = 82f32.to_radians();
+    let pts = [Vec3::ZERO, Vec3::Y * 0.8, Vec3::Y * 0.8 + Vec3::new(b.sin(), b.cos(), 0.0) * 0.8];
+    let mut s = Skeleton::new();
+    let mut p = NO_PARENT;
+    for q in pts {
+        p = s.push(q, r, p, Vec3::Z, 0);
+    }
+    let pts: Vec<DVec3> = pts.iter().map(|q| q.as_dvec3()).collect();
+    let deviation = |opts: &SweepOptions| {
+        let m = sweep_mesh(&s, opts).unwrap();
+        assert_valid("bend", &m, 1, false);
+        let fine = subdivide(
+            &m.mesh,
+            &[],
+            &SubdivideOptions {
+                refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let near: Vec<f64> = fine
+            .positions
+            .iter()
+            .map(|v| v.as_dvec3())
+            .filter(|v| (*v - pts[1]).length() < 10.0 * r as f64)
+            .map(|v| polyline_distance(v, &pts) / r as f64)
+            .collect();
+        let max = near.iter().copied().fold(0.0, f64::max);
+        let min = near.iter().copied().fold(f64::INFINITY, f64::min);
+        (m, max, min)
+    };
+    let tips = SweepTips::Pruned;
+    let (with, max, min) = deviation(&SweepOptions { tips, ..Default::default() });
+    let (without, max_off, _) = deviation(&SweepOptions { tips, bend_rings: false, ..Default::default() });
+    assert!(max <= 1.5 && min >= 0.5, "with bend rings: {min:.2}–{max:.2} radii off the skeleton");
+    assert!(max_off > 3.0, "without bend rings the corner is cut: {max_off:.2} radii");
+    assert_eq!(with.mesh.vertex_count(), without.mesh.vertex_count() + 12);
+    assert_eq!(with.mesh.face_count(), without.mesh.face_count() + 24);
+    // Tile V: the bend rings' v is their fraction of the internode, strictly inside.
+    let tiled = sweep_mesh(&s, &SweepOptions { tips, tile_v: true, ..Default::default() }).unwrap();
+    let uv = tiled.mesh.uvs.as_ref().unwrap();
+    let inner: Vec<f32> = uv.values.iter().map(|t| t.y).filter(|v| *v > 0.0 && *v < 1.0).collect();
+    assert!(!inner.is_empty() && inner.iter().all(|v| *v > 0.02 && *v < 0.98), "{inner:?}");
+}

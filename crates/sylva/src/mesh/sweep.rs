@@ -31,6 +31,20 @@
 //!    with the vertex offset `o ∈ {0..5}` that minimises the twist, so the residual is
 //!    ≤ 30° ([`SweepMesh::max_twist_deg`]). Each internode is a strip of 12 triangles
 //!    with consistent diagonals.
+//!
+//!    **4b. Bend rings** (beyond the seed, [`SweepOptions::bend_rings`]). Loop
+//!    subdivision rounds a bend over the whole length of its two internodes: its limit
+//!    cuts the corner by about `L̄ sin(β/2) / 3` (`L̄` their mean length, `β` the bend).
+//!    Where that exceeds half the node's radius `r`, each of the two internodes gets one
+//!    extra ring `r (0.5 + 1.5 tan(β/2))` (at least `1.5 r`) from the node, taking at
+//!    most 45 % of the length its offsets leave free (a side without room for
+//!    `1.1 r tan(β/2)`, the mitre's inner reach, gets none); with both, the ring at the
+//!    node becomes the bend's mitre, stretched by `1/cos(β/2)` (at most 2) across the
+//!    bend, so the tube keeps its width there. The bend is then rounded within a few
+//!    radii. Each extra ring adds 6 vertices and 12 triangles; with Tile V its `v` is
+//!    its fraction of the internode. (On `mig-m`, whose internodes are 40–80 radii
+//!    long, an 82° bend put the level-2 surface 6 radii inside the bend, through a
+//!    neighbouring branch: 243 crossing pairs at level 2, 0 with bend rings.)
 //! 5. **Junctions** (§5.5.3; our own triangulation, the spec's "Reference
 //!    construction"). The branching plane is fitted to the trunk and child axes (its
 //!    normal `N` is the least-variance direction, oriented toward the node's `up`),
@@ -186,6 +200,15 @@ pub struct SweepOptions {
     /// it. At 0.001 (until session 9) a Weber–Penn tip tapering to zero (`r` 3·10⁻⁴ m
     /// over 0.46 m internodes) folded under Loop subdivision.
     pub min_radius: f64,
+    /// Bend rings (beyond the seed, default true): at a chain node whose bend would let
+    /// Loop subdivision cut the corner by more than half a radius, one extra ring is
+    /// placed on each internode a short distance from the node, and the ring at the node
+    /// becomes the bend's mitre (an ellipse, stretched by `1/cos(β/2)`, at most 2, across
+    /// the bend). Without them a smooth surface rounds a bend over the whole length of
+    /// its two internodes: an 82° bend between 40-radius internodes (`mig-m`) moved the
+    /// level-2 surface 6 radii inside the bend, through a neighbouring branch (module
+    /// docs, step 4b).
+    pub bend_rings: bool,
 }
 
 /// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
@@ -233,6 +256,7 @@ impl Default for SweepOptions {
             tile_v: false,
             check_levels: 2,
             min_radius: 0.005,
+            bend_rings: true,
         }
     }
 }
@@ -296,6 +320,11 @@ pub struct SweepMesh {
     pub max_twist_deg: f64,
     /// Designed boundary loops: one per open root base.
     pub open_loops: usize,
+    /// For each control face, the nodes it was made for: `[node, NONE]` for a
+    /// junction's, cap's or collar strip's faces, `[parent, child]` for an internode's
+    /// strip (either may be `u32::MAX` where the face belongs to no junction or chain
+    /// node, e.g. a root base). Used to map a crossing back to the skeleton.
+    pub face_owner: Vec<[u32; 2]>,
 }
 
 /// Seed 001, Eq. 5.1 and 5.2: the offsets `(d₁, d₂)` of two branches of radii `r1`,
@@ -407,7 +436,17 @@ struct Plan {
     clamped: Vec<u32>,
     collapsed: Vec<u32>,
     asymmetric: Vec<u32>,
+    /// Bend rings of a chain node (0: none): distance of the extra ring back from the
+    /// node on its incoming internode, and forward on its outgoing one; and the mitre
+    /// stretch across the bend (1: a plain ring) with its direction.
+    bend_in: Vec<f64>,
+    bend_out: Vec<f64>,
+    mitre: Vec<(f64, DVec3)>,
 }
+
+/// Loop cuts a bend's corner by about `L̄ sin(β/2) / 3` (`L̄` the mean length of the two
+/// internodes): bend rings go where that exceeds this many radii.
+const BEND_CUT: f64 = 0.5;
 
 fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
     let l = v.length();
@@ -522,6 +561,9 @@ impl Plan {
             clamped: Vec::new(),
             collapsed,
             asymmetric: Vec::new(),
+            bend_in: vec![0.0; n],
+            bend_out: vec![0.0; n],
+            mitre: vec![(1.0, DVec3::ZERO); n],
         };
         // Offsets; where an internode is too short for them, a chain node at one of its
         // ends is removed (its child re-attaches to its parent; end points never move)
@@ -542,8 +584,56 @@ impl Plan {
             }
         }
         plan.collapsed.sort_unstable();
+        if opts.bend_rings {
+            plan.bends();
+        }
         plan.general_joints(opts);
         plan
+    }
+
+    /// Bend rings and mitres of the chain nodes ([`SweepOptions::bend_rings`]). The
+    /// extra ring sits `r (0.5 + 1.5 tan(β/2))`, at least `1.5 r`, from the node, so
+    /// that the mitre's inner point (`r tan(β/2)` back along either internode) lies
+    /// between it and the node; it takes at most 45% of the internode's length left
+    /// between its offsets, and a side without room for `1.1 r tan(β/2)` gets none.
+    /// The mitre is stretched only when both sides have their ring.
+    fn bends(&mut self) {
+        let free = |p: &Plan, c: usize| p.len[c] - p.off_start[c] - p.off_end[c];
+        for i in 0..self.live.len() {
+            if !self.live[i] || self.kind[i] != Kind::Chain || self.par[i] == NONE {
+                continue;
+            }
+            let c = self.kids[i][0] as usize;
+            let (din, dout) = (self.dir[i], self.dir[c]);
+            let beta = din.dot(dout).clamp(-1.0, 1.0).acos();
+            let r = self.rad[i];
+            let mean = 0.5 * (self.len[i] + self.len[c]);
+            if mean * (0.5 * beta).sin() / 3.0 <= BEND_CUT * r {
+                continue;
+            }
+            let t = (0.5 * beta).tan().min(4.0);
+            let want = (r * (0.5 + 1.5 * t)).max(1.5 * r);
+            let least = (1.1 * r * t).max(0.25 * r);
+            let side = |room: f64| {
+                let s = want.min(0.45 * room);
+                if s >= least {
+                    s
+                } else {
+                    0.0
+                }
+            };
+            self.bend_in[i] = side(free(self, i));
+            self.bend_out[i] = side(free(self, c));
+            if self.bend_in[i] > 0.0 && self.bend_out[i] > 0.0 {
+                let axis = unit_or(din + dout, din);
+                let across = din - dout;
+                let across = across - axis * across.dot(axis);
+                if across.length_squared() > 1e-18 {
+                    let f = (1.0 / (0.5 * beta).cos().max(0.5)).min(2.0);
+                    self.mitre[i] = (f, across.normalize());
+                }
+            }
+        }
     }
 
     /// Faces of every general junction (module docs, step 5b); a junction whose hull
@@ -844,6 +934,16 @@ impl Build<'_> {
         ring
     }
 
+    /// Stretches `ring`'s vertices by `f` along `across` (a unit vector in its plane): a
+    /// bend's mitre.
+    fn stretch(&mut self, ring: &Ring, across: DVec3, f: f64) {
+        for k in 0..SIDES {
+            let p = ring.vertex(k);
+            let x = (p - ring.c).dot(across);
+            self.mesh.positions[ring.index(k) as usize] = (p + across * (x * (f - 1.0))).as_vec3();
+        }
+    }
+
     fn tri(&mut self, v: [u32; 3], uv: [Vec2; 3], owner: [u32; 2]) {
         self.mesh.push_face(&v);
         for t in uv {
@@ -880,6 +980,12 @@ impl Build<'_> {
     /// `b`'s `u` parity from `a`'s (connected vertices share `u`) and `b` as an end ring
     /// for Tile V.
     fn strip(&mut self, a: &Ring, b: &mut Ring, owner: [u32; 2]) {
+        self.strip_part(a, b, owner, (0.0, 1.0));
+    }
+
+    /// [`Build::strip`] for a part of an internode: with Tile V, `v` runs over `tiles`
+    /// (the parts' fractions of the internode) instead of `0 → 1`.
+    fn strip_part(&mut self, a: &Ring, b: &mut Ring, owner: [u32; 2], tiles: (f32, f32)) {
         let t = DQuat::from_rotation_arc(a.d, b.d) * a.u;
         let alpha = t.dot(b.w()).atan2(t.dot(b.u));
         let o = (alpha / FRAC_PI_3).round();
@@ -888,7 +994,7 @@ impl Build<'_> {
         b.parity = ((a.parity as usize + o) % 2) as u8;
         b.tile = 1.0;
         let (va, vb) = if self.opts.tile_v {
-            (0.0, 1.0)
+            tiles
         } else {
             ((a.v / self.plan.vmax) as f32, (b.v / self.plan.vmax) as f32)
         };
@@ -1108,9 +1214,25 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
         // End ring of the internode into i, and its tube.
         let mut end: Option<Ring> = None;
         if plan.par[i] != NONE {
-            let Some(a) = start[i] else { continue };
+            let Some(mut a) = start[i] else { continue };
             let owner = [nodeown(plan.par[i] as usize), nodeown(i)];
             let d = plan.dir[i];
+            // Bend rings (step 4b): after a bent chain parent, and before this node when
+            // it is one.
+            let p = plan.par[i] as usize;
+            let after = if plan.kind[p] == Kind::Chain && !fallback[p] { plan.bend_out[p] } else { 0.0 };
+            let before = if kind == Kind::Chain && !fb { plan.bend_in[i] } else { 0.0 };
+            let len = plan.len[i];
+            let mut tile = 0.0f32;
+            for x in [after, len - before].into_iter().filter(|&x| x > 0.0 && x < len) {
+                let ux = DQuat::from_rotation_arc(a.d, d) * a.u;
+                let rx = plan.rad[p] + (r - plan.rad[p]) * (x / len);
+                let mut ring = b.ring(plan.pos[p] + d * x, d, ux, rx, plan.path[p] + x);
+                let t = (x / len) as f32;
+                b.strip_part(&a, &mut ring, owner, (tile, t));
+                tile = t;
+                a = ring;
+            }
             let ut = DQuat::from_rotation_arc(a.d, d) * a.u;
             let mut e = match kind {
                 Kind::Tip => b.ring(plan.pos[i], d, ut, r, plan.path[i]),
@@ -1118,7 +1240,12 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     let c = plan.kids[i][0] as usize;
                     let axis = unit_or(d + plan.dir[c], d);
                     let ua = DQuat::from_rotation_arc(a.d, axis) * a.u;
-                    b.ring(plan.pos[i], axis, ua, r, plan.path[i])
+                    let ring = b.ring(plan.pos[i], axis, ua, r, plan.path[i]);
+                    let (f, across) = plan.mitre[i];
+                    if f > 1.0 {
+                        b.stretch(&ring, across, f);
+                    }
+                    ring
                 }
                 Kind::Junction if !fb => {
                     let off = plan.off_end[i];
@@ -1129,7 +1256,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     b.ring(plan.pos[i] - d * off, d, ut, r, plan.path[i] - off)
                 }
             };
-            b.strip(&a, &mut e, owner);
+            b.strip_part(&a, &mut e, owner, (tile, 1.0));
             if kind == Kind::Tip {
                 b.tip(&e, plan.len[i], owner);
             } else if fb {
@@ -1285,10 +1412,10 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
     // Template junctions already searched after refinement ([`folded_templates`]).
     let mut checked = vec![false; n];
     let mut round = 0;
-    let (mesh, max_twist, open_loops) = loop {
+    let (mesh, face_owner, max_twist, open_loops) = loop {
         let (mesh, owner, twist, loops) = build(&plan, opts, &fallback);
         if round >= opts.repair_rounds || mesh.face_count() == 0 {
-            break (mesh, twist, loops);
+            break (mesh, owner, twist, loops);
         }
         round += 1;
         let rep = check_mesh(
@@ -1324,7 +1451,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             bad = folded_templates(&plan, &mesh, &owner, opts.check_levels, &mut checked);
         }
         if bad.is_empty() {
-            break (mesh, twist, loops);
+            break (mesh, owner, twist, loops);
         }
         // A coplanar template that fails is tried once as a general junction (module
         // docs, step 7); the other nodes fall back, but only once no junction changed
@@ -1346,7 +1473,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         if !escalated {
             if refined_only {
                 // Only general junctions fold there: nothing left to try.
-                break (mesh, twist, loops);
+                break (mesh, owner, twist, loops);
             }
             for o in bad {
                 fallback[o as usize] = true;
@@ -1375,6 +1502,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         collapsed: plan.collapsed.clone(),
         max_twist_deg: max_twist,
         open_loops,
+        face_owner,
     })
 }
 
