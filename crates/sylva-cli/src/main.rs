@@ -216,13 +216,14 @@ fn grow(args: GrowArgs) -> Result<()> {
         );
         if let Some(d) = &r.decollide {
             println!(
-                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} rounds, {:.1} ms)",
+                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs lengthened, {} rounds, {:.1} ms)",
                 d.before,
                 d.resolved(),
                 d.after,
                 d.thinned,
                 d.rotations,
                 d.retracted,
+                d.extended,
                 d.rounds,
                 d.elapsed.as_secs_f64() * 1e3
             );

@@ -89,13 +89,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         decollide(&mut sk, &dopts)?
     };
     println!(
-        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {:.0} ms)",
+        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs lengthened, {:.0} ms)",
         sk.len(),
         d.before,
         d.after,
         d.rounds,
         d.rotations,
         d.thinned,
+        d.retracted,
+        d.extended,
         d.elapsed.as_secs_f64() * 1e3
     );
     if let Some(f) = env_value::<f32>("SYLVA_RADIUS_SCALE") {

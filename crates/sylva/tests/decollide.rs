@@ -258,3 +258,40 @@ fn zero_radius_twigs_collide_at_the_floor() {
     assert_eq!(s, twigs());
     assert!(decollide(&mut s, &DecollideOptions { min_radius: 2.0, ..Default::default() }).is_err());
 }
+
+/// The last resort for a stub (session 10): two twigs at the radius floor leave one
+/// node 80° apart, one of them through a 6 mm first internode. Its far end lies within
+/// the radius sum of its sibling's axis at any rotation about the node, and neither can
+/// be thinned, so the stub is lengthened: its subtree moves along it, rigidly.
+#[test]
+fn a_stub_at_the_floor_is_lengthened() {
+    let mut s = Skeleton::new();
+    // A stump elsewhere sets the floor: 0.005 × 1.0.
+    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
+    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
+    let r = 0.005;
+    let root = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
+    let t = s.push(Vec3::Y, r, root, Vec3::Z, 0);
+    let a = 40f32.to_radians();
+    let (right, left) = (Vec3::new(a.sin(), a.cos(), 0.0), Vec3::new(-a.sin(), a.cos(), 0.0));
+    let stub = s.push(Vec3::Y + right * 0.006, r, t, Vec3::Z, 1);
+    let twig = s.push(Vec3::Y + right * 0.506, r, stub, Vec3::Z, 1);
+    let sibling = s.push(Vec3::Y + left * 0.3, r, t, Vec3::Z, 1);
+    let before = s.clone();
+    assert_eq!(skeleton_collisions(&s, 0.01), vec![[stub as usize, sibling as usize]]);
+    let rep = run(&mut s);
+    assert_eq!((rep.before, rep.after, rep.extended, rep.rotations), (1, 0, 1, 0), "{rep:?}");
+    assert_eq!(s.radius, before.radius, "nothing thinned");
+    assert_eq!(s.parent, before.parent);
+    // The stub grew along itself, by at most three radius sums with the clearance; its
+    // subtree moved rigidly with it; everything else stayed.
+    let (l0, l1) = (before.internode_length(stub as usize), s.internode_length(stub as usize));
+    assert!(l1 > l0 && l1 - l0 <= 3.0 * 2.0 * r as f64 * 1.08 + 1e-6, "{l0} → {l1}");
+    let dir = (s.position[stub as usize] - s.position[t as usize]).normalize();
+    assert!(dir.dot(right) > 0.9999, "{dir}");
+    let shift = s.position[stub as usize] - before.position[stub as usize];
+    assert!((s.position[twig as usize] - before.position[twig as usize] - shift).length() < 1e-6);
+    for i in [stump, stump + 1, root, t, sibling] {
+        assert_eq!(s.position[i as usize], before.position[i as usize], "node {i} moved");
+    }
+}

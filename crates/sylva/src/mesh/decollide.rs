@@ -41,7 +41,11 @@
 //!   pair left where one internode ends at a tip is cleared by **pulling the tip back**
 //!   along its internode (to at most half its length). This frees closed figures such
 //!   as the Koch snowflake, whose last internode ends on its first and has no joint to
-//!   rotate about.
+//!   rotate about. Last, a pair left where one internode is a **stub** (shorter than
+//!   twice the pair's radius sum, with a subtree) is cleared by lengthening the stub:
+//!   its subtree moves along it by at most three radius sums (session 10: Weber–Penn
+//!   stems whose first internode is a few millimetres long, at the radius floor, which
+//!   neither rotation nor thinning can free).
 //!
 //! Thinning and rotating repeat for at most [`DecollideOptions::max_rounds`] rounds;
 //! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
@@ -147,6 +151,9 @@ pub struct DecollideReport {
     /// Tips pulled back along their internode (the last resort, for pairs rotation
     /// could not clear).
     pub retracted: usize,
+    /// Stubs lengthened, their subtrees moved along them (the last resort for a stub
+    /// shorter than twice the pair's radius sum, which rotation cannot free).
+    pub extended: usize,
     /// Rounds run.
     pub rounds: usize,
     /// Nodes whose radius was raised to the floor ([`DecollideOptions::min_radius`]).
@@ -207,6 +214,10 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
             left = collisions(skeleton, &topo, opts.clearance);
         }
         report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance);
+        if report.retracted > 0 {
+            left = collisions(skeleton, &topo, opts.clearance);
+        }
+        report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance);
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
     report.unresolved = skeleton_collisions(skeleton, CHECK_TOLERANCE);
@@ -642,18 +653,26 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
                 break;
             }
             let pivot = s.position[s.parent[c] as usize].as_dvec3();
-            let current = subtree_hits(s, topo, &bvh, c, pivot, DQuat::IDENTITY, o.clearance, usize::MAX);
+            let current = subtree_hits(
+                s,
+                topo,
+                &bvh,
+                c,
+                &Motion::rotation(pivot, DQuat::IDENTITY),
+                o.clearance,
+                usize::MAX,
+            );
             work += w;
             if current == 0 {
                 continue;
             }
             let trials = trials_for(s, c, away, &o.angles);
-            let first = trials
-                .par_iter()
-                .position_first(|t| subtree_hits(s, topo, &bvh, c, pivot, t.rot, o.clearance, 1) == 0);
+            let first = trials.par_iter().position_first(|t| {
+                subtree_hits(s, topo, &bvh, c, &Motion::rotation(pivot, t.rot), o.clearance, 1) == 0
+            });
             work += w * first.map_or(trials.len(), |k| k + 1);
             if let Some(k) = first {
-                apply(s, topo, &mut bvh, c, pivot, trials[k].rot, o.clearance);
+                apply(s, topo, &mut bvh, c, &Motion::rotation(pivot, trials[k].rot), o.clearance);
                 moved += 1;
                 done = true;
                 break;
@@ -670,7 +689,9 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
             let pivot = s.position[s.parent[c] as usize].as_dvec3();
             let hits: Vec<usize> = trials
                 .par_iter()
-                .map(|t| subtree_hits(s, topo, &bvh, c, pivot, t.rot, o.clearance, current))
+                .map(|t| {
+                    subtree_hits(s, topo, &bvh, c, &Motion::rotation(pivot, t.rot), o.clearance, current)
+                })
                 .collect();
             work += topo.size(c) * trials.len();
             if let Some((k, &h)) = hits.iter().enumerate().min_by_key(|&(k, &h)| (h, k)) {
@@ -681,7 +702,7 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
         }
         if let Some((_, c, rot)) = best {
             let pivot = s.position[s.parent[c] as usize].as_dvec3();
-            apply(s, topo, &mut bvh, c, pivot, rot, o.clearance);
+            apply(s, topo, &mut bvh, c, &Motion::rotation(pivot, rot), o.clearance);
             moved += 1;
         }
     }
@@ -739,20 +760,35 @@ fn trials_for(s: &Skeleton, c: usize, away: DVec3, angles: &[f64]) -> Vec<Trial>
     out
 }
 
-fn rotated(s: &Skeleton, node: usize, pivot: DVec3, rot: DQuat) -> DVec3 {
-    pivot + rot * (s.position[node].as_dvec3() - pivot)
+/// A rigid motion of a subtree: rotation by `rot` about `pivot` (the subtree's base
+/// node, which stays put), then translation by `shift`.
+#[derive(Debug, Clone, Copy)]
+struct Motion {
+    pivot: DVec3,
+    rot: DQuat,
+    shift: DVec3,
 }
 
-/// Collisions (at most `limit`) between the subtree at `c`, rotated by `rot` about
-/// `pivot`, and every internode outside it.
-#[allow(clippy::too_many_arguments)]
+impl Motion {
+    fn rotation(pivot: DVec3, rot: DQuat) -> Self {
+        Motion { pivot, rot, shift: DVec3::ZERO }
+    }
+    fn of(&self, s: &Skeleton, node: usize) -> DVec3 {
+        self.point(s.position[node].as_dvec3())
+    }
+    fn point(&self, p: DVec3) -> DVec3 {
+        self.pivot + self.shift + self.rot * (p - self.pivot)
+    }
+}
+
+/// Collisions (at most `limit`) between the subtree at `c`, moved by `mv` (its base
+/// node stays put), and every internode outside it.
 fn subtree_hits(
     s: &Skeleton,
     topo: &Topology,
     bvh: &Bvh,
     c: usize,
-    pivot: DVec3,
-    rot: DQuat,
+    mv: &Motion,
     clearance: f64,
     limit: usize,
 ) -> usize {
@@ -761,8 +797,8 @@ fn subtree_hits(
         let m = m as usize;
         let pm = s.parent[m] as usize;
         let cm = Capsule {
-            a: if m == c { pivot } else { rotated(s, pm, pivot, rot) },
-            b: rotated(s, m, pivot, rot),
+            a: if m == c { mv.pivot } else { mv.of(s, pm) },
+            b: mv.of(s, m),
             r: s.radius[m].max(s.radius[pm]) as f64,
         };
         hits += capsule_hits(s, topo, bvh, c, (m, &cm), clearance, limit - hits);
@@ -842,6 +878,86 @@ fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
     pulled
 }
 
+/// Extensions tried for a stub, in clearance radius sums, mildest first.
+const EXTEND: [f64; 4] = [0.5, 1.0, 2.0, 3.0];
+
+/// Internodes tried as the stub on each side of a pair: its own, and those above it
+/// towards the other.
+const STUB_HOPS: usize = 3;
+
+/// The last resort for a stub: a pair left where one of its internodes, or one of
+/// those joining them in the tree (at most [`STUB_HOPS`] up from each), is shorter
+/// than twice the pair's clearance distance `(r_a + r_b)(1 + clearance)` and carries
+/// a subtree with one of the two in it, is cleared by moving that subtree by the
+/// mildest of [`EXTEND`] (times that distance) that leaves it with no collision:
+/// along the stub (lengthening it), or else away from the other internode (bending
+/// it). Rotation cannot free such a stub, whose far end stays within its own length of
+/// the joint where its sibling starts, and thinning cannot either once both are at the
+/// radius floor (Weber–Penn stems whose first internode is a few millimetres long:
+/// `wp-sassafras` kept 6 such pairs, `wp-european-larch` 23). Returns the stubs moved.
+fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearance: f64) -> usize {
+    let mut bvh = Bvh::build(s, clearance);
+    let mut pushed = 0;
+    for &[a, b] in pairs {
+        let (ca, cb) = (capsule(s, a), capsule(s, b));
+        if !collide(s, topo, (a, &ca), (b, &cb), clearance) {
+            continue; // cleared by an earlier move
+        }
+        let reach = (ca.r + cb.r) * (1.0 + clearance);
+        // From b's closest point towards a's.
+        let apart =
+            gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY).map_or(DVec3::ZERO, |(_, pa, pb)| pa - pb);
+        // The pair's own internodes and those joining them (up to `STUB_HOPS` above
+        // each), whose subtree carries one of the two but not the other.
+        let mut cands = Vec::new();
+        for (start, other) in [(a, b), (b, a)] {
+            let mut x = start;
+            for _ in 0..STUB_HOPS {
+                if s.parent[x] == NO_PARENT || topo.contains(x, other) {
+                    break;
+                }
+                cands.push(x);
+                x = s.parent[x] as usize;
+            }
+        }
+        let mut best: Option<(usize, usize, Motion)> = None; // (step, stub, motion)
+        for x in cands {
+            if topo.child_count[x] == 0 {
+                continue;
+            }
+            let base = s.position[s.parent[x] as usize].as_dvec3();
+            let axis = s.position[x].as_dvec3() - base;
+            let len = axis.length();
+            if !(len > 0.0 && len < 2.0 * reach) {
+                continue;
+            }
+            // Along the stub, or (a stub aligned with the other, which no lengthening
+            // frees) away from the other internode.
+            let along = axis / len;
+            let away = if topo.contains(x, a) { apart } else { -apart };
+            let away = away - along * away.dot(along);
+            let away =
+                if away.length() > 1e-9 * len { away.normalize() } else { along.any_orthonormal_vector() };
+            'steps: for (k, &e) in EXTEND.iter().enumerate() {
+                if best.is_some_and(|(bk, ..)| bk <= k) {
+                    break;
+                }
+                for dir in [along, away] {
+                    let mv = Motion { pivot: base, rot: DQuat::IDENTITY, shift: dir * (e * reach) };
+                    if subtree_hits(s, topo, &bvh, x, &mv, clearance, 1) == 0 {
+                        best = Some((k, x, mv));
+                        break 'steps;
+                    }
+                }
+            }
+        }
+        let Some((_, x, mv)) = best else { continue };
+        apply(s, topo, &mut bvh, x, &mv, clearance);
+        pushed += 1;
+    }
+    pushed
+}
+
 /// Moves the organs hanging on `node`: points (position, polygon outline) by `point`,
 /// directions (heading, up) by `dir`.
 fn move_organs(
@@ -864,26 +980,18 @@ fn move_organs(
     }
 }
 
-/// Rotates the subtree at `c` (positions, `up` vectors, organs) and updates the BVH.
-fn apply(
-    s: &mut Skeleton,
-    topo: &Topology,
-    bvh: &mut Bvh,
-    c: usize,
-    pivot: DVec3,
-    rot: DQuat,
-    clearance: f64,
-) {
-    let rot_f = rot.as_quat();
-    let pivot_f = pivot.as_vec3();
+/// Moves the subtree at `c` by `mv` (positions, `up` vectors, organs) and updates the
+/// BVH.
+fn apply(s: &mut Skeleton, topo: &Topology, bvh: &mut Bvh, c: usize, mv: &Motion, clearance: f64) {
+    let rot_f = mv.rot.as_quat();
     for &m in topo.subtree(c) {
         let m = m as usize;
-        s.position[m] = rotated(s, m, pivot, rot).as_vec3();
+        s.position[m] = mv.of(s, m).as_vec3();
         let up = rot_f * s.up[m];
         if up.is_finite() {
             s.up[m] = up;
         }
-        move_organs(s, topo, m, |p| pivot_f + rot_f * (p - pivot_f), |d| rot_f * d);
+        move_organs(s, topo, m, |p| mv.point(p.as_dvec3()).as_vec3(), |d| rot_f * d);
     }
     for &m in topo.subtree(c) {
         bvh.update(m as usize, capsule_box(&capsule(s, m as usize), clearance));
