@@ -29,7 +29,8 @@
 //! (`SYLVA_PAIRS` prints the first pairs); for `quad` it prints the mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
 //! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
 //! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options
-//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's, `SYLVA_HULL_MAX_SEGMENTS` the hull's).
+//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's; `SYLVA_HULL_MAX_SEGMENTS`, `SYLVA_HULL_SIDES` and
+//! `SYLVA_HULL_MARGIN` the hull's).
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -123,6 +124,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut hull_opts = HullOptions { caps: true, ..Default::default() };
     if let Some(v) = env_value("SYLVA_HULL_MAX_SEGMENTS") {
         hull_opts.max_segments = v;
+    }
+    if let Some(v) = env_value("SYLVA_HULL_SIDES") {
+        hull_opts.sides = v;
+    }
+    if let Some(v) = env_value("SYLVA_HULL_MARGIN") {
+        hull_opts.margin = v;
     }
     let mut sweep_opts = SweepOptions { caps: true, ..Default::default() };
     if let Some(v) = env_value("SYLVA_SWEEP_MIN_RADIUS") {
