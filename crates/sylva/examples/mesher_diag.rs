@@ -321,6 +321,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
+    if std::env::var("SYLVA_PAIR_FACES").is_ok() {
+        // The corners of the first crossing pairs' faces (of the searched mesh).
+        for pair in report.intersections.iter().take(4) {
+            for f in pair {
+                let c: Vec<String> = fine.face(*f).iter().map(|&v| format!("{:.4}", fine.positions[v as usize])).collect();
+                println!("  face {f}: {}", c.join(" "));
+            }
+        }
+    }
     if std::env::var("SYLVA_NEAREST").is_ok() {
         // Each crossing face's nearest internode and its distance from that axis, in
         // radii (1 = on the capsule's surface).
