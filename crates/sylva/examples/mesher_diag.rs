@@ -325,7 +325,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // The corners of the first crossing pairs' faces (of the searched mesh).
         for pair in report.intersections.iter().take(4) {
             for f in pair {
-                let c: Vec<String> = fine.face(*f).iter().map(|&v| format!("{:.4}", fine.positions[v as usize])).collect();
+                let c: Vec<String> =
+                    fine.face(*f).iter().map(|&v| format!("{:.4}", fine.positions[v as usize])).collect();
                 println!("  face {f}: {}", c.join(" "));
             }
         }

@@ -801,3 +801,42 @@ fn random_skeletons_give_valid_meshes() {
         &bad[..bad.len().min(5)]
     );
 }
+
+/// Session 10: a collapse may not straighten a bend through another branch. A 0.25
+/// stub at a right angle to the trunk, too short for its trims, carries a child that
+/// turns straight up again: collapsing it would run that child's tube straight from the
+/// trunk, 5 of its radii off the stub's end point and through a twig that the real
+/// path clears. By default the stub is kept (clamped) and the child starts at its end;
+/// with the seed's rule (`INFINITY`), or without the twig, it is collapsed. The meshes
+/// are valid.
+#[test]
+fn a_collapse_does_not_straighten_a_bend() {
+    let bend = |twig: bool| {
+        let mut s = Skeleton::new();
+        let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+        let a = seg(&mut s, root, Vec3::Y * 3.0, 0.2);
+        seg(&mut s, a, Vec3::new(-2.0, 4.0, 0.0), 0.1);
+        let stub = seg(&mut s, a, Vec3::new(0.25, 3.0, 0.0), 0.05);
+        let up = seg(&mut s, stub, Vec3::new(0.25, 5.0, 0.0), 0.05);
+        seg(&mut s, stub, Vec3::new(2.25, 3.2, 0.0), 0.05);
+        if twig {
+            let r2 = seg(&mut s, NO_PARENT, Vec3::new(0.1, 3.5, -1.0), 0.01);
+            seg(&mut s, r2, Vec3::new(0.1, 3.5, 1.0), 0.01);
+        }
+        (s, a, stub, up)
+    };
+    let (s, a, stub, up) = bend(true);
+    let child =
+        |g: &sylva::mesh::hull::BranchGraph| g.branches.iter().find(|b| b.node == up).unwrap().start_node;
+    let seed = simplify(&s, &HullOptions { max_straightening: f64::INFINITY, ..Default::default() }).unwrap();
+    assert!(seed.collapsed.contains(&stub), "the seed's rule collapses the stub: {:?}", seed.collapsed);
+    let kept = simplify(&s, &HullOptions::default()).unwrap();
+    assert!(!kept.collapsed.contains(&stub) && kept.clamped.contains(&stub), "{kept:?}");
+    assert_eq!((child(&seed), child(&kept)), (a, stub));
+    let (free, ..) = bend(false);
+    let g = simplify(&free, &HullOptions::default()).unwrap();
+    assert!(g.collapsed.contains(&stub), "nothing in the way: collapsed as the seed does");
+    let m = full_check("stub at a bend", &s, 4, true);
+    assert!(m.clamped.contains(&stub));
+    assert!(hull_mesh(&s, &HullOptions { max_straightening: -1.0, ..Default::default() }).is_err());
+}

@@ -27,7 +27,10 @@
 //!    move. The merged joint and the moved children are re-trimmed at once; passes repeat
 //!    until one makes no collapse. A root stem or a tip cannot collapse without moving
 //!    an end point: their offsets are scaled down to half the length and the node is
-//!    reported in [`HullMesh::clamped`].
+//!    reported in [`HullMesh::clamped`]. *Beyond the seed*: neither is a branch whose
+//!    collapse would move a child's axis more than [`HullOptions::max_straightening`]
+//!    of its radius away from the collapsed node and run that child's tube, straight
+//!    across the bend, through another live branch.
 //! 4. **Branch segments** (seed 000 §4.2.2, Algorithm 1). `N = round(L / (f·π·r̄))`,
 //!    clamped to `1..=max_segments`, with `L` the trimmed length and `r̄` the mean of
 //!    the trimmed end radii; `N + 1` loops of `sides` vertices at angles `2πj/s` in a
@@ -100,6 +103,15 @@ pub struct HullOptions {
     /// Most segments per branch (default 32): a budget guard for long, hair-thin
     /// branches, where `L / (π·r̄)` grows without bound.
     pub max_segments: u32,
+    /// Largest straightening a collapse may cause, in radii of the collapsed node
+    /// (default 1; `f64::INFINITY` is the seed's rule). Collapsing a branch re-attaches
+    /// its children to its start, so each child's tube runs straight past the collapsed
+    /// node; where that node lies further than this from a child's new axis and the
+    /// straightened tube would pass through another (live) branch of the graph, the
+    /// branch is not collapsed and its trims are clamped instead (reported in
+    /// [`HullMesh::clamped`]). Beyond the seed: on `mig-a`, a collapse moved a tube 5
+    /// radii off the skeleton, through a neighbouring branch.
+    pub max_straightening: f64,
 }
 
 impl Default for HullOptions {
@@ -111,6 +123,7 @@ impl Default for HullOptions {
             aligned_epsilon: 1e-6,
             segment_factor: 1.0,
             max_segments: 32,
+            max_straightening: 1.0,
         }
     }
 }
@@ -129,6 +142,9 @@ impl HullOptions {
         }
         if !(self.segment_factor.is_finite() && self.segment_factor > 0.0) {
             return bad(format!("segment_factor = {}; it must be positive", self.segment_factor));
+        }
+        if self.max_straightening.is_nan() || self.max_straightening < 0.0 {
+            return bad(format!("max_straightening = {}; it must be non-negative", self.max_straightening));
         }
         if !(1..=65536).contains(&self.max_segments) {
             return bad(format!("max_segments = {}; it must be in 1..=65536", self.max_segments));
@@ -392,7 +408,9 @@ impl Work {
                     continue; // a tip or a root stem: cannot collapse
                 }
                 let sj = w.start_joint[b] as usize;
-                if w.offset_of(sj, b, false) + w.offset_of(b, b, true) >= w.len(b) - w.zero {
+                if w.offset_of(sj, b, false) + w.offset_of(b, b, true) >= w.len(b) - w.zero
+                    && (w.straightening(b) <= opts.max_straightening * w.r1[b] || !w.straightened_hits(b))
+                {
                     w.collapse(b);
                     any = true;
                 }
@@ -426,6 +444,57 @@ impl Work {
 
     fn len(&self, b: usize) -> f64 {
         self.start[b].distance(self.end[b])
+    }
+
+    /// Whether collapsing `b` would run one of its children's tubes (from `b`'s start
+    /// to the child's end, of the child's radius) through another live branch that does
+    /// not meet it there (not `b`, its parent or a sibling, the child or the child's
+    /// children). Only live branches count, so simplifying the simplified graph again
+    /// changes nothing.
+    fn straightened_hits(&self, b: usize) -> bool {
+        let sj = self.start_joint[b] as usize;
+        let a = self.start[b];
+        self.out[b].iter().any(|&c| {
+            let c = c as usize;
+            let q = self.end[c];
+            let rc = self.r0[c].max(self.r1[c]);
+            let reach = a.distance(q);
+            (0..self.n).any(|x| {
+                if !self.branch[x] {
+                    return false;
+                }
+                let p = self.start_joint[x] as usize;
+                let near = [sj, b, c];
+                if near.contains(&x) || near.contains(&p) {
+                    return false;
+                }
+                let r = self.r0[x].max(self.r1[x]);
+                let (px, pp) = (self.end[x], self.start[x]);
+                if px.distance(a).min(pp.distance(a)) > reach + px.distance(pp) + rc + r {
+                    return false;
+                }
+                crate::mesh::check::segment_closest(a, q, pp, px).0 < rc + r
+            })
+        })
+    }
+
+    /// How far collapsing `b` would move its children's tubes: the largest distance
+    /// from `b`'s end point to a child's new axis (from `b`'s start to the child's end).
+    fn straightening(&self, b: usize) -> f64 {
+        let (a, e) = (self.start[b], self.end[b]);
+        self.out[b]
+            .iter()
+            .map(|&c| {
+                let q = self.end[c as usize];
+                let ab = q - a;
+                let t = if ab.length_squared() > 0.0 {
+                    ((e - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (a + ab * t).distance(e)
+            })
+            .fold(0.0, f64::max)
     }
 
     fn drop_tip(&mut self, b: usize) {
