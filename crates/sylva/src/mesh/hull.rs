@@ -74,6 +74,7 @@
 pub mod convex;
 
 use crate::error::{Error, Result};
+use crate::mesh::check::segment_closest;
 use crate::mesh::tube::{MAX_SIDES, MIN_SIDES};
 use crate::mesh::{FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
@@ -473,7 +474,7 @@ impl Work {
                 if px.distance(a).min(pp.distance(a)) > reach + px.distance(pp) + rc + r {
                     return false;
                 }
-                crate::mesh::check::segment_closest(a, q, pp, px).0 < rc + r
+                segment_closest(a, q, pp, px).0 < rc + r
             })
         })
     }
@@ -482,19 +483,7 @@ impl Work {
     /// from `b`'s end point to a child's new axis (from `b`'s start to the child's end).
     fn straightening(&self, b: usize) -> f64 {
         let (a, e) = (self.start[b], self.end[b]);
-        self.out[b]
-            .iter()
-            .map(|&c| {
-                let q = self.end[c as usize];
-                let ab = q - a;
-                let t = if ab.length_squared() > 0.0 {
-                    ((e - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (a + ab * t).distance(e)
-            })
-            .fold(0.0, f64::max)
+        self.out[b].iter().map(|&c| segment_closest(a, self.end[c as usize], e, e).0).fold(0.0, f64::max)
     }
 
     fn drop_tip(&mut self, b: usize) {
