@@ -305,13 +305,18 @@ fn whorl(kids: &[(f64, f64, f32)], r: f32, len: f32) -> Skeleton {
     s
 }
 
-/// Refines to Loop level 2 and returns the refined mesh's report.
-fn level2(m: &Mesh) -> MeshReport {
+/// Loop level 2 of `m`.
+fn refine2(m: &Mesh) -> Mesh {
     let opts = SubdivideOptions {
         refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
         ..Default::default()
     };
-    report(&subdivide(m, &[], &opts).unwrap())
+    subdivide(m, &[], &opts).unwrap()
+}
+
+/// Refines to Loop level 2 and returns the refined mesh's report.
+fn level2(m: &Mesh) -> MeshReport {
+    report(&refine2(m))
 }
 
 #[test]
@@ -525,11 +530,7 @@ fn loop_level_2_stays_valid() {
     let sk = fork(&[(-35.0, 0.1), (0.0, 0.1), (35.0, 0.06)], 0.1, 1.0);
     for caps in [false, true] {
         let s = sweep(&sk, caps);
-        let opts = SubdivideOptions {
-            refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
-            ..Default::default()
-        };
-        let fine = subdivide(&s.mesh, &[], &opts).unwrap();
+        let fine = refine2(&s.mesh);
         let r = report(&fine);
         assert!(r.is_valid(), "{:?}", r.problems());
         assert_eq!(fine.face_count(), 16 * s.mesh.face_count());
@@ -655,22 +656,14 @@ fn pruned_tips_are_flat_creased_caps() {
     assert!(flat.mesh.signed_volume() > 0.0);
     // After Loop level 2 the tip's cap stays flat: the tip node's refined vertices near
     // the cap plane lie on it.
-    let opts = SubdivideOptions {
-        refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
-        ..Default::default()
-    };
-    let fine = subdivide(&flat.mesh, &[], &opts).unwrap();
+    let fine = refine2(&flat.mesh);
     assert!(report(&fine).is_valid());
     let tip = sk.position[3].as_dvec3();
     let h = (tip - sk.position[2].as_dvec3()).normalize();
     let beyond = fine.positions.iter().map(|p| (p.as_dvec3() - tip).dot(h)).fold(f64::MIN, f64::max);
     assert!(beyond <= 1e-5, "nothing of a pruned tip lies beyond its end: {beyond}");
-    let beyond_cone = subdivide(&cone.mesh, &[], &opts)
-        .unwrap()
-        .positions
-        .iter()
-        .map(|p| (p.as_dvec3() - tip).dot(h))
-        .fold(f64::MIN, f64::max);
+    let beyond_cone =
+        refine2(&cone.mesh).positions.iter().map(|p| (p.as_dvec3() - tip).dot(h)).fold(f64::MIN, f64::max);
     assert!(beyond_cone > 0.01, "the cone does: {beyond_cone}");
 }
 
@@ -918,15 +911,7 @@ fn zero_radius_tips_are_raised_to_the_floor() {
     let tip = sk.position[at as usize];
     let last: Vec<f32> = s.mesh.positions[n - 7..n - 1].iter().map(|v| v.distance(tip)).collect();
     assert!(last.iter().all(|&d| d >= 0.99 * floor), "tip ring radii {last:?} under the floor {floor}");
-    let fine = subdivide(
-        &s.mesh,
-        &[],
-        &SubdivideOptions {
-            refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let fine = refine2(&s.mesh);
     assert_eq!(check_mesh(&fine, &CheckOptions::default()).intersection_count, Some(0));
     for bad in [0.0, 2.0, f64::NAN] {
         assert!(sweep_mesh(&sk, &SweepOptions { min_radius: bad, ..Default::default() }).is_err());
@@ -963,15 +948,7 @@ fn a_sharp_bend_keeps_its_corner() {
     let deviation = |opts: &SweepOptions| {
         let m = sweep_mesh(&s, opts).unwrap();
         assert_valid("bend", &m, 1, false);
-        let fine = subdivide(
-            &m.mesh,
-            &[],
-            &SubdivideOptions {
-                refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let fine = refine2(&m.mesh);
         let near: Vec<f64> = fine
             .positions
             .iter()
