@@ -72,12 +72,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let loaded = sylva::recipe::load(preset, &[])?;
     let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
     let mut dopts = DecollideOptions::default();
-    if let Some(v) = env_value("SYLVA_DECOLLIDE_ROUNDS") {
-        dopts.max_rounds = v;
-    }
-    if let Some(v) = env_value("SYLVA_DECOLLIDE_FLOOR") {
-        dopts.min_radius = v;
-    }
+    override_from_env("SYLVA_DECOLLIDE_ROUNDS", &mut dopts.max_rounds);
+    override_from_env("SYLVA_DECOLLIDE_FLOOR", &mut dopts.min_radius);
     let d = if args.iter().any(|a| a == "--raw") {
         let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
         sylva::mesh::decollide::DecollideReport {
@@ -90,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         decollide(&mut sk, &dopts)?
     };
     println!(
-        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs lengthened, {:.0} ms)",
+        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs moved, {:.0} ms)",
         sk.len(),
         d.before,
         d.after,
@@ -109,32 +105,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
     let mut quad_opts = QuadOptions::default();
-    if let Some(v) = env_value("SYLVA_QUAD_MIN_RADIUS") {
-        quad_opts.min_radius = v;
-    }
-    if let Some(v) = env_value("SYLVA_QUAD_SUPPORT") {
-        quad_opts.support = v;
-    }
-    if let Some(v) = env_value("SYLVA_QUAD_REPAIR_ROUNDS") {
-        quad_opts.repair_rounds = v;
-    }
-    if let Some(v) = env_value("SYLVA_QUAD_ELBOW") {
-        quad_opts.elbow_angle = v;
-    }
+    override_from_env("SYLVA_QUAD_MIN_RADIUS", &mut quad_opts.min_radius);
+    override_from_env("SYLVA_QUAD_SUPPORT", &mut quad_opts.support);
+    override_from_env("SYLVA_QUAD_REPAIR_ROUNDS", &mut quad_opts.repair_rounds);
+    override_from_env("SYLVA_QUAD_ELBOW", &mut quad_opts.elbow_angle);
     let mut hull_opts = HullOptions { caps: true, ..Default::default() };
-    if let Some(v) = env_value("SYLVA_HULL_MAX_SEGMENTS") {
-        hull_opts.max_segments = v;
-    }
-    if let Some(v) = env_value("SYLVA_HULL_SIDES") {
-        hull_opts.sides = v;
-    }
-    if let Some(v) = env_value("SYLVA_HULL_MARGIN") {
-        hull_opts.margin = v;
-    }
+    override_from_env("SYLVA_HULL_MAX_SEGMENTS", &mut hull_opts.max_segments);
+    override_from_env("SYLVA_HULL_SIDES", &mut hull_opts.sides);
+    override_from_env("SYLVA_HULL_MARGIN", &mut hull_opts.margin);
     let mut sweep_opts = SweepOptions { caps: true, ..Default::default() };
-    if let Some(v) = env_value("SYLVA_SWEEP_MIN_RADIUS") {
-        sweep_opts.min_radius = v;
-    }
+    override_from_env("SYLVA_SWEEP_MIN_RADIUS", &mut sweep_opts.min_radius);
     // One meshing: the control mesh, its scheme and (quad and sweep) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
         Ok(match mesher {
@@ -183,9 +163,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if args.iter().any(|a| a == "--clear") {
         let mut co = ClearOptions::default();
-        if let Some(v) = env_value("SYLVA_CLEAR_PATIENCE") {
-            co.patience = v;
-        }
+        override_from_env("SYLVA_CLEAR_PATIENCE", &mut co.patience);
         let (_, r) = clear_crossings(&mut sk, &co, |s| run(s, false).map(|(m, scheme, _)| (m, scheme)))?;
         println!(
             "clear: {:?} -> {:?} in {} rounds, {} thinned, {:.1} s; unresolved internodes {:?}",
@@ -440,6 +418,13 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
 /// The value of environment variable `name`, when it is set and parses as `T`.
 fn env_value<T: std::str::FromStr>(name: &str) -> Option<T> {
     std::env::var(name).ok()?.parse().ok()
+}
+
+/// Sets `field` from the environment variable `name` when it is set and parses.
+fn override_from_env<T: std::str::FromStr>(name: &str, field: &mut T) {
+    if let Some(v) = env_value(name) {
+        *field = v;
+    }
 }
 
 /// Node `n` and its ancestors up to the root.

@@ -41,11 +41,12 @@
 //!   pair left where one internode ends at a tip is cleared by **pulling the tip back**
 //!   along its internode (to at most half its length). This frees closed figures such
 //!   as the Koch snowflake, whose last internode ends on its first and has no joint to
-//!   rotate about. Last, a pair left where one internode is a **stub** (shorter than
-//!   twice the pair's radius sum, with a subtree) is cleared by lengthening the stub:
-//!   its subtree moves along it by at most three radius sums (session 10: Weber–Penn
-//!   stems whose first internode is a few millimetres long, at the radius floor, which
-//!   neither rotation nor thinning can free).
+//!   rotate about. Last, a pair left where one internode (or one joining them) is a
+//!   **stub** (shorter than twice the pair's radius sum, with a subtree) is cleared by
+//!   moving the stub's subtree rigidly by at most three radius sums, along the stub
+//!   (lengthening it) or away from the other internode (bending it) (session 10:
+//!   Weber–Penn stems whose first internode is a few millimetres long, at the radius
+//!   floor, which neither rotation nor thinning can free).
 //!
 //! Thinning and rotating repeat for at most [`DecollideOptions::max_rounds`] rounds;
 //! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
@@ -151,8 +152,9 @@ pub struct DecollideReport {
     /// Tips pulled back along their internode (the last resort, for pairs rotation
     /// could not clear).
     pub retracted: usize,
-    /// Stubs lengthened, their subtrees moved along them (the last resort for a stub
-    /// shorter than twice the pair's radius sum, which rotation cannot free).
+    /// Stubs whose subtrees were moved, along the stub (lengthening it) or away from the
+    /// other internode (bending it): the last resort for a stub shorter than twice the
+    /// pair's radius sum, which rotation cannot free.
     pub extended: usize,
     /// Rounds run.
     pub rounds: usize,
