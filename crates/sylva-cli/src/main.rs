@@ -216,7 +216,7 @@ fn grow(args: GrowArgs) -> Result<()> {
         );
         if let Some(d) = &r.decollide {
             println!(
-                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs moved, {} rounds, {:.1} ms)",
+                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs moved, {} traded, {} rounds, {:.1} ms)",
                 d.before,
                 d.resolved(),
                 d.after,
@@ -224,6 +224,7 @@ fn grow(args: GrowArgs) -> Result<()> {
                 d.rotations,
                 d.retracted,
                 d.extended,
+                d.traded,
                 d.rounds,
                 d.elapsed.as_secs_f64() * 1e3
             );

@@ -21,8 +21,10 @@
 //! `--clear` runs the pipeline's mesh clearing (`sylva::mesh::clear`) first and
 //! diagnoses what it leaves (`SYLVA_CLEAR_PATIENCE` overrides its patience); `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
-//! the skeleton collisions `decollide` leaves and stops (`SYLVA_DECOLLIDE_ROUNDS`
-//! overrides its rounds, `SYLVA_DECOLLIDE_FLOOR` its radius floor). For
+//! the skeleton collisions `decollide` leaves, with the chains from their common
+//! ancestor, and stops (`SYLVA_DECOLLIDE_ROUNDS` overrides its rounds,
+//! `SYLVA_DECOLLIDE_FLOOR` its radius floor, `SYLVA_DECOLLIDE_MAX_MOVED` its largest
+//! moved subtree). For
 //! `quad` and `sweep` it also lists the crossing pairs by the nodes their faces were
 //! made for (`QuadMesh::face_node`; `SweepMesh::face_owner`: a strip's internode, named
 //! by its end node, or the junction node) with the steps to their common ancestor
@@ -74,6 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut dopts = DecollideOptions::default();
     override_from_env("SYLVA_DECOLLIDE_ROUNDS", &mut dopts.max_rounds);
     override_from_env("SYLVA_DECOLLIDE_FLOOR", &mut dopts.min_radius);
+    override_from_env("SYLVA_DECOLLIDE_MAX_MOVED", &mut dopts.max_moved);
     let d = if args.iter().any(|a| a == "--raw") {
         let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
         sylva::mesh::decollide::DecollideReport {
@@ -86,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         decollide(&mut sk, &dopts)?
     };
     println!(
-        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs moved, {:.0} ms)",
+        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs moved, {} traded, {:.0} ms)",
         sk.len(),
         d.before,
         d.after,
@@ -95,6 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         d.thinned,
         d.retracted,
         d.extended,
+        d.traded,
         d.elapsed.as_secs_f64() * 1e3
     );
     if let Some(f) = env_value::<f32>("SYLVA_RADIUS_SCALE") {
@@ -412,6 +416,25 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
             size(ja),
             size(jb)
         );
+        // The two chains from the common ancestor down to each internode.
+        if let Some((i, j)) = lca {
+            for (name, chain, k) in [("a", &ca, i), ("b", &cb, j)] {
+                for &x in chain[..=k].iter().rev() {
+                    let dir = match sk.parent[x] {
+                        NO_PARENT => Vec3::ZERO,
+                        p => (sk.position[x] - sk.position[p as usize]).normalize_or_zero(),
+                    };
+                    println!(
+                        "    {name} {x}: pos {:.3?} dir {:.2?} r {:.4} order {} children {}",
+                        sk.position[x],
+                        dir,
+                        sk.radius[x],
+                        sk.order[x],
+                        ch.of(x).len()
+                    );
+                }
+            }
+        }
     }
 }
 

@@ -41,12 +41,17 @@
 //!   pair left where one internode ends at a tip is cleared by **pulling the tip back**
 //!   along its internode (to at most half its length). This frees closed figures such
 //!   as the Koch snowflake, whose last internode ends on its first and has no joint to
-//!   rotate about. Last, a pair left where one internode (or one joining them) is a
-//!   **stub** (shorter than twice the pair's radius sum, with a subtree) is cleared by
-//!   moving the stub's subtree rigidly by at most three radius sums, along the stub
-//!   (lengthening it) or away from the other internode (bending it) (session 10:
+//!   rotate about. Then a pair left where one internode (or one joining them) is a
+//!   **stub** (shorter than twice the pair's radius sum) is cleared by moving the stub's
+//!   subtree (or, for a tip, its end) rigidly by at most three radius sums, along the
+//!   stub (lengthening it) or away from the other internode (bending it) (session 10:
 //!   Weber–Penn stems whose first internode is a few millimetres long, at the radius
-//!   floor, which neither rotation nor thinning can free).
+//!   floor, which neither rotation nor thinning can free; session 11: tips too). Last,
+//!   a pair every move leaves is **traded**: a rotation or stub move that clears it but
+//!   makes a few new collisions is tried on a copy of the skeleton, the rounds run
+//!   again on the copy, and the copy is kept when the whole tree ends with fewer
+//!   collisions ([`DecollideReport::traded`]; session 11: `wp-ca-black-oak`'s trunk
+//!   against a limb of its clone trunk, `wp-sassafras`'s last stub).
 //!
 //! Thinning and rotating repeat for at most [`DecollideOptions::max_rounds`] rounds;
 //! what is left is reported by node pairs ([`DecollideReport::unresolved`]), never
@@ -156,6 +161,10 @@ pub struct DecollideReport {
     /// other internode (bending it): the last resort for a stub shorter than twice the
     /// pair's radius sum, which rotation cannot free.
     pub extended: usize,
+    /// Pairs the very last resort traded for a few new collisions that further rounds
+    /// then cleared (a rotation of a subtree through a dense crown; its rotations are
+    /// counted in `rotations`).
+    pub traded: usize,
     /// Rounds run.
     pub rounds: usize,
     /// Nodes whose radius was raised to the floor ([`DecollideOptions::min_radius`]).
@@ -220,6 +229,12 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
             left = collisions(skeleton, &topo, opts.clearance);
         }
         report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance);
+        if report.extended > 0 {
+            left = collisions(skeleton, &topo, opts.clearance);
+        }
+        if !left.is_empty() {
+            report.traded = trade(skeleton, &topo, &left, opts, &mut report.rotations);
+        }
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
     report.unresolved = skeleton_collisions(skeleton, CHECK_TOLERANCE);
@@ -634,19 +649,7 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
         if d >= (ca.r + cb.r) * (1.0 + o.clearance) {
             continue; // already separated by an earlier move
         }
-        // Candidate subtrees: the nearest joints above each internode that do not also
-        // carry the other internode (moving both rigidly would not separate them).
-        let mut cands: Vec<(usize, usize, DVec3)> = Vec::new();
-        for (x, y, away) in [(a, b, pa - pb), (b, a, pb - pa)] {
-            for c in joints_above(s, topo, x, o.candidates) {
-                if !topo.contains(c, y) && !topo.contains(c, s.parent[y] as usize) {
-                    cands.push((topo.size(c), c, away));
-                }
-            }
-        }
-        cands.sort_unstable_by_key(|&(w, c, _)| (w, c));
-        cands.dedup_by_key(|&mut (_, c, _)| c);
-        cands.retain(|&(w, ..)| w <= o.max_moved);
+        let cands = rotation_candidates(s, topo, [a, b], pa - pb, o);
         // Smallest clearing rotation of the lightest candidate that has one.
         let mut done = false;
         let mut tried: Vec<(usize, DVec3, usize, Vec<Trial>)> = Vec::new();
@@ -709,6 +712,128 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
         }
     }
     moved
+}
+
+/// The subtrees that may be rotated to separate internodes `a` and `b` (`away` points
+/// from `b`'s closest point to `a`'s), lightest first, as (size, root, direction away
+/// from the other): the nearest joints above each internode that do not also carry the
+/// other internode (moving both rigidly would not separate them), of at most
+/// [`DecollideOptions::max_moved`] nodes.
+fn rotation_candidates(
+    s: &Skeleton,
+    topo: &Topology,
+    [a, b]: [usize; 2],
+    away: DVec3,
+    o: &DecollideOptions,
+) -> Vec<(usize, usize, DVec3)> {
+    let mut cands: Vec<(usize, usize, DVec3)> = Vec::new();
+    for (x, y, away) in [(a, b, away), (b, a, -away)] {
+        for c in joints_above(s, topo, x, o.candidates) {
+            if !topo.contains(c, y) && !topo.contains(c, s.parent[y] as usize) {
+                cands.push((topo.size(c), c, away));
+            }
+        }
+    }
+    cands.sort_unstable_by_key(|&(w, c, _)| (w, c));
+    cands.dedup_by_key(|&mut (_, c, _)| c);
+    cands.retain(|&(w, ..)| w <= o.max_moved);
+    cands
+}
+
+/// Moves per pair [`trade`] follows up, fewest new collisions first.
+const TRADE_TRIALS: usize = 4;
+
+/// Rounds of thinning and rotation [`trade`] runs after each move.
+const TRADE_ROUNDS: usize = 3;
+
+/// A move [`trade`] follows up makes at most this many new collisions.
+const TRADE_HITS: usize = 40;
+
+/// The very last resort, for pairs every other step left (session 11:
+/// `wp-ca-black-oak`'s trunk against a 3 k-node limb of its clone trunk, which every
+/// rotation swings through 2–150 twigs of the dense crown; `wp-sassafras`'s stub whose
+/// every lengthening meets a third internode). Of the moves the rounds and the stub
+/// resort try (the rotations of the candidate subtrees, the stub motions), those that
+/// clear the pair but make at most [`TRADE_HITS`] new collisions elsewhere are sorted
+/// by how many; the first [`TRADE_TRIALS`] are applied in turn to a copy of the
+/// skeleton, the normal rounds (thinning, rotation) run on the copy for at most
+/// [`TRADE_ROUNDS`], and the first copy that ends with fewer collisions in the whole
+/// skeleton than before is kept. Returns the pairs so traded, and adds the rotations
+/// applied to `rotations`.
+fn trade(
+    s: &mut Skeleton,
+    topo: &Topology,
+    pairs: &[[usize; 2]],
+    o: &DecollideOptions,
+    rotations: &mut usize,
+) -> usize {
+    let mut total = collisions(s, topo, o.clearance).len();
+    let mut traded = 0;
+    for &[a, b] in pairs {
+        let (ca, cb) = (capsule(s, a), capsule(s, b));
+        if total == 0 || !collide(s, topo, (a, &ca), (b, &cb), o.clearance) {
+            continue;
+        }
+        let Some((_, pa, pb)) = gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY) else { continue };
+        let mut moves: Vec<(usize, Motion)> = Vec::new();
+        for (_, c, away) in rotation_candidates(s, topo, [a, b], pa - pb, o) {
+            let pivot = s.position[s.parent[c] as usize].as_dvec3();
+            moves.extend(
+                trials_for(s, c, away, &o.angles).into_iter().map(|t| (c, Motion::rotation(pivot, t.rot))),
+            );
+        }
+        moves.extend(stub_motions(s, topo, [a, b], o.clearance).into_iter().map(|(_, x, mv)| (x, mv)));
+        let bvh = Bvh::build(s, o.clearance);
+        let mut scored: Vec<(usize, usize)> = moves
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, &(c, mv))| {
+                // The one of the two that moves with `c`, against the other.
+                let (mover, other) = if topo.contains(c, a) { (a, b) } else { (b, a) };
+                let pm = s.parent[mover] as usize;
+                let cm = Capsule {
+                    a: if mover == c { mv.pivot } else { mv.of(s, pm) },
+                    b: mv.of(s, mover),
+                    r: s.radius[mover].max(s.radius[pm]) as f64,
+                };
+                if collide(s, topo, (mover, &cm), (other, &capsule(s, other)), o.clearance) {
+                    return None;
+                }
+                let hits = subtree_hits(s, topo, &bvh, c, &mv, o.clearance, TRADE_HITS + 1);
+                (hits <= TRADE_HITS).then_some((hits, k))
+            })
+            .collect();
+        scored.sort_unstable();
+        for &(_, k) in scored.iter().take(TRADE_TRIALS) {
+            let (c, mv) = moves[k];
+            let mut copy = s.clone();
+            let mut copy_bvh = Bvh::build(&copy, o.clearance);
+            apply(&mut copy, topo, &mut copy_bvh, c, &mv, o.clearance);
+            let mut moved = usize::from(mv.shift == DVec3::ZERO);
+            for _ in 0..TRADE_ROUNDS {
+                let left = collisions(&copy, topo, o.clearance);
+                if left.is_empty() {
+                    break;
+                }
+                let thinned = thin(&mut copy, topo, &left, o);
+                let left = if thinned { collisions(&copy, topo, o.clearance) } else { left };
+                let m = rotate_pairs(&mut copy, topo, &left, o);
+                moved += m;
+                if !thinned && m == 0 {
+                    break;
+                }
+            }
+            let n = collisions(&copy, topo, o.clearance).len();
+            if n < total {
+                *s = copy;
+                total = n;
+                *rotations += moved;
+                traded += 1;
+                break;
+            }
+        }
+    }
+    traded
 }
 
 /// The first `k` joints at or above internode `x`: nodes `c` (with a parent) whose
@@ -890,7 +1015,8 @@ const STUB_HOPS: usize = 3;
 /// The last resort for a stub: a pair left where one of its internodes, or one of
 /// those joining them in the tree (at most [`STUB_HOPS`] up from each), is shorter
 /// than twice the pair's clearance distance `(r_a + r_b)(1 + clearance)` and carries
-/// a subtree with one of the two in it, is cleared by moving that subtree by the
+/// a subtree with one of the two in it (or is one of the two, a tip), is cleared by
+/// moving that subtree by the
 /// mildest of [`EXTEND`] (times that distance) that leaves it with no collision:
 /// along the stub (lengthening it), or else away from the other internode (bending
 /// it). Rotation cannot free such a stub, whose far end stays within its own length of
@@ -905,52 +1031,13 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
         if !collide(s, topo, (a, &ca), (b, &cb), clearance) {
             continue; // cleared by an earlier move
         }
-        let reach = (ca.r + cb.r) * (1.0 + clearance);
-        // From b's closest point towards a's.
-        let apart =
-            gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY).map_or(DVec3::ZERO, |(_, pa, pb)| pa - pb);
-        // The pair's own internodes and those joining them (up to `STUB_HOPS` above
-        // each), whose subtree carries one of the two but not the other.
-        let mut cands = Vec::new();
-        for (start, other) in [(a, b), (b, a)] {
-            let mut x = start;
-            for _ in 0..STUB_HOPS {
-                if s.parent[x] == NO_PARENT || topo.contains(x, other) {
-                    break;
-                }
-                cands.push(x);
-                x = s.parent[x] as usize;
-            }
-        }
         let mut best: Option<(usize, usize, Motion)> = None; // (step, stub, motion)
-        for x in cands {
-            if topo.child_count[x] == 0 {
+        for (k, x, mv) in stub_motions(s, topo, [a, b], clearance) {
+            if best.is_some_and(|(bk, ..)| bk <= k) {
                 continue;
             }
-            let base = s.position[s.parent[x] as usize].as_dvec3();
-            let axis = s.position[x].as_dvec3() - base;
-            let len = axis.length();
-            if !(len > 0.0 && len < 2.0 * reach) {
-                continue;
-            }
-            // Along the stub, or (a stub aligned with the other, which no lengthening
-            // frees) away from the other internode.
-            let along = axis / len;
-            let away = if topo.contains(x, a) { apart } else { -apart };
-            let away = away - along * away.dot(along);
-            let away =
-                if away.length() > 1e-9 * len { away.normalize() } else { along.any_orthonormal_vector() };
-            'steps: for (k, &e) in EXTEND.iter().enumerate() {
-                if best.is_some_and(|(bk, ..)| bk <= k) {
-                    break;
-                }
-                for dir in [along, away] {
-                    let mv = Motion { pivot: base, rot: DQuat::IDENTITY, shift: dir * (e * reach) };
-                    if subtree_hits(s, topo, &bvh, x, &mv, clearance, 1) == 0 {
-                        best = Some((k, x, mv));
-                        break 'steps;
-                    }
-                }
+            if subtree_hits(s, topo, &bvh, x, &mv, clearance, 1) == 0 {
+                best = Some((k, x, mv));
             }
         }
         let Some((_, x, mv)) = best else { continue };
@@ -958,6 +1045,56 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
         pushed += 1;
     }
     pushed
+}
+
+/// The stub motions [`extend_stubs`] tries for the pair `a`, `b`, as (step in
+/// [`EXTEND`], stub, motion), in the order tried: for the pair's own internodes and
+/// those joining them (up to [`STUB_HOPS`] above each) whose subtree carries one of the
+/// two but not the other and that are shorter than twice the pair's clearance distance
+/// (a tip among them too: its end moves), each step moves the stub's subtree along the
+/// stub, then away from the other internode.
+fn stub_motions(
+    s: &Skeleton,
+    topo: &Topology,
+    [a, b]: [usize; 2],
+    clearance: f64,
+) -> Vec<(usize, usize, Motion)> {
+    let (ca, cb) = (capsule(s, a), capsule(s, b));
+    let reach = (ca.r + cb.r) * (1.0 + clearance);
+    // From b's closest point towards a's.
+    let apart = gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY).map_or(DVec3::ZERO, |(_, pa, pb)| pa - pb);
+    let mut cands = Vec::new();
+    for (start, other) in [(a, b), (b, a)] {
+        let mut x = start;
+        for _ in 0..STUB_HOPS {
+            if s.parent[x] == NO_PARENT || topo.contains(x, other) {
+                break;
+            }
+            cands.push(x);
+            x = s.parent[x] as usize;
+        }
+    }
+    let mut out = Vec::new();
+    for x in cands {
+        let base = s.position[s.parent[x] as usize].as_dvec3();
+        let axis = s.position[x].as_dvec3() - base;
+        let len = axis.length();
+        if !(len > 0.0 && len < 2.0 * reach) {
+            continue;
+        }
+        // Along the stub, or (a stub aligned with the other, which no lengthening
+        // frees) away from the other internode.
+        let along = axis / len;
+        let away = if topo.contains(x, a) { apart } else { -apart };
+        let away = away - along * away.dot(along);
+        let away = if away.length() > 1e-9 * len { away.normalize() } else { along.any_orthonormal_vector() };
+        for (k, &e) in EXTEND.iter().enumerate() {
+            for dir in [along, away] {
+                out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: dir * (e * reach) }));
+            }
+        }
+    }
+    out
 }
 
 /// Moves the organs hanging on `node`: points (position, polygon outline) by `point`,
