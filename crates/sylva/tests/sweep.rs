@@ -973,3 +973,29 @@ fn a_sharp_bend_keeps_its_corner() {
     let inner: Vec<f32> = uv.values.iter().map(|t| t.y).filter(|v| *v > 0.0 && *v < 1.0).collect();
     assert!(!inner.is_empty() && inner.iter().all(|v| *v > 0.02 && *v < 0.98), "{inner:?}");
 }
+
+/// Session 11: `wp-ca-black-oak`'s node 91, whose two children leave 8.5° apart at
+/// about 90° to the trunk. Their Eq 5.1 offsets put their rings 13 radii out, the
+/// general junction's hull spans that length, and Loop folds its crotch at level 2
+/// (8 crossing pairs). The repair's level-2 search now covers general junctions too:
+/// this one falls back (separate capped tubes) and the refined mesh is clean.
+#[test]
+fn a_general_junction_that_folds_under_subdivision_falls_back() {
+    let mut s = Skeleton::new();
+    let r = 0.024f32;
+    let (a, b) = (Vec3::new(-2.478, 9.869, 0.826), Vec3::new(-3.555, 11.666, 0.678));
+    let root = s.push(a - (b - a), r, NO_PARENT, Vec3::Z, 0);
+    let n90 = s.push(a, r, root, Vec3::Z, 0);
+    let n91 = s.push(b, r, n90, Vec3::Z, 0);
+    s.push(Vec3::new(-4.383, 11.047, -1.149), r, n91, Vec3::Z, 1);
+    s.push(Vec3::new(-4.415, 10.782, -1.020), r, n91, Vec3::Z, 1);
+    let m = sweep_mesh(&s, &SweepOptions::default()).unwrap();
+    assert_valid("oak node 91", &m, 1, false);
+    assert_eq!((m.fallbacks.clone(), m.general.clone()), (vec![n91], vec![]));
+    assert_eq!(level2(&m.mesh).intersection_count, Some(0));
+    // Without the level-2 search it stays a (coplanar-template) junction, and folds;
+    // with it, the template is first rebuilt as a general junction, which folds too.
+    let unchecked = sweep_mesh(&s, &SweepOptions { check_levels: 0, ..Default::default() }).unwrap();
+    assert!(unchecked.fallbacks.is_empty() && unchecked.junctions.contains(&n91));
+    assert!(level2(&unchecked.mesh).intersection_count.unwrap() > 0);
+}

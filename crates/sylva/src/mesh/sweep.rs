@@ -100,13 +100,15 @@
 //!    `lsys-ternary-tree`); in a round where no junction changed that way, the marked
 //!    nodes fall back (at most [`SweepOptions::repair_rounds`] rounds). Once the
 //!    control mesh is clean, it is refined [`SweepOptions::check_levels`] times with
-//!    Loop and the faces refined from each coplanar-template junction and from the
-//!    first strips of its children are searched for intersections among themselves
-//!    (the checker's grouped search, [`crate::mesh::check`]): a template that folds,
-//!    or lets its children's tubes cross, only under subdivision is rebuilt as a
-//!    general junction too (default
-//!    level 2, the level the acceptance checks: level 1 missed children
-//!    crossing at level 2 on `mgv-a/r/grove`). A junction with
+//!    Loop and the faces refined from each junction and from the first strips of its
+//!    children are searched for intersections among themselves (the checker's grouped
+//!    search, [`crate::mesh::check`]): a coplanar template that folds, or lets its
+//!    children's tubes cross, only under subdivision is rebuilt as a general junction
+//!    too, and a general junction that does falls back (default level 2, the level the
+//!    issue's acceptance checks: level 1 missed children crossing at level 2 on
+//!    `mgv-a/r/grove`; general junctions are searched since session 11, when two
+//!    children 8.5° apart at 90° to the trunk of `wp-ca-black-oak` put their rings 13
+//!    radii out and the hull between them folded at level 2). A junction with
 //!    two axes closer than [`SweepOptions::aligned_deg`] (or, with
 //!    [`SweepOptions::general_junctions`] off, a non-coplanar one or one with more than
 //!    `max_children` children) falls back from the start. A
@@ -188,12 +190,12 @@ pub struct SweepOptions {
     /// The seed's "Tile V": `v` runs from 0 to 1 along every internode instead of along
     /// the longest root-to-tip path (default false).
     pub tile_v: bool,
-    /// Loop levels at which the repair also checks the coplanar-template junctions
-    /// (default 2, 0 = off, at most 3): once the control mesh is clean, it is refined
-    /// this many times and a template junction whose refined faces, or those of its
-    /// children's first strips, intersect each other (a template that folds only under
-    /// subdivision) is rebuilt as a general junction (module docs, step 7). Costs one
-    /// refinement and a check of the template junctions' refined faces per round.
+    /// Loop levels at which the repair also checks the junctions (default 2, 0 = off,
+    /// at most 3): once the control mesh is clean, it is refined this many times and a
+    /// junction whose refined faces, or those of its children's first strips, intersect
+    /// each other (one that folds only under subdivision) is rebuilt as a general
+    /// junction, or falls back if it is one (module docs, step 7). Costs one refinement
+    /// and a check of the junctions' refined faces per round.
     pub check_levels: u32,
     /// Smallest ring radius as a fraction of the skeleton's largest radius (default
     /// 0.005, range 1e-6–1, as the quad mesher's `min_radius`): thinner tips are raised to
@@ -1340,14 +1342,14 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
     (mesh, b.owner, b.max_twist, b.open_loops)
 }
 
-/// Coplanar-template junctions whose faces intersect each other after `levels` Loop
-/// refinements of `mesh` (empty when `levels` is 0 or there is no such junction). Only
-/// the faces refined from template-junction faces are searched; Loop numbers the
+/// Junctions (coplanar templates and general junctions) whose faces intersect each
+/// other after `levels` Loop refinements of `mesh` (empty when `levels` is 0 or there
+/// is no junction). Only the faces refined from junction faces are searched; Loop numbers the
 /// children of face `f` `4f..4f + 4`, so a level-`L` face descends from control face
 /// `f >> 2L`.
 ///
-/// A template's faces depend only on its own rings, so a junction searched once
-/// (`checked`) is not searched again in later repair rounds.
+/// A junction's faces depend only on its own rings, so a junction searched once and
+/// found clean (`checked`) is not searched again in later repair rounds.
 fn folded_templates(
     plan: &Plan,
     mesh: &Mesh,
@@ -1363,7 +1365,6 @@ fn folded_templates(
         (j != NONE
             && (owner[f][1] == NONE || plan.par[owner[f][1] as usize] == j)
             && plan.kind[j as usize] == Kind::Junction
-            && !plan.general[j as usize]
             && !checked[j as usize])
             .then_some(j)
     };
@@ -1386,8 +1387,12 @@ fn folded_templates(
     for t in &tris {
         checked[t.0 as usize] = true;
     }
-    let folded = group_crossings(&fine.positions, tris, 1).into_iter().map(|c| c.0);
-    out.extend(folded);
+    // A folded junction is searched again after its repair (a template rebuilt as a
+    // general junction can fold too).
+    for (j, ..) in group_crossings(&fine.positions, tris, 1) {
+        checked[j as usize] = false;
+        out.insert(j);
+    }
     out
 }
 
@@ -1471,10 +1476,12 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             }
         }
         if !escalated {
-            if refined_only {
-                // Only general junctions fold there: nothing left to try.
+            if refined_only && bad.iter().all(|&o| fallback[o as usize]) {
                 break (mesh, owner, twist, loops);
             }
+            // General junctions that fold only under subdivision fall back too (session
+            // 11: two children 8.5° apart at 90° to the trunk, whose offsets put their
+            // rings 13 radii out, made a hull Loop folded at level 2).
             for o in bad {
                 fallback[o as usize] = true;
             }
