@@ -259,14 +259,12 @@ fn zero_radius_twigs_collide_at_the_floor() {
     assert!(decollide(&mut s, &DecollideOptions { min_radius: 2.0, ..Default::default() }).is_err());
 }
 
-/// The last resort for a stub (session 10): two twigs at the radius floor leave one
-/// node 80° apart, one of them through a 6 mm first internode. Its far end lies within
-/// the radius sum of its sibling's axis at any rotation about the node, and neither can
-/// be thinned, so the stub is lengthened: its subtree moves along it, rigidly.
-#[test]
-fn a_stub_at_the_floor_is_lengthened() {
+/// Two twigs at the radius floor `r` leaving node `t` 80° apart, one of them (`stub`,
+/// towards `right`) through a 6 mm internode; a stump elsewhere sets the floor
+/// (0.005 × 1.0). Returns the skeleton, `[stump, root, t, stub, sibling]`, `right` and
+/// `r`.
+fn stub_beside_a_sibling() -> (Skeleton, [u32; 5], Vec3, f32) {
     let mut s = Skeleton::new();
-    // A stump elsewhere sets the floor: 0.005 × 1.0.
     let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
     s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
     let r = 0.005;
@@ -275,8 +273,18 @@ fn a_stub_at_the_floor_is_lengthened() {
     let a = 40f32.to_radians();
     let (right, left) = (Vec3::new(a.sin(), a.cos(), 0.0), Vec3::new(-a.sin(), a.cos(), 0.0));
     let stub = s.push(Vec3::Y + right * 0.006, r, t, Vec3::Z, 1);
-    let twig = s.push(Vec3::Y + right * 0.506, r, stub, Vec3::Z, 1);
     let sibling = s.push(Vec3::Y + left * 0.3, r, t, Vec3::Z, 1);
+    (s, [stump, root, t, stub, sibling], right, r)
+}
+
+/// The last resort for a stub (session 10): two twigs at the radius floor leave one
+/// node 80° apart, one of them through a 6 mm first internode. Its far end lies within
+/// the radius sum of its sibling's axis at any rotation about the node, and neither can
+/// be thinned, so the stub is lengthened: its subtree moves along it, rigidly.
+#[test]
+fn a_stub_at_the_floor_is_lengthened() {
+    let (mut s, [stump, root, t, stub, sibling], right, r) = stub_beside_a_sibling();
+    let twig = s.push(Vec3::Y + right * 0.506, r, stub, Vec3::Z, 1);
     let before = s.clone();
     assert_eq!(skeleton_collisions(&s, 0.01), vec![[stub as usize, sibling as usize]]);
     let rep = run(&mut s);
@@ -301,16 +309,7 @@ fn a_stub_at_the_floor_is_lengthened() {
 /// far end stays within the radius sum of the sibling's axis.
 #[test]
 fn a_tip_stub_at_the_floor_is_lengthened() {
-    let mut s = Skeleton::new();
-    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
-    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
-    let r = 0.005;
-    let root = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
-    let t = s.push(Vec3::Y, r, root, Vec3::Z, 0);
-    let a = 40f32.to_radians();
-    let (right, left) = (Vec3::new(a.sin(), a.cos(), 0.0), Vec3::new(-a.sin(), a.cos(), 0.0));
-    let stub = s.push(Vec3::Y + right * 0.006, r, t, Vec3::Z, 1);
-    let sibling = s.push(Vec3::Y + left * 0.3, r, t, Vec3::Z, 1);
+    let (mut s, [stump, root, t, stub, sibling], right, r) = stub_beside_a_sibling();
     let before = s.clone();
     assert_eq!(skeleton_collisions(&s, 0.01), vec![[stub as usize, sibling as usize]]);
     let rep = run(&mut s);

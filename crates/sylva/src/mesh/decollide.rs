@@ -202,20 +202,7 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     let topo = Topology::new(skeleton);
     report.near_joint = first.iter().filter(|p| near_joint(skeleton, &topo, p[0], p[1], opts)).count();
     let original_radius = skeleton.radius.clone();
-    for _ in 0..opts.max_rounds {
-        let pairs = collisions(skeleton, &topo, opts.clearance);
-        if pairs.is_empty() {
-            break;
-        }
-        report.rounds += 1;
-        let thinned = thin(skeleton, &topo, &pairs, opts);
-        let pairs = if thinned { collisions(skeleton, &topo, opts.clearance) } else { pairs };
-        let moved = rotate_pairs(skeleton, &topo, &pairs, opts);
-        report.rotations += moved;
-        if !thinned && moved == 0 {
-            break;
-        }
-    }
+    (report.rounds, report.rotations) = rounds(skeleton, &topo, opts, opts.max_rounds);
     let mut left = collisions(skeleton, &topo, opts.clearance);
     if !left.is_empty() {
         // What rotation could not clear is thinned like a near-joint pair (down to
@@ -537,6 +524,28 @@ fn collisions(s: &Skeleton, topo: &Topology, clearance: f64) -> Vec<[usize; 2]> 
     pairs
 }
 
+/// Runs at most `max_rounds` rounds of thinning, then rotation, on the collisions left;
+/// stops early when none are left or a round changed nothing. Returns the rounds run
+/// and the rotations applied.
+fn rounds(s: &mut Skeleton, topo: &Topology, o: &DecollideOptions, max_rounds: usize) -> (usize, usize) {
+    let (mut run, mut rotations) = (0, 0);
+    for _ in 0..max_rounds {
+        let pairs = collisions(s, topo, o.clearance);
+        if pairs.is_empty() {
+            break;
+        }
+        run += 1;
+        let thinned = thin(s, topo, &pairs, o);
+        let pairs = if thinned { collisions(s, topo, o.clearance) } else { pairs };
+        let moved = rotate_pairs(s, topo, &pairs, o);
+        rotations += moved;
+        if !thinned && moved == 0 {
+            break;
+        }
+    }
+    (run, rotations)
+}
+
 /// Caps radii so the near-joint (and grazing) pairs clear; returns whether any radius
 /// changed.
 fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOptions) -> bool {
@@ -790,12 +799,7 @@ fn trade(
             .filter_map(|(k, &(c, mv))| {
                 // The one of the two that moves with `c`, against the other.
                 let (mover, other) = if topo.contains(c, a) { (a, b) } else { (b, a) };
-                let pm = s.parent[mover] as usize;
-                let cm = Capsule {
-                    a: if mover == c { mv.pivot } else { mv.of(s, pm) },
-                    b: mv.of(s, mover),
-                    r: s.radius[mover].max(s.radius[pm]) as f64,
-                };
+                let cm = moved_capsule(s, c, mover, &mv);
                 if collide(s, topo, (mover, &cm), (other, &capsule(s, other)), o.clearance) {
                     return None;
                 }
@@ -809,20 +813,7 @@ fn trade(
             let mut copy = s.clone();
             let mut copy_bvh = Bvh::build(&copy, o.clearance);
             apply(&mut copy, topo, &mut copy_bvh, c, &mv, o.clearance);
-            let mut moved = usize::from(mv.shift == DVec3::ZERO);
-            for _ in 0..TRADE_ROUNDS {
-                let left = collisions(&copy, topo, o.clearance);
-                if left.is_empty() {
-                    break;
-                }
-                let thinned = thin(&mut copy, topo, &left, o);
-                let left = if thinned { collisions(&copy, topo, o.clearance) } else { left };
-                let m = rotate_pairs(&mut copy, topo, &left, o);
-                moved += m;
-                if !thinned && m == 0 {
-                    break;
-                }
-            }
+            let moved = usize::from(mv.shift == DVec3::ZERO) + rounds(&mut copy, topo, o, TRADE_ROUNDS).1;
             let n = collisions(&copy, topo, o.clearance).len();
             if n < total {
                 *s = copy;
@@ -908,6 +899,17 @@ impl Motion {
     }
 }
 
+/// The capsule of internode `m` of the subtree at `c` once the subtree is moved by `mv`
+/// (the subtree's base node, `mv.pivot`, stays put).
+fn moved_capsule(s: &Skeleton, c: usize, m: usize, mv: &Motion) -> Capsule {
+    let pm = s.parent[m] as usize;
+    Capsule {
+        a: if m == c { mv.pivot } else { mv.of(s, pm) },
+        b: mv.of(s, m),
+        r: s.radius[m].max(s.radius[pm]) as f64,
+    }
+}
+
 /// Collisions (at most `limit`) between the subtree at `c`, moved by `mv` (its base
 /// node stays put), and every internode outside it.
 fn subtree_hits(
@@ -922,12 +924,7 @@ fn subtree_hits(
     let mut hits = 0;
     for &m in topo.subtree(c) {
         let m = m as usize;
-        let pm = s.parent[m] as usize;
-        let cm = Capsule {
-            a: if m == c { mv.pivot } else { mv.of(s, pm) },
-            b: mv.of(s, m),
-            r: s.radius[m].max(s.radius[pm]) as f64,
-        };
+        let cm = moved_capsule(s, c, m, mv);
         hits += capsule_hits(s, topo, bvh, c, (m, &cm), clearance, limit - hits);
         if hits >= limit {
             break;
