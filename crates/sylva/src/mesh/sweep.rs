@@ -1350,7 +1350,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
 ///
 /// A junction's faces depend only on its own rings, so a junction searched once and
 /// found clean (`checked`) is not searched again in later repair rounds.
-fn folded_templates(
+fn folded_junctions(
     plan: &Plan,
     mesh: &Mesh,
     owner: &[[u32; 2]],
@@ -1359,8 +1359,8 @@ fn folded_templates(
 ) -> HashSet<u32> {
     use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
     let mut out = HashSet::new();
-    // A template junction's own faces and the first strips of its children.
-    let template = |f: usize| {
+    // A junction's own faces and the first strips of its children.
+    let junction = |f: usize| {
         let j = owner[f][0];
         (j != NONE
             && (owner[f][1] == NONE || plan.par[owner[f][1] as usize] == j)
@@ -1368,7 +1368,7 @@ fn folded_templates(
             && !checked[j as usize])
             .then_some(j)
     };
-    if levels == 0 || !(0..mesh.face_count()).any(|f| template(f).is_some()) {
+    if levels == 0 || !(0..mesh.face_count()).any(|f| junction(f).is_some()) {
         return out;
     }
     let opts = SubdivideOptions {
@@ -1377,11 +1377,11 @@ fn folded_templates(
     };
     let Ok(fine) = subdivide(mesh, &[], &opts) else { return out };
     let shift = 2 * levels;
-    // The refined triangles of each template junction, searched among themselves.
+    // The refined triangles of each junction, searched among themselves.
     let tris: Vec<(u32, [u32; 3], u32)> = (0..fine.face_count())
         .filter_map(|f| {
             let v = fine.face(f);
-            template(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]], f as u32))
+            junction(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]], f as u32))
         })
         .collect();
     for t in &tris {
@@ -1414,7 +1414,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
     let mut plan = Plan::new(skeleton, opts);
     let n = skeleton.len();
     let mut fallback: Vec<bool> = plan.forced.clone();
-    // Template junctions already searched after refinement ([`folded_templates`]).
+    // Junctions already searched after refinement and found clean ([`folded_junctions`]).
     let mut checked = vec![false; n];
     let mut round = 0;
     let (mesh, face_owner, max_twist, open_loops) = loop {
@@ -1453,7 +1453,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         // A clean control mesh: check the templates once more after refinement.
         let refined_only = bad.is_empty();
         if refined_only {
-            bad = folded_templates(&plan, &mesh, &owner, opts.check_levels, &mut checked);
+            bad = folded_junctions(&plan, &mesh, &owner, opts.check_levels, &mut checked);
         }
         if bad.is_empty() {
             break (mesh, owner, twist, loops);
@@ -1481,7 +1481,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             }
             // General junctions that fold only under subdivision fall back too (session
             // 11: two children 8.5° apart at 90° to the trunk, whose offsets put their
-            // rings 13 radii out, made a hull Loop folded at level 2).
+            // rings 13 radii out, gave a hull that Loop folded at level 2).
             for o in bad {
                 fallback[o as usize] = true;
             }
