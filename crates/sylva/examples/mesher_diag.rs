@@ -105,6 +105,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sk.radius.iter_mut().for_each(|r| *r *= f);
     }
     if args.iter().any(|a| a == "--decollide") {
+        // A fingerprint of the de-collided skeleton, to tell whether a change to the
+        // pass changed its result.
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        for (p, r) in sk.position.iter().zip(&sk.radius) {
+            std::hash::Hash::hash(&[p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), r.to_bits()], &mut h);
+        }
+        println!("skeleton fingerprint {:016x}", std::hash::Hasher::finish(&h));
         describe_unresolved(&sk, &d.unresolved);
         return Ok(());
     }

@@ -160,13 +160,14 @@ fn decollide_is_deterministic_and_keeps_the_tree() {
 
 #[test]
 fn an_unresolvable_crossing_is_reported_and_terminates() {
-    // Two single-internode trees through each other: no joint to rotate about, and far
-    // too deep to thin.
+    // Two single-internode trees through each other next to their roots (which never
+    // move): no joint to rotate about, far too deep to thin, and a 20° bend of either
+    // moves the crossing by less than the radius sum.
     let mut s = Skeleton::new();
     let r1 = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
     let t1 = s.push(Vec3::new(0.0, 2.0, 0.0), 0.1, r1, Vec3::X, 0);
-    let r2 = s.push(Vec3::new(-1.0, 1.0, 0.0), 0.1, NO_PARENT, Vec3::Y, 0);
-    let t2 = s.push(Vec3::new(1.0, 1.0, 0.0), 0.1, r2, Vec3::Y, 0);
+    let r2 = s.push(Vec3::new(-0.3, 0.1, 0.0), 0.1, NO_PARENT, Vec3::Y, 0);
+    let t2 = s.push(Vec3::new(1.7, 0.1, 0.0), 0.1, r2, Vec3::Y, 0);
     let before = s.clone();
     let r = run(&mut s);
     assert_eq!((r.before, r.after), (1, 1), "{r:?}");
@@ -343,4 +344,49 @@ fn a_pair_no_move_clears_is_traded_for_ones_the_rounds_clear() {
     let rep2 = run(&mut again);
     assert_eq!(rep2, DecollideReport { elapsed: rep2.elapsed, ..rep.clone() }, "report differs");
     assert_eq!(again, s, "not deterministic");
+}
+
+/// The stub resort also bends a longer internode sideways, by at most 20° (session 12:
+/// `wp-weeping-willow`'s limb whose joint sits against its clone trunk, where every
+/// rotation of the limb swings it through the crown). Here the limb's joint `j` lies
+/// 8 mm from a trunk's axis, both at the radius floor, and `max_moved = 1` stands for
+/// the crown: no rotation may move the limb. Its subtree moves rigidly away from the
+/// trunk; its base and the trunk stay put.
+#[test]
+fn a_limb_whose_joint_touches_a_trunk_is_bent_away() {
+    let mut s = Skeleton::new();
+    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
+    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
+    let r = 0.005;
+    let a0 = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
+    let a1 = s.push(Vec3::Y, r, a0, Vec3::Z, 0);
+    let a2 = s.push(Vec3::new(0.0, 2.0, 0.0), r, a1, Vec3::Z, 0);
+    // The trunk carries more than the limb, so the limb is the side that bends.
+    let a3 = s.push(Vec3::new(0.0, 3.0, 0.0), r, a2, Vec3::Z, 0);
+    s.push(Vec3::new(0.0, 4.0, 0.0), r, a3, Vec3::Z, 0);
+    let b0 = s.push(Vec3::new(0.3, 0.0, 0.0), r, NO_PARENT, Vec3::Z, 0);
+    let b1 = s.push(Vec3::new(0.3, 0.9, 0.0), r, b0, Vec3::Z, 0);
+    s.push(Vec3::new(0.3, 2.0, 0.0), r, b1, Vec3::Z, 0);
+    let j = s.push(Vec3::new(0.008, 1.1, 0.0), r, b1, Vec3::Z, 1);
+    let tip = s.push(Vec3::new(0.208, 1.4, 0.2), r, j, Vec3::Z, 1);
+    let before = s.clone();
+    let found = skeleton_collisions(&s, 0.01);
+    assert!(found.contains(&[a2 as usize, j as usize]), "{found:?}");
+    let opts = DecollideOptions { max_moved: 1, ..Default::default() };
+    let rep = decollide(&mut s, &opts).expect("a valid skeleton");
+    assert_eq!((rep.after, rep.extended, rep.traded), (0, 1, 0), "{rep:?}");
+    assert_eq!(s.radius, before.radius, "nothing thinned");
+    assert_eq!(s.parent, before.parent);
+    // The joint moved away from the trunk; the limb's internode turned by at most 20°.
+    let shift = s.position[j as usize] - before.position[j as usize];
+    assert!(shift.x > 0.0 && shift.length() > 0.0, "{shift}");
+    let (d0, d1) = (
+        (before.position[j as usize] - before.position[b1 as usize]).normalize(),
+        (s.position[j as usize] - s.position[b1 as usize]).normalize(),
+    );
+    assert!(d0.angle_between(d1).to_degrees() <= 20.0 + 1e-3, "{d0} → {d1}");
+    assert!((s.position[tip as usize] - before.position[tip as usize] - shift).length() < 1e-6, "rigid");
+    for i in [stump, stump + 1, a0, a1, a2, a3, a3 + 1, b0, b1, b1 + 1] {
+        assert_eq!(s.position[i as usize], before.position[i as usize], "node {i} moved");
+    }
 }

@@ -46,7 +46,12 @@
 //!   subtree (or, for a tip, its end) rigidly by at most three radius sums, along the
 //!   stub (lengthening it) or away from the other internode (bending it) (session 10:
 //!   Weber–Penn stems whose first internode is a few millimetres long, at the radius
-//!   floor, which neither rotation nor thinning can free; session 11: tips too). Last,
+//!   floor, which neither rotation nor thinning can free; session 11: tips too). A
+//!   longer internode there is **bent** the same way, its subtree moved rigidly away
+//!   from the other by the mildest step that turns it by at most 20°, lightest subtree
+//!   first (session 12: `wp-weeping-willow`'s limb whose joint sits against its clone
+//!   trunk, which no rotation of the 3.8 k-node limb could free without swinging it
+//!   through the crown). Last,
 //!   a pair every move leaves is **traded**: a rotation or stub move that clears it but
 //!   makes a few new collisions is tried on a copy of the skeleton, the rounds run
 //!   again on the copy, and the copy is kept when the whole tree ends with fewer
@@ -159,7 +164,8 @@ pub struct DecollideReport {
     pub retracted: usize,
     /// Stubs whose subtrees were moved, along the stub (lengthening it) or away from the
     /// other internode (bending it): the last resort for a stub shorter than twice the
-    /// pair's radius sum, which rotation cannot free.
+    /// pair's radius sum, which rotation cannot free; longer internodes bent sideways by
+    /// at most 20° are counted here too.
     pub extended: usize,
     /// Pairs the very last resort traded for a few new collisions that further rounds
     /// then cleared (a rotation of a subtree through a dense crown; its rotations are
@@ -791,7 +797,7 @@ fn trade(
                 trials_for(s, c, away, &o.angles).into_iter().map(|t| (c, Motion::rotation(pivot, t.rot))),
             );
         }
-        moves.extend(stub_motions(s, topo, [a, b], o.clearance).into_iter().map(|(_, x, mv)| (x, mv)));
+        moves.extend(stub_motions(s, topo, [a, b], o.clearance).into_iter().map(|(_, x, mv, _)| (x, mv)));
         let bvh = Bvh::build(s, o.clearance);
         let mut scored: Vec<(usize, usize)> = moves
             .par_iter()
@@ -1005,6 +1011,10 @@ fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
 /// Extensions tried for a stub, in clearance radius sums, mildest first.
 const EXTEND: [f64; 4] = [0.5, 1.0, 2.0, 3.0];
 
+/// The largest bend, in degrees, a sideways move gives an internode that is no stub
+/// (session 12: `wp-weeping-willow`'s limb whose joint sits against its clone trunk).
+const BEND_MAX_DEG: f64 = 20.0;
+
 /// Internodes tried as the stub on each side of a pair: its own, and those above it
 /// towards the other.
 const STUB_HOPS: usize = 3;
@@ -1028,13 +1038,15 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
         if !collide(s, topo, (a, &ca), (b, &cb), clearance) {
             continue; // cleared by an earlier move
         }
-        let mut best: Option<(usize, usize, Motion)> = None; // (step, stub, motion)
-        for (k, x, mv) in stub_motions(s, topo, [a, b], clearance) {
-            if best.is_some_and(|(bk, ..)| bk <= k) {
+        // Mildest step first; at one step, stubs (in the order tried), then the bends
+        // of the lightest subtrees.
+        let mut best: Option<((usize, usize), usize, Motion)> = None; // (rank, stub, motion)
+        for (k, x, mv, weight) in stub_motions(s, topo, [a, b], clearance) {
+            if best.is_some_and(|(bk, ..)| bk <= (k, weight)) {
                 continue;
             }
             if subtree_hits(s, topo, &bvh, x, &mv, clearance, 1) == 0 {
-                best = Some((k, x, mv));
+                best = Some(((k, weight), x, mv));
             }
         }
         let Some((_, x, mv)) = best else { continue };
@@ -1045,17 +1057,19 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
 }
 
 /// The stub motions [`extend_stubs`] tries for the pair `a`, `b`, as (step in
-/// [`EXTEND`], stub, motion), in the order tried: for the pair's own internodes and
-/// those joining them (up to [`STUB_HOPS`] above each) whose subtree carries one of the
-/// two but not the other and that are shorter than twice the pair's clearance distance
-/// (a tip among them too: its end moves), each step moves the stub's subtree along the
-/// stub, then away from the other internode.
+/// [`EXTEND`], stub, motion, weight), in the order tried: for the pair's own internodes
+/// and those joining them (up to [`STUB_HOPS`] above each) whose subtree carries one of
+/// the two but not the other (a tip among them too: its end moves), each step moves the
+/// internode's subtree along it, then away from the other internode, when it is
+/// shorter than twice the pair's clearance distance (a stub; weight 0); a longer one
+/// only away, while that bends it by at most [`BEND_MAX_DEG`] (weight: 1 + the nodes
+/// it moves, so the lighter side bends first).
 fn stub_motions(
     s: &Skeleton,
     topo: &Topology,
     [a, b]: [usize; 2],
     clearance: f64,
-) -> Vec<(usize, usize, Motion)> {
+) -> Vec<(usize, usize, Motion, usize)> {
     let (ca, cb) = (capsule(s, a), capsule(s, b));
     let reach = (ca.r + cb.r) * (1.0 + clearance);
     // From b's closest point towards a's.
@@ -1072,23 +1086,30 @@ fn stub_motions(
         }
     }
     let mut out = Vec::new();
+    let max_bend = BEND_MAX_DEG.to_radians().tan();
     for x in cands {
         let base = s.position[s.parent[x] as usize].as_dvec3();
         let axis = s.position[x].as_dvec3() - base;
         let len = axis.length();
-        if !(len > 0.0 && len < 2.0 * reach) {
+        if len.is_nan() || len <= 0.0 {
             continue;
         }
+        let stub = len < 2.0 * reach;
         // Along the stub, or (a stub aligned with the other, which no lengthening
-        // frees) away from the other internode.
+        // frees) away from the other internode; a longer internode only bends away,
+        // by at most `BEND_MAX_DEG`.
         let along = axis / len;
         let away = if topo.contains(x, a) { apart } else { -apart };
         let away = away - along * away.dot(along);
         let away = if away.length() > 1e-9 * len { away.normalize() } else { along.any_orthonormal_vector() };
         for (k, &e) in EXTEND.iter().enumerate() {
-            for dir in [along, away] {
-                out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: dir * (e * reach) }));
+            let weight = if stub { 0 } else { 1 + topo.size(x) };
+            if stub {
+                out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: along * (e * reach) }, 0));
+            } else if e * reach > len * max_bend {
+                break;
             }
+            out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: away * (e * reach) }, weight));
         }
     }
     out
