@@ -216,7 +216,7 @@ fn grow(args: GrowArgs) -> Result<()> {
         );
         if let Some(d) = &r.decollide {
             println!(
-                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs moved, {} traded, {} rounds, {:.1} ms)",
+                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs moved or bent, {} traded, {} rounds, {:.1} ms)",
                 d.before,
                 d.resolved(),
                 d.after,

@@ -89,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         decollide(&mut sk, &dopts)?
     };
     println!(
-        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs moved, {} traded, {:.0} ms)",
+        "{preset}: {} nodes, skeleton collisions {} -> {} ({} rounds, {} rotations, {} thinned, {} tips pulled back, {} stubs moved or bent, {} traded, {:.0} ms)",
         sk.len(),
         d.before,
         d.after,
