@@ -106,7 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if args.iter().any(|a| a == "--decollide") {
         // A fingerprint of the de-collided skeleton, to tell whether a change to the
-        // pass changed its result.
+        // pass changed its result (`DefaultHasher`: compare runs of one toolchain).
         let mut h = std::collections::hash_map::DefaultHasher::new();
         for (p, r) in sk.position.iter().zip(&sk.radius) {
             std::hash::Hash::hash(&[p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), r.to_bits()], &mut h);

@@ -43,7 +43,8 @@
 //!   as the Koch snowflake, whose last internode ends on its first and has no joint to
 //!   rotate about. Then a pair left where one internode (or one joining them) is a
 //!   **stub** (shorter than twice the pair's radius sum) is cleared by moving the stub's
-//!   subtree (or, for a tip, its end) rigidly by at most three radius sums, along the
+//!   subtree (or, for a tip, its end) rigidly by at most three radius sums (with the
+//!   clearance), along the
 //!   stub (lengthening it) or away from the other internode (bending it) (session 10:
 //!   Weber–Penn stems whose first internode is a few millimetres long, at the radius
 //!   floor, which neither rotation nor thinning can free; session 11: tips too). A
@@ -1008,28 +1009,33 @@ fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
     pulled
 }
 
-/// Extensions tried for a stub, in clearance radius sums, mildest first.
+/// Moves tried by the stub resort (lengthening or bending a stub, bending a longer
+/// internode), in clearance distances `(r_a + r_b)(1 + clearance)`, mildest first.
 const EXTEND: [f64; 4] = [0.5, 1.0, 2.0, 3.0];
 
 /// The largest bend, in degrees, a sideways move gives an internode that is no stub
 /// (session 12: `wp-weeping-willow`'s limb whose joint sits against its clone trunk).
 const BEND_MAX_DEG: f64 = 20.0;
 
-/// Internodes tried as the stub on each side of a pair: its own, and those above it
-/// towards the other.
+/// Internodes tried by the stub resort on each side of a pair: its own, and up to
+/// `STUB_HOPS - 1` above it towards the other.
 const STUB_HOPS: usize = 3;
 
 /// The last resort for a stub: a pair left where one of its internodes, or one of
-/// those joining them in the tree (at most [`STUB_HOPS`] up from each), is shorter
-/// than twice the pair's clearance distance `(r_a + r_b)(1 + clearance)` and carries
-/// a subtree with one of the two in it (or is one of the two, a tip), is cleared by
-/// moving that subtree by the
-/// mildest of [`EXTEND`] (times that distance) that leaves it with no collision:
-/// along the stub (lengthening it), or else away from the other internode (bending
-/// it). Rotation cannot free such a stub, whose far end stays within its own length of
-/// the joint where its sibling starts, and thinning cannot either once both are at the
-/// radius floor (Weber–Penn stems whose first internode is a few millimetres long:
-/// `wp-sassafras` kept 6 such pairs, `wp-european-larch` 23). Returns the stubs moved.
+/// those joining them in the tree ([`STUB_HOPS`] per side, its own included), is
+/// shorter than twice the pair's clearance distance `(r_a + r_b)(1 + clearance)` and
+/// carries a subtree with one of the two in it (or is one of the two, a tip), is
+/// cleared by moving that subtree by the mildest of [`EXTEND`] (times that distance)
+/// that leaves it with no collision: along the stub (lengthening it), or else away
+/// from the other internode (bending it). Rotation cannot free such a stub, whose far
+/// end stays within its own length of the joint where its sibling starts, and thinning
+/// cannot either once both are at the radius floor (Weber–Penn stems whose first
+/// internode is a few millimetres long: `wp-sassafras` kept 6 such pairs,
+/// `wp-european-larch` 23). A longer internode among those candidates is bent away
+/// the same way, by steps that turn it by at most [`BEND_MAX_DEG`]; at one step stubs
+/// come first, then the lightest subtree (see [`stub_motions`]). Moves ignore
+/// [`DecollideOptions::max_moved`]: they are translations of a few radii, which keep a
+/// subtree's shape. Returns the stubs moved and internodes bent.
 fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearance: f64) -> usize {
     let mut bvh = Bvh::build(s, clearance);
     let mut pushed = 0;
@@ -1058,7 +1064,7 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
 
 /// The stub motions [`extend_stubs`] tries for the pair `a`, `b`, as (step in
 /// [`EXTEND`], stub, motion, weight), in the order tried: for the pair's own internodes
-/// and those joining them (up to [`STUB_HOPS`] above each) whose subtree carries one of
+/// and those joining them ([`STUB_HOPS`] per side) whose subtree carries one of
 /// the two but not the other (a tip among them too: its end moves), each step moves the
 /// internode's subtree along it, then away from the other internode, when it is
 /// shorter than twice the pair's clearance distance (a stub; weight 0); a longer one
@@ -1152,5 +1158,37 @@ fn apply(s: &mut Skeleton, topo: &Topology, bvh: &mut Bvh, c: usize, mv: &Motion
     }
     for &m in topo.subtree(c) {
         bvh.update(m as usize, capsule_box(&capsule(s, m as usize), clearance));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A longer internode is only bent by steps that turn it by at most
+    /// [`BEND_MAX_DEG`]: the 50 mm one (radius 5 mm, against another of 5 mm: a
+    /// clearance distance of 10.8 mm, so 20° allows 18.2 mm) gets the first two steps
+    /// of [`EXTEND`], the 1 m one all four; each is sideways, weighted by the nodes it
+    /// moves.
+    #[test]
+    fn bends_stop_at_the_largest_angle() {
+        let mut s = Skeleton::new();
+        let r = 0.005;
+        let r0 = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
+        let x1 = s.push(Vec3::new(0.0, 0.05, 0.0), r, r0, Vec3::Z, 0) as usize;
+        let q0 = s.push(Vec3::new(0.008, 0.04, -0.5), r, NO_PARENT, Vec3::Y, 0);
+        let q1 = s.push(Vec3::new(0.008, 0.04, 0.5), r, q0, Vec3::Y, 0) as usize;
+        let topo = Topology::new(&s);
+        let moves = stub_motions(&s, &topo, [x1, q1], 0.08);
+        let count = |x: usize| moves.iter().filter(|m| m.1 == x).count();
+        assert_eq!((count(x1), count(q1)), (2, 4), "{moves:?}");
+        for &(k, x, mv, weight) in &moves {
+            let base = s.position[s.parent[x] as usize].as_dvec3();
+            let axis = s.position[x].as_dvec3() - base;
+            assert!(mv.shift.dot(axis).abs() < 1e-12, "not sideways: {mv:?}");
+            let turn = mv.shift.length().atan2(axis.length()).to_degrees();
+            assert!(turn <= BEND_MAX_DEG + 1e-9, "{turn}° at step {k}");
+            assert_eq!(weight, 2, "1 + the one node moved");
+        }
     }
 }
