@@ -260,15 +260,22 @@ fn zero_radius_twigs_collide_at_the_floor() {
     assert!(decollide(&mut s, &DecollideOptions { min_radius: 2.0, ..Default::default() }).is_err());
 }
 
+/// A skeleton holding only a 1 m stump of radius 1 far from the origin, which sets the
+/// radius floor (0.005 × 1.0) for what the tests add. Returns it, the stump's root and
+/// the floor.
+fn floor_set_by_a_stump() -> (Skeleton, u32, f32) {
+    let mut s = Skeleton::new();
+    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
+    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
+    (s, stump, 0.005)
+}
+
 /// Two twigs at the radius floor `r` leaving node `t` 80° apart, one of them (`stub`,
 /// towards `right`) through a 6 mm internode; a stump elsewhere sets the floor
 /// (0.005 × 1.0). Returns the skeleton, `[stump, root, t, stub, sibling]`, `right` and
 /// `r`.
 fn stub_beside_a_sibling() -> (Skeleton, [u32; 5], Vec3, f32) {
-    let mut s = Skeleton::new();
-    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
-    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
-    let r = 0.005;
+    let (mut s, stump, r) = floor_set_by_a_stump();
     let root = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
     let t = s.push(Vec3::Y, r, root, Vec3::Z, 0);
     let a = 40f32.to_radians();
@@ -354,10 +361,7 @@ fn a_pair_no_move_clears_is_traded_for_ones_the_rounds_clear() {
 /// trunk; its base and the trunk stay put.
 #[test]
 fn a_limb_whose_joint_touches_a_trunk_is_bent_away() {
-    let mut s = Skeleton::new();
-    let stump = s.push(Vec3::new(100.0, 0.0, 0.0), 1.0, NO_PARENT, Vec3::Z, 0);
-    s.push(Vec3::new(100.0, 1.0, 0.0), 1.0, stump, Vec3::Z, 0);
-    let r = 0.005;
+    let (mut s, stump, r) = floor_set_by_a_stump();
     let a0 = s.push(Vec3::ZERO, r, NO_PARENT, Vec3::Z, 0);
     let a1 = s.push(Vec3::Y, r, a0, Vec3::Z, 0);
     let a2 = s.push(Vec3::new(0.0, 2.0, 0.0), r, a1, Vec3::Z, 0);

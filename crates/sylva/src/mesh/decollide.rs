@@ -1108,14 +1108,15 @@ fn stub_motions(
         let away = if topo.contains(x, a) { apart } else { -apart };
         let away = away - along * away.dot(along);
         let away = if away.length() > 1e-9 * len { away.normalize() } else { along.any_orthonormal_vector() };
+        let weight = if stub { 0 } else { 1 + topo.size(x) };
+        let shift = |dir: DVec3| Motion { pivot: base, rot: DQuat::IDENTITY, shift: dir };
         for (k, &e) in EXTEND.iter().enumerate() {
-            let weight = if stub { 0 } else { 1 + topo.size(x) };
             if stub {
-                out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: along * (e * reach) }, 0));
+                out.push((k, x, shift(along * (e * reach)), weight));
             } else if e * reach > len * max_bend {
                 break;
             }
-            out.push((k, x, Motion { pivot: base, rot: DQuat::IDENTITY, shift: away * (e * reach) }, weight));
+            out.push((k, x, shift(away * (e * reach)), weight));
         }
     }
     out
