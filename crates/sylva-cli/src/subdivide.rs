@@ -360,7 +360,10 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
     let name =
         args.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
     let (faces, verts) = (refined.face_count(), refined.vertex_count());
-    let model = Model { parts: vec![Part { name, mesh: refined, material: Material::bark() }] };
+    let model = Model {
+        parts: vec![Part { name, mesh: refined, material: Material::bark(), ..Default::default() }],
+        ..Default::default()
+    };
     sylva::export::write(&model, &args.output)?;
     if !args.quiet {
         let scheme = match scheme {

@@ -19,7 +19,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use glam::{Vec2, Vec3};
 use std::hint::black_box;
 use std::time::Duration;
-use sylva::mesh::{FaceVarying, Mesh};
+use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::{FaceVaryingRefiner, FvarInterpolation, RefineOptions, Refiner, Scheme};
 
 /// An n×m torus of quads (or triangles), with a UV grid of (n+1)×(m+1) values, so the

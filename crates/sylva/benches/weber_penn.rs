@@ -16,7 +16,7 @@ use sylva::export::gltf::to_glb;
 use sylva::grow::weber_penn::{grow, WeberPennParams};
 use sylva::mesh::organs::organ_mesh;
 use sylva::mesh::tube::{tube_mesh, TubeOptions};
-use sylva::mesh::{Material, Model, Part};
+use sylva::model::{Material, Model, Part};
 
 /// The aspen's parameters, read from the embedded preset's `[generator]` table.
 fn aspen() -> WeberPennParams {
@@ -36,9 +36,10 @@ fn whole(p: &WeberPennParams) -> Vec<u8> {
     let (leaves, _) = organ_mesh(&tree.skeleton, &HashMap::new());
     let model = Model {
         parts: vec![
-            Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() },
-            Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() },
+            Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark(), ..Default::default() },
+            Part { name: "leaves".into(), mesh: leaves, material: Material::leaf(), ..Default::default() },
         ],
+        ..Default::default()
     };
     to_glb(&model).expect("writes")
 }
@@ -61,9 +62,20 @@ fn cpu_report(p: &WeberPennParams, runs: u32) {
         let d = cpu_ns().unwrap_or(c);
         let model = Model {
             parts: vec![
-                Part { name: "bark".into(), mesh: tube.mesh, material: Material::bark() },
-                Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() },
+                Part {
+                    name: "bark".into(),
+                    mesh: tube.mesh,
+                    material: Material::bark(),
+                    ..Default::default()
+                },
+                Part {
+                    name: "leaves".into(),
+                    mesh: leaves,
+                    material: Material::leaf(),
+                    ..Default::default()
+                },
             ],
+            ..Default::default()
         };
         black_box(to_glb(&model).expect("writes"));
         let e = cpu_ns().unwrap_or(d);

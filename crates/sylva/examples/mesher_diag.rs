@@ -42,7 +42,7 @@ use sylva::mesh::decollide::{decollide, DecollideOptions};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
 use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
-use sylva::mesh::{Material, Model, Part};
+use sylva::model::{Material, Model, Part};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton, NO_PARENT};
 
@@ -587,13 +587,16 @@ fn render(
                 name: "clear".into(),
                 mesh: crop(m, c, r, &|f| !hits.contains(&f)),
                 material: material([0.6; 3]),
+                ..Default::default()
             },
             Part {
                 name: "hits".into(),
                 mesh: crop(m, c, r, &|f| hits.contains(&f)),
                 material: material([0.9, 0.05, 0.05]),
+                ..Default::default()
             },
         ],
+        ..Default::default()
     };
     for (i, az) in [0.0f32, 90.0, 180.0].into_iter().enumerate() {
         let opts = sylva::preview::PreviewOptions {

@@ -12,7 +12,9 @@
 //! - [`lsystem`]: the cpfg-compatible L-system language (seed 002 §2, ABOP), derivation
 //!   and the 3D turtle that writes a [`Skeleton`];
 //! - [`skeleton`]: the parent-first branching skeleton;
-//! - [`mesh`]: indexed meshes, models and the meshers (`tube`);
+//! - [`geometry`] and [`model`]: the plain data every stage shares (meshes; models with
+//!   parts, instances, rig, LODs and branch curves);
+//! - [`mesh`]: the meshers (`tube`, `hull`, `sweep`, `quad`), the checker, organs;
 //! - [`export`]: glTF 2.0 (`.glb`, `.gltf`), OBJ + MTL and binary PLY writers;
 //! - [`preview`]: a CPU rasterizer that renders a model to a PNG;
 //! - [`recipe`] and [`presets`]: TOML recipes and the embedded preset library.
@@ -23,10 +25,12 @@ pub mod curves;
 pub mod error;
 pub mod export;
 pub mod fsutil;
+pub mod geometry;
 pub mod grow;
 pub mod import;
 pub mod lsystem;
 pub mod mesh;
+pub mod model;
 pub mod pipeline;
 pub mod presets;
 pub mod preview;
@@ -35,5 +39,6 @@ pub mod refine;
 pub mod skeleton;
 
 pub use error::{Error, Result};
-pub use mesh::{Material, Mesh, Model, Part};
+pub use geometry::Mesh;
+pub use model::{Material, Model, Part};
 pub use skeleton::{Skeleton, NO_PARENT};

@@ -4,13 +4,12 @@
 //! [`Loaded::read`]; writing outputs is the caller's (the CLI's) job.
 
 use crate::error::{Error, Result};
+use crate::geometry::Mesh;
 use crate::lsystem::files::view::{LineStyle, MovementKind};
 use crate::lsystem::files::{load_folder, ModelFolder};
 use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
-use crate::mesh::tube::{tube_mesh, TipStyle, TubeOptions};
-use crate::mesh::Mesh;
-use crate::mesh::{Material, Model, Part};
+use crate::model::{BranchCurves, Material, Model, Part};
 use crate::recipe::{Generator, Loaded, LsystemGenerator, Origin, Recipe};
 use crate::skeleton::{Skeleton, SkeletonStats};
 use std::collections::HashMap;
@@ -235,6 +234,9 @@ pub struct Generated {
     pub skeleton: Skeleton,
     /// Surface meshes by name (`~x` → "x"), in the organ frame.
     pub surfaces: HashMap<String, Mesh>,
+    /// The generator's own branch curves (Weber–Penn's stems); `None`: fitted to the
+    /// skeleton after the fitting stage ([`BranchCurves::fit`]).
+    pub curves: Option<BranchCurves>,
 }
 
 /// Runs the recipe's generator and returns its skeleton (with the report's generator
@@ -273,7 +275,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                     surfaces.insert(name.clone(), s.tessellate(4));
                 }
             }
-            Ok(Generated { skeleton: sk, surfaces })
+            Ok(Generated { skeleton: sk, surfaces, curves: None })
         }
         Generator::WeberPenn(p) => {
             let tree = crate::grow::weber_penn::grow(p, loaded.recipe.seed)?;
@@ -286,7 +288,11 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 r.leaves,
                 r.elapsed.as_secs_f64() * 1e3
             );
-            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
+            Ok(Generated {
+                curves: Some(crate::grow::weber_penn::branch_curves(&tree)),
+                skeleton: tree.skeleton,
+                surfaces: HashMap::new(),
+            })
         }
         Generator::SpaceColonization(p) => {
             let tree = crate::grow::colonize::grow_with(p, loaded.recipe.seed, &|f: &str| loaded.read(f))?;
@@ -302,7 +308,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 r.leaves,
                 r.elapsed.as_secs_f64() * 1e3
             );
-            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
+            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new(), curves: None })
         }
         Generator::LeastCost(p) => {
             let base = match &loaded.origin {
@@ -327,7 +333,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 if r.cache.is_empty() { String::new() } else { format!(", graph file {}", r.cache) }
             );
             report.warnings.append(&mut tree.report.warnings);
-            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new() })
+            Ok(Generated { skeleton: tree.skeleton, surfaces: HashMap::new(), curves: None })
         }
         Generator::Import(g) => {
             let t = Instant::now();
@@ -354,7 +360,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 crate::import::load_skeleton_with(&path, &opts)?
             };
             report.interpret_time = t.elapsed();
-            Ok(Generated { skeleton: sk, surfaces: HashMap::new() })
+            Ok(Generated { skeleton: sk, surfaces: HashMap::new(), curves: None })
         }
     }
 }
@@ -381,15 +387,21 @@ fn finish(
     report: &mut Report,
 ) -> Result<Model> {
     let bark = refine_bark(recipe, control)?;
-    let mut parts = vec![Part { name: "bark".into(), mesh: bark, material: Material::bark() }];
+    let mut parts =
+        vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
     if !skeleton.organs.is_empty() {
         let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
         report.missing_surfaces = missing;
         if leaves.face_count() > 0 {
-            parts.push(Part { name: "leaves".into(), mesh: leaves, material: Material::leaf() });
+            parts.push(Part {
+                name: "leaves".into(),
+                mesh: leaves,
+                material: Material::leaf(),
+                ..Default::default()
+            });
         }
     }
-    let model = Model { parts };
+    let model = Model { parts, ..Default::default() };
     report.triangles = model.triangle_count();
     report.vertices = model.vertex_count();
     Ok(model)
@@ -398,83 +410,29 @@ fn finish(
 /// The bark's control mesh of `skeleton` by the recipe's mesher (its warnings and axis
 /// count go to `report`).
 fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Mesh> {
-    let tips = match recipe.mesh.tips.as_str() {
-        "flat" => TipStyle::Flat,
-        "open" => TipStyle::Open,
-        _ => TipStyle::Round,
-    };
-    let control = if recipe.mesh.method == "hull" {
-        use crate::mesh::hull::{hull_mesh, HullOptions};
-        let opts =
-            HullOptions { sides: recipe.mesh.sides, caps: recipe.mesh.tips != "open", ..Default::default() };
-        let h = hull_mesh(skeleton, &opts)?;
-        report.axes = h.branches.len();
-        if !h.fallbacks.is_empty() {
-            report.warnings.push(format!(
-                "hull mesher: {} joint(s) fell back to capped tubes (first nodes {:?})",
-                h.fallbacks.len(),
-                &h.fallbacks[..h.fallbacks.len().min(8)]
-            ));
-        }
-        h.mesh
-    } else if recipe.mesh.method == "quad" {
-        use crate::mesh::quad::{quad_mesh, QuadOptions};
+    let mut mesher = recipe.mesh.mesher()?;
+    if let crate::mesh::Mesher::Quad(q) = &mut mesher {
         // The level-2 repair costs seconds per 10 k nodes: above the de-collision limit
         // (where the skeleton is not de-collided either) the cage is left as built.
-        let big = skeleton.len() > crate::recipe::DECOLLIDE_AUTO_NODES;
-        let defaults = QuadOptions::default();
-        let q = quad_mesh(
-            skeleton,
-            &QuadOptions { repair_rounds: if big { 0 } else { defaults.repair_rounds }, ..defaults },
-        )?;
-        if big {
+        if skeleton.len() > crate::recipe::DECOLLIDE_AUTO_NODES {
+            q.repair_rounds = 0;
             report.warnings.push(format!(
                 "quad mesher: level-2 repair skipped on {} skeleton nodes (over the automatic limit of {}; the cage may cross itself after subdivision)",
                 skeleton.len(),
                 crate::recipe::DECOLLIDE_AUTO_NODES
             ));
         }
-        report.axes = q.components;
-        if !q.fallbacks.is_empty() {
-            let first: Vec<u32> = q.fallbacks.iter().take(8).map(|f| f.node).collect();
-            report.warnings.push(format!(
-                "quad mesher: {} node(s) fell back (detached or separated capped cages, unboxed or shortened junctions; first nodes {first:?})",
-                q.fallbacks.len()
-            ));
-        }
-        q.mesh
-    } else if recipe.mesh.method == "sweep" {
-        use crate::mesh::sweep::{sweep_mesh, SweepOptions, SweepTips};
-        // `mesh.tips = "flat"` is the seed's Cap Front off: pruned, creased flat tips.
-        let tips = if recipe.mesh.tips == "flat" { SweepTips::Pruned } else { SweepTips::Cone };
-        let opts = SweepOptions { caps: recipe.mesh.tips != "open", tips, ..Default::default() };
-        let sw = sweep_mesh(skeleton, &opts)?;
-        report.axes = sw.junctions.len() + sw.fallbacks.len();
-        if !sw.fallbacks.is_empty() {
-            report.warnings.push(format!(
-                "sweep mesher: {} node(s) fell back to separately capped tubes (first nodes {:?})",
-                sw.fallbacks.len(),
-                &sw.fallbacks[..sw.fallbacks.len().min(8)]
-            ));
-        }
-        sw.mesh
-    } else {
-        let tube =
-            tube_mesh(skeleton, &TubeOptions { sides: recipe.mesh.sides, tips, ..Default::default() })?;
-        report.axes = tube.axes;
-        tube.mesh
-    };
-    Ok(control)
+    }
+    let cage = mesher.cage(skeleton)?;
+    report.axes = cage.axes;
+    report.warnings.extend(cage.warnings);
+    Ok(cage.mesh)
 }
 
 /// Subdivides the bark control mesh as `[refine]` says (unchanged for `none` or 0 levels).
 fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
-    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
-    let scheme = match recipe.refine.scheme.as_str() {
-        "loop" => Scheme::Loop,
-        "catmull-clark" => Scheme::CatmullClark,
-        _ => return Ok(mesh),
-    };
+    use crate::refine::{subdivide, RefineOptions, SubdivideOptions};
+    let Some(scheme) = recipe.refine_scheme()? else { return Ok(mesh) };
     if recipe.refine.levels == 0 && !recipe.refine.limit {
         return Ok(mesh);
     }
@@ -512,10 +470,9 @@ pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Resul
 pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<Option<Mesh>> {
     use crate::mesh::clear::{clear_crossings, ClearOptions};
     use crate::refine::Scheme;
-    let (scheme, levels) = match recipe.refine.scheme.as_str() {
-        "loop" => (Scheme::Loop, recipe.refine.levels.min(3)),
-        "catmull-clark" => (Scheme::CatmullClark, recipe.refine.levels.min(3)),
-        _ => (Scheme::Loop, 0),
+    let (scheme, levels) = match recipe.refine_scheme()? {
+        Some(scheme) => (scheme, recipe.refine.levels.min(3)),
+        None => (Scheme::Loop, 0),
     };
     let opts = ClearOptions { levels, ..Default::default() };
     // The last meshing's report and the radii it was made with.
@@ -556,7 +513,7 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
-    let Generated { mut skeleton, surfaces } = skeleton(loaded, &mut report)?;
+    let Generated { mut skeleton, surfaces, curves } = skeleton(loaded, &mut report)?;
     report.skeleton = skeleton.stats();
     if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
         decollide_skeleton(&mut skeleton, &mut report)?;
@@ -578,9 +535,10 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     } else {
         None
     };
-    let model = match cleared {
+    let mut model = match cleared {
         Some(control) => finish(&loaded.recipe, control, &skeleton, &surfaces, &mut report)?,
         None => mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?,
     };
+    model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
     Ok(Grown { skeleton, model, report })
 }

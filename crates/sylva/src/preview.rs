@@ -24,7 +24,7 @@
 
 use crate::error::{Error, Result};
 use crate::fsutil::write_atomic;
-use crate::mesh::Model;
+use crate::model::Model;
 use glam::Vec3;
 use std::path::Path;
 
@@ -552,8 +552,9 @@ fn resolve(t: &Target, w: u32, h: u32, ss: u32, opts: &PreviewOptions, srgb: &Sr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Mesh;
     use crate::mesh::tube::{tube_mesh, TubeOptions};
-    use crate::mesh::{Material, Mesh, Part};
+    use crate::model::{Material, Part};
     use crate::skeleton::{Skeleton, NO_PARENT};
 
     fn fork_skeleton() -> Skeleton {
@@ -569,7 +570,10 @@ mod tests {
     }
 
     fn model_of(mesh: Mesh, material: Material) -> Model {
-        Model { parts: vec![Part { name: "bark".into(), mesh, material }] }
+        Model {
+            parts: vec![Part { name: "bark".into(), mesh, material, ..Default::default() }],
+            ..Default::default()
+        }
     }
 
     fn tube_model() -> Model {

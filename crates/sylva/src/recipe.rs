@@ -7,6 +7,12 @@
 //! reported.
 
 use crate::error::{Error, Result};
+use crate::mesh::hull::HullOptions;
+use crate::mesh::quad::QuadOptions;
+use crate::mesh::sweep::{SweepOptions, SweepTips};
+use crate::mesh::tube::{TipStyle, TubeOptions};
+use crate::mesh::Mesher;
+use crate::refine::Scheme;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -174,9 +180,54 @@ pub struct MeshSection {
     /// the skeleton is de-collided (see [`MeshSection::clears_nodes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear: Option<bool>,
+    /// `[mesh.tube]`: the tube mesher's options (`sides` and `tips` are `mesh.sides`
+    /// and `mesh.tips`).
+    #[serde(default)]
+    pub tube: TubeOptions,
+    /// `[mesh.hull]`: the hull mesher's options (`sides` is `mesh.sides`; caps follow
+    /// `mesh.tips`).
+    #[serde(default)]
+    pub hull: HullOptions,
+    /// `[mesh.sweep]`: the sweep mesher's options (caps and tips follow `mesh.tips`).
+    #[serde(default)]
+    pub sweep: SweepOptions,
+    /// `[mesh.quad]`: the quad mesher's options.
+    #[serde(default)]
+    pub quad: QuadOptions,
 }
 
 impl MeshSection {
+    /// The mesher `method` names, with its `[mesh.<method>]` options and the shared
+    /// `sides` and `tips` applied. Errors: an unknown method.
+    pub fn mesher(&self) -> Result<Mesher> {
+        let open = self.tips == "open";
+        Ok(match self.method.as_str() {
+            "tube" => Mesher::Tube(TubeOptions {
+                sides: self.sides,
+                tips: match self.tips.as_str() {
+                    "flat" => TipStyle::Flat,
+                    "open" => TipStyle::Open,
+                    _ => TipStyle::Round,
+                },
+                ..self.tube.clone()
+            }),
+            "hull" => Mesher::Hull(HullOptions { sides: self.sides, caps: !open, ..self.hull.clone() }),
+            // `mesh.tips = "flat"` is the seed's Cap Front off: pruned, creased flat tips.
+            "sweep" => Mesher::Sweep(SweepOptions {
+                caps: !open,
+                tips: if self.tips == "flat" { SweepTips::Pruned } else { SweepTips::Cone },
+                ..self.sweep.clone()
+            }),
+            "quad" => Mesher::Quad(self.quad.clone()),
+            m => {
+                return Err(Error::Recipe(format!(
+                    "`mesh.method` is `{m}`; known methods: {}",
+                    Mesher::NAMES.join(", ")
+                )))
+            }
+        })
+    }
+
     /// Whether the pipeline de-collides the skeleton: `decollide` when set, else true
     /// for the joint meshers, whose single watertight surface (and its subdivision) is
     /// only free of self-intersections on a collision-free skeleton, and false for
@@ -226,6 +277,10 @@ impl Default for MeshSection {
             tips: default_tips(),
             decollide: None,
             clear: None,
+            tube: TubeOptions::default(),
+            hull: HullOptions::default(),
+            sweep: SweepOptions::default(),
+            quad: QuadOptions::default(),
         }
     }
 }
@@ -233,7 +288,8 @@ impl Default for MeshSection {
 /// `[refine]`: subdivision of the bark control mesh.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RefineSection {
-    /// `none`, `loop` (triangle meshes) or `catmull-clark`.
+    /// `auto` (the mesher's own scheme: Catmull–Clark for `quad`, Loop for the
+    /// others), `none`, `loop` (triangle meshes) or `catmull-clark`.
     #[serde(default = "default_scheme")]
     pub scheme: String,
     /// Subdivision levels (each multiplies the face count by 4).
@@ -245,7 +301,7 @@ pub struct RefineSection {
 }
 
 fn default_scheme() -> String {
-    "none".into()
+    "auto".into()
 }
 
 impl Default for RefineSection {
@@ -480,6 +536,22 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
 }
 
 impl Recipe {
+    /// The scheme `[refine]` subdivides the bark with: `None` for `scheme = "none"`;
+    /// `auto` is the mesher's ([`Mesher::scheme`]).
+    pub fn refine_scheme(&self) -> Result<Option<Scheme>> {
+        Ok(match self.refine.scheme.as_str() {
+            "none" => None,
+            "loop" => Some(Scheme::Loop),
+            "catmull-clark" => Some(Scheme::CatmullClark),
+            "auto" => Some(self.mesh.mesher()?.scheme()),
+            s => {
+                return Err(Error::Recipe(format!(
+                    "`refine.scheme` is `{s}`; use auto, none, loop or catmull-clark"
+                )))
+            }
+        })
+    }
+
     /// Checks value ranges that serde cannot express.
     pub fn check(&self) -> Result<()> {
         let bad = |k: &str, why: String| Err(Error::Recipe(format!("`{k}` {why}")));
@@ -530,18 +602,8 @@ impl Recipe {
                 }
             }
         }
-        if !["tube", "hull", "sweep", "quad"].contains(&self.mesh.method.as_str()) {
-            return bad(
-                "mesh.method",
-                format!("is `{}`; known methods: tube, hull, sweep, quad", self.mesh.method),
-            );
-        }
-        if !["none", "loop", "catmull-clark"].contains(&self.refine.scheme.as_str()) {
-            return bad(
-                "refine.scheme",
-                format!("is `{}`; use none, loop or catmull-clark", self.refine.scheme),
-            );
-        }
+        self.mesh.mesher()?.check()?;
+        self.refine_scheme()?;
         if self.refine.levels > 6 {
             return bad(
                 "refine.levels",

@@ -7,7 +7,7 @@ use common::gltf_validator::assert_valid_gltf;
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use sylva::export::{self, gltf, obj, ply, Format};
-use sylva::mesh::FaceVarying;
+use sylva::geometry::FaceVarying;
 use sylva::{Error, Material, Mesh, Model, Part};
 
 /// A fresh, empty scratch folder for one test.
@@ -110,7 +110,7 @@ fn stem() -> Mesh {
 }
 
 fn part(name: &str, mesh: Mesh, material: Material) -> Part {
-    Part { name: name.into(), mesh, material }
+    Part::new(name, mesh, material)
 }
 
 /// Cube (UVs + normals), blade (UVs, no normals), stem (normals, no UVs) and an empty
@@ -123,6 +123,7 @@ fn model() -> Model {
             part("stem", stem(), Material::bark()),
             part("empty", Mesh::new(), Material::leaf()),
         ],
+        ..Default::default()
     }
 }
 
@@ -170,7 +171,7 @@ fn glb_and_gltf_pass_the_khronos_validator() {
     let big = dir.join("big.glb");
     export::write(&model(), &glb).unwrap();
     export::write(&model(), &gltf_path).unwrap();
-    let big_model = Model { parts: vec![part("grid", grid(300), Material::leaf())] };
+    let big_model = Model { parts: vec![part("grid", grid(300), Material::leaf())], ..Default::default() };
     export::write(&big_model, &big).unwrap();
     assert_valid_gltf(&[&glb, &gltf_path, &big]);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -247,7 +248,7 @@ fn gltf_embeds_the_glb_buffer_as_base64() {
 
 #[test]
 fn big_mesh_uses_u32_indices() {
-    let model = Model { parts: vec![part("grid", grid(300), Material::leaf())] };
+    let model = Model { parts: vec![part("grid", grid(300), Material::leaf())], ..Default::default() };
     let glb = gltf::to_glb(&model).unwrap();
     let (json, bin) = glb_chunks(&glb);
     let root = gltf_json::Root::from_slice(json).unwrap();
@@ -276,7 +277,7 @@ fn seams_split_and_shared_corners_merge() {
     assert_eq!(u.vertices.iter().filter(|k| k.position == 0).count(), 3);
     // Position 1 is shared by two side faces with one UV, plus the bottom cap.
     assert_eq!(u.vertices.iter().filter(|k| k.position == 1).count(), 2);
-    let model = Model { parts: vec![part("cube", cube(false), Material::bark())] };
+    let model = Model { parts: vec![part("cube", cube(false), Material::bark())], ..Default::default() };
     let glb = gltf::to_glb(&model).unwrap();
     let root = gltf_json::Root::from_slice(glb_chunks(&glb).0).unwrap();
     assert_eq!(root.accessors[0].count.0, 18);
@@ -504,7 +505,7 @@ fn nan_position_is_an_error_and_writes_nothing() {
 
 #[test]
 fn model_without_triangles_is_an_error() {
-    let model = Model { parts: vec![part("empty", Mesh::new(), Material::bark())] };
+    let model = Model { parts: vec![part("empty", Mesh::new(), Material::bark())], ..Default::default() };
     let dir = scratch("empty");
     for ext in ["glb", "gltf", "obj", "ply"] {
         let e = export::write(&model, &dir.join(format!("tree.{ext}"))).unwrap_err();

@@ -455,7 +455,13 @@ fn output_is_deterministic() {
     let mut files = Vec::new();
     for (k, m) in [a, b].into_iter().enumerate() {
         let model = sylva::Model {
-            parts: vec![sylva::Part { name: "bark".into(), mesh: m.mesh, material: sylva::Material::bark() }],
+            parts: vec![sylva::Part {
+                name: "bark".into(),
+                mesh: m.mesh,
+                material: sylva::Material::bark(),
+                ..Default::default()
+            }],
+            ..Default::default()
         };
         let sub = dir.join(format!("run{k}"));
         std::fs::create_dir_all(&sub).unwrap();

@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3};
 use std::collections::HashSet;
-use sylva::mesh::{FaceVarying, Mesh};
+use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::pn::{
     control_point, pn_tessellate, smooth_vertex_normals, EdgeRule, NormalInterpolation, NormalSource,
     PnOptions, QuadInterior,

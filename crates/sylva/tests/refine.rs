@@ -3,7 +3,7 @@
 //! surfaces, face-varying seams and determinism across thread counts.
 
 use glam::{Vec2, Vec3};
-use sylva::mesh::{Crease, FaceVarying, Mesh};
+use sylva::geometry::{Crease, FaceVarying, Mesh};
 use sylva::refine::{
     loop_, subdivide, Corner, FvarInterpolation, RefineError, RefineOptions, Refiner, Scheme,
     SubdivideOptions, Topology,

@@ -7,7 +7,7 @@
 use glam::{Vec2, Vec3};
 use std::collections::HashSet;
 use std::time::Instant;
-use sylva::mesh::{FaceVarying, Mesh};
+use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::adaptive::{adaptive_loop, adaptive_loop_levels, AdaptiveOptions};
 use sylva::refine::noise::{bias, displace, subdivide_with_noise, FeatureSize, NoiseOptions};
 use sylva::refine::{subdivide, Corner, RefineOptions, Scheme, SubdivideOptions, Topology};
@@ -384,8 +384,8 @@ fn seams_and_creases_survive() {
     // A sharp crease across the octahedron's equator: conforming, and positions finite.
     let mut m = octahedron();
     m.creases = vec![
-        sylva::mesh::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
-        sylva::mesh::Crease { a: 2, b: 1, sharpness: 2.0 },
+        sylva::geometry::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
+        sylva::geometry::Crease { a: 2, b: 1, sharpness: 2.0 },
     ];
     let opts = AdaptiveOptions { max_levels: 3, flatness: 0.3, min_area: 0.0, ..Default::default() };
     let out = adaptive_loop(&m, &[], &opts).unwrap();
@@ -597,12 +597,12 @@ fn sparse_deepest_level_matches_uniform_with_creases_corners_and_boundary() {
     use sylva::refine::{BoundaryInterpolation, CreasingMethod};
     let mut oct = octahedron();
     oct.creases = vec![
-        sylva::mesh::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
-        sylva::mesh::Crease { a: 2, b: 1, sharpness: 1.5 },
-        sylva::mesh::Crease { a: 1, b: 3, sharpness: 0.4 },
+        sylva::geometry::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
+        sylva::geometry::Crease { a: 2, b: 1, sharpness: 1.5 },
+        sylva::geometry::Crease { a: 1, b: 3, sharpness: 0.4 },
     ];
     let mut grid = bumpy_grid(4, 0.3);
-    grid.creases = vec![sylva::mesh::Crease { a: 6, b: 12, sharpness: 2.3 }];
+    grid.creases = vec![sylva::geometry::Crease { a: 6, b: 12, sharpness: 2.3 }];
     let corners = [Corner { vertex: 4, sharpness: 1.7 }];
     let key = |p: &Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
     for m in [&oct, &grid] {

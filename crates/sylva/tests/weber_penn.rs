@@ -601,9 +601,20 @@ fn every_leaf_shape_exports_valid_gltf() {
         assert!(leaves.face_count() >= t.report.leaves * 2, "shape {shape}: every leaf meshes");
         let model = sylva::Model {
             parts: vec![
-                sylva::Part { name: "bark".into(), mesh: tube.mesh, material: sylva::Material::bark() },
-                sylva::Part { name: "leaves".into(), mesh: leaves, material: sylva::Material::leaf() },
+                sylva::Part {
+                    name: "bark".into(),
+                    mesh: tube.mesh,
+                    material: sylva::Material::bark(),
+                    ..Default::default()
+                },
+                sylva::Part {
+                    name: "leaves".into(),
+                    mesh: leaves,
+                    material: sylva::Material::leaf(),
+                    ..Default::default()
+                },
             ],
+            ..Default::default()
         };
         let path = dir.join(format!("leaf-shape-{shape}.glb"));
         std::fs::write(&path, sylva::export::gltf::to_glb(&model).unwrap()).unwrap();

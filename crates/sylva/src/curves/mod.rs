@@ -177,7 +177,10 @@ pub fn model(generated: &Generated, opts: &space::SkeletonOptions) -> Result<cra
     let tube = crate::mesh::tube::tube_mesh(&sk, &crate::mesh::tube::TubeOptions::default())?;
     let mut material = crate::Material::bark();
     material.name = "curves".into();
-    Ok(crate::Model { parts: vec![crate::Part { name: "curves".into(), mesh: tube.mesh, material }] })
+    Ok(crate::Model {
+        parts: vec![crate::Part { name: "curves".into(), mesh: tube.mesh, material, ..Default::default() }],
+        ..Default::default()
+    })
 }
 
 /// Writes a generated composition to `path`: `.svg`/`.png` draw it `width_px` wide;

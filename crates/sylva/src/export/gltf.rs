@@ -19,7 +19,7 @@
 
 use super::{validate_model, VertexData, GENERATOR};
 use crate::error::{Error, Result};
-use crate::mesh::{Model, Part};
+use crate::model::{Model, Part};
 use gltf_json as json;
 use json::validation::{Checked::Valid, USize64};
 use json::Index;

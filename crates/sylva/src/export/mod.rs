@@ -24,7 +24,8 @@ pub mod svg;
 
 use crate::error::{Error, Result};
 use crate::fsutil::write_atomic;
-use crate::mesh::{Mesh, Model};
+use crate::geometry::Mesh;
+use crate::model::Model;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -298,7 +299,7 @@ impl<'a> VertexData<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::FaceVarying;
+    use crate::geometry::FaceVarying;
 
     /// Two quads sharing the edge 1–2, with a UV seam along it: the shared positions
     /// 1 and 2 get different UVs in the two faces.

@@ -21,7 +21,7 @@
 //! Numbers use Rust's shortest round-trip formatting of `f32`.
 
 use super::{validate_io, GENERATOR};
-use crate::mesh::{Material, Model};
+use crate::model::{Material, Model};
 use std::io::Write;
 
 /// Flush the line buffer to the output when it grows past this.
@@ -211,19 +211,23 @@ fn material_table(model: &Model) -> (Vec<Option<usize>>, Vec<(String, &Material)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{Mesh, Part};
+    use crate::geometry::Mesh;
+    use crate::model::Part;
     use glam::Vec3;
 
     fn tri_part(name: &str, material: Material) -> Part {
         let mut mesh = Mesh::new();
         mesh.positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         mesh.push_face(&[0, 1, 2]);
-        Part { name: name.into(), mesh, material }
+        Part::new(name, mesh, material)
     }
 
     #[test]
     fn faces_without_channels_and_offsets() {
-        let model = Model { parts: vec![tri_part("a b", Material::bark()), tri_part("c", Material::bark())] };
+        let model = Model {
+            parts: vec![tri_part("a b", Material::bark()), tri_part("c", Material::bark())],
+            ..Default::default()
+        };
         let mut out = Vec::new();
         write_obj(&model, &mut out, "t.mtl").unwrap();
         let text = String::from_utf8(out).unwrap();
@@ -233,14 +237,15 @@ mod tests {
 
     #[test]
     fn creases_round_trip_as_opensubdiv_tags() {
-        use crate::mesh::Crease;
+        use crate::geometry::Crease;
         let mut first = tri_part("a", Material::bark());
         first.mesh.creases.push(Crease { a: 0, b: 1, sharpness: 2.5 });
         let mut second = tri_part("b", Material::leaf());
         second.mesh.creases.push(Crease { a: 1, b: 2, sharpness: f32::INFINITY });
         second.mesh.creases.push(Crease { a: 0, b: 2, sharpness: 0.0 }); // smooth: not written
         let mut out = Vec::new();
-        write_obj_unchecked(&Model { parts: vec![first, second] }, &mut out, "m.mtl").unwrap();
+        write_obj_unchecked(&Model { parts: vec![first, second], ..Default::default() }, &mut out, "m.mtl")
+            .unwrap();
         let text = String::from_utf8(out).unwrap();
         assert!(text.contains("t crease 2/1 0 1 2.5\n"), "{text}");
         assert!(text.contains("t crease 2/1 4 5 10\n"), "{text}");
@@ -272,6 +277,7 @@ mod tests {
                 tri_part("b", other),
                 tri_part("c", Material::bark()),
             ],
+            ..Default::default()
         };
         let (per_part, mats) = material_table(&model);
         assert_eq!(per_part, vec![Some(0), Some(1), Some(0)]);

@@ -9,7 +9,7 @@
 //! say) is fan-triangulated.
 
 use super::{validate_io, VertexData, GENERATOR};
-use crate::mesh::Model;
+use crate::model::Model;
 use std::io::Write;
 
 /// Bytes per vertex record: eight `float`s.
@@ -128,7 +128,8 @@ pub(crate) fn write_ply_unchecked(model: &Model, out: &mut dyn Write) -> std::io
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{Material, Mesh, Part};
+    use crate::geometry::Mesh;
+    use crate::model::{Material, Part};
     use glam::Vec3;
 
     #[test]
@@ -143,7 +144,10 @@ mod tests {
             .collect();
         mesh.push_face(&(0..n).collect::<Vec<_>>());
         mesh.push_face(&[0, 1, 2, 3]);
-        let model = Model { parts: vec![Part { name: "disc".into(), mesh, material: Material::leaf() }] };
+        let model = Model {
+            parts: vec![Part { name: "disc".into(), mesh, material: Material::leaf(), ..Default::default() }],
+            ..Default::default()
+        };
         let mut out = Vec::new();
         write_ply(&model, &mut out).unwrap();
         let end = out.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;

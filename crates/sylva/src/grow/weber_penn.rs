@@ -41,6 +41,7 @@
 //! checked before and while growing.
 
 use crate::error::{Error, Result};
+use crate::model::{BranchCurve, BranchCurves, CurveSegment};
 use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec3};
 use rand::{RngExt, SeedableRng};
@@ -324,6 +325,36 @@ pub struct WeberPennTree {
     pub stems: Vec<Stem>,
     /// What was built.
     pub report: WeberPennReport,
+}
+
+/// The tree's stems as the model's branch curves: each stem record's own Bézier chain,
+/// with radii from [`Stem::radius_at`] at the knots (distance along the stem measured by
+/// the chords between knots, from the record's start). The parent of a record is its
+/// `parent_stem`.
+pub fn branch_curves(tree: &WeberPennTree) -> BranchCurves {
+    let axes = tree
+        .stems
+        .iter()
+        .map(|st| {
+            let mut dist = st.start as f64;
+            let segments = st
+                .curve
+                .iter()
+                .map(|seg| {
+                    let r0 = st.radius_at(dist) as f32;
+                    dist += seg.points[0].distance(seg.points[3]) as f64;
+                    CurveSegment { points: seg.points, radii: [r0, st.radius_at(dist) as f32] }
+                })
+                .collect();
+            BranchCurve {
+                segments,
+                parent: st.parent_stem,
+                order: st.level as u16,
+                nodes: st.nodes.clone().collect(),
+            }
+        })
+        .collect();
+    BranchCurves { axes }
 }
 
 /// The paper's ShapeRatio (its table of shapes): the envelope of child lengths at `ratio`

@@ -9,7 +9,7 @@
 //! positions to recover the surface's topology before checking it.
 
 use crate::error::{Error, Result};
-use crate::mesh::Mesh;
+use crate::geometry::Mesh;
 use glam::Vec3;
 use gltf_json as json;
 use json::validation::Checked::Valid;

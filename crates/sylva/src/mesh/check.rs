@@ -30,7 +30,7 @@
 //! Plus the components and the Euler characteristic, so a caller can check genus
 //! ([`MeshReport::total_genus`] sums the components' genera).
 
-use crate::mesh::Mesh;
+use crate::geometry::Mesh;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;

@@ -39,9 +39,9 @@
 //! (reported, not an error).
 
 use crate::error::{Error, Result};
+use crate::geometry::Mesh;
 use crate::mesh::check::{build_bvh, fan_triangles, query, self_intersections, Aabb};
 use crate::mesh::decollide::{apply_caps, floor_of, raise_to_floor};
-use crate::mesh::Mesh;
 use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::DVec3;

@@ -74,9 +74,9 @@
 pub mod convex;
 
 use crate::error::{Error, Result};
+use crate::geometry::{FaceVarying, Mesh};
 use crate::mesh::check::segment_closest;
 use crate::mesh::tube::{MAX_SIDES, MIN_SIDES};
-use crate::mesh::{FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec2, DVec3, Vec2, Vec3};
 use std::collections::HashMap;
@@ -86,12 +86,15 @@ use std::ops::Range;
 const NONE: u32 = u32::MAX;
 
 /// Options of [`hull_mesh`] (spec 000 §4 "User parameters").
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct HullOptions {
     /// Vertices per loop, in `3..=1024` (default 4, the seed's choice).
+    #[serde(skip)]
     pub sides: u32,
     /// Close the root base and every tip with a flat fan (default false: the seed leaves
     /// them open). With caps the mesh is closed (Euler characteristic 2 per piece).
+    #[serde(skip)]
     pub caps: bool,
     /// Trim margin `m`: offsets are multiplied by `1 + m` so rims do not touch
     /// (default 0.05).
@@ -130,7 +133,8 @@ impl Default for HullOptions {
 }
 
 impl HullOptions {
-    fn check(&self) -> Result<()> {
+    /// Checks every option's range; the message starts with the option's name.
+    pub fn check(&self) -> Result<()> {
         let bad = |why: String| Err(Error::InvalidGeometry { what: "hull mesher".into(), why });
         if !(MIN_SIDES..=MAX_SIDES).contains(&self.sides) {
             return bad(format!("sides = {}; it must be in {MIN_SIDES}..={MAX_SIDES}", self.sides));

@@ -1,11 +1,8 @@
-//! Indexed polygon meshes and the models built from them.
+//! The meshers: skeleton → control cage (seeds 000, 001, 003 and the generalized
+//! cylinders of seed 002), plus the mesh checker and the organ mesher.
 //!
-//! A [`Mesh`] is the control cage or final surface every mesher writes and every
-//! refiner and exporter reads: positions, faces of any corner count stored as offsets
-//! plus indices, and **face-varying** attributes (UVs, normals) with their own value
-//! and index arrays, one index per face corner, so seams are exact (OpenSubdiv's
-//! face-varying channels). A [`Model`] is a list of named parts, each a mesh with a
-//! material. Architecture: "Core types".
+//! The mesh type itself is [`crate::geometry::Mesh`] and the model the exporters write
+//! is [`crate::model::Model`]: plain data below every stage.
 
 pub mod check;
 pub mod clear;
@@ -17,305 +14,165 @@ pub mod quad;
 pub mod sweep;
 pub mod tube;
 
-use glam::{Vec2, Vec3};
+use crate::error::Result;
+use crate::geometry::Mesh;
+use crate::refine::Scheme;
+use crate::skeleton::Skeleton;
 
-/// A face-varying channel: values plus one index per face corner.
+/// The meshers and their options: one variant per mesher, read from the recipe's
+/// `[mesh]` table (`method`) and its `[mesh.<method>]` table of options.
+///
+/// Adding a mesher: its own file with an options struct (serde, `#[serde(default,
+/// deny_unknown_fields)]`, a `check()` naming each option) and a function returning a
+/// [`Cage`]; then one line in [`Mesher::NAMES`] and one arm in each `match` below, and
+/// one field in `recipe::MeshSection`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mesher {
+    /// Generalized cylinders, one per axis (`mesh/tube.rs`).
+    Tube(tube::TubeOptions),
+    /// Seed 000's convex-hull joints (`mesh/hull.rs`).
+    Hull(hull::HullOptions),
+    /// Seed 001's hexagonal sections and junction templates (`mesh/sweep.rs`).
+    Sweep(sweep::SweepOptions),
+    /// Seed 003's SMART quad junction boxes (`mesh/quad.rs`).
+    Quad(quad::QuadOptions),
+}
+
+/// What every mesher returns: the control cage and what the stages after it need.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct FaceVarying<T> {
-    /// Distinct values.
-    pub values: Vec<T>,
-    /// One index into `values` per face corner, parallel to [`Mesh::face_indices`].
-    pub indices: Vec<u32>,
+pub struct Cage {
+    /// The control mesh.
+    pub mesh: Mesh,
+    /// The subdivision scheme the cage is made for (`refine.scheme = "auto"`).
+    pub scheme: Scheme,
+    /// The skeleton node each face belongs to (the child node of its internode), where
+    /// the mesher records it (quad, sweep); empty otherwise.
+    pub face_node: Vec<u32>,
+    /// Skeleton nodes where the mesher fell back to a simpler local construction.
+    pub fallbacks: Vec<u32>,
+    /// Axes or connected pieces the mesher built.
+    pub axes: usize,
+    /// Problems that did not stop the mesher, one line each.
+    pub warnings: Vec<String>,
 }
 
-/// A tagged crease edge between two vertices, with its sharpness (∞ = sharp).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Crease {
-    /// First vertex.
-    pub a: u32,
-    /// Second vertex.
-    pub b: u32,
-    /// Sharpness: 0 smooth, fractional semi-sharp, `f32::INFINITY` infinitely sharp.
-    pub sharpness: f32,
-}
+impl Mesher {
+    /// The `mesh.method` names, in the order of the variants.
+    pub const NAMES: [&'static str; 4] = ["tube", "hull", "sweep", "quad"];
 
-/// An indexed polygon mesh with face-varying UVs and normals.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Mesh {
-    /// Vertex positions in metres.
-    pub positions: Vec<Vec3>,
-    /// Start of each face in `face_indices`; has `faces + 1` entries, first is 0.
-    pub face_offsets: Vec<u32>,
-    /// Vertex indices of all faces, counter-clockwise seen from the front.
-    pub face_indices: Vec<u32>,
-    /// Texture coordinates per corner (u around, v along), if any.
-    pub uvs: Option<FaceVarying<Vec2>>,
-    /// Unit normals per corner, if any.
-    pub normals: Option<FaceVarying<Vec3>>,
-    /// Crease edges for subdivision.
-    pub creases: Vec<Crease>,
-}
-
-impl Mesh {
-    /// An empty mesh (with the leading face offset in place).
-    pub fn new() -> Self {
-        Self { face_offsets: vec![0], ..Default::default() }
-    }
-
-    /// Number of faces.
-    pub fn face_count(&self) -> usize {
-        self.face_offsets.len().saturating_sub(1)
-    }
-
-    /// Number of vertices.
-    pub fn vertex_count(&self) -> usize {
-        self.positions.len()
-    }
-
-    /// The vertex indices of face `f`.
-    pub fn face(&self, f: usize) -> &[u32] {
-        &self.face_indices[self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize]
-    }
-
-    /// Range of corner indices (into `face_indices` and face-varying indices) of face `f`.
-    pub fn corners(&self, f: usize) -> std::ops::Range<usize> {
-        self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize
-    }
-
-    /// Signed volume enclosed by the faces (each fanned from its first corner), in f64:
-    /// positive for a closed mesh oriented counter-clockwise seen from outside; for an
-    /// open mesh it is the volume of the cone from the origin over its faces.
-    pub fn signed_volume(&self) -> f64 {
-        (0..self.face_count())
-            .map(|f| {
-                let v = self.face(f);
-                let p = |k: usize| self.positions[v[k] as usize].as_dvec3();
-                (1..v.len().saturating_sub(1)).map(|k| p(0).dot(p(k).cross(p(k + 1))) / 6.0).sum::<f64>()
-            })
-            .sum()
-    }
-
-    /// Appends a face given its vertex indices.
-    pub fn push_face(&mut self, vertices: &[u32]) {
-        if self.face_offsets.is_empty() {
-            self.face_offsets.push(0);
+    /// The mesher's `mesh.method` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Mesher::Tube(_) => "tube",
+            Mesher::Hull(_) => "hull",
+            Mesher::Sweep(_) => "sweep",
+            Mesher::Quad(_) => "quad",
         }
-        self.face_indices.extend_from_slice(vertices);
-        self.face_offsets.push(self.face_indices.len() as u32);
     }
 
-    /// Number of triangles after fan-triangulating every face.
-    pub fn triangle_count(&self) -> usize {
-        (0..self.face_count()).map(|f| self.face(f).len().saturating_sub(2)).sum()
+    /// Whether the mesher joins branches into one watertight surface (hull, sweep,
+    /// quad), which the fitting stage (de-collision, clearing) is for.
+    pub fn joins(&self) -> bool {
+        !matches!(self, Mesher::Tube(_))
     }
 
-    /// Axis-aligned bounds (min, max) of the positions; `None` when empty.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        let first = *self.positions.first()?;
-        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
-    }
-
-    /// Appends `other` to this mesh, offsetting its indices. Face-varying channels are
-    /// kept only when both meshes (or an empty `self`) have them.
-    pub fn append(&mut self, other: &Mesh) {
-        let was_empty = self.face_count() == 0 && self.positions.is_empty();
-        let base = self.positions.len() as u32;
-        let corner_base = self.face_indices.len() as u32;
-        self.positions.extend_from_slice(&other.positions);
-        if self.face_offsets.is_empty() {
-            self.face_offsets.push(0);
+    /// The subdivision scheme the mesher's cage is made for: Catmull–Clark for the
+    /// all-quad cage, Loop for the triangle meshers.
+    pub fn scheme(&self) -> Scheme {
+        match self {
+            Mesher::Quad(_) => Scheme::CatmullClark,
+            _ => Scheme::Loop,
         }
-        self.face_offsets.extend(other.face_offsets.iter().skip(1).map(|o| o + corner_base));
-        self.face_indices.extend(other.face_indices.iter().map(|i| i + base));
-        fn merge<T: Clone>(
-            mine: &mut Option<FaceVarying<T>>,
-            theirs: &Option<FaceVarying<T>>,
-            was_empty: bool,
-        ) {
-            match (mine.as_mut(), theirs) {
-                (Some(m), Some(t)) => {
-                    let vb = m.values.len() as u32;
-                    m.values.extend_from_slice(&t.values);
-                    m.indices.extend(t.indices.iter().map(|i| i + vb));
+    }
+
+    /// Checks the options' ranges; the message names the key (`mesh.quad.support = …`).
+    pub fn check(&self) -> Result<()> {
+        let named = |r: Result<()>| {
+            r.map_err(|e| match e {
+                crate::Error::InvalidGeometry { why, .. } => {
+                    crate::Error::Recipe(format!("`mesh.{}.{why}", self.name()).replacen(" = ", "` = ", 1))
                 }
-                (None, Some(t)) if was_empty => *mine = Some(t.clone()),
-                _ => *mine = None,
-            }
+                e => e,
+            })
+        };
+        match self {
+            Mesher::Tube(_) => Ok(()),
+            Mesher::Hull(o) => named(o.check()),
+            Mesher::Sweep(o) => named(o.check()),
+            Mesher::Quad(o) => named(o.check()),
         }
-        merge(&mut self.uvs, &other.uvs, was_empty);
-        merge(&mut self.normals, &other.normals, was_empty);
-        self.creases.extend(other.creases.iter().map(|c| Crease { a: c.a + base, b: c.b + base, ..*c }));
     }
 
-    /// Checks that indices are in range, faces have ≥ 3 corners, face-varying channels
-    /// have one index per corner, and every number is finite. Returns a description of
-    /// the first problem found.
-    pub fn validate(&self) -> Result<(), String> {
-        let nv = self.positions.len() as u32;
-        if self.face_offsets.first().copied().unwrap_or(0) != 0 {
-            return Err("face offsets do not start at 0".into());
-        }
-        if *self.face_offsets.last().unwrap_or(&0) as usize != self.face_indices.len() {
-            return Err("last face offset does not match the index count".into());
-        }
-        for f in 0..self.face_count() {
-            let face = self.face(f);
-            if face.len() < 3 {
-                return Err(format!("face {f} has {} corners (need at least 3)", face.len()));
+    /// Meshes `skeleton` into a control cage.
+    pub fn cage(&self, skeleton: &Skeleton) -> Result<Cage> {
+        let first = |v: &[u32]| v[..v.len().min(8)].to_vec();
+        Ok(match self {
+            Mesher::Tube(o) => {
+                let t = tube::tube_mesh(skeleton, o)?;
+                Cage { mesh: t.mesh, scheme: self.scheme(), axes: t.axes, ..Default::default() }
             }
-            if let Some(&v) = face.iter().find(|&&v| v >= nv) {
-                return Err(format!("face {f} refers to vertex {v}, but there are {nv}"));
-            }
-        }
-        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
-            return Err(format!("vertex {i} has a non-finite position"));
-        }
-        fn check<T>(
-            name: &str,
-            ch: &Option<FaceVarying<T>>,
-            corners: usize,
-            finite: impl Fn(&T) -> bool,
-        ) -> Result<(), String> {
-            if let Some(c) = ch {
-                if c.indices.len() != corners {
-                    return Err(format!(
-                        "{name} channel has {} indices for {corners} corners",
-                        c.indices.len()
+            Mesher::Hull(o) => {
+                let h = hull::hull_mesh(skeleton, o)?;
+                let mut warnings = Vec::new();
+                if !h.fallbacks.is_empty() {
+                    warnings.push(format!(
+                        "hull mesher: {} joint(s) fell back to capped tubes (first nodes {:?})",
+                        h.fallbacks.len(),
+                        first(&h.fallbacks)
                     ));
                 }
-                if c.indices.iter().any(|&i| i as usize >= c.values.len()) {
-                    return Err(format!("{name} index out of range"));
-                }
-                if let Some(i) = c.values.iter().position(|v| !finite(v)) {
-                    return Err(format!("{name} value {i} is not finite"));
+                Cage {
+                    mesh: h.mesh,
+                    scheme: self.scheme(),
+                    face_node: Vec::new(),
+                    fallbacks: h.fallbacks,
+                    axes: h.branches.len(),
+                    warnings,
                 }
             }
-            Ok(())
-        }
-        let corners = self.face_indices.len();
-        check("uv", &self.uvs, corners, |v: &Vec2| v.is_finite())?;
-        check("normal", &self.normals, corners, |v: &Vec3| v.is_finite())?;
-        Ok(())
-    }
-}
-
-/// Surface appearance of a part.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Material {
-    /// Material name, as written to the output file.
-    pub name: String,
-    /// Linear RGBA base colour.
-    pub base_color: [f32; 4],
-    /// Metallic factor in \[0, 1\].
-    pub metallic: f32,
-    /// Roughness factor in \[0, 1\].
-    pub roughness: f32,
-    /// Render both faces (for open leaf blades).
-    pub double_sided: bool,
-}
-
-impl Material {
-    /// A brown, rough bark material.
-    pub fn bark() -> Self {
-        Material {
-            name: "bark".into(),
-            base_color: [0.30, 0.19, 0.11, 1.0],
-            metallic: 0.0,
-            roughness: 0.9,
-            double_sided: false,
-        }
-    }
-
-    /// A green, double-sided leaf material.
-    pub fn leaf() -> Self {
-        Material {
-            name: "leaf".into(),
-            base_color: [0.18, 0.42, 0.10, 1.0],
-            metallic: 0.0,
-            roughness: 0.7,
-            double_sided: true,
-        }
-    }
-}
-
-/// A named mesh with a material.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Part {
-    /// Part name (`bark`, `leaves`, …), written as the node / group name.
-    pub name: String,
-    /// Its geometry.
-    pub mesh: Mesh,
-    /// Its material.
-    pub material: Material,
-}
-
-/// What the exporters write: named parts.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Model {
-    /// The parts, in output order.
-    pub parts: Vec<Part>,
-}
-
-impl Model {
-    /// Total triangles over all parts.
-    pub fn triangle_count(&self) -> usize {
-        self.parts.iter().map(|p| p.mesh.triangle_count()).sum()
-    }
-
-    /// Total vertices over all parts.
-    pub fn vertex_count(&self) -> usize {
-        self.parts.iter().map(|p| p.mesh.vertex_count()).sum()
-    }
-
-    /// Bounds over all parts.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.parts.iter().filter_map(|p| p.mesh.bounds()).reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn quad() -> Mesh {
-        let mut m = Mesh::new();
-        m.positions = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
-        m.push_face(&[0, 1, 2, 3]);
-        m
-    }
-
-    #[test]
-    fn append_offsets_indices() {
-        let mut a = quad();
-        a.append(&quad());
-        assert_eq!(a.face_count(), 2);
-        assert_eq!(a.face(1), &[4, 5, 6, 7]);
-        assert_eq!(a.triangle_count(), 4);
-        a.validate().unwrap();
-    }
-
-    #[test]
-    fn signed_volume_of_a_cube() {
-        // A 2 × 1 × 1 box of quads, outward: volume 2; flipped: −2.
-        let mut m = Mesh::new();
-        for i in 0..8u32 {
-            m.positions.push(Vec3::new((i & 1) as f32 * 2.0, ((i >> 1) & 1) as f32, (i >> 2) as f32));
-        }
-        for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
-            m.push_face(&f);
-        }
-        assert!((m.signed_volume() - 2.0).abs() < 1e-12, "{}", m.signed_volume());
-        for f in 0..m.face_count() {
-            let r = m.corners(f);
-            m.face_indices[r].reverse();
-        }
-        assert!((m.signed_volume() + 2.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn validate_catches_bad_index() {
-        let mut m = quad();
-        m.face_indices[2] = 9;
-        assert!(m.validate().unwrap_err().contains("vertex 9"));
+            Mesher::Sweep(o) => {
+                let sw = sweep::sweep_mesh(skeleton, o)?;
+                let mut warnings = Vec::new();
+                if !sw.fallbacks.is_empty() {
+                    warnings.push(format!(
+                        "sweep mesher: {} node(s) fell back to separately capped tubes (first nodes {:?})",
+                        sw.fallbacks.len(),
+                        first(&sw.fallbacks)
+                    ));
+                }
+                Cage {
+                    axes: sw.junctions.len() + sw.fallbacks.len(),
+                    face_node: sw
+                        .face_owner
+                        .iter()
+                        .map(|&[a, b]| if b != u32::MAX { b } else { a })
+                        .collect(),
+                    mesh: sw.mesh,
+                    scheme: self.scheme(),
+                    fallbacks: sw.fallbacks,
+                    warnings,
+                }
+            }
+            Mesher::Quad(o) => {
+                let q = quad::quad_mesh(skeleton, o)?;
+                let mut warnings = Vec::new();
+                let fallbacks: Vec<u32> = q.fallbacks.iter().map(|f| f.node).collect();
+                if !fallbacks.is_empty() {
+                    warnings.push(format!(
+                        "quad mesher: {} node(s) fell back (detached or separated capped cages, unboxed or shortened junctions; first nodes {:?})",
+                        fallbacks.len(),
+                        first(&fallbacks)
+                    ));
+                }
+                Cage {
+                    mesh: q.mesh,
+                    scheme: self.scheme(),
+                    face_node: q.face_node,
+                    fallbacks,
+                    axes: q.components,
+                    warnings,
+                }
+            }
+        })
     }
 }

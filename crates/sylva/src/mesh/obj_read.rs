@@ -17,7 +17,7 @@
 //! (one index per corner, so seams are exact); a mesh keeps a channel only when every
 //! face has it.
 
-use crate::mesh::{Crease, FaceVarying, Mesh};
+use crate::geometry::{Crease, FaceVarying, Mesh};
 use crate::refine::{BoundaryInterpolation, Corner, CreasingMethod};
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};

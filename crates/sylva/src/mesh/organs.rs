@@ -7,7 +7,7 @@
 //! Organ frame: heading H (`Organ::heading`), up U (`Organ::up`) and X = H × U. A named
 //! surface's local coordinates (x, y, z) map to `position + size·(x·X + y·H + z·U)`.
 
-use crate::mesh::{FaceVarying, Mesh};
+use crate::geometry::{FaceVarying, Mesh};
 use crate::skeleton::{Organ, OrganKind, Skeleton};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;

@@ -144,7 +144,7 @@
 //! junction's few thousand refined triangles, which dominates (see BENCHMARKS.md).
 
 use crate::error::{Error, Result};
-use crate::mesh::{FaceVarying, Mesh};
+use crate::geometry::{FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -166,7 +166,8 @@ const NONE: u32 = u32::MAX;
 const GAP_MARGIN: f32 = 1.25;
 
 /// How the box length `l + x` of a junction is computed (seed 003, J Eq. 4; spec 003 §2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum BoxLength {
     /// Eq. 4 as printed: `√(d₁² + … + dₙ²) / cos h + tan h · d₁ / 2`.
     #[default]
@@ -176,7 +177,8 @@ pub enum BoxLength {
 }
 
 /// Options of [`quad_mesh`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct QuadOptions {
     /// Corner distance of a section as a multiple of the node radius (default 1.0, the
     /// seed's literal reading; ≈ 1.5 restores the nominal radius after Catmull–Clark).
@@ -258,7 +260,8 @@ impl Default for QuadOptions {
 }
 
 impl QuadOptions {
-    fn check(&self) -> Result<()> {
+    /// Checks every option's range; the message starts with the option's name.
+    pub fn check(&self) -> Result<()> {
         let bad = |why: String| Err(Error::InvalidGeometry { what: "quad mesher".into(), why });
         if !(self.cs_scale.is_finite() && self.cs_scale > 0.0 && self.cs_scale <= 100.0) {
             return bad(format!("cs_scale = {}; it must be in (0, 100]", self.cs_scale));

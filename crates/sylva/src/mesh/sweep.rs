@@ -137,9 +137,9 @@
 //! Deterministic; every valid skeleton gives a mesh, never a panic.
 
 use crate::error::{Error, Result};
+use crate::geometry::{Crease, FaceVarying, Mesh};
 use crate::mesh::check::{check_mesh, group_crossings, CheckOptions};
 use crate::mesh::hull::{cap_hull, CapLoop};
-use crate::mesh::{Crease, FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec2};
 use std::collections::HashSet;
@@ -150,10 +150,12 @@ const NONE: u32 = u32::MAX;
 pub const SIDES: usize = 6;
 
 /// Options of [`sweep_mesh`] (spec 001 §3 "Sweep tab").
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SweepOptions {
     /// Close every root base with a flat creased cap ("Cap Back"; default false: the
     /// base is open, one 6-edge boundary loop per root).
+    #[serde(skip)]
     pub caps: bool,
     /// Tip cone height divided by the tip width (seed "Tip Size", `/A`; default 1).
     pub tip_size: f64,
@@ -184,6 +186,7 @@ pub struct SweepOptions {
     /// the check).
     pub repair_rounds: u32,
     /// How tips end (default [`SweepTips::Cone`], the seed's "Cap Front").
+    #[serde(skip)]
     pub tips: SweepTips,
     /// How `u` runs around a ring (default [`UMapping::Reflected`], the seed's stem UVs).
     pub u_mapping: UMapping,
@@ -214,7 +217,8 @@ pub struct SweepOptions {
 }
 
 /// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum SweepTips {
     /// "Cap Front" on: a cone whose apex lies `tip_size × width` beyond the last ring
     /// (6 triangles, 1 vertex).
@@ -227,7 +231,8 @@ pub enum SweepTips {
 }
 
 /// How `u` runs around the sweep mesher's hexagonal rings (spec 001 §2.12).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum UMapping {
     /// The seed's stem UVs (Fig 6.4d): `u` is reflected at every ring vertex, 0, 1, 0,
     /// 1, 0, 1 around the ring, so every edge spans `[0, 1]` and there is no seam. The
@@ -264,7 +269,8 @@ impl Default for SweepOptions {
 }
 
 impl SweepOptions {
-    fn check(&self) -> Result<()> {
+    /// Checks every option's range; the message starts with the option's name.
+    pub fn check(&self) -> Result<()> {
         let bad = |why: String| Err(Error::InvalidGeometry { what: "sweep mesher".into(), why });
         if !(self.tip_size.is_finite() && (0.0..=100.0).contains(&self.tip_size)) {
             return bad(format!("tip_size = {}; it must be in 0..=100", self.tip_size));

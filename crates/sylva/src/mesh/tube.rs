@@ -40,7 +40,7 @@
 //! allocation per ring.
 
 use crate::error::{Error, Result};
-use crate::mesh::{FaceVarying, Mesh};
+use crate::geometry::{FaceVarying, Mesh};
 use crate::skeleton::{Children, Skeleton, NO_PARENT};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
@@ -51,7 +51,8 @@ pub const MIN_SIDES: u32 = 3;
 pub const MAX_SIDES: u32 = 1024;
 
 /// How the free end (tip) of every axis is closed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum TipStyle {
     /// A hemisphere of the tip radius: `clamp(sides / 4, 1, 8)` extra rings converging
     /// to one apex vertex. It extends the axis by its tip radius.
@@ -64,7 +65,8 @@ pub enum TipStyle {
 }
 
 /// How the start (base) of every axis is closed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum BaseStyle {
     /// A flat fan to a centre vertex, with its own (split) normal.
     #[default]
@@ -74,11 +76,14 @@ pub enum BaseStyle {
 }
 
 /// Options of [`tube_mesh`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct TubeOptions {
     /// Vertices per ring, in `3..=1024` (default 8).
+    #[serde(skip)]
     pub sides: u32,
     /// How axis tips are closed (default [`TipStyle::Round`]).
+    #[serde(skip)]
     pub tips: TipStyle,
     /// How axis bases are closed (default [`BaseStyle::Flat`]).
     pub bases: BaseStyle,

@@ -37,7 +37,7 @@ use super::crease::Rules;
 use super::loop_::beta;
 use super::topology::{Topology, NONE};
 use super::{BoundaryInterpolation, Corner, CreasingMethod, RefineError, RefineOptions, Refiner, Scheme};
-use crate::mesh::{FaceVarying, Mesh};
+use crate::geometry::{FaceVarying, Mesh};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 

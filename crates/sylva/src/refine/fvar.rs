@@ -21,7 +21,7 @@ use super::{
     interpolate_into, into_init, uninit_vec, BoundaryInterpolation, FvarInterpolation, Primvar, RefineError,
     Refiner, Scheme,
 };
-use crate::mesh::FaceVarying;
+use crate::geometry::FaceVarying;
 
 /// The refined topology of one face-varying channel; interpolate any number of value
 /// sets that share its indices.

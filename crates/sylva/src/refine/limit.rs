@@ -24,7 +24,7 @@ use super::crease::{group_by_vertex, vertex_rule, Features, Rule};
 use super::loop_::beta;
 use super::topology::Topology;
 use super::{fill, BoundaryInterpolation, Primvar, RefineError, Scheme};
-use crate::mesh::FaceVarying;
+use crate::geometry::FaceVarying;
 use glam::Vec3;
 use std::f64::consts::PI;
 

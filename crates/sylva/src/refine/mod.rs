@@ -41,7 +41,7 @@ pub use crease::{Corner, INFINITE};
 pub use fvar::FaceVaryingRefiner;
 pub use topology::{Ring, Topology, NONE};
 
-use crate::mesh::{Crease, FaceVarying, Mesh};
+use crate::geometry::{Crease, FaceVarying, Mesh};
 use crease::{Features, Rules};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;

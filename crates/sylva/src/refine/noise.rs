@@ -22,7 +22,7 @@
 //! smooth normals of the level being displaced.
 
 use super::{Corner, RefineError, Refiner, SubdivideOptions, Topology};
-use crate::mesh::Mesh;
+use crate::geometry::Mesh;
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;

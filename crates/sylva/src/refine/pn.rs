@@ -29,7 +29,7 @@
 //! hard edge (different normals on each side) opens, as PN surfaces do.
 
 use super::RefineError;
-use crate::mesh::{FaceVarying, Mesh};
+use crate::geometry::{FaceVarying, Mesh};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 

@@ -61,8 +61,8 @@
 //! averaged (cpfg averages them too), so neighbouring patches shade smoothly.
 
 use super::{number, tokens, TextFile};
+use crate::geometry::{FaceVarying, Mesh};
 use crate::lsystem::source::LsystemError;
-use crate::mesh::{FaceVarying, Mesh};
 use glam::{Vec2, Vec3};
 
 /// Index of the above-left neighbour in [`Patch::neighbours`].
