@@ -44,7 +44,7 @@ pub enum Error {
     /// An L-system parse or evaluation error, with its source excerpt.
     #[error(transparent)]
     #[diagnostic(transparent)]
-    Lsystem(#[from] Box<crate::lsystem::LsystemError>),
+    Lsystem(#[from] Box<crate::diagnostic::LsystemError>),
     /// A mesh that cannot be subdivided.
     #[error(transparent)]
     #[diagnostic(transparent)]

@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod curves;
+pub mod diagnostic;
 pub mod error;
 pub mod export;
 pub mod fsutil;

@@ -5,7 +5,7 @@
 //! ```text
 //!  preset (TOML, kind = "curves") ─► Composition ─► layers ─► Drawing ─► Picture ─► .svg / .png
 //!   load_preset (+ --set)            compose.rs     magnetic.rs (trace, branching)   render.rs
-//!                                                   fill.rs (occupancy, ladder)      export/svg.rs
+//!                                                   fill.rs (occupancy, ladder)      svg.rs
 //!                                                   noise.rs (Perlin fields)
 //!                                                   space.rs (3D, sphere) ─► Skeleton ─► tube mesh ─► .glb …
 //! ```
@@ -17,7 +17,8 @@
 //! - [`noise`]: seeded Perlin noise (Fig. 7.5);
 //! - [`compose`]: the `[curves]` table and its layers (§7.3's compositions);
 //! - [`render`]: tapered, outlined, coloured strokes to polygons and PNG;
-//! - [`space`]: 3D curves, skeletons and curves on a sphere (§8.1 future work).
+//! - [`space`]: 3D curves, skeletons and curves on a sphere (§8.1 future work);
+//! - [`svg`]: a picture as vector paths.
 //!
 //! A composition is a `kind = "curves"` preset (`presets/curves-*.toml`) or file; it is
 //! not a `sylva grow` recipe. Drawing units are pixels with **y up**; with the defaults
@@ -31,6 +32,7 @@ pub mod magnetic;
 pub mod noise;
 pub mod render;
 pub mod space;
+pub mod svg;
 
 use crate::error::{Error, Result};
 use std::path::Path;
@@ -153,7 +155,7 @@ impl Output {
 pub fn write_drawing(drawing: &Drawing, path: &Path, width_px: u32) -> Result<()> {
     let picture = render::picture(drawing, render::tolerance_for(drawing, width_px));
     match Output::from_path(path)? {
-        Output::Svg => crate::export::svg::write(&picture, path, width_px),
+        Output::Svg => svg::write(&picture, path, width_px),
         Output::Png => render::write_png(&picture, path, width_px),
         Output::Mesh(_) => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: ".svg, .png" }),
     }
@@ -194,7 +196,7 @@ pub fn write(generated: &Generated, path: &Path, width_px: u32) -> Result<()> {
 
 /// Writes the SVG text of a drawing to any writer (no file).
 pub fn svg_string(drawing: &Drawing, width_px: u32) -> Result<String> {
-    crate::export::svg::to_svg(&render::picture(drawing, render::tolerance_for(drawing, width_px)), width_px)
+    svg::to_svg(&render::picture(drawing, render::tolerance_for(drawing, width_px)), width_px)
 }
 
 /// Encodes a drawing as PNG bytes (no file).

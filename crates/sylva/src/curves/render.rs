@@ -1,6 +1,6 @@
 //! Rendering magnetic curves: tapered strokes with outlines and per-curve or per-point
 //! colours, turned into filled polygons that both the SVG writer
-//! ([`crate::export::svg`]) and the anti-aliased PNG rasterizer (`tiny-skia`) draw
+//! ([`crate::curves::svg`]) and the anti-aliased PNG rasterizer (`tiny-skia`) draw
 //! (seed 004 §7.3: "each curve has a thickness and the outer contour has a different
 //! colour"; spec 004 §3.8).
 //!

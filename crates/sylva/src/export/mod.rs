@@ -20,7 +20,6 @@ pub mod gltf;
 pub mod obj;
 pub mod ply;
 pub mod skeleton;
-pub mod svg;
 
 use crate::error::{Error, Result};
 use crate::fsutil::write_atomic;

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //!  .lst text ──► lst::parse ──────────────► Skeleton          (seed 000 §4.1.5–4.1.6)
-//!  .skel.json ─► export::skeleton::from_json ► Skeleton       (sylva's own format)
+//!  .skel.json ─► skel_json::from_json ─────► Skeleton          (sylva's own format)
 //!  .str text ──► cpfg_str::parse ─► (Symbols, ModuleString) ─► lsystem::interpret ─► Skeleton
 //!                                                              (seed 001 §4.3, §A.4)
 //! ```
@@ -11,6 +11,7 @@
 //! - [`lst`]: the LST skeleton format of seed 000 (Table 4.2: `SB`, `EB`, `MovRel3f`,
 //!   `RotRel3f`, `Cylinder`), with every convention the seed leaves open stated in the
 //!   module docs and in `docs/formats.md`;
+//! - [`skel_json`]: sylva's JSON skeleton, the exact round trip of every field;
 //! - [`cpfg_str`]: cpfg's text string files (`.str`), a derived module string written
 //!   out as text, read with the module-name rules of the L-system parser;
 //! - [`load_skeleton`]: reads a skeleton file, choosing the format from its extension.
@@ -21,6 +22,7 @@
 pub mod cpfg_str;
 pub mod gltf_read;
 pub mod lst;
+pub mod skel_json;
 
 use crate::error::{Error, Result};
 use crate::lsystem::source::{ErrorKind, LsystemError};
@@ -35,7 +37,7 @@ pub const SKELETON_EXTENSIONS: &str = ".lst, .skel.json (any .json)";
 /// Reads a skeleton file, choosing the format from the extension (case-insensitive):
 /// `.lst` is an LST file read with the default [`lst::LstOptions`] (lenient gap policy),
 /// `.json` (conventionally `.skel.json`) is sylva's JSON skeleton
-/// ([`crate::export::skeleton::from_json`]). Anything else is [`Error::UnknownFormat`].
+/// ([`skel_json::from_json`]). Anything else is [`Error::UnknownFormat`].
 ///
 /// Errors name the file: LST and JSON syntax errors carry `file:line:column` and an
 /// excerpt; a skeleton that breaks an invariant is [`Error::Skeleton`].
@@ -54,7 +56,7 @@ pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleto
         }
         "json" => {
             let text = crate::fsutil::read_to_string(path)?;
-            crate::export::skeleton::from_json_named(&name, &text)
+            skel_json::from_json_named(&name, &text)
         }
         _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS }),
     }

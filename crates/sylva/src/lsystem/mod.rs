@@ -14,7 +14,9 @@ pub mod environment;
 pub mod expr;
 pub mod files;
 pub mod parse;
+pub mod preprocess;
 pub mod source;
+pub mod string;
 pub mod turtle;
 
 pub use derive::{DeriveOptions, ModuleString, DEFAULT_MODULE_BUDGET};

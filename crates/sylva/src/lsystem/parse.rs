@@ -27,7 +27,8 @@
 //! and the cpfg manual give the syntax.
 
 use super::expr::{compile, compile_block, declared_names, Evaluator, Expr, Globals, Scope};
-use super::source::{ErrorKind, IncludeResolver, LsystemError, Source};
+use super::preprocess::IncludeResolver;
+use super::source::{ErrorKind, LsystemError, Source};
 use std::collections::HashMap;
 
 type PResult<T> = Result<T, Box<LsystemError>>;

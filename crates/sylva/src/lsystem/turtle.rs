@@ -46,10 +46,10 @@
 //! position, `@Gc` adds a node there and `@Ge` adds the last one, so models that move
 //! with `f` between control points (cpfg's contour-swept stems) still get an axis.
 
-use super::derive::ModuleString;
 use super::environment::{Environment, Sensor};
 use super::parse::Symbols;
 use super::source::{ErrorKind, LsystemError, Source};
+use super::string::ModuleString;
 use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
 use glam::DVec3;
 

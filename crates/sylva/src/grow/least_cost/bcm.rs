@@ -187,7 +187,7 @@ pub fn grow(p: &LeastCostParams, seed: u64, report: &mut LeastCostReport) -> Res
         } else {
             2 * p.endpoints
         };
-        super::mgv::shuffle(&mut cand, &mut rng);
+        super::shuffle(&mut cand, &mut rng);
         cand.truncate(want);
         for &e in &cand {
             // From the endpoint back to the first site already on the tree.

@@ -20,10 +20,11 @@
 //! exactly one root per grown tree (`report.trees`).
 
 use super::graph::{poisson, resolve_spacing, spatial_sort, yao, Graph, NONE};
-use super::mgv::shuffle;
-use super::mig::{shell_candidates, End, LEVEL1_STREAM};
 use super::paths::{dijkstra, Length};
-use super::{bad, finite, main_graph, LeastCostParams, LeastCostReport, PathTree};
+use super::{
+    bad, finite, main_graph, shell_candidates, shuffle, End, LeastCostParams, LeastCostReport, PathTree,
+    LEVEL1_STREAM,
+};
 use crate::error::Result;
 use glam::DVec3;
 use rand::SeedableRng;

@@ -661,7 +661,7 @@ pub fn poisson(
                 let first = (at as isize + off) as usize;
                 let mut hits = five(&bits, first) & mask;
                 while hits != 0 {
-                    super::paths::prefetch(&grid, first + hits.trailing_zeros() as usize);
+                    prefetch(&grid, first + hits.trailing_zeros() as usize);
                     hits &= hits - 1;
                 }
             }
@@ -1378,6 +1378,22 @@ pub fn lattice(volume: &Volume, spacing: f64, jitter: f64, dims: u8, seed: u64) 
         .min_by(|&a, &b| pos[a].distance_squared(bc).total_cmp(&pos[b].distance_squared(bc)))
         .unwrap_or(0) as u32;
     Ok(Graph { dims, position: pos, offsets, targets, root, spacing: spacing as f32, shortfall: 0 })
+}
+
+/// Hints the processor to fetch `v[i]` into the cache (a no-op off x86-64 or when `i`
+/// is out of range; it changes no value).
+#[inline(always)]
+pub(crate) fn prefetch<T>(v: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(s) = v.get(i) {
+        #[allow(unused_unsafe)]
+        // SAFETY: a prefetch of a valid reference's address; it reads nothing.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const T).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, i);
 }
 
 #[cfg(test)]

@@ -53,10 +53,10 @@
 
 use super::graph::{Graph, Primitive, Volume, NONE};
 use super::paths::{dijkstra_until, mgv_weight, Costs, Search, Until};
-use super::{bad, hash01, in_range, main_graph, LeastCostParams, LeastCostReport, PathTree};
+use super::{bad, hash01, in_range, main_graph, shuffle, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::Result;
 use glam::{DVec3, Vec3};
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -436,8 +436,8 @@ impl Costs for MgvCosts<'_> {
     }
 
     fn prefetch(&self, u: u32, parent: u32) {
-        super::paths::prefetch(&self.guide, parent as usize);
-        super::paths::prefetch(&self.guide, u as usize);
+        super::graph::prefetch(&self.guide, parent as usize);
+        super::graph::prefetch(&self.guide, u as usize);
     }
 
     #[inline]
@@ -699,14 +699,6 @@ impl MgvState {
             }
             _ => Vec::new(),
         }
-    }
-}
-
-/// Fisher–Yates shuffle with the given generator.
-pub(crate) fn shuffle(v: &mut [u32], rng: &mut Pcg64) {
-    for i in (1..v.len()).rev() {
-        let j = rng.random_range(0..=i);
-        v.swap(i, j);
     }
 }
 

@@ -29,9 +29,11 @@
 //! of [`forest`](super::forest); later levels are the same.
 
 use super::graph::{auto_spacing, poisson_yao, Graph, Primitive, Volume, NONE};
-use super::mgv::shuffle;
-use super::paths::{dijkstra, Length, Search};
-use super::{bad, in_range, main_graph, LeastCostParams, LeastCostReport, PathTree};
+use super::paths::{dijkstra, Length};
+use super::{
+    bad, in_range, main_graph, shell_candidates, shuffle, End, LeastCostParams, LeastCostReport, PathTree,
+    LEVEL1_STREAM,
+};
 use crate::error::{Error, Result};
 use glam::{DQuat, DVec3, Vec3};
 use rand::SeedableRng;
@@ -121,17 +123,6 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// An endpoint of the growing tree.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct End {
-    /// Node id in the path tree.
-    pub(crate) node: u32,
-    /// Its position.
-    pub(crate) pos: DVec3,
-    /// The root of the graph (the tree's own root in a forest) it was chosen in.
-    pub(crate) root: DVec3,
 }
 
 /// The guiding direction `v_g` of a subgraph at `e` (step 4B, with the level's options).
@@ -278,21 +269,6 @@ fn level1(
     let first = merge(&mut tree, &sub, root, root_pos.as_dvec3());
     report.path_time += t.elapsed();
     Ok((tree, first))
-}
-
-/// The generator stream of the level-1 endpoints.
-pub(crate) const LEVEL1_STREAM: u64 = 0x6c65_7665_6c31;
-
-/// Level-1 endpoint candidates: reached nodes (not sources) in the shell
-/// `−d_e ≤ sdf ≤ 0` under the volume's surface, in id order.
-pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &Search) -> Vec<u32> {
-    let vol = p.graph_volume();
-    let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
-    (0..g.len() as u32)
-        .filter(|&u| {
-            s.reached(u) && s.parent[u as usize] != NONE && vol.sdf(g.position[u as usize].as_dvec3()) >= -de
-        })
-        .collect()
 }
 
 /// Levels 2, 3, … of `maketree`: a subgraph at every endpoint of the previous level

@@ -626,6 +626,44 @@ pub(crate) fn hash01(seed: u64, a: u64, b: u64) -> f64 {
     (x >> 11) as f64 / (1u64 << 53) as f64
 }
 
+// ---------------------------------------------------------------------------------
+// Shared by the MIG, forest, refined-MIG and MGV growers.
+
+/// An endpoint of the growing tree.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct End {
+    /// Node id in the path tree.
+    pub(crate) node: u32,
+    /// Its position.
+    pub(crate) pos: DVec3,
+    /// The root of the graph (the tree's own root in a forest) it was chosen in.
+    pub(crate) root: DVec3,
+}
+
+/// The generator stream of the level-1 endpoints.
+pub(crate) const LEVEL1_STREAM: u64 = 0x6c65_7665_6c31;
+
+/// Level-1 endpoint candidates: reached nodes (not sources) in the shell
+/// `−d_e ≤ sdf ≤ 0` under the volume's surface, in id order.
+pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &paths::Search) -> Vec<u32> {
+    let vol = p.graph_volume();
+    let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
+    (0..g.len() as u32)
+        .filter(|&u| {
+            s.reached(u) && s.parent[u as usize] != NONE && vol.sdf(g.position[u as usize].as_dvec3()) >= -de
+        })
+        .collect()
+}
+
+/// Fisher–Yates shuffle with the given generator.
+pub(crate) fn shuffle(v: &mut [u32], rng: &mut rand_pcg::Pcg64) {
+    use rand::RngExt;
+    for i in (1..v.len()).rev() {
+        let j = rng.random_range(0..=i);
+        v.swap(i, j);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,7 +26,7 @@
 //! ([`Costs::prefetch`]) before it is asked to settle; and the state array is
 //! advised transparent huge pages (fewer TLB misses).
 
-use super::graph::{Graph, NONE};
+use super::graph::{prefetch, Graph, NONE};
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -133,22 +133,6 @@ struct State {
     source: u32,
     pos: Vec3,
     first: u32,
-}
-
-/// Hints the processor to fetch `v[i]` into the cache (a no-op off x86-64 or when `i`
-/// is out of range; it changes no value).
-#[inline(always)]
-pub(crate) fn prefetch<T>(v: &[T], i: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(s) = v.get(i) {
-        #[allow(unused_unsafe)]
-        // SAFETY: a prefetch of a valid reference's address; it reads nothing.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((s as *const T).cast());
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (v, i);
 }
 
 /// The "settled" bit of [`State::hops`].

@@ -30,10 +30,8 @@
 //! Later MIG levels are unchanged (subgraphs at every endpoint, `v_g` away from the root).
 
 use super::graph::{auto_spacing, poisson, spatial_sort, yao, Graph, Primitive, Volume, NONE};
-use super::mgv::shuffle;
-use super::mig::End;
 use super::paths::{dijkstra, Length, Search};
-use super::{bad, in_range, LeastCostParams, LeastCostReport, PathTree};
+use super::{bad, in_range, shuffle, End, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::{Error, Result};
 use glam::DVec3;
 use rand::SeedableRng;

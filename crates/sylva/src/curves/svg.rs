@@ -8,7 +8,7 @@
 //! output is deterministic and compact. Files are written through
 //! [`crate::fsutil::write_atomic`].
 
-use crate::curves::render::{pixel_size, Picture, Rgba};
+use super::render::{pixel_size, Picture, Rgba};
 use crate::error::Result;
 use crate::fsutil::write_atomic;
 use std::fmt::Write as _;

@@ -1,0 +1,629 @@
+//! The cpfg preprocessor: builds a [`Source`] from L-system text.
+//!
+//! cpfg runs its L-system files through the C preprocessor. This module implements the
+//! part of it that L-system files rely on: `/* */` and `//` comments, `\` line
+//! continuation, `#define NAME value` and `#define NAME(a, b) body` with
+//! identifier-token substitution (C semantics: `AB` is one identifier, a macro is not
+//! expanded inside its own expansion), `#undef`, `#if` / `#ifdef` / `#ifndef` /
+//! `#elif` / `#else` / `#endif` (with `defined`), and `#include "file"` of sibling
+//! files through a caller-supplied resolver. The preprocessed text keeps a map from
+//! each of its bytes back to the file and byte it came from, so every error points at
+//! the line and column the user wrote, in the right file.
+
+use super::expr;
+use super::source::{origin, Ch, ErrorKind, LsystemError, Macro, Source};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Finds a file named by `#include`: given the name as written, returns the display
+/// name and the text, or `None` when there is no such file.
+pub type IncludeResolver<'a> = &'a dyn Fn(&str) -> Option<(String, String)>;
+
+struct Cond {
+    active: bool,
+    taken: bool,
+    parent_active: bool,
+}
+
+impl Source {
+    /// Preprocesses `original`. `overrides` replace (or add) `#define` values, as the
+    /// recipe's `generator.define` table does. `#include` is an error here; use
+    /// [`Source::with_includes`] to allow it.
+    pub fn new(
+        name: &str,
+        original: &str,
+        overrides: &[(String, String)],
+    ) -> Result<Source, Box<LsystemError>> {
+        Self::with_includes(name, original, overrides, &|_| None)
+    }
+
+    /// Like [`Source::new`], resolving `#include "file"` through `resolve`.
+    pub fn with_includes(
+        name: &str,
+        original: &str,
+        overrides: &[(String, String)],
+        resolve: IncludeResolver,
+    ) -> Result<Source, Box<LsystemError>> {
+        let original: Arc<str> = Arc::from(original);
+        let mut src = Source {
+            name: name.to_string(),
+            original: original.clone(),
+            text: String::with_capacity(original.len()),
+            map: Vec::with_capacity(original.len()),
+            files: vec![(name.to_string(), original.clone())],
+            defines: HashMap::new(),
+            macros: HashMap::new(),
+        };
+        let overrides: HashMap<String, String> = overrides.iter().cloned().collect();
+        let mut conds: Vec<Cond> = Vec::new();
+        src.process_file(0, &overrides, resolve, &mut conds, 0)?;
+        if let Some(_c) = conds.last() {
+            return Err(src.error_nowhere(ErrorKind::Syntax, "`#if` without a matching `#endif`"));
+        }
+        Ok(src)
+    }
+
+    fn process_file(
+        &mut self,
+        file: usize,
+        overrides: &HashMap<String, String>,
+        resolve: IncludeResolver,
+        conds: &mut Vec<Cond>,
+        depth: usize,
+    ) -> Result<(), Box<LsystemError>> {
+        let text = self.files[file].1.clone();
+        let stripped = strip_comments(&text);
+        let lines = logical_lines(&stripped, file);
+        for line in &lines {
+            let s: String = line.iter().map(|&(c, _)| c).collect();
+            let trimmed = s.trim_start();
+            let active = conds.last().map(|c| c.active).unwrap_or(true);
+            if let Some(rest) = trimmed.strip_prefix('#') {
+                let lead = s.chars().count() - trimmed.chars().count();
+                let at = line.get(lead).map(|&(_, o)| o).unwrap_or(origin(file, 0));
+                self.directive(rest.trim_end(), at, active, overrides, resolve, conds, depth)?;
+                if let Some(&(_, o)) = line.last() {
+                    self.push_char('\n', o);
+                }
+                continue;
+            }
+            if !active {
+                if let Some(&(_, o)) = line.last() {
+                    self.push_char('\n', o);
+                }
+                continue;
+            }
+            let expanded = self.expand(line, 0)?;
+            for (c, o) in expanded {
+                self.push_char(c, o);
+            }
+        }
+        Ok(())
+    }
+
+    fn push_char(&mut self, c: char, orig: u64) {
+        self.text.push(c);
+        for _ in 0..c.len_utf8() {
+            self.map.push(orig);
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn directive(
+        &mut self,
+        rest: &str,
+        at: u64,
+        active: bool,
+        overrides: &HashMap<String, String>,
+        resolve: IncludeResolver,
+        conds: &mut Vec<Cond>,
+        depth: usize,
+    ) -> Result<(), Box<LsystemError>> {
+        let rest = rest.trim_start();
+        let word: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric()).collect();
+        let arg = rest[word.len()..].trim();
+        let err =
+            |s: &Self, kind, what: &str, label: &str| s.error_origin(kind, at, 1 + word.len(), what, label);
+        match word.as_str() {
+            "ifdef" | "ifndef" => {
+                let name: String =
+                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                let defined = self.macros.contains_key(&name);
+                let cond = if word == "ifdef" { defined } else { !defined };
+                conds.push(Cond { active: active && cond, taken: cond, parent_active: active });
+                Ok(())
+            }
+            "if" => {
+                let v = if active { self.eval_condition(arg, at)? } else { false };
+                conds.push(Cond { active: active && v, taken: v, parent_active: active });
+                Ok(())
+            }
+            "elif" => {
+                let Some(top) = conds.last() else {
+                    return Err(err(self, ErrorKind::Syntax, "`#elif` without `#if`", "here"));
+                };
+                let (taken, parent) = (top.taken, top.parent_active);
+                let v = if parent && !taken { self.eval_condition(arg, at)? } else { false };
+                let top = conds.last_mut().expect("checked above");
+                top.active = parent && !taken && v;
+                top.taken = taken || v;
+                Ok(())
+            }
+            "else" => {
+                let Some(top) = conds.last_mut() else {
+                    return Err(err(self, ErrorKind::Syntax, "`#else` without `#if`", "here"));
+                };
+                top.active = top.parent_active && !top.taken;
+                top.taken = true;
+                Ok(())
+            }
+            "endif" => {
+                if conds.pop().is_none() {
+                    return Err(err(self, ErrorKind::Syntax, "`#endif` without `#if`", "here"));
+                }
+                Ok(())
+            }
+            _ if !active => Ok(()),
+            "define" => {
+                let name: String =
+                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                if name.is_empty() || name.starts_with(|c: char| c.is_ascii_digit()) {
+                    return Err(err(self, ErrorKind::Syntax, "`#define` needs a name", "here"));
+                }
+                let after = &arg[name.len()..];
+                let (params, body) = if let Some(p) = after.strip_prefix('(') {
+                    let Some(close) = p.find(')') else {
+                        return Err(err(
+                            self,
+                            ErrorKind::Syntax,
+                            &format!("unclosed `(` in `#define {name}(`"),
+                            "here",
+                        ));
+                    };
+                    let params: Vec<String> = p[..close]
+                        .split(',')
+                        .map(|s| s.trim().to_string())
+                        .filter(|s| !s.is_empty())
+                        .collect();
+                    (Some(params), p[close + 1..].trim().to_string())
+                } else {
+                    (None, after.trim().to_string())
+                };
+                let body = match (&params, overrides.get(&name)) {
+                    (None, Some(v)) => v.clone(),
+                    _ => body,
+                };
+                if params.is_none() {
+                    self.defines.insert(name.clone(), body.clone());
+                }
+                self.macros.insert(name, Macro { params, body });
+                Ok(())
+            }
+            "undef" => {
+                let name: String =
+                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                self.macros.remove(&name);
+                self.defines.remove(&name);
+                Ok(())
+            }
+            "include" => {
+                let file = arg.trim_matches(|c| c == '"' || c == '<' || c == '>').trim();
+                if depth >= 16 {
+                    return Err(err(self, ErrorKind::Syntax, "`#include` nested more than 16 deep", "here"));
+                }
+                let Some((name, text)) = resolve(file) else {
+                    return Err(err(
+                        self,
+                        ErrorKind::Syntax,
+                        &format!("cannot include `{file}`: no such file next to the model"),
+                        "included here",
+                    ));
+                };
+                self.files.push((name, Arc::from(text.as_str())));
+                let idx = self.files.len() - 1;
+                self.process_file(idx, overrides, resolve, conds, depth + 1)
+            }
+            "" | "pragma" | "line" => Ok(()),
+            other => Err(err(
+                self,
+                ErrorKind::Unsupported,
+                &format!("unsupported: preprocessor directive `#{other}`"),
+                "not supported",
+            )),
+        }
+    }
+
+    /// Evaluates a `#if` condition: `defined(X)` / `defined X`, macros, then an
+    /// expression; unknown identifiers are 0 as in C.
+    fn eval_condition(&self, arg: &str, at: u64) -> Result<bool, Box<LsystemError>> {
+        let s = map_identifiers(arg, |ident, rest| {
+            if ident != "defined" {
+                return (ident.to_string(), 0);
+            }
+            // `defined(X)` or `defined X`.
+            let mut j = 0;
+            while j < rest.len() && (rest[j] == ' ' || rest[j] == '(') {
+                j += 1;
+            }
+            let ns = j;
+            while j < rest.len() && (rest[j].is_ascii_alphanumeric() || rest[j] == '_') {
+                j += 1;
+            }
+            let name: String = rest[ns..j].iter().collect();
+            while j < rest.len() && (rest[j] == ' ' || rest[j] == ')') {
+                j += 1;
+            }
+            ((if self.macros.contains_key(&name) { " 1 " } else { " 0 " }).to_string(), j)
+        });
+        let line: Vec<Ch> = s.chars().map(|c| (c, at)).collect();
+        let expanded: String = self.expand(&line, 0)?.into_iter().map(|(c, _)| c).collect();
+        // Remaining identifiers are 0 (C rule); function names stay.
+        let t = map_identifiers(&expanded, |ident, rest| {
+            let call = rest.iter().find(|c| !c.is_whitespace()) == Some(&'(');
+            ((if call { ident } else { "0" }).to_string(), 0)
+        });
+        let tmp = Source::new("#if", &t, &[])?;
+        let e = expr::compile(&tmp, 0, tmp.text.len(), &expr::Scope::default()).map_err(|_| {
+            self.error_origin(ErrorKind::Syntax, at, 3, &format!("bad `#if` condition `{arg}`"), "here")
+        })?;
+        let v = expr::Evaluator::new(0).eval(&e, &[]).map_err(|_| {
+            self.error_origin(ErrorKind::Syntax, at, 3, &format!("bad `#if` condition `{arg}`"), "here")
+        })?;
+        Ok(v != 0.0)
+    }
+
+    /// Expands macros in one logical line. `depth` guards recursion.
+    fn expand(&self, line: &[Ch], depth: usize) -> Result<Vec<Ch>, Box<LsystemError>> {
+        self.expand_except(line, depth, &[])
+    }
+
+    fn expand_except(
+        &self,
+        line: &[Ch],
+        depth: usize,
+        disabled: &[String],
+    ) -> Result<Vec<Ch>, Box<LsystemError>> {
+        let mut out = Vec::with_capacity(line.len());
+        let mut k = 0;
+        while k < line.len() {
+            let (c, o) = line[k];
+            if c.is_ascii_alphabetic() || c == '_' {
+                let start = k;
+                while k < line.len() && (line[k].0.is_ascii_alphanumeric() || line[k].0 == '_') {
+                    k += 1;
+                }
+                let ident: String = line[start..k].iter().map(|&(c, _)| c).collect();
+                let Some(mac) = self.macros.get(&ident).filter(|_| !disabled.contains(&ident)) else {
+                    out.extend_from_slice(&line[start..k]);
+                    continue;
+                };
+                if depth > 64 {
+                    return Err(self.error_origin(
+                        ErrorKind::Syntax,
+                        o,
+                        ident.len(),
+                        &format!("macro `{ident}` expands recursively more than 64 levels"),
+                        "here",
+                    ));
+                }
+                let body: Vec<Ch> = match &mac.params {
+                    None => mac.body.chars().map(|c| (c, o)).collect(),
+                    Some(params) => {
+                        // A function-like macro needs `(`; otherwise it is an ordinary name.
+                        let mut j = k;
+                        while j < line.len() && line[j].0.is_whitespace() {
+                            j += 1;
+                        }
+                        if j >= line.len() || line[j].0 != '(' {
+                            out.extend_from_slice(&line[start..k]);
+                            continue;
+                        }
+                        let (args, end) = split_macro_args(line, j).ok_or_else(|| {
+                            self.error_origin(
+                                ErrorKind::Syntax,
+                                o,
+                                ident.len(),
+                                &format!("unclosed `(` in the use of macro `{ident}`"),
+                                "macro use",
+                            )
+                        })?;
+                        let args = if params.is_empty()
+                            && args.len() == 1
+                            && args[0].iter().all(|c| c.0.is_whitespace())
+                        {
+                            Vec::new()
+                        } else {
+                            args
+                        };
+                        if args.len() != params.len() {
+                            return Err(self.error_origin(
+                                ErrorKind::Arity,
+                                o,
+                                ident.len(),
+                                &format!(
+                                    "macro `{ident}` takes {} argument(s), got {}",
+                                    params.len(),
+                                    args.len()
+                                ),
+                                "macro use",
+                            ));
+                        }
+                        k = end + 1;
+                        // Arguments are fully expanded before substitution (C rule).
+                        let mut expanded_args = Vec::with_capacity(args.len());
+                        for a in &args {
+                            expanded_args.push(self.expand_except(a, depth + 1, disabled)?);
+                        }
+                        substitute(&mac.body, params, &expanded_args, o)
+                    }
+                };
+                let mut dis = disabled.to_vec();
+                dis.push(ident);
+                let rescanned = self.expand_except(&body, depth + 1, &dis)?;
+                out.extend(rescanned);
+            } else if c.is_ascii_digit() || c == '.' {
+                // Numbers such as 1e5 must not have their exponent taken as an identifier.
+                while k < line.len()
+                    && (line[k].0.is_ascii_alphanumeric() || line[k].0 == '.' || line[k].0 == '_')
+                {
+                    let exp = line[k].0 == 'e' || line[k].0 == 'E';
+                    out.push(line[k]);
+                    k += 1;
+                    if exp && k < line.len() && (line[k].0 == '+' || line[k].0 == '-') {
+                        out.push(line[k]);
+                        k += 1;
+                    }
+                }
+            } else if c == '"' {
+                // String literals (printf formats) pass through unexpanded.
+                out.push(line[k]);
+                k += 1;
+                while k < line.len() && line[k].0 != '"' {
+                    out.push(line[k]);
+                    k += 1;
+                }
+                if k < line.len() {
+                    out.push(line[k]);
+                    k += 1;
+                }
+            } else {
+                out.push((c, o));
+                k += 1;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Rewrites every identifier of `text` through `f(identifier, rest of the text)`, which
+/// returns the replacement and how many characters of the rest it consumed.
+fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usize)) -> String {
+    let b: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphabetic() || b[i] == '_' {
+            let st = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
+                i += 1;
+            }
+            let ident: String = b[st..i].iter().collect();
+            let (rep, used) = f(&ident, &b[i..]);
+            out.push_str(&rep);
+            i += used;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Splits comment-free text into logical lines (joining `\` continuations), each char
+/// tagged with its origin; every line keeps its trailing newline.
+fn logical_lines(stripped: &str, file: usize) -> Vec<Vec<Ch>> {
+    let mut lines: Vec<Vec<Ch>> = vec![Vec::new()];
+    let chars: Vec<(usize, char)> = stripped.char_indices().collect();
+    let mut k = 0;
+    while k < chars.len() {
+        let (off, c) = chars[k];
+        if c == '\\' {
+            let mut j = k + 1;
+            while j < chars.len() && matches!(chars[j].1, ' ' | '\t' | '\r') {
+                j += 1;
+            }
+            if j < chars.len() && chars[j].1 == '\n' {
+                k = j + 1;
+                continue;
+            }
+        }
+        lines.last_mut().expect("never empty").push((c, origin(file, off)));
+        if c == '\n' {
+            lines.push(Vec::new());
+        }
+        k += 1;
+    }
+    lines
+}
+
+/// Splits the arguments of a macro call whose `(` is at `open`; returns them and the
+/// index of the closing `)`.
+fn split_macro_args(line: &[Ch], open: usize) -> Option<(Vec<Vec<Ch>>, usize)> {
+    let mut depth = 0;
+    let mut args = vec![Vec::new()];
+    for (k, &(c, o)) in line.iter().enumerate().skip(open) {
+        match c {
+            '(' => {
+                depth += 1;
+                if depth == 1 {
+                    continue;
+                }
+            }
+            ')' => {
+                depth -= 1;
+                if depth == 0 {
+                    return Some((args, k));
+                }
+            }
+            ',' if depth == 1 => {
+                args.push(Vec::new());
+                continue;
+            }
+            _ => {}
+        }
+        args.last_mut().expect("never empty").push((c, o));
+    }
+    None
+}
+
+/// Replaces parameter identifiers in `body` by the argument texts.
+fn substitute(body: &str, params: &[String], args: &[Vec<Ch>], o: u64) -> Vec<Ch> {
+    let b: Vec<char> = body.chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphabetic() || b[i] == '_' {
+            let st = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
+                i += 1;
+            }
+            let ident: String = b[st..i].iter().collect();
+            match params.iter().position(|p| *p == ident) {
+                Some(k) => out.extend_from_slice(&args[k]),
+                None => out.extend(ident.chars().map(|c| (c, o))),
+            }
+        } else {
+            out.push((b[i], o));
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Replaces comments by spaces (newlines kept), so offsets stay the same. String
+/// literals are left alone.
+fn strip_comments(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    let blank = |c: u8| {
+        if c == b'\n' {
+            b'\n'
+        } else if c < 0x80 {
+            b' '
+        } else {
+            c
+        }
+    };
+    while i < b.len() {
+        if b[i] == b'/' && i + 1 < b.len() && b[i + 1] == b'*' {
+            out.extend_from_slice(b"  ");
+            i += 2;
+            while i < b.len() && !(b[i] == b'*' && i + 1 < b.len() && b[i + 1] == b'/') {
+                out.push(blank(b[i]));
+                i += 1;
+            }
+            if i < b.len() {
+                out.extend_from_slice(b"  ");
+                i += 2;
+            }
+        } else if b[i] == b'/' && i + 1 < b.len() && b[i + 1] == b'/' {
+            while i < b.len() && b[i] != b'\n' {
+                out.push(blank(b[i]));
+                i += 1;
+            }
+        } else if b[i] == b'"' {
+            out.push(b[i]);
+            i += 1;
+            while i < b.len() && b[i] != b'"' && b[i] != b'\n' {
+                out.push(b[i]);
+                i += 1;
+            }
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    // Non-ASCII bytes were copied unchanged, so the result is valid UTF-8.
+    String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pp(text: &str) -> String {
+        Source::new("t.l", text, &[])
+            .unwrap()
+            .text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .collect::<Vec<_>>()
+            .join("|")
+    }
+
+    #[test]
+    fn defines_expand_by_identifier() {
+        assert_eq!(pp("#define D 3\n#define AB 7\nA(D) AB ABC D2 1e5\n"), "A(3) 7 ABC D2 1e5");
+    }
+
+    #[test]
+    fn overrides_replace_defines() {
+        let s = Source::new("t.l", "#define D 3\nx D\n", &[("D".into(), "9".into())]).unwrap();
+        assert_eq!(s.text.trim(), "x 9");
+    }
+
+    #[test]
+    fn comments_and_continuations() {
+        assert_eq!(pp("a /* b\n c */ d // e\nf\\\ng\n"), "a|d|fg");
+    }
+
+    #[test]
+    fn function_like_macros() {
+        assert_eq!(pp("#define frac(x) ((x)-floor(x))\nA(frac(t*2))\n"), "A(((t*2)-floor(t*2)))");
+        assert_eq!(
+            pp("#define MAX(a,b) (((a)>(b))?(a):(b))\nMAX(1, f(2,3))\n"),
+            "(((1)>( f(2,3)))?(1):( f(2,3)))"
+        );
+        assert_eq!(pp("#define f(x) x\nf + f(1)\n"), "f + 1");
+        assert_eq!(pp("#define A B\n#define B A\nA\n"), "A");
+    }
+
+    #[test]
+    fn conditionals() {
+        let t = "#define L 1\n#if L==1\nyes\n#else\nno\n#endif\n#ifdef Q\nq\n#elif defined(L) && L > 0\nel\n#endif\n#ifndef Q\nnq\n#endif\n";
+        assert_eq!(pp(t), "yes|el|nq");
+        assert!(Source::new("t.l", "#if 1\nx\n", &[]).is_err());
+        assert!(Source::new("t.l", "#endif\n", &[]).is_err());
+    }
+
+    #[test]
+    fn includes_map_errors_to_their_file() {
+        let resolve = |name: &str| {
+            (name == "leaf.l").then(|| ("leaf.l".to_string(), "#define W 2\nbad here\n".to_string()))
+        };
+        let s = Source::with_includes("t.l", "#include \"leaf.l\"\nx W\n", &[], &resolve).unwrap();
+        assert!(s.text.contains("x 2"));
+        let at = s.text.find("bad").unwrap();
+        let e = s.error(ErrorKind::Syntax, at, 3, "oops", "x");
+        assert!(e.message.starts_with("leaf.l:2:1: oops"), "{}", e.message);
+        let e = Source::with_includes("t.l", "#include \"none.l\"\n", &[], &resolve).unwrap_err();
+        assert!(e.message.contains("cannot include `none.l`"));
+    }
+
+    #[test]
+    fn error_positions_map_to_original() {
+        let s = Source::new("t.l", "#define X 1\n\n  foo X bar\n", &[]).unwrap();
+        let at = s.text.find("bar").unwrap();
+        let e = s.error(ErrorKind::Syntax, at, 3, "bad", "x");
+        assert!(e.message.starts_with("t.l:3:9: bad"), "{}", e.message);
+    }
+
+    #[test]
+    fn unsupported_directive() {
+        let e = Source::new("t.l", "#warning x\n", &[]).unwrap_err();
+        assert_eq!(e.kind, ErrorKind::Unsupported);
+        assert!(e.message.contains("t.l:1:1"));
+    }
+}
