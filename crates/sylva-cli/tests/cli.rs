@@ -285,3 +285,48 @@ fn check_reports_valid_and_invalid_meshes() {
     fails(&d, &["check", "missing.obj"], "missing.obj");
     fails(&d, &["check", "tree.txt"], "cannot tell the format");
 }
+
+/// Vertex and face counts of an OBJ file.
+fn obj_counts(p: &Path) -> (usize, usize) {
+    let text = std::fs::read_to_string(p).unwrap();
+    let count = |tag: &str| text.lines().filter(|l| l.split_whitespace().next() == Some(tag)).count();
+    (count("v"), count("f"))
+}
+
+#[test]
+fn quad_cage_of_a_chain_and_a_fork_is_the_seeds_own() {
+    // Spec 003 properties 3–4: with no support rings and no elbow rings, an unbranched
+    // chain of k segments gives V = 4(k+1), F = 4k+2; one fork with two leaf children
+    // gives V = 20, F = 18. Set through the CLI's `--set` keys of `[mesh.quad]`.
+    let d = tempdir("quad-cage");
+    let sets = [
+        "--set",
+        "mesh.method=quad",
+        "--set",
+        "mesh.quad.support=0",
+        "--set",
+        "mesh.quad.elbow_angle=90",
+        "--set",
+        "refine.levels=0",
+    ];
+    for k in 1..=3usize {
+        let lst = format!("LST 0.1\n{}", "Cylinder(0.2, 0.2, 1) MovRel3f(0, 1, 0)\n".repeat(k));
+        std::fs::write(d.join("chain.lst"), lst).unwrap();
+        let mut args = vec!["grow", "chain.lst"];
+        args.extend_from_slice(&sets);
+        args.extend_from_slice(&["-o", "q.obj"]);
+        let r = sylva(&args, &d);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert_eq!(obj_counts(&d.join("q.obj")), (4 * (k + 1), 4 * k + 2), "chain of {k}");
+    }
+    let fork = "LST 0.1\nCylinder(0.2, 0.2, 2) MovRel3f(0, 2, 0)\n\
+                SB() RotRel3f(0.7, 0, 0, 1) Cylinder(0.1, 0.1, 1.5) EB()\n\
+                SB() RotRel3f(-0.7, 0, 0, 1) Cylinder(0.1, 0.1, 1.5) EB()\n";
+    std::fs::write(d.join("fork.lst"), fork).unwrap();
+    let mut args = vec!["grow", "fork.lst"];
+    args.extend_from_slice(&sets);
+    args.extend_from_slice(&["-o", "q.obj"]);
+    let r = sylva(&args, &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(obj_counts(&d.join("q.obj")), (20, 18), "one fork, two leaf children");
+}
