@@ -330,3 +330,68 @@ fn quad_cage_of_a_chain_and_a_fork_is_the_seeds_own() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert_eq!(obj_counts(&d.join("q.obj")), (20, 18), "one fork, two leaf children");
 }
+
+/// Hex SHA-256 of a file's bytes.
+fn sha256_of(p: &Path) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(std::fs::read(p).unwrap()).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[test]
+fn subdivide_outputs_are_golden() {
+    // Behaviour lock of issue 22 for `sylva subdivide`: three control meshes (a creased
+    // cube under Catmull–Clark to the limit, an octahedron under Loop, an open UV grid
+    // under Catmull–Clark with smooth UVs), each output's SHA-256 as committed. A change
+    // that must alter these bytes updates the hashes and says why in its commit.
+    let d = tempdir("subdivide-golden");
+    let cube = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+                f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n\
+                t crease 2/1 1 2 2.5\nt crease 2/1 2 3 1\nt corner 1/1 7 3\n";
+    let octahedron = "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
+                      f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+    let mut grid = String::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            grid.push_str(&format!(
+                "v {i} {} {j}\nvt {} {}\n",
+                (i * j) as f32 * 0.25,
+                i as f32 / 2.0,
+                j as f32 / 2.0
+            ));
+        }
+    }
+    for j in 0..2 {
+        for i in 0..2 {
+            let v = |a: usize, b: usize| (b + j) * 3 + (a + i) + 1;
+            let (a, b, c, e) = (v(0, 0), v(1, 0), v(1, 1), v(0, 1));
+            grid.push_str(&format!("f {a}/{a} {b}/{b} {c}/{c} {e}/{e}\n"));
+        }
+    }
+    std::fs::write(d.join("cube.obj"), cube).unwrap();
+    std::fs::write(d.join("octahedron.obj"), octahedron).unwrap();
+    std::fs::write(d.join("grid.obj"), grid).unwrap();
+    let runs: [(&[&str], &str, &str); 3] = [
+        (&["subdivide", "cube.obj", "-n", "2", "--limit", "-o", "cube-out.obj"], "cube-out.obj", CUBE_SHA),
+        (&["subdivide", "octahedron.obj", "-n", "3", "-o", "oct-out.ply"], "oct-out.ply", OCTAHEDRON_SHA),
+        (
+            &["subdivide", "grid.obj", "-n", "2", "--uv", "smooth", "-o", "grid-out.glb"],
+            "grid-out.glb",
+            GRID_SHA,
+        ),
+    ];
+    let mut wrong = Vec::new();
+    for (args, out, want) in runs {
+        let r = sylva(args, &d);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+        let got = sha256_of(&d.join(out));
+        if got != want {
+            wrong.push(format!("{out}: committed {want}, now {got}"));
+        }
+    }
+    gltf_validator::assert_valid_gltf(&[&d.join("grid-out.glb")]);
+    assert!(wrong.is_empty(), "subdivide outputs changed:\n{}", wrong.join("\n"));
+}
+
+const CUBE_SHA: &str = "113192dc652ed5ea376eb0898fa6b566d6a33c89fa39e8832bb1333dc5cc4be7";
+const OCTAHEDRON_SHA: &str = "20dd136668497c78e089459c25bc75102f9996d0e995911c1ef97342ba679018";
+const GRID_SHA: &str = "ad817b47fac9247403e4ced8a2f7969f612da8064a7b3fd8ef8f694c7ab8b9c8";
