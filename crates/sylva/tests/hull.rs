@@ -6,7 +6,10 @@
 mod det_tree;
 #[path = "common/random_tree.rs"]
 mod random_tree;
+#[path = "common/skeletons.rs"]
+mod skeletons;
 use det_tree::tree;
+use skeletons::{chain, seg, whorl};
 
 use glam::{DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
@@ -103,38 +106,6 @@ fn full_check(name: &str, sk: &Skeleton, sides: u32, refine: bool) -> HullMesh {
 
 // ---------------------------------------------------------------------------------------
 // Skeleton builders
-
-fn seg(s: &mut Skeleton, parent: u32, p: Vec3, r: f32) -> u32 {
-    let up = if parent == NO_PARENT {
-        Vec3::X
-    } else {
-        let d = p - s.position[parent as usize];
-        d.any_orthonormal_vector()
-    };
-    s.push(p, r, parent, up, 0)
-}
-
-fn chain(points: &[Vec3], r: f32) -> Skeleton {
-    let mut s = Skeleton::new();
-    let mut at = NO_PARENT;
-    for &p in points {
-        at = seg(&mut s, at, p, r);
-    }
-    s
-}
-
-/// Trunk of height 2 with `n` children fanned around it at `tilt` from vertical.
-fn whorl(n: usize, tilt: f32, r_child: f32) -> Skeleton {
-    let mut s = Skeleton::new();
-    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
-    let top = seg(&mut s, root, Vec3::Y * 2.0, 0.2);
-    for k in 0..n {
-        let a = k as f32 * std::f32::consts::TAU / n as f32;
-        let d = Vec3::new(tilt.sin() * a.cos(), tilt.cos(), tilt.sin() * a.sin());
-        seg(&mut s, top, Vec3::Y * 2.0 + d * 2.0, r_child);
-    }
-    s
-}
 
 fn y_fork() -> Skeleton {
     let mut s = Skeleton::new();
@@ -348,7 +319,7 @@ fn branches_have_regular_loops() {
 #[test]
 fn joints_are_watertight_and_totals_match() {
     for sides in [3u32, 4, 5, 8] {
-        for (name, s) in [("y fork", y_fork()), ("whorl 5", whorl(5, 0.9, 0.08)), ("tree", tree(3, 2))] {
+        for (name, s) in [("y fork", y_fork()), ("whorl 5", whorl(5, 0.9, 0.08, 0.0)), ("tree", tree(3, 2))] {
             let m = hull_mesh(&s, &HullOptions { sides, ..Default::default() }).unwrap();
             assert!(m.fallbacks.is_empty(), "{name}: fallbacks {:?}", m.fallbacks);
             let t = check(name, &m.mesh);
@@ -521,9 +492,9 @@ fn a_root_of_near_parallel_stems_gets_a_flat_base() {
 #[test]
 fn hard_cases_give_a_manifold_or_a_reported_fallback() {
     let mut cases: Vec<(&str, Skeleton)> = Vec::new();
-    cases.push(("whorl of 8", whorl(8, 1.0, 0.08)));
-    cases.push(("whorl of 12, flat", whorl(12, std::f32::consts::FRAC_PI_2, 0.05)));
-    cases.push(("whorl of 6, thick children", whorl(6, 0.8, 0.3)));
+    cases.push(("whorl of 8", whorl(8, 1.0, 0.08, 0.0)));
+    cases.push(("whorl of 12, flat", whorl(12, std::f32::consts::FRAC_PI_2, 0.05, 0.0)));
+    cases.push(("whorl of 6, thick children", whorl(6, 0.8, 0.3, 0.0)));
     // Aligned child: continues the parent straight on, next to a lateral.
     let mut s = Skeleton::new();
     let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
@@ -574,7 +545,7 @@ fn hard_cases_give_a_manifold_or_a_reported_fallback() {
     cases.push(("non-planar short", s));
     // Zero radii everywhere and a skeleton that is one point.
     cases.push(("zero radius", chain(&[Vec3::ZERO, Vec3::Y, Vec3::new(1.0, 2.0, 0.0)], 0.0)));
-    let mut s = whorl(4, 0.7, 0.1);
+    let mut s = whorl(4, 0.7, 0.1, 0.0);
     s.radius.iter_mut().for_each(|r| *r = 0.0);
     cases.push(("zero-radius whorl", s));
     cases.push(("one point", chain(&[Vec3::ONE, Vec3::ONE, Vec3::ONE], 0.1)));
@@ -727,7 +698,7 @@ fn throughput() {
         s.len() as f64 / dt
     );
     for k in [2usize, 5, 10, 20, 50, 100, 200] {
-        let w = whorl(k, 1.2, 0.2 / (k as f32).sqrt());
+        let w = whorl(k, 1.2, 0.2 / (k as f32).sqrt(), 0.0);
         let t0 = std::time::Instant::now();
         let m = hull_mesh(&w, &HullOptions::default()).unwrap();
         println!("whorl {k}: {:.2} ms, fallbacks {}", t0.elapsed().as_secs_f64() * 1e3, m.fallbacks.len());

@@ -11,37 +11,9 @@ use sylva::refine::pn::{
     PnOptions, QuadInterior,
 };
 use sylva::refine::Topology;
-
-fn mesh_from(positions: Vec<Vec3>, faces: &[Vec<u32>]) -> Mesh {
-    let mut m = Mesh::new();
-    m.positions = positions;
-    for f in faces {
-        m.push_face(f);
-    }
-    m
-}
-
-fn cube() -> Mesh {
-    let p =
-        (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0);
-    mesh_from(
-        p.collect(),
-        &[
-            vec![0, 2, 3, 1],
-            vec![4, 5, 7, 6],
-            vec![0, 1, 5, 4],
-            vec![2, 6, 7, 3],
-            vec![0, 4, 6, 2],
-            vec![1, 3, 7, 5],
-        ],
-    )
-}
-
-fn octahedron() -> Mesh {
-    let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    let f = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
-    mesh_from(p, &f.map(|f| f.to_vec()))
-}
+#[path = "common/meshes.rs"]
+mod meshes;
+use meshes::{cube, mesh_from, octahedron};
 
 /// A cube whose top face is split into two triangles: quads and triangles side by side.
 fn mixed() -> Mesh {

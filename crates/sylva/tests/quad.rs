@@ -5,6 +5,9 @@
 
 #[path = "common/random_tree.rs"]
 mod random_tree;
+#[path = "common/skeletons.rs"]
+mod skeletons;
+use skeletons::{chain, seg, whorl};
 
 use glam::Vec3;
 use proptest::prelude::*;
@@ -103,40 +106,6 @@ fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
 
 // ---------------------------------------------------------------------------------------
 // Skeleton builders
-
-fn seg(s: &mut Skeleton, parent: u32, p: Vec3, r: f32) -> u32 {
-    let up = if parent == NO_PARENT {
-        Vec3::X
-    } else {
-        let d = p - s.position[parent as usize];
-        d.any_orthonormal_vector()
-    };
-    s.push(p, r, parent, up, 0)
-}
-
-fn chain(points: &[Vec3], r: f32) -> Skeleton {
-    let mut s = Skeleton::new();
-    let mut at = NO_PARENT;
-    for &p in points {
-        at = seg(&mut s, at, p, r);
-    }
-    s
-}
-
-/// Trunk of height 2 with `n` children fanned around it at `tilt` from vertical; with
-/// `wobble` the children's tilts alternate (a non-planar whorl).
-fn whorl(n: usize, tilt: f32, r_child: f32, wobble: f32) -> Skeleton {
-    let mut s = Skeleton::new();
-    let root = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
-    let top = seg(&mut s, root, Vec3::Y * 2.0, 0.2);
-    for k in 0..n {
-        let a = k as f32 * std::f32::consts::TAU / n as f32;
-        let t = tilt + if k % 2 == 0 { wobble } else { -wobble };
-        let d = Vec3::new(t.sin() * a.cos(), t.cos(), t.sin() * a.sin());
-        seg(&mut s, top, Vec3::Y * 2.0 + d * 2.0, r_child);
-    }
-    s
-}
 
 fn y_fork() -> Skeleton {
     let mut s = Skeleton::new();

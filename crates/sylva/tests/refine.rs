@@ -5,21 +5,15 @@
 use glam::{Vec2, Vec3};
 use sylva::geometry::{Crease, FaceVarying, Mesh};
 use sylva::refine::{
-    loop_, subdivide, Corner, FvarInterpolation, RefineError, RefineOptions, Refiner, Scheme,
-    SubdivideOptions, Topology,
+    loop_, subdivide, subdivide_traced, Corner, FvarInterpolation, RefineError, RefineOptions, Refiner,
+    Scheme, SubdivideOptions, Topology,
 };
+#[path = "common/meshes.rs"]
+mod meshes;
+use meshes::{cube, mesh_from, octahedron, tetrahedron};
 
 // ---------------------------------------------------------------------------------------
 // Meshes
-
-fn mesh_from(positions: Vec<Vec3>, faces: &[Vec<u32>]) -> Mesh {
-    let mut m = Mesh::new();
-    m.positions = positions;
-    for f in faces {
-        m.push_face(f);
-    }
-    m
-}
 
 /// (nx+1)×(ny+1) vertices, vertex (i, j) at index j·(nx+1) + i, quads counter-clockwise.
 fn grid_quads(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
@@ -49,51 +43,6 @@ fn grid_tris(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
         }
     }
     mesh_from(pos, &faces)
-}
-
-fn cube() -> Mesh {
-    let p =
-        (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0);
-    mesh_from(
-        p.collect(),
-        &[
-            vec![0, 2, 3, 1],
-            vec![4, 5, 7, 6],
-            vec![0, 1, 5, 4],
-            vec![2, 6, 7, 3],
-            vec![0, 4, 6, 2],
-            vec![1, 3, 7, 5],
-        ],
-    )
-}
-
-fn tetrahedron() -> Mesh {
-    mesh_from(
-        vec![
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(1.0, -1.0, -1.0),
-            Vec3::new(-1.0, 1.0, -1.0),
-            Vec3::new(-1.0, -1.0, 1.0),
-        ],
-        &[vec![0, 1, 2], vec![0, 3, 1], vec![0, 2, 3], vec![1, 3, 2]],
-    )
-}
-
-fn octahedron() -> Mesh {
-    let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    mesh_from(
-        p,
-        &[
-            vec![0, 2, 4],
-            vec![2, 1, 4],
-            vec![1, 3, 4],
-            vec![3, 0, 4],
-            vec![2, 0, 5],
-            vec![1, 2, 5],
-            vec![3, 1, 5],
-            vec![0, 3, 5],
-        ],
-    )
 }
 
 /// Torus of n×m quads (or 2nm triangles), ring `i` around the big circle.
@@ -220,6 +169,28 @@ fn loop_counts_per_level() {
         m = c;
     }
     assert_eq!(refine(&octahedron(), Scheme::Loop, 3).face_count(), 8 * 64);
+}
+
+/// Every refined face knows its control face: 4^L children per triangle under Loop; under
+/// Catmull–Clark a quad has 4^L and a triangle 3·4^(L−1), numbered in face order.
+#[test]
+fn refined_faces_trace_back_to_their_control_face() {
+    let opts = |scheme, levels| SubdivideOptions {
+        refine: RefineOptions { scheme, levels, ..Default::default() },
+        ..Default::default()
+    };
+    let (fine, up) = subdivide_traced(&octahedron(), &[], &opts(Scheme::Loop, 2)).unwrap();
+    assert_eq!(up.len(), fine.face_count());
+    assert!(up.iter().enumerate().all(|(f, &c)| c as usize == f / 16), "Loop: 16 children per face");
+    // A triangle and a quad side by side (triangle first: `f >> 2L` would be wrong).
+    let m = mesh_from(
+        vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::new(2.0, 0.5, 0.0)],
+        &[vec![1, 4, 2], vec![0, 1, 2, 3]],
+    );
+    let (fine, up) = subdivide_traced(&m, &[], &opts(Scheme::CatmullClark, 2)).unwrap();
+    assert_eq!(fine.face_count(), 28);
+    let expected: Vec<u32> = std::iter::repeat(0).take(12).chain(std::iter::repeat(1).take(16)).collect();
+    assert_eq!(up, expected);
 }
 
 #[test]

@@ -11,31 +11,20 @@ use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::adaptive::{adaptive_loop, adaptive_loop_levels, AdaptiveOptions};
 use sylva::refine::noise::{bias, displace, subdivide_with_noise, FeatureSize, NoiseOptions};
 use sylva::refine::{subdivide, Corner, RefineOptions, Scheme, SubdivideOptions, Topology};
+#[path = "common/meshes.rs"]
+mod meshes;
+use meshes::mesh_from;
 
 // ---------------------------------------------------------------------------------------
 // Meshes and checks
 
-fn mesh_from(positions: Vec<Vec3>, faces: &[[u32; 3]]) -> Mesh {
-    let mut m = Mesh::new();
-    m.positions = positions;
-    for f in faces {
-        m.push_face(f);
+/// An octahedron stretched along x (a closed mesh with sharp and flat-ish parts).
+fn stretched_octahedron() -> Mesh {
+    let mut m = meshes::octahedron();
+    for p in &mut m.positions {
+        p.x *= 3.0;
     }
     m
-}
-
-/// An octahedron stretched along x (a closed mesh with sharp and flat-ish parts).
-fn octahedron() -> Mesh {
-    let p = vec![
-        Vec3::new(3.0, 0.0, 0.0),
-        Vec3::new(-3.0, 0.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::new(0.0, -1.0, 0.0),
-        Vec3::new(0.0, 0.0, 1.0),
-        Vec3::new(0.0, 0.0, -1.0),
-    ];
-    let f = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
-    mesh_from(p, &f)
 }
 
 /// A triangulated n×n grid on [0, 1]² with a bump of height `h` around (0.8, 0.8).
@@ -259,7 +248,7 @@ fn max_distance(points: &[Vec3], m: &Mesh) -> f32 {
 
 #[test]
 fn closed_mesh_stays_closed_without_t_junctions() {
-    let m = octahedron();
+    let m = stretched_octahedron();
     for (flatness, min_area) in [(0.2, 0.0), (0.6, 0.01), (1.2, 0.05), (0.3, 0.2)] {
         let opts = AdaptiveOptions { max_levels: 4, flatness, min_area, ..Default::default() };
         let (out, levels) = adaptive_loop_levels(&m, &[], &opts).unwrap();
@@ -291,7 +280,7 @@ fn crack_check_detects_a_t_junction() {
     // The hole along the diagonal leaves vertex 0 with two separate fans of faces.
     assert!(!conforming_problems(&square, &cracked).is_empty());
     // On a closed mesh: the octahedron with one face split green on one side only.
-    let o = octahedron();
+    let o = stretched_octahedron();
     let mut t = o.clone();
     let [a, b, c] = [o.face(0)[0], o.face(0)[1], o.face(0)[2]];
     let m = t.positions.len() as u32;
@@ -310,7 +299,7 @@ fn crack_check_detects_a_t_junction() {
 #[test]
 fn infinite_flatness_or_huge_size_means_no_refinement() {
     // Spec 001 test 27.
-    let m = octahedron();
+    let m = stretched_octahedron();
     for opts in [
         AdaptiveOptions { flatness: f32::INFINITY, min_area: 0.0, ..Default::default() },
         AdaptiveOptions { flatness: 0.0, min_area: 1e9, ..Default::default() },
@@ -324,7 +313,7 @@ fn infinite_flatness_or_huge_size_means_no_refinement() {
 #[test]
 fn zero_tolerances_equal_uniform_loop() {
     // Everything refined to the deepest level: exactly Loop's uniform result.
-    let m = octahedron();
+    let m = stretched_octahedron();
     let opts = AdaptiveOptions { max_levels: 3, flatness: 0.0, min_area: 0.0, ..Default::default() };
     let out = adaptive_loop(&m, &[], &opts).unwrap();
     let uni = loop_uniform(&m, 3, false);
@@ -382,7 +371,7 @@ fn flat_regions_stay_coarse_and_the_bump_is_refined() {
 #[test]
 fn seams_and_creases_survive() {
     // A sharp crease across the octahedron's equator: conforming, and positions finite.
-    let mut m = octahedron();
+    let mut m = stretched_octahedron();
     m.creases = vec![
         sylva::geometry::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
         sylva::geometry::Crease { a: 2, b: 1, sharpness: 2.0 },
@@ -394,7 +383,7 @@ fn seams_and_creases_survive() {
 
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
-    let m = octahedron();
+    let m = stretched_octahedron();
     assert!(adaptive_loop(&m, &[], &AdaptiveOptions { flatness: f32::NAN, ..Default::default() }).is_err());
     assert!(adaptive_loop(&m, &[], &AdaptiveOptions { min_area: -1.0, ..Default::default() }).is_err());
     assert!(adaptive_loop(&m, &[], &AdaptiveOptions { max_levels: 40, ..Default::default() }).is_err());
@@ -402,7 +391,7 @@ fn bad_input_is_an_error_not_a_panic() {
     quad.positions = vec![Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
     quad.push_face(&[0, 1, 2, 3]);
     assert!(adaptive_loop(&quad, &[], &AdaptiveOptions::default()).is_err());
-    let mut bad = octahedron();
+    let mut bad = stretched_octahedron();
     bad.face_indices[0] = 99;
     assert!(adaptive_loop(&bad, &[], &AdaptiveOptions::default()).is_err());
     assert_eq!(adaptive_loop(&Mesh::new(), &[], &AdaptiveOptions::default()).unwrap().face_count(), 0);
@@ -491,7 +480,7 @@ fn bias_function_properties() {
 
 fn sphere() -> Mesh {
     // Octahedron projected to the unit sphere and refined once: a round closed mesh.
-    let m = loop_uniform(&octahedron(), 1, false);
+    let m = loop_uniform(&stretched_octahedron(), 1, false);
     let mut m = m;
     m.positions.iter_mut().for_each(|p| *p = p.normalize());
     m
@@ -519,12 +508,13 @@ fn noise_is_deterministic_and_zero_scale_is_no_noise() {
         refine: RefineOptions { scheme: Scheme::Loop, levels: 3, ..Default::default() },
         ..Default::default()
     };
-    let x = subdivide_with_noise(&octahedron(), &[], &so, &opts, 7).unwrap();
-    let y = subdivide_with_noise(&octahedron(), &[], &so, &opts, 7).unwrap();
+    let x = subdivide_with_noise(&stretched_octahedron(), &[], &so, &opts, 7).unwrap();
+    let y = subdivide_with_noise(&stretched_octahedron(), &[], &so, &opts, 7).unwrap();
     assert_eq!(x, y);
-    let plain = subdivide(&octahedron(), &[], &so).unwrap();
+    let plain = subdivide(&stretched_octahedron(), &[], &so).unwrap();
     let zero =
-        subdivide_with_noise(&octahedron(), &[], &so, &NoiseOptions { k: 0.0, ..opts.clone() }, 7).unwrap();
+        subdivide_with_noise(&stretched_octahedron(), &[], &so, &NoiseOptions { k: 0.0, ..opts.clone() }, 7)
+            .unwrap();
     assert_eq!(zero, plain);
     assert_ne!(x, plain);
     assert_eq!(x.face_count(), plain.face_count());
@@ -595,7 +585,7 @@ fn bias_scales_noise_per_vertex() {
 #[test]
 fn sparse_deepest_level_matches_uniform_with_creases_corners_and_boundary() {
     use sylva::refine::{BoundaryInterpolation, CreasingMethod};
-    let mut oct = octahedron();
+    let mut oct = stretched_octahedron();
     oct.creases = vec![
         sylva::geometry::Crease { a: 0, b: 2, sharpness: f32::INFINITY },
         sylva::geometry::Crease { a: 2, b: 1, sharpness: 1.5 },

@@ -565,16 +565,13 @@ fn repair(
     repairs: &mut Repairs,
 ) -> bool {
     use crate::mesh::check::group_crossings;
-    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+    use crate::refine::{subdivide_traced, RefineOptions, Scheme, SubdivideOptions};
     let opts = SubdivideOptions {
         refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
         ..Default::default()
     };
-    let Ok(fine) = subdivide(mesh, &[], &opts) else { return false };
+    let Ok((fine, up)) = subdivide_traced(mesh, &[], &opts) else { return false };
     let parent = |o: u32| if o == NONE { NONE } else { sk.parent[o as usize] };
-    // Catmull–Clark numbers the children of quad `f` `4f..4f + 4`, so a level-L face
-    // descends from control face `f >> 2L`.
-    let shift = 2 * levels;
     let branching = |j: u32| j != NONE && lead[j as usize] != NONE;
     // The junctions each control face is searched with: its node's, its parent's and its
     // grandparent's, where that node branches (and, after the first round, is due).
@@ -590,7 +587,7 @@ fn repair(
     let mut tris: Vec<(u32, [u32; 3], u32)> = Vec::with_capacity(fine.face_count() * 3);
     for f in 0..fine.face_count() {
         let v = fine.face(f);
-        for key in keys[f >> shift] {
+        for key in keys[up[f] as usize] {
             if key != NONE {
                 tris.push((key, [v[0], v[1], v[2]], f as u32));
                 tris.push((key, [v[0], v[2], v[3]], f as u32));
@@ -614,7 +611,7 @@ fn repair(
     let mut dirty = vec![false; sk.len()];
     for (j, fa, fb) in crossings {
         dirty[j as usize] = true;
-        let (oa, ob) = (owner[fa as usize >> shift], owner[fb as usize >> shift]);
+        let (oa, ob) = (owner[up[fa as usize] as usize], owner[up[fb as usize] as usize]);
         let (ca, cb) = (path(oa, j), path(ob, j));
         if let Some(c) = ca.filter(|_| ca == cb) {
             // Inside one child's subtree: its own junction's business, unless the child's

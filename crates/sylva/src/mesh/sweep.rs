@@ -1363,7 +1363,7 @@ fn folded_junctions(
     levels: u32,
     checked: &mut [bool],
 ) -> HashSet<u32> {
-    use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+    use crate::refine::{subdivide_traced, RefineOptions, Scheme, SubdivideOptions};
     let mut out = HashSet::new();
     // A junction's own faces and the first strips of its children.
     let junction = |f: usize| {
@@ -1381,13 +1381,12 @@ fn folded_junctions(
         refine: RefineOptions { scheme: Scheme::Loop, levels, ..Default::default() },
         ..Default::default()
     };
-    let Ok(fine) = subdivide(mesh, &[], &opts) else { return out };
-    let shift = 2 * levels;
+    let Ok((fine, up)) = subdivide_traced(mesh, &[], &opts) else { return out };
     // The refined triangles of each junction, searched among themselves.
     let tris: Vec<(u32, [u32; 3], u32)> = (0..fine.face_count())
         .filter_map(|f| {
             let v = fine.face(f);
-            junction(f >> shift).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]], f as u32))
+            junction(up[f] as usize).filter(|_| v.len() == 3).map(|j| (j, [v[0], v[1], v[2]], f as u32))
         })
         .collect();
     for t in &tris {

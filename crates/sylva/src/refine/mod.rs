@@ -688,6 +688,29 @@ impl Refiner {
             .collect()
     }
 
+    /// The face of level `l` that face `child` of level `l + 1` was cut from: Loop numbers
+    /// the four children of triangle `f` `4f..4f + 4`; Catmull–Clark's child face `c` is
+    /// the child of parent corner `c`, so it lies in the face that holds that corner
+    /// (`4f..4f + 4` only when every face is a quad).
+    pub fn parent_face(&self, l: usize, child: u32) -> u32 {
+        match self.options.scheme {
+            Scheme::Loop => child / 4,
+            Scheme::CatmullClark => self.levels[l].topo.face_of(child),
+        }
+    }
+
+    /// For every face of the finest level, the control-mesh face it descends from (how a
+    /// mesher maps refined faces back to its skeleton nodes without refining twice).
+    pub fn control_faces(&self) -> Vec<u32> {
+        let mut up: Vec<u32> = (0..self.finest().face_count() as u32).collect();
+        for l in (0..self.levels()).rev() {
+            for f in &mut up {
+                *f = self.parent_face(l, *f);
+            }
+        }
+        up
+    }
+
     /// The finest level's faces as a [`Mesh`] with `positions` (no face-varying data).
     pub fn finest_mesh(&self, positions: Vec<Vec3>) -> Mesh {
         let t = self.finest();
@@ -772,6 +795,16 @@ pub struct SubdivideOptions {
 /// Input normals are dropped (they no longer describe the surface); with
 /// [`SubdivideOptions::limit`] the result has exact limit normals instead.
 pub fn subdivide(mesh: &Mesh, corners: &[Corner], options: &SubdivideOptions) -> Result<Mesh, RefineError> {
+    subdivide_traced(mesh, corners, options).map(|(m, _)| m)
+}
+
+/// [`subdivide`], also returning the control face of every refined face
+/// ([`Refiner::control_faces`]).
+pub fn subdivide_traced(
+    mesh: &Mesh,
+    corners: &[Corner],
+    options: &SubdivideOptions,
+) -> Result<(Mesh, Vec<u32>), RefineError> {
     mesh.validate().map_err(RefineError::InvalidMesh)?;
     let mut ro = options.refine.clone();
     ro.full_last_level |= options.limit;
@@ -789,7 +822,7 @@ pub fn subdivide(mesh: &Mesh, corners: &[Corner], options: &SubdivideOptions) ->
         let fvr = refiner.face_varying(&uvs.indices, options.uv)?;
         out.uvs = Some(fvr.interpolate(&uvs.values)?);
     }
-    Ok(out)
+    Ok((out, refiner.control_faces()))
 }
 
 /// Runs `f` on a dedicated rayon pool of `threads` workers (refinement inside it uses that
