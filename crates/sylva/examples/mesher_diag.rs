@@ -18,7 +18,7 @@
 //! ```
 //!
 //! `--control` groups the control mesh's own intersections instead of level 2's;
-//! `--clear` runs the pipeline's mesh clearing (`sylva::mesh::clear`) first and
+//! `--clear` runs the pipeline's mesh clearing (`sylva::fit::clear`) first and
 //! diagnoses what it leaves (`SYLVA_CLEAR_PATIENCE` overrides its patience); `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves, with the chains from their common
@@ -36,9 +36,9 @@
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
+use sylva::fit::clear::{clear_crossings, ClearOptions};
+use sylva::fit::decollide::{decollide, DecollideOptions};
 use sylva::mesh::check::{check_mesh, CheckOptions};
-use sylva::mesh::clear::{clear_crossings, ClearOptions};
-use sylva::mesh::decollide::{decollide, DecollideOptions};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
 use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
@@ -79,7 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     override_from_env("SYLVA_DECOLLIDE_MAX_MOVED", &mut dopts.max_moved);
     let d = if args.iter().any(|a| a == "--raw") {
         let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
-        sylva::mesh::decollide::DecollideReport {
+        sylva::fit::decollide::DecollideReport {
             before: left.len(),
             after: left.len(),
             unresolved: left,

@@ -1,9 +1,10 @@
 //! # sylva — procedural trees and plants
 //!
 //! ```text
-//!  recipe (TOML) ─► generator ─────────► Skeleton ─► mesher ─► Mesh ─► Model ─► export
-//!                   lsystem (parse → derive → turtle)   tube                 glb gltf obj ply
-//!                                                                            preview (PNG)
+//!  recipe ─► generator ─► Skeleton ─► fit ───────► mesher ───► Cage ─► refine ─► Model ─► export
+//!  (TOML)    lsystem, import,         decollide    tube, hull,          Loop, CC,         glb gltf
+//!            weber-penn, colonize,    clear        sweep, quad          limit, noise      obj ply
+//!            least-cost                                                                   preview
 //! ```
 //!
 //! The engine crate: pure Rust, no GPU and no CLI dependencies. Every stage is a plain
@@ -14,6 +15,7 @@
 //! - [`skeleton`]: the parent-first branching skeleton;
 //! - [`geometry`] and [`model`]: the plain data every stage shares (meshes; models with
 //!   parts, instances, rig, LODs and branch curves);
+//! - [`fit`]: the skeleton passes before meshing (de-collision, mesh-checked thinning);
 //! - [`mesh`]: the meshers (`tube`, `hull`, `sweep`, `quad`), the checker, organs;
 //! - [`export`]: glTF 2.0 (`.glb`, `.gltf`), OBJ + MTL and binary PLY writers;
 //! - [`preview`]: a CPU rasterizer that renders a model to a PNG;
@@ -25,6 +27,7 @@ pub mod curves;
 pub mod diagnostic;
 pub mod error;
 pub mod export;
+pub mod fit;
 pub mod fsutil;
 pub mod geometry;
 pub mod grow;

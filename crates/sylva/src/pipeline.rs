@@ -37,9 +37,9 @@ pub struct Report {
     /// Time spent meshing.
     pub mesh_time: Duration,
     /// What the skeleton de-collision did (`mesh.decollide`), when it ran.
-    pub decollide: Option<crate::mesh::decollide::DecollideReport>,
+    pub decollide: Option<crate::fit::decollide::DecollideReport>,
     /// What the mesh-checked thinning did (`mesh.clear`), when it ran.
-    pub clear: Option<crate::mesh::clear::ClearReport>,
+    pub clear: Option<crate::fit::clear::ClearReport>,
     /// Surfaces (`~x`) the model places but no `.s` file provides.
     pub missing_surfaces: Vec<String>,
     /// Problems that did not stop the run (printed by the CLI).
@@ -375,18 +375,21 @@ pub fn mesh(
     let t = Instant::now();
     let control = control_mesh(recipe, skeleton, report)?;
     report.mesh_time = t.elapsed();
-    finish(recipe, control, skeleton, surfaces, report)
+    finish(recipe, Fitted { control, refined: None }, skeleton, surfaces, report)
 }
 
 /// Refines the bark's control mesh and adds the leaves: the model.
 fn finish(
     recipe: &Recipe,
-    control: Mesh,
+    fitted: Fitted,
     skeleton: &Skeleton,
     surfaces: &HashMap<String, Mesh>,
     report: &mut Report,
 ) -> Result<Model> {
-    let bark = refine_bark(recipe, control)?;
+    let bark = match fitted.refined {
+        Some(refined) => refined,
+        None => refine_bark(recipe, fitted.control)?,
+    };
     let mut parts =
         vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
     if !skeleton.organs.is_empty() {
@@ -447,9 +450,8 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
 
 /// Pulls apart the skeleton's crossing branches before meshing (`mesh.decollide`), and
 /// warns about the collisions it could not resolve.
-pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
-    use crate::mesh::decollide::{decollide, DecollideOptions};
-    let r = decollide(skeleton, &DecollideOptions::default())?;
+pub fn decollide_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
+    let r = crate::fit::decollide::decollide(skeleton, &recipe.fit.decollide)?;
     if r.after > 0 {
         report.warnings.push(format!(
             "decollide: {} of {} skeleton collision(s) left; the mesh will intersect itself there (first internode pairs, by child node: {:?})",
@@ -462,22 +464,42 @@ pub fn decollide_skeleton(skeleton: &mut Skeleton, report: &mut Report) -> Resul
     Ok(())
 }
 
+/// A control mesh the fitting stage already made, with its refinement when that is the
+/// one `[refine]` asks for.
+pub struct Fitted {
+    /// The bark's control mesh of the skeleton the fitting left.
+    pub control: Mesh,
+    /// `control` refined exactly as `[refine]` says (levels ≤ 3, no limit), or `None`.
+    pub refined: Option<Mesh>,
+}
+
 /// Thins the skeleton where the recipe's mesh, refined as `[refine]` says (the control
 /// mesh itself for `refine.scheme = "none"`), still crosses itself (`mesh.clear`, see
-/// [`crate::mesh::clear`]), and warns about what is left. Returns the control mesh of the
+/// [`crate::fit::clear`]), and warns about what is left. Returns the control mesh of the
 /// skeleton it leaves when that was the last one meshed (its axes, warnings and meshing
-/// time then go to `report`), so the caller need not mesh it again.
-pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<Option<Mesh>> {
-    use crate::mesh::clear::{clear_crossings, ClearOptions};
+/// time then go to `report`) and the refinement it searched when `[refine]` asks for the
+/// same one, so the caller need not mesh or refine it again.
+pub fn clear_skeleton(
+    recipe: &Recipe,
+    skeleton: &mut Skeleton,
+    report: &mut Report,
+) -> Result<Option<Fitted>> {
+    use crate::fit::clear::{clear_crossings_refined, ClearOptions};
     use crate::refine::Scheme;
     let (scheme, levels) = match recipe.refine_scheme()? {
         Some(scheme) => (scheme, recipe.refine.levels.min(3)),
         None => (Scheme::Loop, 0),
     };
-    let opts = ClearOptions { levels, ..Default::default() };
+    let opts = ClearOptions { levels, ..recipe.fit.clear.clone() };
+    // The clearing's refinement is the output's when it has the same scheme and levels
+    // and no limit step (the same `subdivide` call, so the same bytes).
+    let reusable = recipe.refine_scheme()?.is_some()
+        && levels == recipe.refine.levels
+        && levels > 0
+        && !recipe.refine.limit;
     // The last meshing's report and the radii it was made with.
     let mut last: Option<(Report, Vec<f32>)> = None;
-    let (control, r) = clear_crossings(skeleton, &opts, |s| {
+    let cleared = clear_crossings_refined(skeleton, &opts, |s| {
         let t = Instant::now();
         let mut own = Report::default();
         let mesh = control_mesh(recipe, s, &mut own)?;
@@ -485,6 +507,7 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
         last = Some((own, s.radius.clone()));
         Ok((mesh, scheme))
     })?;
+    let r = cleared.report;
     match (r.before, r.after) {
         (None, _) => report.warnings.push(format!(
             "mesh clearing skipped: the refined mesh would have over {} faces",
@@ -504,7 +527,8 @@ pub fn clear_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Rep
             report.axes = own.axes;
             report.mesh_time = own.mesh_time;
             report.warnings.extend(own.warnings);
-            Ok(Some(control))
+            let refined = cleared.refined.filter(|_| reusable);
+            Ok(Some(Fitted { control: cleared.control, refined }))
         }
         _ => Ok(None),
     }
@@ -516,7 +540,7 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let Generated { mut skeleton, surfaces, curves } = skeleton(loaded, &mut report)?;
     report.skeleton = skeleton.stats();
     if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
-        decollide_skeleton(&mut skeleton, &mut report)?;
+        decollide_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;
     } else if loaded.recipe.mesh.decollides() {
         report.warnings.push(format!(
             "decollide skipped: {} skeleton nodes is over the automatic limit of {} (the pass would take many seconds); set mesh.decollide = true to run it",
@@ -536,7 +560,7 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
         None
     };
     let mut model = match cleared {
-        Some(control) => finish(&loaded.recipe, control, &skeleton, &surfaces, &mut report)?,
+        Some(fitted) => finish(&loaded.recipe, fitted, &skeleton, &surfaces, &mut report)?,
         None => mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?,
     };
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));

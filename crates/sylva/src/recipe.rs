@@ -7,6 +7,8 @@
 //! reported.
 
 use crate::error::{Error, Result};
+use crate::fit::clear::ClearOptions;
+use crate::fit::decollide::DecollideOptions;
 use crate::mesh::hull::HullOptions;
 use crate::mesh::quad::QuadOptions;
 use crate::mesh::sweep::{SweepOptions, SweepTips};
@@ -34,6 +36,9 @@ pub struct Recipe {
     /// The mesher.
     #[serde(default)]
     pub mesh: MeshSection,
+    /// The skeleton passes before meshing (`[fit.decollide]`, `[fit.clear]`).
+    #[serde(default)]
+    pub fit: FitSection,
     /// Subdivision of the mesher's control mesh.
     #[serde(default)]
     pub refine: RefineSection,
@@ -170,13 +175,13 @@ pub struct MeshSection {
     #[serde(default = "default_tips")]
     pub tips: String,
     /// Pull apart branches that pass through each other before meshing
-    /// ([`crate::mesh::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
+    /// ([`crate::fit::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
     /// `quad`) on skeletons of up to [`DECOLLIDE_AUTO_NODES`] nodes, off for `tube`
     /// (see [`MeshSection::decollides`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decollide: Option<bool>,
     /// After meshing, thin the skeleton where the surface, refined as `[refine]` says,
-    /// still crosses itself, and mesh again ([`crate::mesh::clear`]). Unset: whenever
+    /// still crosses itself, and mesh again ([`crate::fit::clear`]). Unset: whenever
     /// the skeleton is de-collided (see [`MeshSection::clears_nodes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear: Option<bool>,
@@ -283,6 +288,20 @@ impl Default for MeshSection {
             quad: QuadOptions::default(),
         }
     }
+}
+
+/// `[fit]`: options of the skeleton passes between the generator and the mesher
+/// ([`crate::fit`]); whether each runs is `mesh.decollide` / `mesh.clear`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSection {
+    /// `[fit.decollide]`: the skeleton de-collision's options.
+    #[serde(default)]
+    pub decollide: DecollideOptions,
+    /// `[fit.clear]`: the mesh-checked thinning's options (its check level follows
+    /// `refine.levels`).
+    #[serde(default)]
+    pub clear: ClearOptions,
 }
 
 /// `[refine]`: subdivision of the bark control mesh.
@@ -602,16 +621,23 @@ impl Recipe {
                 }
             }
         }
+        // The shared keys first: each mesher's table is checked with them filled in.
+        if !(3..=1024).contains(&self.mesh.sides) {
+            return bad("mesh.sides", format!("must be in 3..=1024, got {}", self.mesh.sides));
+        }
         self.mesh.mesher()?.check()?;
+        // The other meshers' tables too: a bad value is a mistake even where unused.
+        for method in Mesher::NAMES {
+            MeshSection { method: method.to_string(), ..self.mesh.clone() }.mesher()?.check()?;
+        }
+        self.fit.decollide.check()?;
+        self.fit.clear.check()?;
         self.refine_scheme()?;
         if self.refine.levels > 6 {
             return bad(
                 "refine.levels",
                 format!("is {}; at most 6 (each level multiplies faces by 4)", self.refine.levels),
             );
-        }
-        if !(3..=1024).contains(&self.mesh.sides) {
-            return bad("mesh.sides", format!("must be in 3..=1024, got {}", self.mesh.sides));
         }
         if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
@@ -629,6 +655,75 @@ impl Recipe {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The keys of the `docs/recipe.md` table under the heading `heading`.
+    fn documented_keys(heading: &str) -> Vec<String> {
+        let doc = include_str!("../../../docs/recipe.md");
+        let start = doc.find(heading).unwrap_or_else(|| panic!("docs/recipe.md has no {heading}"));
+        doc[start..]
+            .lines()
+            .skip(1)
+            .take_while(|l| !l.starts_with('#'))
+            .filter_map(|l| l.strip_prefix("| `"))
+            .filter_map(|l| l.split('`').next())
+            .map(str::to_string)
+            .collect()
+    }
+
+    /// Every field of the `[mesh.*]` and `[fit.*]` tables is documented, every documented
+    /// key is accepted by `--set` with its default value, and an unknown key is an error.
+    #[test]
+    fn mesher_and_fit_tables_match_their_docs() {
+        fn table_of(r: &Recipe, table: &str) -> toml::Value {
+            match table {
+                "mesh.tube" => toml::Value::try_from(&r.mesh.tube),
+                "mesh.hull" => toml::Value::try_from(&r.mesh.hull),
+                "mesh.sweep" => toml::Value::try_from(&r.mesh.sweep),
+                "mesh.quad" => toml::Value::try_from(&r.mesh.quad),
+                "fit.decollide" => toml::Value::try_from(&r.fit.decollide),
+                _ => toml::Value::try_from(&r.fit.clear),
+            }
+            .unwrap()
+        }
+        let tables: [(&str, &str, toml::Value); 6] = [
+            ("mesh.tube", "### `[mesh.tube]`", toml::Value::try_from(TubeOptions::default()).unwrap()),
+            ("mesh.hull", "### `[mesh.hull]`", toml::Value::try_from(HullOptions::default()).unwrap()),
+            ("mesh.sweep", "### `[mesh.sweep]`", toml::Value::try_from(SweepOptions::default()).unwrap()),
+            ("mesh.quad", "### `[mesh.quad]`", toml::Value::try_from(QuadOptions::default()).unwrap()),
+            (
+                "fit.decollide",
+                "### `[fit.decollide]`",
+                toml::Value::try_from(DecollideOptions::default()).unwrap(),
+            ),
+            ("fit.clear", "### `[fit.clear]`", toml::Value::try_from(ClearOptions::default()).unwrap()),
+        ];
+        for (table, heading, defaults) in tables {
+            let fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();
+            let mut documented = documented_keys(heading);
+            documented.sort();
+            let mut sorted = fields.clone();
+            sorted.sort();
+            assert_eq!(documented, sorted, "{table}: documented keys vs fields");
+            for (k, v) in defaults.as_table().unwrap() {
+                let l = load("lsys-honda-a", &[(format!("{table}.{k}"), v.clone())])
+                    .unwrap_or_else(|e| panic!("{table}.{k} = {v}: {e}"));
+                assert_eq!(table_of(&l.recipe, table), defaults, "{table}.{k}: the table is at its defaults");
+            }
+            let e = load("lsys-honda-a", &sets(&[&format!("{table}.no_such_key=1")])).unwrap_err();
+            assert!(e.to_string().contains("no_such_key"), "{table}: {e}");
+        }
+        // Out of range: the error names the key.
+        for (kv, key) in [
+            ("fit.decollide.clearance=2", "fit.decollide.clearance"),
+            ("fit.decollide.max_rounds=1000", "fit.decollide.max_rounds"),
+            ("fit.clear.step=1.5", "fit.clear.step"),
+            ("fit.clear.max_pairs=0", "fit.clear.max_pairs"),
+            ("mesh.quad.support=-1", "mesh.quad.support"),
+        ] {
+            let e = load("lsys-honda-a", &sets(&[kv])).unwrap_err();
+            assert!(e.to_string().contains(key), "{kv}: {e}");
+        }
+    }
 
     fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
         kv.iter().map(|s| parse_set(s).unwrap()).collect()

@@ -1,11 +1,11 @@
-//! Skeleton de-collision (`sylva::mesh::decollide`, issue 5): crossing branches are
+//! Skeleton de-collision (`sylva::fit::decollide`, issue 5): crossing branches are
 //! separated, near-joint thickness overlaps are thinned, collision-free skeletons are
 //! left alone, roots and topology never change, the result is deterministic, and what
 //! cannot be resolved is reported.
 
 use glam::Vec3;
+use sylva::fit::decollide::{decollide, DecollideOptions, DecollideReport};
 use sylva::mesh::check::skeleton_collisions;
-use sylva::mesh::decollide::{decollide, DecollideOptions, DecollideReport};
 use sylva::skeleton::{Organ, OrganKind};
 use sylva::{Skeleton, NO_PARENT};
 

@@ -12,8 +12,8 @@
 //!
 //! `cargo test -p sylva --test meshers -- --nocapture` prints the table.
 //!
-//! After `sylva::mesh::decollide` (the pipeline's default for the joint meshers) most
-//! skeletons are collision-free, and `sylva::mesh::clear` then thins them where the
+//! After `sylva::fit::decollide` (the pipeline's default for the joint meshers) most
+//! skeletons are collision-free, and `sylva::fit::clear` then thins them where the
 //! level-2 mesh still crosses itself: `decollided_presets_mesh_without_self_intersections`
 //! asserts no self-intersection, also at level 2, for the small presets where that is
 //! achieved; `decollide_table_of_every_preset` (ignored: run it in release) prints the
@@ -21,9 +21,9 @@
 
 mod common;
 
+use sylva::fit::clear::{clear_crossings, ClearOptions};
+use sylva::fit::decollide::{decollide, DecollideOptions};
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
-use sylva::mesh::clear::{clear_crossings, ClearOptions};
-use sylva::mesh::decollide::{decollide, DecollideOptions};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
 use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
@@ -239,7 +239,7 @@ fn joint_mesh(preset: &str, mesher: &str, sk: &Skeleton) -> (Mesh, Scheme) {
 }
 
 /// One preset after `decollide` and, per joint mesher, the mesh clearing
-/// (`sylva::mesh::clear`, as the pipeline runs them): skeleton collisions before and
+/// (`sylva::fit::clear`, as the pipeline runs them): skeleton collisions before and
 /// after, and per joint mesher of `meshers` the self-intersections of the control mesh
 /// and of its level-2 refinement before and after clearing (`None`: level 2 over
 /// `level2_faces` faces, not searched).
@@ -291,7 +291,7 @@ fn decollided(preset: &str, meshers: &[&str], level2_faces: usize) -> Option<Dec
 }
 
 /// Presets (and joint meshers) that `decollide` makes collision-free and whose meshes,
-/// after the mesh clearing (`sylva::mesh::clear`, as the pipeline runs it), have no
+/// after the mesh clearing (`sylva::fit::clear`, as the pipeline runs it), have no
 /// self-intersection at Loop / Catmull–Clark level 2 (issue 5's acceptance; the hull and
 /// sweep control meshes too), small enough for CI. `decollide_table_of_every_preset` (ignored, run in
 /// release) covers every preset and prints the table in `docs/meshers.md`.

@@ -189,7 +189,7 @@ fn refined_faces_trace_back_to_their_control_face() {
     );
     let (fine, up) = subdivide_traced(&m, &[], &opts(Scheme::CatmullClark, 2)).unwrap();
     assert_eq!(fine.face_count(), 28);
-    let expected: Vec<u32> = std::iter::repeat(0).take(12).chain(std::iter::repeat(1).take(16)).collect();
+    let expected: Vec<u32> = std::iter::repeat_n(0, 12).chain(std::iter::repeat_n(1, 16)).collect();
     assert_eq!(up, expected);
 }
 

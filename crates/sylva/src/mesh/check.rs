@@ -453,7 +453,7 @@ fn newell(mesh: &Mesh, face: &[u32]) -> DVec3 {
     n
 }
 
-/// An axis-aligned box (shared with [`crate::mesh::decollide`]).
+/// An axis-aligned box (shared with [`crate::fit::decollide`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Aabb {
     pub(crate) lo: DVec3,

@@ -5,8 +5,6 @@
 //! is [`crate::model::Model`]: plain data below every stage.
 
 pub mod check;
-pub mod clear;
-pub mod decollide;
 pub mod hull;
 pub mod obj_read;
 pub mod organs;

@@ -81,8 +81,10 @@ use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
-/// Settings of [`decollide`].
-#[derive(Debug, Clone, PartialEq)]
+/// Settings of [`decollide`]: the recipe table `[fit.decollide]` (every key optional;
+/// [`DecollideOptions::check`] names the key of a value out of range).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DecollideOptions {
     /// Target clearance: two capsules are pulled apart until their axes are at least
     /// `(r_a + r_b) × (1 + clearance)` apart. A little more than the checker's 1 %
@@ -198,7 +200,7 @@ const CHECK_TOLERANCE: f64 = 0.01;
 pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<DecollideReport> {
     let t0 = Instant::now();
     skeleton.validate()?;
-    check_options(opts)?;
+    opts.check()?;
     let raised = raise_to_floor(skeleton, opts.min_radius);
     let first = skeleton_collisions(skeleton, CHECK_TOLERANCE);
     let mut report = DecollideReport { before: first.len(), raised, ..Default::default() };
@@ -237,29 +239,48 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     Ok(report)
 }
 
-fn check_options(o: &DecollideOptions) -> Result<()> {
-    let bad = |why: String| Err(Error::Recipe(format!("mesh.decollide: {why}")));
-    if !(o.clearance.is_finite() && (0.0..=1.0).contains(&o.clearance)) {
-        return bad(format!("clearance must be in 0..=1, got {}", o.clearance));
-    }
-    for (name, v) in [("min_thinning", o.min_thinning), ("far_thinning", o.far_thinning)] {
-        if !(v.is_finite() && v > 0.0 && v <= 1.0) {
-            return bad(format!("{name} must be in (0, 1], got {v}"));
+impl DecollideOptions {
+    /// Checks every value's range; the error names the recipe key
+    /// (`fit.decollide.<field>`).
+    pub fn check(&self) -> Result<()> {
+        let o = self;
+        let bad = |key: &str, why: String| Err(Error::Recipe(format!("`fit.decollide.{key}` {why}")));
+        if !(o.clearance.is_finite() && (0.0..=1.0).contains(&o.clearance)) {
+            return bad("clearance", format!("must be in 0..=1, got {}", o.clearance));
         }
+        for (name, v) in [("min_thinning", o.min_thinning), ("far_thinning", o.far_thinning)] {
+            if !(v.is_finite() && v > 0.0 && v <= 1.0) {
+                return bad(name, format!("must be in (0, 1], got {v}"));
+            }
+        }
+        if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
+            return bad("min_radius", format!("must be in 0..=1, got {}", o.min_radius));
+        }
+        if !(o.near_joint_path.is_finite() && (0.0..=1000.0).contains(&o.near_joint_path)) {
+            return bad("near_joint_path", format!("must be in 0..=1000, got {}", o.near_joint_path));
+        }
+        if !(o.taper.is_finite() && (0.0..=100.0).contains(&o.taper)) {
+            return bad("taper", format!("must be in 0..=100, got {}", o.taper));
+        }
+        if o.angles.len() > 64 || o.angles.iter().any(|a| !a.is_finite() || *a <= 0.0 || *a > 180.0) {
+            return bad(
+                "angles",
+                format!("must be at most 64 angles in (0, 180] degrees, got {:?}", o.angles),
+            );
+        }
+        // Work bounds: each scales the pass's running time.
+        for (name, v, max) in [
+            ("near_joint_hops", o.near_joint_hops, 64),
+            ("candidates", o.candidates, 64),
+            ("max_rounds", o.max_rounds, 100),
+            ("work_per_node", o.work_per_node, 100_000),
+        ] {
+            if v > max {
+                return bad(name, format!("is {v}; at most {max} (it bounds the pass's work)"));
+            }
+        }
+        Ok(())
     }
-    if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
-        return bad(format!("min_radius must be in 0..=1, got {}", o.min_radius));
-    }
-    if !(o.near_joint_path.is_finite() && o.near_joint_path >= 0.0) {
-        return bad(format!("near_joint_path must be finite and non-negative, got {}", o.near_joint_path));
-    }
-    if !(o.taper.is_finite() && o.taper >= 0.0) {
-        return bad(format!("taper must be finite and non-negative, got {}", o.taper));
-    }
-    if o.angles.iter().any(|a| !a.is_finite() || *a <= 0.0 || *a > 180.0) {
-        return bad(format!("angles must be in (0, 180] degrees, got {:?}", o.angles));
-    }
-    Ok(())
 }
 
 /// Tree structure that never changes during the pass.

@@ -1,7 +1,7 @@
 //! Mesh-checked thinning: thins the skeleton where a joint mesher's *refined* surface
 //! still crosses itself, and meshes again (beyond the seeds; issue 5's acceptance).
 //!
-//! [`decollide`](crate::mesh::decollide) keeps the internode capsules apart, but a
+//! [`decollide`](crate::fit::decollide) keeps the internode capsules apart, but a
 //! surface is not its capsules: junction boxes and blends stand out of them (seed 003's
 //! boxes of Eq. 4 length, seed 001's Eq. 5.1 offsets, seed 000's trimmed joints) and a
 //! tube of short internodes folds at its bends. Where the level-`levels` refinement of
@@ -39,18 +39,23 @@
 //! (reported, not an error).
 
 use crate::error::{Error, Result};
+use crate::fit::decollide::{apply_caps, floor_of, raise_to_floor};
 use crate::geometry::Mesh;
 use crate::mesh::check::{build_bvh, fan_triangles, query, self_intersections, Aabb};
-use crate::mesh::decollide::{apply_caps, floor_of, raise_to_floor};
 use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::DVec3;
 use std::time::{Duration, Instant};
 
-/// Settings of [`clear_crossings`].
-#[derive(Debug, Clone, PartialEq)]
+/// Settings of [`clear_crossings`]: the recipe table `[fit.clear]` (every key optional;
+/// [`ClearOptions::check`] names the key of a value out of range).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ClearOptions {
-    /// Refinement level at which the surface must not cross itself (issue 5: 2).
+    /// Refinement level at which the surface must not cross itself (issue 5: 2). Not a
+    /// recipe key: the pipeline sets it to `refine.levels` (at most 3), so the surface
+    /// checked is the one written.
+    #[serde(skip)]
     pub levels: u32,
     /// Radius factor applied per round to the end nodes of an internode a crossing lies on.
     pub step: f64,
@@ -69,7 +74,7 @@ pub struct ClearOptions {
     /// the next round).
     pub max_pairs: usize,
     /// Radius floor as a fraction of the largest radius (default 0.005, as
-    /// [`DecollideOptions::min_radius`](crate::mesh::decollide::DecollideOptions::min_radius)):
+    /// [`DecollideOptions::min_radius`](crate::fit::decollide::DecollideOptions::min_radius)):
     /// radii under it are raised to it first and thinning never goes below it (the
     /// joint meshers draw thinner sections at that size anyway).
     pub min_radius: f64,
@@ -112,27 +117,42 @@ pub struct ClearReport {
     pub elapsed: Duration,
 }
 
-fn check_options(o: &ClearOptions) -> Result<()> {
-    let bad = |why: String| Err(Error::Recipe(format!("mesh clearing: {why}")));
-    if !(o.step.is_finite() && o.step > 0.0 && o.step < 1.0) {
-        return bad(format!("step must be in (0, 1), got {}", o.step));
+impl ClearOptions {
+    /// Checks every value's range; the error names the recipe key (`fit.clear.<field>`).
+    pub fn check(&self) -> Result<()> {
+        let o = self;
+        let bad = |key: &str, why: String| Err(Error::Recipe(format!("`fit.clear.{key}` {why}")));
+        if !(o.step.is_finite() && o.step > 0.0 && o.step < 1.0) {
+            return bad("step", format!("must be in (0, 1), got {}", o.step));
+        }
+        if !(o.min_factor.is_finite() && o.min_factor > 0.0 && o.min_factor <= 1.0) {
+            return bad("min_factor", format!("must be in (0, 1], got {}", o.min_factor));
+        }
+        if !(o.taper.is_finite() && (0.0..=100.0).contains(&o.taper)) {
+            return bad("taper", format!("must be in 0..=100, got {}", o.taper));
+        }
+        if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
+            return bad("min_radius", format!("must be in 0..=1, got {}", o.min_radius));
+        }
+        if o.max_pairs == 0 {
+            return bad("max_pairs", "must be at least 1 (0 would report every mesh clean)".into());
+        }
+        if o.levels > 4 {
+            return bad("levels", format!("must be at most 4, got {}", o.levels));
+        }
+        // Work bounds: each scales the pass's running time or memory.
+        for (name, v, max) in [
+            ("max_rounds", o.max_rounds, 100),
+            ("patience", o.patience, 100),
+            ("max_faces", o.max_faces, 64_000_000),
+            ("max_pairs", o.max_pairs, 10_000_000),
+        ] {
+            if v > max {
+                return bad(name, format!("is {v}; at most {max} (it bounds the pass's work)"));
+            }
+        }
+        Ok(())
     }
-    if !(o.min_factor.is_finite() && o.min_factor > 0.0 && o.min_factor <= 1.0) {
-        return bad(format!("min_factor must be in (0, 1], got {}", o.min_factor));
-    }
-    if !(o.taper.is_finite() && o.taper >= 0.0) {
-        return bad(format!("taper must be finite and non-negative, got {}", o.taper));
-    }
-    if !(o.min_radius.is_finite() && (0.0..=1.0).contains(&o.min_radius)) {
-        return bad(format!("min_radius must be in 0..=1, got {}", o.min_radius));
-    }
-    if o.max_pairs == 0 {
-        return bad("max_pairs must be at least 1 (0 would report every mesh clean)".into());
-    }
-    if o.levels > 4 {
-        return bad(format!("levels must be at most 4, got {}", o.levels));
-    }
-    Ok(())
 }
 
 /// Meshes `skeleton` with `mesher` (which returns a control mesh and the scheme it is
@@ -145,32 +165,60 @@ fn check_options(o: &ClearOptions) -> Result<()> {
 pub fn clear_crossings<F>(
     skeleton: &mut Skeleton,
     opts: &ClearOptions,
-    mut mesher: F,
+    mesher: F,
 ) -> Result<(Mesh, ClearReport)>
 where
     F: FnMut(&Skeleton) -> Result<(Mesh, Scheme)>,
 {
+    clear_crossings_refined(skeleton, opts, mesher).map(|c| (c.control, c.report))
+}
+
+/// What [`clear_crossings_refined`] returns.
+#[derive(Debug, Clone)]
+pub struct Cleared {
+    /// The control mesh of the skeleton kept.
+    pub control: Mesh,
+    /// Its refinement at [`ClearOptions::levels`] by the mesher's scheme (exactly what
+    /// [`crate::refine::subdivide`] with those levels and default options gives, so the
+    /// pipeline need not refine it again), when it was searched (`None` over
+    /// [`ClearOptions::max_faces`]).
+    pub refined: Option<Mesh>,
+    /// What the pass did.
+    pub report: ClearReport,
+}
+
+/// [`clear_crossings`], also handing on the refined mesh it searched last.
+pub fn clear_crossings_refined<F>(
+    skeleton: &mut Skeleton,
+    opts: &ClearOptions,
+    mut mesher: F,
+) -> Result<Cleared>
+where
+    F: FnMut(&Skeleton) -> Result<(Mesh, Scheme)>,
+{
+    /// The round with the fewest crossings: (count, radii, cage, refined cage, crossing face centres).
+    type Best = (usize, Vec<f32>, Mesh, Mesh, Vec<DVec3>);
     let t0 = Instant::now();
-    check_options(opts)?;
+    opts.check()?;
     skeleton.validate()?;
     raise_to_floor(skeleton, opts.min_radius);
     let floor = floor_of(skeleton, opts.min_radius);
     let start_radius = skeleton.radius.clone();
     let mut report = ClearReport::default();
     let (mut mesh, scheme) = mesher(skeleton)?;
-    let mut best: Option<(usize, Vec<f32>, Mesh)> = None;
+    let mut best: Option<Best> = None;
     let mut stalled = 0;
     // Narrow thinning first (each face's nearest internode, as in session 8); once it
     // has stalled for `patience` rounds, wide thinning (runner-ups and whole junctions)
     // with the full patience again.
     let mut wide = false;
-    while let Some(faces) = crossing_faces(&mesh, scheme, opts)? {
+    while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts)? {
         let count = faces.len() / 2;
         if report.before.is_none() {
             report.before = Some(count);
         }
         if best.as_ref().is_none_or(|b| count < b.0) {
-            best = Some((count, skeleton.radius.clone(), mesh.clone()));
+            best = Some((count, skeleton.radius.clone(), mesh.clone(), fine, faces.clone()));
             stalled = 0;
         } else {
             stalled += 1;
@@ -207,27 +255,28 @@ where
         report.rounds += 1;
         mesh = mesher(skeleton)?.0;
     }
-    if let Some((count, radius, best_mesh)) = best {
+    let mut refined = None;
+    if let Some((count, radius, best_mesh, fine, faces)) = best {
         report.after = Some(count);
         report.truncated = count >= opts.max_pairs;
         skeleton.radius = radius;
         mesh = best_mesh;
+        refined = Some(fine);
         if count > 0 {
-            if let Some(faces) = crossing_faces(&mesh, scheme, opts)? {
-                let mut left = nearest_internodes(skeleton, &faces, false);
-                left.truncate(16);
-                report.unresolved = left;
-            }
+            let mut left = nearest_internodes(skeleton, &faces, false);
+            left.truncate(16);
+            report.unresolved = left;
         }
     }
     report.thinned = skeleton.radius.iter().zip(&start_radius).filter(|(a, b)| a != b).count();
     report.elapsed = t0.elapsed();
-    Ok((mesh, report))
+    Ok(Cleared { control: mesh, refined, report })
 }
 
-/// Centres of the refined faces that cross another (both faces of each pair, in turn), or `None`
-/// when the refinement is over [`ClearOptions::max_faces`].
-fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Option<Vec<DVec3>>> {
+/// Centres of the refined faces that cross another (both faces of each pair, in turn),
+/// with the refined mesh, or `None` when the refinement is over
+/// [`ClearOptions::max_faces`].
+fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Option<(Vec<DVec3>, Mesh)>> {
     let estimate = mesh.face_count() * 4usize.pow(opts.levels);
     if estimate > opts.max_faces {
         return Ok(None);
@@ -255,7 +304,8 @@ fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Op
         let face = fine.face(f);
         face.iter().map(|&v| fine.positions[v as usize].as_dvec3()).sum::<DVec3>() / face.len() as f64
     };
-    Ok(Some(pairs.iter().flat_map(|&[a, b]| [centre(a), centre(b)]).collect()))
+    let centres = pairs.iter().flat_map(|&[a, b]| [centre(a), centre(b)]).collect();
+    Ok(Some((centres, fine)))
 }
 
 /// The internodes (by child node, sorted, each once) the crossings of `points` (the two
@@ -403,7 +453,7 @@ mod tests {
             ClearOptions { min_radius: f64::NAN, ..Default::default() },
         ] {
             let e = clear_crossings(&mut s, &o, sweep).unwrap_err();
-            assert!(e.to_string().contains("mesh clearing"), "{e}");
+            assert!(e.to_string().contains("fit.clear."), "{e}");
         }
     }
 }

@@ -1,0 +1,17 @@
+//! Fitting: the skeleton passes that run between the generator and the mesher so that
+//! the joint meshers' single watertight surface is free of self-intersections (beyond
+//! the seeds, which assume a collision-free skeleton: seed 000 §2.1, seed 003 §2.1).
+//!
+//! - [`decollide`]: Skeleton → Skeleton. Raises radii to the joint meshers' floor, thins
+//!   near-joint overlaps and rotates crossing branches apart (capsule tests only).
+//! - [`clear`]: (Skeleton, mesher) → Skeleton + refined Mesh. Meshes, refines and checks
+//!   the surface, thins the internodes its crossing faces lie on and meshes again; hands
+//!   the last control mesh and its refinement on so the pipeline does not repeat them.
+//!
+//! Both only change radii and positions of the skeleton: the stage order stays
+//! generate → fit → mesh → refine → export. Their options are the recipe tables
+//! `[fit.decollide]` and `[fit.clear]` (`docs/recipe.md`); whether they run is
+//! `mesh.decollide` / `mesh.clear`.
+
+pub mod clear;
+pub mod decollide;
