@@ -19,29 +19,34 @@
 //!
 //! `--control` groups the control mesh's own intersections instead of level 2's;
 //! `--clear` runs the pipeline's mesh clearing (`sylva::fit::clear`) first and
-//! diagnoses what it leaves (`SYLVA_CLEAR_PATIENCE` overrides its patience); `--describe N,M` prints those nodes' children;
+//! diagnoses what it leaves; `--describe N,M` prints those nodes' children;
 //! `--raw` meshes the generator's skeleton without de-collision; `--decollide` lists
 //! the skeleton collisions `decollide` leaves, with the chains from their common
-//! ancestor, and stops (`SYLVA_DECOLLIDE_ROUNDS` overrides its rounds,
-//! `SYLVA_DECOLLIDE_FLOOR` its radius floor, `SYLVA_DECOLLIDE_MAX_MOVED` its largest
-//! moved subtree). For
+//! ancestor, and stops. For
 //! `quad` and `sweep` it also lists the crossing pairs by the nodes their faces were
 //! made for (`QuadMesh::face_node`; `SweepMesh::face_owner`: a strip's internode, named
 //! by its end node, or the junction node) with the steps to their common ancestor
-//! (`SYLVA_PAIRS` prints the first pairs); for `quad` it prints the mesher's time; `SYLVA_RADIUS_SCALE` scales every radius after `decollide`;
-//! `SYLVA_QUAD_MIN_RADIUS`, `SYLVA_QUAD_SUPPORT`,
-//! `SYLVA_QUAD_REPAIR_ROUNDS` and `SYLVA_QUAD_ELBOW` override those options
-//! (`SYLVA_SWEEP_MIN_RADIUS` the sweep's; `SYLVA_HULL_MAX_SEGMENTS`, `SYLVA_HULL_SIDES` and
-//! `SYLVA_HULL_MARGIN` the hull's).
+//! (`--pairs` prints the first pairs); for `quad` it prints the mesher's time.
+//!
+//! Every knob of the meshers, of de-collision and of clearing is a recipe key, set as in
+//! `sylva grow` with `--set KEY=VALUE` (`docs/recipe.md`: `[mesh.hull]`, `[mesh.sweep]`,
+//! `[mesh.quad]`, `[fit.decollide]`, `[fit.clear]`), e.g.
+//! `--set mesh.quad.support=0 --set fit.decollide.max_rounds=4 --set fit.clear.patience=2`.
+//! Debugging output: `--radius-scale F` scales every radius after `decollide`;
+//! `--chain N` lists node N's ancestors with their control faces; `--faces-of N` the
+//! control faces made for node N; `--big-faces` the control faces far from their
+//! internode; `--pair-faces` the corners of the first crossing faces; `--nearest` each
+//! crossing face's nearest internode.
 
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap, HashSet};
-use sylva::fit::clear::{clear_crossings, ClearOptions};
-use sylva::fit::decollide::{decollide, DecollideOptions};
+use sylva::fit::clear::clear_crossings;
+use sylva::fit::decollide::decollide;
 use sylva::mesh::check::{check_mesh, CheckOptions};
 use sylva::mesh::hull::{hull_mesh, HullOptions};
 use sylva::mesh::quad::{quad_mesh, QuadOptions};
 use sylva::mesh::sweep::{sweep_mesh, SweepOptions};
+use sylva::mesh::Mesher;
 use sylva::model::{Material, Model, Part};
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::{Mesh, Skeleton, NO_PARENT};
@@ -52,7 +57,20 @@ const MAX_PAIRS: usize = 5_000;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1));
-    let takes_value = |a: &str| matches!(a, "--joint" | "--radius" | "--out" | "--describe");
+    let takes_value = |a: &str| {
+        matches!(
+            a,
+            "--joint"
+                | "--radius"
+                | "--out"
+                | "--describe"
+                | "--set"
+                | "--radius-scale"
+                | "--chain"
+                | "--faces-of"
+        )
+    };
+    let has = |name: &str| args.iter().any(|a| a == name);
     let positional: Vec<&String> = args
         .iter()
         .enumerate()
@@ -61,23 +79,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let Some(preset) = positional.first() else {
         eprintln!(
-            "usage: mesher_diag PRESET [hull|sweep|quad] [--control] [--joint N] [--radius R] [--out DIR]"
+            "usage: mesher_diag PRESET [hull|sweep|quad] [--set KEY=VALUE]... [--control] [--clear] [--raw] [--decollide] [--joint N] [--radius R] [--out DIR]"
         );
         std::process::exit(2);
     };
     let mesher = positional.get(1).map_or("quad", |s| s.as_str());
-    let control_only = args.iter().any(|a| a == "--control");
+    let control_only = has("--control");
     let joint: Option<usize> = flag("--joint").map(|s| s.parse()).transpose()?;
     let radius: f32 = flag("--radius").map(|s| s.parse()).transpose()?.unwrap_or(0.15);
     let out = flag("--out").cloned().unwrap_or_else(|| std::env::temp_dir().display().to_string());
 
-    let loaded = sylva::recipe::load(preset, &[])?;
+    if !matches!(mesher, "hull" | "sweep" | "quad") {
+        return Err(format!("unknown mesher {mesher:?}: hull, sweep or quad").into());
+    }
+    // The recipe: the preset, the mesher named on the command line, then every `--set`.
+    let mut sets = vec![sylva::recipe::parse_set(&format!("mesh.method=\"{mesher}\""))?];
+    for (i, a) in args.iter().enumerate() {
+        if a == "--set" {
+            let kv = args.get(i + 1).ok_or("`--set` needs KEY=VALUE")?;
+            sets.push(sylva::recipe::parse_set(kv)?);
+        }
+    }
+    let loaded = sylva::recipe::load(preset, &sets)?;
+    let recipe = &loaded.recipe;
     let mut sk = sylva::pipeline::skeleton(&loaded, &mut Default::default())?.skeleton;
-    let mut dopts = DecollideOptions::default();
-    override_from_env("SYLVA_DECOLLIDE_ROUNDS", &mut dopts.max_rounds);
-    override_from_env("SYLVA_DECOLLIDE_FLOOR", &mut dopts.min_radius);
-    override_from_env("SYLVA_DECOLLIDE_MAX_MOVED", &mut dopts.max_moved);
-    let d = if args.iter().any(|a| a == "--raw") {
+    let dopts = recipe.fit.decollide.clone();
+    let d = if has("--raw") {
         let left = sylva::mesh::check::skeleton_collisions(&sk, 0.01);
         sylva::fit::decollide::DecollideReport {
             before: left.len(),
@@ -101,10 +128,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         d.traded,
         d.elapsed.as_secs_f64() * 1e3
     );
-    if let Some(f) = env_value::<f32>("SYLVA_RADIUS_SCALE") {
+    if let Some(f) = flag("--radius-scale").map(|s| s.parse::<f32>()).transpose()? {
         sk.radius.iter_mut().for_each(|r| *r *= f);
     }
-    if args.iter().any(|a| a == "--decollide") {
+    if has("--decollide") {
         // A fingerprint of the de-collided skeleton, to tell whether a change to the
         // pass changed its result (`DefaultHasher`: compare runs of one toolchain).
         let mut h = std::collections::hash_map::DefaultHasher::new();
@@ -115,17 +142,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         describe_unresolved(&sk, &d.unresolved);
         return Ok(());
     }
-    let mut quad_opts = QuadOptions::default();
-    override_from_env("SYLVA_QUAD_MIN_RADIUS", &mut quad_opts.min_radius);
-    override_from_env("SYLVA_QUAD_SUPPORT", &mut quad_opts.support);
-    override_from_env("SYLVA_QUAD_REPAIR_ROUNDS", &mut quad_opts.repair_rounds);
-    override_from_env("SYLVA_QUAD_ELBOW", &mut quad_opts.elbow_angle);
-    let mut hull_opts = HullOptions { caps: true, ..Default::default() };
-    override_from_env("SYLVA_HULL_MAX_SEGMENTS", &mut hull_opts.max_segments);
-    override_from_env("SYLVA_HULL_SIDES", &mut hull_opts.sides);
-    override_from_env("SYLVA_HULL_MARGIN", &mut hull_opts.margin);
-    let mut sweep_opts = SweepOptions { caps: true, ..Default::default() };
-    override_from_env("SYLVA_SWEEP_MIN_RADIUS", &mut sweep_opts.min_radius);
+    // The mesher's options as the pipeline builds them from `[mesh]` and `[mesh.<method>]`.
+    let (mut hull_opts, mut sweep_opts, mut quad_opts) =
+        (HullOptions::default(), SweepOptions::default(), QuadOptions::default());
+    match recipe.mesh.mesher()? {
+        Mesher::Hull(o) => hull_opts = o,
+        Mesher::Sweep(o) => sweep_opts = o,
+        Mesher::Quad(o) => quad_opts = o,
+        Mesher::Tube(_) => unreachable!("the mesher was checked above"),
+    }
     // One meshing: the control mesh, its scheme and (quad and sweep) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {
         Ok(match mesher {
@@ -169,12 +194,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         })
     };
-    if !matches!(mesher, "hull" | "sweep" | "quad") {
-        return Err(format!("unknown mesher {mesher:?}: hull, sweep or quad").into());
-    }
-    if args.iter().any(|a| a == "--clear") {
-        let mut co = ClearOptions::default();
-        override_from_env("SYLVA_CLEAR_PATIENCE", &mut co.patience);
+    if has("--clear") {
+        let co = recipe.fit.clear.clone();
         let (_, r) = clear_crossings(&mut sk, &co, |s| run(s, false).map(|(m, scheme, _)| (m, scheme)))?;
         println!(
             "clear: {:?} -> {:?} in {} rounds, {} thinned, {:.1} s; unresolved internodes {:?}",
@@ -227,7 +248,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if control_only { "(not refined)".to_string() } else { format!("{:?}", report.intersection_count) }
     );
 
-    if let Some(n) = env_value::<usize>("SYLVA_CHAIN") {
+    if let Some(n) = flag("--chain").map(|s| s.parse::<usize>()).transpose()? {
         // Node `n`'s ancestors, with the number of control faces made for each.
         let mut owned = vec![0usize; sk.len()];
         face_node.iter().for_each(|&o| owned[o as usize] += 1);
@@ -236,7 +257,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("  chain {a} at {:.3}: {} faces, {} children", sk.position[a], owned[a], ch.of(a).len());
         }
     }
-    if let Some(n) = env_value::<u32>("SYLVA_FACES_OF") {
+    if let Some(n) = flag("--faces-of").map(|s| s.parse::<u32>()).transpose()? {
         // The control faces made for node `n`: corners relative to its parent node.
         let at = sk.position[sk.parent[n as usize] as usize];
         for f in (0..mesh.face_count()).filter(|&f| face_node.get(f) == Some(&n)) {
@@ -245,7 +266,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("  face {f} of node {n}: {}", c.join(" "));
         }
     }
-    if !face_node.is_empty() && std::env::var("SYLVA_BIG_FACES").is_ok() {
+    if !face_node.is_empty() && has("--big-faces") {
         // Control faces with a corner over 6 radii from the internode of the node they
         // were made for.
         let mut big: Vec<(f32, usize, u32)> = (0..mesh.face_count())
@@ -282,7 +303,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (a, b) = (face_node[pair[0] >> shift], face_node[pair[1] >> shift]);
             *seen.entry((a.min(b), a.max(b))).or_default() += 1;
         }
-        if std::env::var("SYLVA_PAIRS").is_ok() {
+        if has("--pairs") {
             for pair in report.intersections.iter().take(12) {
                 let (a, b) = (pair[0] >> shift, pair[1] >> shift);
                 println!(
@@ -310,7 +331,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
-    if std::env::var("SYLVA_PAIR_FACES").is_ok() {
+    if has("--pair-faces") {
         // The corners of the first crossing pairs' faces (of the searched mesh).
         for pair in report.intersections.iter().take(4) {
             for f in pair {
@@ -320,7 +341,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    if std::env::var("SYLVA_NEAREST").is_ok() {
+    if has("--nearest") {
         // Each crossing face's nearest internode and its distance from that axis, in
         // radii (1 = on the capsule's surface).
         let off = |i: usize, p: Vec3| {
@@ -442,18 +463,6 @@ fn describe_unresolved(sk: &Skeleton, pairs: &[[usize; 2]]) {
                 }
             }
         }
-    }
-}
-
-/// The value of environment variable `name`, when it is set and parses as `T`.
-fn env_value<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::var(name).ok()?.parse().ok()
-}
-
-/// Sets `field` from the environment variable `name` when it is set and parses.
-fn override_from_env<T: std::str::FromStr>(name: &str, field: &mut T) {
-    if let Some(v) = env_value(name) {
-        *field = v;
     }
 }
 
