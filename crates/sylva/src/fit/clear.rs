@@ -91,7 +91,7 @@ impl Default for ClearOptions {
             patience: 2,
             max_faces: 4_000_000,
             max_pairs: 100_000,
-            min_radius: 0.005,
+            min_radius: crate::tolerance::RADIUS_FLOOR,
         }
     }
 }

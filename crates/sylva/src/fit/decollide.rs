@@ -144,7 +144,7 @@ impl Default for DecollideOptions {
             max_rounds: 8,
             max_moved: 4000,
             work_per_node: 200,
-            min_radius: 0.005,
+            min_radius: crate::tolerance::RADIUS_FLOOR,
         }
     }
 }

@@ -60,8 +60,8 @@ impl Default for CheckOptions {
     fn default() -> Self {
         Self {
             self_intersections: true,
-            sliver: 1e-7,
-            tiny_edge: 1e-7,
+            sliver: crate::tolerance::SLIVER_RATIO,
+            tiny_edge: crate::tolerance::TINY_EDGE_RATIO,
             max_listed: 8,
             max_intersections: 100_000,
         }
@@ -391,12 +391,7 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     r.euler = used_count - r.edges as i64 + (nf - r.bad_face_count) as i64;
 
     // Degenerate faces: repeated vertex or tiny area (Newell's normal).
-    let (lo, hi) = mesh
-        .positions
-        .iter()
-        .filter(|p| p.is_finite())
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let diag = if lo.x <= hi.x { (hi - lo).as_dvec3().length() } else { 0.0 };
+    let diag = crate::tolerance::Tolerance::of_points(&mesh.positions).scale;
     for f in (0..nf).filter(|&f| good[f]) {
         let face = mesh.face(f);
         let repeated = (0..face.len()).any(|i| face[i + 1..].contains(&face[i]));
@@ -408,7 +403,7 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             })
             .fold(0.0, f64::max);
         // NaN areas and lengths count as degenerate too.
-        let sliver = area.is_nan() || area <= opts.sliver * longest * longest;
+        let sliver = crate::tolerance::is_sliver_at(opts.sliver, area, longest * longest);
         let tiny = longest.is_nan() || longest <= opts.tiny_edge * diag;
         if repeated || sliver || tiny {
             r.degenerate_face_count += 1;

@@ -376,7 +376,7 @@ impl Work {
             aligned: vec![false; n],
             margin: opts.margin,
             eps: opts.aligned_epsilon,
-            zero: scale * 1e-6,
+            zero: crate::tolerance::Tolerance::new(scale).zero_length(),
             collapsed: Vec::new(),
             clamped: Vec::new(),
             dropped: Vec::new(),
@@ -1283,10 +1283,10 @@ fn tri_shape(f: [u32; 3], pos: &[Vec3]) -> (f64, f64) {
     (area2, longest)
 }
 
-/// True for a sliver by the mesh checker's rule (area ≤ 1e-7 · longest edge²).
+/// True for a sliver by the mesh checker's rule ([`crate::tolerance::is_sliver`]).
 fn is_sliver(f: [u32; 3], pos: &[Vec3]) -> bool {
     let (area2, longest) = tri_shape(f, pos);
-    area2.is_nan() || 0.5 * area2 <= 1e-7 * longest
+    crate::tolerance::is_sliver(0.5 * area2, longest)
 }
 
 /// Removes slivers from a joint's triangles by edge flips. A hull face on the sphere

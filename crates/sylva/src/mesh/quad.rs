@@ -249,7 +249,7 @@ impl Default for QuadOptions {
             max_side_angle: 80.0,
             max_back_angle: 120.0,
             max_chain: 3,
-            min_radius: 0.005,
+            min_radius: crate::tolerance::RADIUS_FLOOR as f32,
             min_length: 0.1,
             elbow_angle: 0.0,
             support: 1.0,

@@ -262,7 +262,7 @@ impl Default for SweepOptions {
             u_mapping: UMapping::Reflected,
             tile_v: false,
             check_levels: 2,
-            min_radius: 0.005,
+            min_radius: crate::tolerance::RADIUS_FLOOR,
             bend_rings: true,
         }
     }
