@@ -2,6 +2,8 @@
 //! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
 //! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
 
+#[path = "common/checks.rs"]
+mod checks;
 #[path = "common/det_tree.rs"]
 mod det_tree;
 #[path = "common/random_tree.rs"]
@@ -730,15 +732,11 @@ fn fallback_reasons() {
 /// not a valid closed manifold; `Ok((fallbacks, intersects))` otherwise, where
 /// `intersects` says the mesh crosses itself although the skeleton does not.
 fn random_case(seed: u64) -> Result<(usize, bool), String> {
-    use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
+    use sylva::mesh::check::skeleton_collisions;
     let sk = random_tree::random_tree(seed, 60);
     let h = hull_mesh(&sk, &HullOptions { caps: true, ..Default::default() })
         .map_err(|e| format!("error: {e}"))?;
-    let r = check_mesh(&h.mesh, &CheckOptions::default());
-    let structural: Vec<String> = r.structural_problems();
-    if !structural.is_empty() || r.boundary_edges > 0 {
-        return Err(format!("{structural:?}, {} boundary edges", r.boundary_edges));
-    }
+    let r = checks::closed_oriented_manifold(&h.mesh, true)?;
     let intersects = r.intersection_count.unwrap_or(0) > 0 && skeleton_collisions(&sk, 0.01).is_empty();
     Ok((h.fallbacks.len(), intersects))
 }

@@ -19,7 +19,11 @@
 //! achieved; `decollide_table_of_every_preset` (ignored: run it in release) prints the
 //! before/after table for every preset.
 
+#[path = "common/checks.rs"]
+mod checks;
 mod common;
+#[path = "common/random_tree.rs"]
+mod random_tree;
 
 use sylva::fit::clear::{clear_crossings, ClearOptions};
 use sylva::fit::decollide::{decollide, DecollideOptions};
@@ -394,6 +398,55 @@ fn decollide_table_of_every_preset() {
             secs(&d, "hull"),
             secs(&d, "sweep"),
             secs(&d, "quad")
+        );
+    }
+}
+
+/// Random skeletons through the one mesher interface (issue 22): for every joint mesher,
+/// any valid random skeleton (`common/random_tree.rs`: branching angles 5°–170°, 1–8
+/// children, radius ratios 0.1–1.2, lengths 0.2–20 radii) gives a closed, consistently
+/// oriented manifold cage of positive volume with the mesher's scheme; any failure names
+/// the mesher and the seed. Cages that cross themselves where the skeleton does not
+/// collide and no fallback was reported are counted and bounded per mesher (the rate
+/// measured over 1,000 seeds is in docs/meshers.md). `SYLVA_PROPTEST_CASES` raises the
+/// 48 cases per mesher run in CI.
+#[test]
+fn every_joint_mesher_gives_a_closed_oriented_cage_or_reports_a_fallback() {
+    use proptest::prelude::*;
+    use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
+    use sylva::mesh::Mesher;
+    let cases: u32 = std::env::var("SYLVA_PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(48);
+    // (mesher, the largest share of unexplained crossings allowed)
+    let meshers = [
+        (Mesher::Hull(HullOptions { caps: true, ..Default::default() }), 0.05),
+        (Mesher::Sweep(SweepOptions { caps: true, ..Default::default() }), 0.05),
+        (Mesher::Quad(QuadOptions::default()), 0.05),
+    ];
+    for (mesher, allowed) in meshers {
+        let config = ProptestConfig { cases, failure_persistence: None, ..Default::default() };
+        let mut runner = TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+        let unexplained = std::cell::Cell::new(0u32);
+        let result = runner.run(&any::<u64>(), |seed| {
+            let sk = random_tree::random_tree(seed, 60);
+            sk.validate().map_err(|e| TestCaseError::reject(e.to_string()))?;
+            let cage = mesher.cage(&sk).map_err(|e| TestCaseError::fail(format!("error: {e}")))?;
+            let report = checks::closed_oriented_manifold(&cage.mesh, true).map_err(TestCaseError::fail)?;
+            prop_assert_eq!(cage.scheme, mesher.scheme());
+            let crossed = report.intersection_count.unwrap_or(0) > 0;
+            if crossed && skeleton_collisions(&sk, 0.01).is_empty() && cage.fallbacks.is_empty() {
+                unexplained.set(unexplained.get() + 1);
+            }
+            Ok(())
+        });
+        if let Err(e) = result {
+            panic!("mesh.method = {}: {e}", mesher.name());
+        }
+        let n = unexplained.get();
+        println!("{}: {n} of {cases} cages cross themselves unexplained", mesher.name());
+        assert!(
+            n as f64 <= allowed * cases as f64,
+            "{}: {n} of {cases} unexplained crossings",
+            mesher.name()
         );
     }
 }
