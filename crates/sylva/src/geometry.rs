@@ -10,6 +10,13 @@
 
 use glam::{Vec2, Vec3};
 
+/// The point at parameter `t` in \[0, 1\] of the cubic Bézier curve with control points
+/// `p` (Bernstein form). Weber–Penn's stems and the model's branch curves both use it.
+pub fn cubic_bezier(p: &[Vec3; 4], t: f32) -> Vec3 {
+    let u = 1.0 - t;
+    p[0] * (u * u * u) + p[1] * (3.0 * u * u * t) + p[2] * (3.0 * u * t * t) + p[3] * (t * t * t)
+}
+
 /// A face-varying channel: values plus one index per face corner.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FaceVarying<T> {

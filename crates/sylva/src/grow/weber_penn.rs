@@ -239,9 +239,7 @@ pub struct BezierSegment {
 impl BezierSegment {
     /// The point at parameter `t` in \[0, 1\].
     pub fn eval(&self, t: f32) -> Vec3 {
-        let [p0, p1, p2, p3] = self.points;
-        let u = 1.0 - t;
-        p0 * (u * u * u) + p1 * (3.0 * u * u * t) + p2 * (3.0 * u * t * t) + p3 * (t * t * t)
+        crate::geometry::cubic_bezier(&self.points, t)
     }
 }
 

@@ -103,7 +103,6 @@ impl Mesher {
 
     /// Meshes `skeleton` into a control cage.
     pub fn cage(&self, skeleton: &Skeleton) -> Result<Cage> {
-        let first = |v: &[u32]| v[..v.len().min(8)].to_vec();
         Ok(match self {
             Mesher::Tube(o) => {
                 let t = tube::tube_mesh(skeleton, o)?;
@@ -111,14 +110,7 @@ impl Mesher {
             }
             Mesher::Hull(o) => {
                 let h = hull::hull_mesh(skeleton, o)?;
-                let mut warnings = Vec::new();
-                if !h.fallbacks.is_empty() {
-                    warnings.push(format!(
-                        "hull mesher: {} joint(s) fell back to capped tubes (first nodes {:?})",
-                        h.fallbacks.len(),
-                        first(&h.fallbacks)
-                    ));
-                }
+                let warnings = self.fallback_warnings(&h.fallbacks);
                 Cage {
                     mesh: h.mesh,
                     scheme: self.scheme(),
@@ -130,14 +122,7 @@ impl Mesher {
             }
             Mesher::Sweep(o) => {
                 let sw = sweep::sweep_mesh(skeleton, o)?;
-                let mut warnings = Vec::new();
-                if !sw.fallbacks.is_empty() {
-                    warnings.push(format!(
-                        "sweep mesher: {} node(s) fell back to separately capped tubes (first nodes {:?})",
-                        sw.fallbacks.len(),
-                        first(&sw.fallbacks)
-                    ));
-                }
+                let warnings = self.fallback_warnings(&sw.fallbacks);
                 Cage {
                     axes: sw.junctions.len() + sw.fallbacks.len(),
                     face_node: sw
@@ -153,15 +138,8 @@ impl Mesher {
             }
             Mesher::Quad(o) => {
                 let q = quad::quad_mesh(skeleton, o)?;
-                let mut warnings = Vec::new();
                 let fallbacks: Vec<u32> = q.fallbacks.iter().map(|f| f.node).collect();
-                if !fallbacks.is_empty() {
-                    warnings.push(format!(
-                        "quad mesher: {} node(s) fell back (detached or separated capped cages, unboxed or shortened junctions; first nodes {:?})",
-                        fallbacks.len(),
-                        first(&fallbacks)
-                    ));
-                }
+                let warnings = self.fallback_warnings(&fallbacks);
                 Cage {
                     mesh: q.mesh,
                     scheme: self.scheme(),
@@ -172,5 +150,42 @@ impl Mesher {
                 }
             }
         })
+    }
+
+    /// The one warning line for a cage's fallbacks (none when there are none): the
+    /// mesher, how many, what it fell back to and the first eight nodes.
+    fn fallback_warnings(&self, fallbacks: &[u32]) -> Vec<String> {
+        if fallbacks.is_empty() {
+            return Vec::new();
+        }
+        let (what, detail) = match self {
+            Mesher::Hull(_) => ("joint(s) fell back to capped tubes", ""),
+            Mesher::Sweep(_) => ("node(s) fell back to separately capped tubes", ""),
+            Mesher::Quad(_) => {
+                ("node(s) fell back", "detached or separated capped cages, unboxed or shortened junctions; ")
+            }
+            Mesher::Tube(_) => ("node(s) fell back", ""),
+        };
+        let first = &fallbacks[..fallbacks.len().min(8)];
+        vec![format!("{} mesher: {} {what} ({detail}first nodes {first:?})", self.name(), fallbacks.len())]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fallback_warnings_name_the_mesher_count_and_first_nodes() {
+        assert!(Mesher::Hull(Default::default()).fallback_warnings(&[]).is_empty());
+        let many: Vec<u32> = (0..10).collect();
+        let w = Mesher::Quad(Default::default()).fallback_warnings(&many);
+        assert_eq!(
+            w,
+            ["quad mesher: 10 node(s) fell back (detached or separated capped cages, unboxed or \
+              shortened junctions; first nodes [0, 1, 2, 3, 4, 5, 6, 7])"]
+        );
+        let w = Mesher::Hull(Default::default()).fallback_warnings(&[4]);
+        assert_eq!(w, ["hull mesher: 1 joint(s) fell back to capped tubes (first nodes [4])"]);
     }
 }
