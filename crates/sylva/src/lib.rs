@@ -41,6 +41,7 @@ pub mod preview;
 pub mod recipe;
 pub mod refine;
 pub mod skeleton;
+pub mod texture;
 pub mod tolerance;
 
 pub use error::{Error, Result};

@@ -1,0 +1,218 @@
+//! Procedural textures (issue 23): bark maps that tile around and along a branch and a
+//! leaf atlas with alpha, generated in code from the recipe's seed — no image files are
+//! shipped and nothing is downloaded. The exporters embed them (glTF `images`) or write
+//! them beside the model; the CPU preview samples them.
+//!
+//! Plain data below the exporters: this module imports only `error` (and `glam`).
+//!
+//! - [`noise`]: periodic gradient, fractal and cellular noise (seamless tiling).
+//! - [`bark`]: albedo, tangent-space normal and occlusion-roughness-metallic maps in four
+//!   styles (smooth, furrowed, plated, birch-like with lenticels).
+//! - [`leaf`]: an atlas of leaf shapes (ovate, lanceolate, lobed, compound, needle tuft,
+//!   and a cluster of ovate leaves for cluster cards) with veins and alpha, each cell's
+//!   base at the bottom and tip at the top (UV base→tip along +v).
+
+pub mod bark;
+pub mod leaf;
+pub mod noise;
+
+use crate::error::{Error, Result};
+
+/// An 8-bit image, rows top to bottom (image convention), `channels` bytes per pixel.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// 3 (RGB) or 4 (RGBA).
+    pub channels: u8,
+    /// `width · height · channels` bytes, row-major from the top row.
+    pub data: Vec<u8>,
+}
+
+impl Image {
+    /// A black (transparent) image.
+    pub fn new(width: u32, height: u32, channels: u8) -> Self {
+        Image { width, height, channels, data: vec![0; width as usize * height as usize * channels as usize] }
+    }
+
+    /// Encodes the image as PNG (fast DEFLATE: textures are regenerated, not archived).
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let mut out = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut out, self.width, self.height);
+            enc.set_color(if self.channels == 4 { png::ColorType::Rgba } else { png::ColorType::Rgb });
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_compression(png::Compression::Fast);
+            let err = |e: png::EncodingError| Error::InvalidGeometry {
+                what: "texture".into(),
+                why: format!("PNG encoding failed: {e}"),
+            };
+            let mut w = enc.write_header().map_err(err)?;
+            w.write_image_data(&self.data).map_err(err)?;
+        }
+        Ok(out)
+    }
+
+    /// The texel at (x, y), wrapped, as RGBA in \[0, 1\] (alpha 1 for RGB images).
+    pub fn texel(&self, x: i64, y: i64) -> [f32; 4] {
+        let (w, h) = (self.width.max(1) as i64, self.height.max(1) as i64);
+        let (x, y) = (x.rem_euclid(w) as usize, y.rem_euclid(h) as usize);
+        let c = self.channels as usize;
+        let i = (y * w as usize + x) * c;
+        let Some(p) = self.data.get(i..i + c) else {
+            return [0.0; 4];
+        };
+        let a = if c == 4 { p[3] as f32 / 255.0 } else { 1.0 };
+        [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, a]
+    }
+
+    /// Bilinear sample at texture coordinate (u, v) with the mesh convention (origin
+    /// bottom left, v up), repeating outside \[0, 1\].
+    pub fn sample(&self, u: f32, v: f32) -> [f32; 4] {
+        let x = u * self.width as f32 - 0.5;
+        let y = (1.0 - v) * self.height as f32 - 0.5;
+        if !x.is_finite() || !y.is_finite() {
+            return [0.0; 4];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (xi, yi) = (x0 as i64, y0 as i64);
+        let (a, b, c, d) =
+            (self.texel(xi, yi), self.texel(xi + 1, yi), self.texel(xi, yi + 1), self.texel(xi + 1, yi + 1));
+        std::array::from_fn(|k| {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (d[k] - c[k]) * fx;
+            top + (bottom - top) * fy
+        })
+    }
+}
+
+/// Linear → sRGB transfer (IEC 61966-2-1), for colour maps (glTF base colour textures
+/// are sRGB; factors and the other maps are linear).
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// sRGB → linear transfer, the inverse of [`linear_to_srgb`].
+pub fn srgb_to_linear(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A linear value in \[0, 1\] as an sRGB byte, through a 4096-entry table (the
+/// transfer's `powf` per channel would cost more than the noise of a bark map).
+#[inline]
+pub(crate) fn srgb_byte(lin: f32) -> u8 {
+    static LUT: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    let lut = LUT.get_or_init(|| (0..4096).map(|i| to_byte(linear_to_srgb(i as f32 / 4095.0))).collect());
+    lut[(lin.clamp(0.0, 1.0) * 4095.0 + 0.5) as usize]
+}
+
+/// A value in \[0, 1\] as a byte (rounded).
+#[inline]
+pub(crate) fn to_byte(x: f32) -> u8 {
+    (x.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+}
+
+/// Which textures a recipe asks for and how large (`[textures]`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TextureOptions {
+    /// Edge of the square bark maps in pixels (16–4096; default 1024).
+    pub bark_size: u32,
+    /// Edge of the square leaf atlas in pixels (16–4096; default 1024).
+    pub atlas_size: u32,
+    /// Bark style: `auto` (the preset's), `smooth`, `furrowed`, `plated` or `birch`.
+    pub bark: String,
+}
+
+impl Default for TextureOptions {
+    fn default() -> Self {
+        TextureOptions { bark_size: 1024, atlas_size: 1024, bark: "auto".into() }
+    }
+}
+
+impl TextureOptions {
+    /// Checks the ranges; errors name the key (`textures.bark_size` …).
+    pub fn check(&self) -> Result<()> {
+        for (k, v) in [("bark_size", self.bark_size), ("atlas_size", self.atlas_size)] {
+            if !(16..=4096).contains(&v) {
+                return Err(Error::Recipe(format!("`textures.{k}` must be in 16..=4096, got {v}")));
+            }
+        }
+        if self.bark != "auto" && bark::BarkStyle::from_name(&self.bark).is_none() {
+            return Err(Error::Recipe(format!(
+                "`textures.bark` is `{}`; use auto, {}",
+                self.bark,
+                bark::BarkStyle::NAMES.join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The textures of one tree: the bark maps and the leaf atlas.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextureSet {
+    /// Bark maps.
+    pub bark: bark::BarkMaps,
+    /// The leaf atlas.
+    pub leaves: leaf::LeafAtlas,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_table_matches_the_transfer() {
+        for i in 0..=1000 {
+            let x = i as f32 / 1000.0;
+            let exact = to_byte(linear_to_srgb(x)) as i32;
+            assert!((srgb_byte(x) as i32 - exact).abs() <= 1, "{x}");
+        }
+        assert_eq!((srgb_byte(-1.0), srgb_byte(2.0), srgb_byte(f32::NAN)), (0, 255, 0));
+    }
+
+    #[test]
+    fn srgb_round_trips() {
+        for i in 0..=20 {
+            let x = i as f32 / 20.0;
+            assert!((srgb_to_linear(linear_to_srgb(x)) - x).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn sampling_wraps_and_interpolates() {
+        let mut im = Image::new(2, 1, 3);
+        im.data = vec![0, 0, 0, 255, 255, 255];
+        // The centre of the left texel is u = 0.25; halfway to the right one is u = 0.5.
+        assert!(im.sample(0.25, 0.5)[0] < 1e-6);
+        assert!((im.sample(0.5, 0.5)[0] - 0.5).abs() < 1e-6);
+        // u = 1.0 lies between the right texel and the wrapped left one.
+        assert!((im.sample(1.0, 0.5)[0] - 0.5).abs() < 1e-6);
+        assert_eq!(im.sample(0.75, 0.5)[3], 1.0);
+        let png = im.to_png().unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+
+    #[test]
+    fn option_ranges_are_checked() {
+        assert!(TextureOptions::default().check().is_ok());
+        let e = TextureOptions { bark_size: 8, ..Default::default() }.check().unwrap_err();
+        assert!(e.to_string().contains("textures.bark_size"), "{e}");
+        let e = TextureOptions { bark: "mossy".into(), ..Default::default() }.check().unwrap_err();
+        assert!(e.to_string().contains("textures.bark") && e.to_string().contains("furrowed"), "{e}");
+    }
+}
