@@ -180,7 +180,8 @@ fn grow(args: GrowArgs) -> Result<()> {
     if skeleton_out {
         sylva::export::skeleton::write(&grown.skeleton, &out)?;
     } else {
-        sylva::export::write(&grown.model, &out)?;
+        let textures = sylva::export::TextureMode::for_output(&loaded.recipe.output.textures, &out)?;
+        sylva::export::write_with(&grown.model, &out, &textures)?;
     }
     if let Some(p) = &preview {
         let size = loaded.recipe.output.preview_size;

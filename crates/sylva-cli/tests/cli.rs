@@ -392,6 +392,6 @@ fn subdivide_outputs_are_golden() {
     assert!(wrong.is_empty(), "subdivide outputs changed:\n{}", wrong.join("\n"));
 }
 
-const CUBE_SHA: &str = "113192dc652ed5ea376eb0898fa6b566d6a33c89fa39e8832bb1333dc5cc4be7";
-const OCTAHEDRON_SHA: &str = "20dd136668497c78e089459c25bc75102f9996d0e995911c1ef97342ba679018";
-const GRID_SHA: &str = "ad817b47fac9247403e4ced8a2f7969f612da8064a7b3fd8ef8f694c7ab8b9c8";
+const CUBE_SHA: &str = "3308acf33f579435a29a35cb7d84dcdec2f51743da3ab445dc0b513dedf44c9c";
+const OCTAHEDRON_SHA: &str = "b099ecf8c56af11ff9b2a149257f83f7dfdb6f402394695ca9423c190fceae30";
+const GRID_SHA: &str = "64d6a8237ed5543e174b96520c4209b68150e51b21a4daefaf6702103e0ff257";

@@ -23,6 +23,50 @@ pub struct Material {
     pub roughness: f32,
     /// Render both faces (for open leaf blades).
     pub double_sided: bool,
+    /// Texture maps (indices into [`Model::images`]); used where the part has UVs.
+    pub maps: MaterialMaps,
+    /// Alpha-cut (glTF `alphaMode: MASK`) at this coverage, for leaf cards.
+    pub alpha_cutoff: Option<f32>,
+}
+
+/// A material's texture maps, as indices into [`Model::images`]. Filled by the texture
+/// stage (issue 23).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MaterialMaps {
+    /// Base colour (sRGB; RGBA where the alpha cuts the outline).
+    pub base_color: Option<u32>,
+    /// Tangent-space normal map.
+    pub normal: Option<u32>,
+    /// Occlusion (R), roughness (G), metallic (B).
+    pub occlusion_roughness_metallic: Option<u32>,
+}
+
+impl MaterialMaps {
+    /// Whether the material has any map.
+    pub fn any(&self) -> bool {
+        self.base_color.is_some() || self.normal.is_some() || self.occlusion_roughness_metallic.is_some()
+    }
+}
+
+/// A texture of the model: embedded in glTF or written beside the model as
+/// `<model>_<name>.png`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelImage {
+    /// Name (`bark_albedo`, `leaf_atlas`, …): letters, digits and `_` only.
+    pub name: String,
+    /// The pixels.
+    pub image: crate::texture::Image,
+    /// Repeat (bark tiles) rather than clamp (the leaf atlas) outside \[0, 1\].
+    pub repeat: bool,
+}
+
+/// What made a model: written to glTF's scene `extras` (and OBJ / PLY comments).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Provenance {
+    /// The recipe as TOML text.
+    pub recipe: String,
+    /// The recipe's seed.
+    pub seed: u64,
 }
 
 impl Material {
@@ -34,6 +78,8 @@ impl Material {
             metallic: 0.0,
             roughness: 0.9,
             double_sided: false,
+            maps: MaterialMaps::default(),
+            alpha_cutoff: None,
         }
     }
 
@@ -45,6 +91,8 @@ impl Material {
             metallic: 0.0,
             roughness: 0.7,
             double_sided: true,
+            maps: MaterialMaps::default(),
+            alpha_cutoff: None,
         }
     }
 }
@@ -281,6 +329,10 @@ pub struct Model {
     pub lods: Vec<Lod>,
     /// The branch axes as Bézier chains with radii.
     pub curves: BranchCurves,
+    /// Textures the materials refer to (texture stage, issue 23).
+    pub images: Vec<ModelImage>,
+    /// The recipe and seed that made the model, when a recipe did.
+    pub provenance: Option<Provenance>,
 }
 
 impl Model {

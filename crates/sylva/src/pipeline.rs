@@ -393,7 +393,10 @@ fn finish(
     let mut parts =
         vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
     if !skeleton.organs.is_empty() {
-        let (leaves, missing) = crate::mesh::organs::organ_mesh(skeleton, surfaces);
+        use crate::mesh::cards::{is_card_leaf, leaf_cards};
+        let cards = recipe.leaves.mode == "cards" && recipe.output.textures != "none";
+        let keep = |o: &crate::skeleton::Organ| !(cards && is_card_leaf(o));
+        let (leaves, missing) = crate::mesh::organs::organ_mesh_where(skeleton, surfaces, keep);
         report.missing_surfaces = missing;
         if leaves.face_count() > 0 {
             parts.push(Part {
@@ -403,11 +406,78 @@ fn finish(
                 ..Default::default()
             });
         }
+        if cards {
+            // The cell's geometry only: the atlas itself is drawn by the texture stage.
+            let atlas = crate::texture::leaf::atlas_layout(recipe.textures.atlas_size);
+            let mesh = leaf_cards(skeleton, atlas.cell(recipe.leaves.leaf_shape()));
+            if mesh.face_count() > 0 {
+                let material = Material {
+                    name: "leaf_card".into(),
+                    double_sided: false,
+                    alpha_cutoff: Some(recipe.leaves.alpha_cutoff),
+                    ..Material::leaf()
+                };
+                parts.push(Part { name: "leaf_cards".into(), mesh, material, ..Default::default() });
+            }
+        }
     }
-    let model = Model { parts, ..Default::default() };
+    let mut model = Model { parts, ..Default::default() };
+    texture_model(recipe, &mut model);
     report.triangles = model.triangle_count();
     report.vertices = model.vertex_count();
     Ok(model)
+}
+
+/// The recipe as TOML for the file's metadata, without where the output goes (the same
+/// tree written to two names is the same file).
+fn provenance(recipe: &Recipe) -> Option<crate::model::Provenance> {
+    let mut value = toml::Value::try_from(recipe).ok()?;
+    if let Some(out) = value.get_mut("output").and_then(|o| o.as_table_mut()) {
+        out.remove("file");
+        out.remove("preview");
+    }
+    let text = toml::to_string(&value).ok()?;
+    Some(crate::model::Provenance { recipe: text, seed: recipe.seed })
+}
+
+/// The texture stage (issue 23): draws the bark maps (and the leaf atlas when the model
+/// has leaf cards) from the recipe's seed and points the materials at them. Nothing is
+/// drawn for `output.textures = "none"`.
+fn texture_model(recipe: &Recipe, model: &mut Model) {
+    use crate::model::ModelImage;
+    use crate::texture::{bark, leaf};
+    if recipe.output.textures == "none" {
+        return;
+    }
+    let style = bark::BarkStyle::from_name(&recipe.textures.bark).unwrap_or(match recipe.generator {
+        crate::recipe::Generator::LeastCost(_) => bark::BarkStyle::Smooth,
+        _ => bark::BarkStyle::Furrowed,
+    });
+    let cards = model.parts.iter().position(|p| p.name == "leaf_cards");
+    let colour = {
+        let c = crate::model::Material::leaf().base_color;
+        [c[0], c[1], c[2]]
+    };
+    let (maps, atlas) = rayon::join(
+        || bark::bark_maps(style, recipe.textures.bark_size, recipe.seed),
+        || cards.map(|_| leaf::leaf_atlas(recipe.textures.atlas_size, colour, recipe.seed)),
+    );
+    let first = model.images.len() as u32;
+    for (name, image) in [("bark_albedo", maps.albedo), ("bark_normal", maps.normal), ("bark_orm", maps.orm)]
+    {
+        model.images.push(ModelImage { name: name.into(), image, repeat: true });
+    }
+    for part in model.parts.iter_mut().filter(|p| p.name == "bark") {
+        part.material.maps = crate::model::MaterialMaps {
+            base_color: Some(first),
+            normal: Some(first + 1),
+            occlusion_roughness_metallic: Some(first + 2),
+        };
+    }
+    if let (Some(i), Some(atlas)) = (cards, atlas) {
+        model.images.push(ModelImage { name: "leaf_atlas".into(), image: atlas.image, repeat: false });
+        model.parts[i].material.maps.base_color = Some(first + 3);
+    }
 }
 
 /// The bark's control mesh of `skeleton` by the recipe's mesher (its warnings and axis
@@ -564,5 +634,6 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
         None => mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?,
     };
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
+    model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
 }

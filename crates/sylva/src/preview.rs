@@ -357,6 +357,13 @@ fn draw_model(model: &Model, cam: &Camera, srgb: &Srgb, t: &mut Target) {
         let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
         let base = Vec3::new(ch(c[0]), ch(c[1]), ch(c[2]));
         let normals = m.normals.as_ref();
+        // The colour map, where the part has UVs (the file's look: issue 23).
+        let map = part
+            .material
+            .maps
+            .base_color
+            .and_then(|i| model.images.get(i as usize))
+            .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len()));
         for f in 0..m.face_count() {
             let corners = m.corners(f);
             if corners.len() < 3 {
@@ -372,7 +379,12 @@ fn draw_model(model: &Model, cam: &Camera, srgb: &Srgb, t: &mut Target) {
                     Some(fv) => cs.map(|c| fv.values[fv.indices[c] as usize]),
                     None => [face_n; 3],
                 };
-                draw_triangle(t, &shader, vi.map(|v| screen[v]), ns, face_n, base);
+                let tex = map.map(|(im, uv)| Texture {
+                    image: &im.image,
+                    uv: cs.map(|c| uv.values.get(uv.indices[c] as usize).copied().unwrap_or_default()),
+                    cutoff: part.material.alpha_cutoff,
+                });
+                draw_triangle(t, &shader, vi.map(|v| screen[v]), ns, face_n, base, tex.as_ref());
             }
         }
     }
@@ -392,8 +404,44 @@ struct ScreenVertex {
     iz: f32,
 }
 
-/// Rasterizes one triangle given in screen space with per-corner normals.
-fn draw_triangle(t: &mut Target, sh: &Shader, s: [ScreenVertex; 3], n: [Vec3; 3], face_n: Vec3, base: Vec3) {
+/// A triangle's colour map: the image, its corners' UVs and the alpha cut-off.
+struct Texture<'a> {
+    image: &'a crate::texture::Image,
+    uv: [glam::Vec2; 3],
+    cutoff: Option<f32>,
+}
+
+impl Texture<'_> {
+    /// The linear colour at barycentric `w` (nearest texel, screen-affine UVs), or
+    /// `None` where the alpha cut-off removes the sample.
+    #[inline]
+    fn colour(&self, w: [f32; 3], srgb: &Srgb) -> Option<Vec3> {
+        let uv = self.uv[0] * w[0] + self.uv[1] * w[1] + self.uv[2] * w[2];
+        let im = self.image;
+        let x = (uv.x * im.width as f32).floor() as i64;
+        let y = ((1.0 - uv.y) * im.height as f32).floor() as i64;
+        let c = im.texel(x, y);
+        if self.cutoff.is_some_and(|cut| c[3] < cut) {
+            return None;
+        }
+        let dec = |v: f32| srgb.decode[((v * 255.0 + 0.5) as usize).min(255)];
+        Some(Vec3::new(dec(c[0]), dec(c[1]), dec(c[2])))
+    }
+}
+
+/// Rasterizes one triangle given in screen space with per-corner normals, coloured by
+/// `base` or by its colour map.
+#[allow(clippy::too_many_arguments)]
+fn draw_triangle(
+    t: &mut Target,
+    sh: &Shader,
+    s: [ScreenVertex; 3],
+    n: [Vec3; 3],
+    face_n: Vec3,
+    base: Vec3,
+    tex: Option<&Texture>,
+) {
+    let mut tex_uv = tex.map(|t| t.uv);
     let mut p = s.map(|v| (v.x, v.y));
     let (mut s, mut n) = (s, n);
     let mut area = edge(p[0], p[1], p[2].0, p[2].1);
@@ -406,8 +454,12 @@ fn draw_triangle(t: &mut Target, sh: &Shader, s: [ScreenVertex; 3], n: [Vec3; 3]
         p.swap(1, 2);
         s.swap(1, 2);
         n.swap(1, 2);
+        if let Some(uv) = tex_uv.as_mut() {
+            uv.swap(1, 2);
+        }
         area = -area;
     }
+    let tex = tex.zip(tex_uv).map(|(t, uv)| Texture { image: t.image, uv, cutoff: t.cutoff });
     let flip = if back { -1.0 } else { 1.0 };
     let face_n = face_n * flip;
     let n = n.map(|v| v * flip);
@@ -502,9 +554,16 @@ fn draw_triangle(t: &mut Target, sh: &Shader, s: [ScreenVertex; 3], n: [Vec3; 3]
             if z <= t.depth[idx] {
                 continue;
             }
+            let colour = match &tex {
+                Some(tx) => match tx.colour(w, sh.srgb) {
+                    Some(c) => c,
+                    None => continue, // cut away by the alpha mask
+                },
+                None => base,
+            };
             t.depth[idx] = z;
             let nn = (n[0] * w[0] + n[1] * w[1] + n[2] * w[2]).normalize_or(face_n);
-            t.color[idx] = sh.shade(nn, base);
+            t.color[idx] = sh.shade(nn, colour);
         }
     }
 }

@@ -42,9 +42,64 @@ pub struct Recipe {
     /// Subdivision of the mesher's control mesh.
     #[serde(default)]
     pub refine: RefineSection,
+    /// Procedural textures (`[textures]`).
+    #[serde(default)]
+    pub textures: crate::texture::TextureOptions,
+    /// How leaves are written (`[leaves]`).
+    #[serde(default)]
+    pub leaves: LeavesSection,
     /// Output files.
     #[serde(default)]
     pub output: OutputSection,
+}
+
+/// `[leaves]`: how leaf organs are written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LeavesSection {
+    /// `cards` (a textured, alpha-cut quad per leaf, from the leaf atlas; the default for
+    /// games) or `geometry` (the leaf polygons as the generator drew them).
+    pub mode: String,
+    /// The atlas shape the cards show: `auto` (ovate, or the preset's), `ovate`,
+    /// `lanceolate`, `lobed`, `compound`, `needles` or `cluster`.
+    pub shape: String,
+    /// Alpha cut-off of the cards (glTF `alphaCutoff`), in (0, 1).
+    pub alpha_cutoff: f32,
+}
+
+impl Default for LeavesSection {
+    fn default() -> Self {
+        LeavesSection { mode: "cards".into(), shape: "auto".into(), alpha_cutoff: 0.5 }
+    }
+}
+
+impl LeavesSection {
+    /// Checks the keys; errors name them.
+    pub fn check(&self) -> Result<()> {
+        if !["cards", "geometry"].contains(&self.mode.as_str()) {
+            return Err(Error::Recipe(format!("`leaves.mode` is `{}`; use cards or geometry", self.mode)));
+        }
+        if self.shape != "auto" && crate::texture::leaf::LeafShape::from_name(&self.shape).is_none() {
+            return Err(Error::Recipe(format!(
+                "`leaves.shape` is `{}`; use auto, {}",
+                self.shape,
+                crate::texture::leaf::LeafShape::NAMES.join(", ")
+            )));
+        }
+        if !(self.alpha_cutoff > 0.0 && self.alpha_cutoff < 1.0) {
+            return Err(Error::Recipe(format!(
+                "`leaves.alpha_cutoff` must be in (0, 1), got {}",
+                self.alpha_cutoff
+            )));
+        }
+        Ok(())
+    }
+
+    /// The shape the cards show (`auto` is ovate).
+    pub fn leaf_shape(&self) -> crate::texture::leaf::LeafShape {
+        crate::texture::leaf::LeafShape::from_name(&self.shape)
+            .unwrap_or(crate::texture::leaf::LeafShape::Ovate)
+    }
 }
 
 fn default_seed() -> u64 {
@@ -341,6 +396,14 @@ pub struct OutputSection {
     /// Preview width and height in pixels.
     #[serde(default = "default_preview_size")]
     pub preview_size: u32,
+    /// Where textures go: `embed` (in the `.glb`/`.gltf`), `files` (PNGs beside the
+    /// model) or `none` (flat colours). OBJ always writes files unless `none`.
+    #[serde(default = "default_textures")]
+    pub textures: String,
+}
+
+fn default_textures() -> String {
+    "embed".into()
 }
 
 fn default_file() -> String {
@@ -352,7 +415,12 @@ fn default_preview_size() -> u32 {
 
 impl Default for OutputSection {
     fn default() -> Self {
-        OutputSection { file: default_file(), preview: None, preview_size: default_preview_size() }
+        OutputSection {
+            file: default_file(),
+            preview: None,
+            preview_size: default_preview_size(),
+            textures: default_textures(),
+        }
     }
 }
 
@@ -639,6 +707,14 @@ impl Recipe {
                 format!("is {}; at most 6 (each level multiplies faces by 4)", self.refine.levels),
             );
         }
+        self.textures.check()?;
+        self.leaves.check()?;
+        if !["embed", "files", "none"].contains(&self.output.textures.as_str()) {
+            return bad(
+                "output.textures",
+                format!("is `{}`; use embed, files or none", self.output.textures),
+            );
+        }
         if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
         }
@@ -670,7 +746,7 @@ mod tests {
             .collect()
     }
 
-    /// Every field of the `[mesh.*]` and `[fit.*]` tables is documented, every documented
+    /// Every field of the `[mesh.*]`, `[fit.*]`, `[textures]` and `[leaves]` tables is documented, every documented
     /// key is accepted by `--set` with its default value, and an unknown key is an error.
     #[test]
     fn mesher_and_fit_tables_match_their_docs() {
@@ -681,11 +757,13 @@ mod tests {
                 "mesh.sweep" => toml::Value::try_from(&r.mesh.sweep),
                 "mesh.quad" => toml::Value::try_from(&r.mesh.quad),
                 "fit.decollide" => toml::Value::try_from(&r.fit.decollide),
+                "textures" => toml::Value::try_from(&r.textures),
+                "leaves" => toml::Value::try_from(&r.leaves),
                 _ => toml::Value::try_from(&r.fit.clear),
             }
             .unwrap()
         }
-        let tables: [(&str, &str, toml::Value); 6] = [
+        let tables: [(&str, &str, toml::Value); 8] = [
             ("mesh.tube", "### `[mesh.tube]`", toml::Value::try_from(TubeOptions::default()).unwrap()),
             ("mesh.hull", "### `[mesh.hull]`", toml::Value::try_from(HullOptions::default()).unwrap()),
             ("mesh.sweep", "### `[mesh.sweep]`", toml::Value::try_from(SweepOptions::default()).unwrap()),
@@ -696,6 +774,12 @@ mod tests {
                 toml::Value::try_from(DecollideOptions::default()).unwrap(),
             ),
             ("fit.clear", "### `[fit.clear]`", toml::Value::try_from(ClearOptions::default()).unwrap()),
+            (
+                "textures",
+                "## `[textures]`",
+                toml::Value::try_from(crate::texture::TextureOptions::default()).unwrap(),
+            ),
+            ("leaves", "## `[leaves]`", toml::Value::try_from(LeavesSection::default()).unwrap()),
         ];
         for (table, heading, defaults) in tables {
             let fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();
@@ -719,6 +803,12 @@ mod tests {
             ("fit.clear.step=1.5", "fit.clear.step"),
             ("fit.clear.max_pairs=0", "fit.clear.max_pairs"),
             ("mesh.quad.support=-1", "mesh.quad.support"),
+            ("textures.bark_size=8", "textures.bark_size"),
+            ("textures.bark=\"mossy\"", "textures.bark"),
+            ("leaves.mode=\"sprites\"", "leaves.mode"),
+            ("leaves.shape=\"round\"", "leaves.shape"),
+            ("leaves.alpha_cutoff=1", "leaves.alpha_cutoff"),
+            ("output.textures=\"inline\"", "output.textures"),
         ] {
             let e = load("lsys-honda-a", &sets(&[kv])).unwrap_err();
             assert!(e.to_string().contains(key), "{kv}: {e}");

@@ -223,9 +223,10 @@ fn glb_layout_and_contents() {
     // Stem: no UVs, no TEXCOORD_0.
     assert!(!prim(2).attributes.contains_key(&Valid(Semantic::TexCoords(0))));
     use gltf_json::accessor::{ComponentType, GenericComponentType};
+    // Indices are 16-bit: every primitive here has far fewer than 65,536 vertices.
     for a in &root.accessors {
         if a.type_ == Valid(gltf_json::accessor::Type::Scalar) {
-            assert!(matches!(a.component_type, Valid(GenericComponentType(ComponentType::U32))));
+            assert!(matches!(a.component_type, Valid(GenericComponentType(ComponentType::U16))));
         }
     }
     for v in &root.buffer_views {
@@ -293,8 +294,10 @@ fn obj_reads_back_with_tobj() {
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("mtllib tree.mtl\n"));
     assert!(text.contains("f 1/1/1 4/2/1 3/4/1 2/3/1\n"), "{text}");
-    assert!(text.contains("f 9/19 11/21 10/20\n"), "{text}"); // blade: v/vt
-    assert!(text.contains("f 17//7 18//7 19//7 20//7\n"), "{text}"); // stem: v//vn
+    // Blade: no normals of its own, so smooth ones per position (vn 7…14) and `s 1`.
+    assert!(text.contains("f 9/19/7 11/21/9 10/20/8\n"), "{text}");
+    assert!(text.contains("f 17//15 18//15 19//15 20//15\n"), "{text}"); // stem: v//vn
+    assert!(text.contains("o blade\ng blade\n") && text.contains("s 1\n"), "{text}");
 
     let options = tobj::LoadOptions { single_index: false, triangulate: false, ..Default::default() };
     let (models, materials) = tobj::load_obj(&path, &options).unwrap();
@@ -377,6 +380,10 @@ fn ply_header(bytes: &[u8]) -> (usize, usize, usize) {
             "float nz",
             "float s",
             "float t",
+            "uchar red",
+            "uchar green",
+            "uchar blue",
+            "ushort part",
             "list uchar uint vertex_indices"
         ]
     );
@@ -395,8 +402,8 @@ fn ply_header_and_counts_match() {
     // Unified vertices: cube 24, blade 8, stem 4.
     assert_eq!(nv, 24 + 8 + 4);
     assert_eq!(nf, 6 + 3 + 1);
-    // Walk the body: every vertex 32 bytes, every face a count and that many indices.
-    let mut at = header_len + nv * 32;
+    // Walk the body: every vertex 37 bytes, every face a count and that many indices.
+    let mut at = header_len + nv * 37;
     let mut arities = Vec::new();
     for _ in 0..nf {
         let k = bytes[at] as usize;
@@ -413,7 +420,7 @@ fn ply_header_and_counts_match() {
     // Every normal is unit length, including the blade's computed ones.
     for v in 0..nv {
         let f = |i: usize| {
-            let o = header_len + v * 32 + i * 4;
+            let o = header_len + v * 37 + i * 4;
             f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap())
         };
         let n = Vec3::new(f(3), f(4), f(5));
@@ -515,5 +522,108 @@ fn model_without_triangles_is_an_error() {
     assert!(listing(&dir).is_empty());
     assert!(gltf::to_glb(&Model::default()).is_err());
     assert!(ply::write_ply(&Model::default(), &mut Vec::new()).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A model whose bark (the cube, with UVs) has the three bark maps and whose blade is an
+/// alpha-cut card on a 4th image, written every way (issue 23).
+fn textured() -> Model {
+    use sylva::model::{MaterialMaps, ModelImage, Provenance};
+    use sylva::texture::{bark, leaf};
+    let maps = bark::bark_maps(bark::BarkStyle::Plated, 32, 1);
+    let atlas = leaf::leaf_atlas(48, [0.1, 0.3, 0.1], 1);
+    let mut model = model();
+    model.images = vec![
+        ModelImage { name: "bark_albedo".into(), image: maps.albedo, repeat: true },
+        ModelImage { name: "bark_normal".into(), image: maps.normal, repeat: true },
+        ModelImage { name: "bark_orm".into(), image: maps.orm, repeat: true },
+        ModelImage { name: "leaf_atlas".into(), image: atlas.image, repeat: false },
+    ];
+    model.parts[0].material.maps =
+        MaterialMaps { base_color: Some(0), normal: Some(1), occlusion_roughness_metallic: Some(2) };
+    model.parts[1].material.maps.base_color = Some(3);
+    model.parts[1].material.alpha_cutoff = Some(0.5);
+    // The stem has no UVs: its material's maps must not be written.
+    model.parts[2].material.maps.base_color = Some(0);
+    model.provenance = Some(Provenance { recipe: "seed = 3\n".into(), seed: 3 });
+    model
+}
+
+#[test]
+fn textures_are_embedded_written_beside_or_left_out() {
+    use gltf_json::mesh::Semantic;
+    use gltf_json::validation::Checked::Valid;
+    let dir = scratch("textures");
+    let model = textured();
+    let (glb, gltf_path, files, none, big) =
+        (dir.join("t.glb"), dir.join("t.gltf"), dir.join("f.glb"), dir.join("n.glb"), dir.join("big.glb"));
+    export::write(&model, &glb).unwrap();
+    export::write(&model, &gltf_path).unwrap();
+    export::write_with(&model, &files, &export::TextureMode::for_output("files", &files).unwrap()).unwrap();
+    export::write_with(&model, &none, &export::TextureMode::None).unwrap();
+    let mut big_model =
+        Model { parts: vec![part("grid", grid(300), Material::bark())], ..Default::default() };
+    big_model.images = model.images[..3].to_vec();
+    big_model.parts[0].material.maps = model.parts[0].material.maps;
+    export::write(&big_model, &big).unwrap();
+    export::write(&model, &dir.join("t.obj")).unwrap();
+    assert_eq!(
+        listing(&dir),
+        [
+            "big.glb",
+            "f.glb",
+            "f_bark_albedo.png",
+            "f_bark_normal.png",
+            "f_bark_orm.png",
+            "f_leaf_atlas.png",
+            "n.glb",
+            "t.glb",
+            "t.gltf",
+            "t.mtl",
+            "t.obj",
+            "t_bark_albedo.png",
+            "t_bark_normal.png",
+            "t_bark_orm.png",
+            "t_leaf_atlas.png",
+        ]
+    );
+    assert_valid_gltf(&[&glb, &gltf_path, &files, &none, &big]);
+
+    let bytes = std::fs::read(&glb).unwrap();
+    let root = gltf_json::Root::from_slice(glb_chunks(&bytes).0).unwrap();
+    assert_eq!((root.images.len(), root.textures.len(), root.samplers.len()), (4, 4, 2));
+    assert!(root.images.iter().all(|i| i.buffer_view.is_some() && i.uri.is_none()));
+    let bark = &root.materials[0];
+    assert!(bark.normal_texture.is_some() && bark.occlusion_texture.is_some());
+    assert!(bark.pbr_metallic_roughness.base_color_texture.is_some());
+    assert!(bark.pbr_metallic_roughness.metallic_roughness_texture.is_some());
+    let card = &root.materials[1];
+    assert_eq!(card.alpha_mode, Valid(gltf_json::material::AlphaMode::Mask));
+    assert_eq!(card.alpha_cutoff.map(|c| c.0), Some(0.5));
+    assert!(root.materials[2].pbr_metallic_roughness.base_color_texture.is_none(), "stem has no UVs");
+    // The normal-mapped primitive carries tangents; the card does not need them.
+    let attrs = |m: usize| &root.meshes[m].primitives[0].attributes;
+    assert!(attrs(0).contains_key(&Valid(Semantic::Tangents)));
+    assert!(!attrs(1).contains_key(&Valid(Semantic::Tangents)));
+    // The recipe and seed ride in the scene's extras.
+    let extras = root.scenes[0].extras.as_ref().unwrap().get();
+    assert!(extras.contains("\"seed\":3") && extras.contains("seed = 3"), "{extras}");
+
+    let text = std::fs::read_to_string(&gltf_path).unwrap();
+    assert!(text.contains("data:image/png;base64,"));
+    let bytes = std::fs::read(&files).unwrap();
+    let root = gltf_json::Root::from_slice(glb_chunks(&bytes).0).unwrap();
+    assert_eq!(root.images[0].uri.as_deref(), Some("f_bark_albedo.png"));
+    let bytes = std::fs::read(&none).unwrap();
+    let root = gltf_json::Root::from_slice(glb_chunks(&bytes).0).unwrap();
+    assert!(root.images.is_empty() && root.materials[0].normal_texture.is_none());
+    let bytes = std::fs::read(&big).unwrap();
+    let root = gltf_json::Root::from_slice(glb_chunks(&bytes).0).unwrap();
+    use gltf_json::accessor::{ComponentType, GenericComponentType};
+    let idx = &root.accessors[root.meshes[0].primitives[0].indices.unwrap().value()];
+    assert!(matches!(idx.component_type, Valid(GenericComponentType(ComponentType::U32))), "90,601 vertices");
+    let mtl = std::fs::read_to_string(dir.join("t.mtl")).unwrap();
+    assert!(mtl.contains("map_Kd t_bark_albedo.png") && mtl.contains("norm t_bark_normal.png"), "{mtl}");
+    assert!(mtl.contains("map_d t_leaf_atlas.png"), "{mtl}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

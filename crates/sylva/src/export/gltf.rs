@@ -5,11 +5,20 @@
 //! part, named after the part. Each part becomes one mesh with one `TRIANGLES` primitive
 //! (faces fan-triangulated) with `POSITION` (with exact `min`/`max`), `NORMAL` (always:
 //! the part's normals normalized, or smooth area-weighted normals when it has none),
-//! `TEXCOORD_0` (when the part has UVs), `UNSIGNED_INT` indices and a metallic-roughness
-//! PBR material named after the part's [`crate::Material`]. All data lives in one buffer,
+//! `TEXCOORD_0` (when the part has UVs), indices (`UNSIGNED_SHORT` where the primitive
+//! has fewer than 65,536 vertices, else `UNSIGNED_INT`) and a metallic-roughness PBR
+//! material named after the part's [`crate::Material`]. All data lives in one buffer,
 //! one tightly packed, 4-byte aligned buffer view per accessor, with `ARRAY_BUFFER` /
 //! `ELEMENT_ARRAY_BUFFER` targets. Face-varying UVs and normals are unified into glTF
 //! vertices by [`super::unify`].
+//!
+//! Textures (issue 23): the model's images become glTF `images` — PNG in a buffer view
+//! ([`TextureMode::Embed`]) or a relative `uri` to a file the caller writes beside the
+//! model ([`TextureMode::Files`]) — with one `texture` each and a sampler that repeats
+//! (bark tiles) or clamps (the leaf atlas). A material with maps gets
+//! `baseColorTexture`, `normalTexture`, `occlusionTexture` and `metallicRoughnessTexture`
+//! (its factors then 1, metallic its own) where its part has UVs; an alpha cut-off gives
+//! `alphaMode: MASK`. The scene's `extras` hold the recipe (TOML) and seed.
 //!
 //! UVs: a [`crate::Mesh`] stores texture coordinates with the origin at the bottom left
 //! (OpenGL / OBJ convention, v up); glTF puts it at the top left, so `v` is written as
@@ -17,7 +26,7 @@
 //!
 //! Output is deterministic: the same model gives byte-identical output.
 
-use super::{validate_model, VertexData, GENERATOR};
+use super::{validate_model, TextureMode, VertexData, GENERATOR};
 use crate::error::{Error, Result};
 use crate::model::{Model, Part};
 use gltf_json as json;
@@ -40,7 +49,7 @@ pub const DATA_URI_PREFIX: &str = "data:application/octet-stream;base64,";
 /// [`Error::InvalidGeometry`].
 pub fn to_glb(model: &Model) -> Result<Vec<u8>> {
     validate_model(model)?;
-    glb_unchecked(model)
+    glb_unchecked(model, &TextureMode::Embed)
 }
 
 /// Encodes `model` as glTF 2.0 JSON (`.gltf`) with its buffer embedded as a base64
@@ -49,12 +58,12 @@ pub fn to_glb(model: &Model) -> Result<Vec<u8>> {
 /// Errors as [`to_glb`].
 pub fn to_gltf_json(model: &Model) -> Result<String> {
     validate_model(model)?;
-    gltf_json_unchecked(model)
+    gltf_json_unchecked(model, &TextureMode::Embed)
 }
 
 /// [`to_glb`] for a model already validated.
-pub(crate) fn glb_unchecked(model: &Model) -> Result<Vec<u8>> {
-    let (root, bin) = build(model)?;
+pub(crate) fn glb_unchecked(model: &Model, textures: &TextureMode) -> Result<Vec<u8>> {
+    let (root, bin) = build(model, textures, true)?;
     let json = root.to_vec().map_err(json_error)?;
     let json_len = pad4(json.len());
     let bin_len = pad4(bin.len());
@@ -82,8 +91,8 @@ pub(crate) fn glb_unchecked(model: &Model) -> Result<Vec<u8>> {
 }
 
 /// [`to_gltf_json`] for a model already validated.
-pub(crate) fn gltf_json_unchecked(model: &Model) -> Result<String> {
-    let (mut root, bin) = build(model)?;
+pub(crate) fn gltf_json_unchecked(model: &Model, textures: &TextureMode) -> Result<String> {
+    let (mut root, bin) = build(model, textures, false)?;
     if let Some(buffer) = root.buffers.first_mut() {
         buffer.uri = Some(data_uri(&bin));
     }
@@ -112,8 +121,9 @@ fn put_f32s<const N: usize>(out: &mut Vec<u8>, v: [f32; N]) {
     }
 }
 
-/// Builds the glTF document and its binary buffer (without a URI).
-fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
+/// Builds the glTF document and its binary buffer (without a URI). `glb`: embedded
+/// images go into the buffer (else into data URIs).
+fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root, Vec<u8>)> {
     let parts: Vec<(&Part, VertexData)> = model
         .parts
         .iter()
@@ -130,7 +140,8 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
         .iter()
         .map(|(p, d)| {
             let per_vertex = if d.has_uvs() { 32 } else { 24 };
-            d.unified.vertices.len() * per_vertex + p.mesh.triangle_count() * 12
+            let index_bytes = if d.unified.vertices.len() < 65_536 { 6 } else { 12 };
+            d.unified.vertices.len() * per_vertex + pad4(p.mesh.triangle_count() * index_bytes)
         })
         .sum();
     let mut bin: Vec<u8> = Vec::with_capacity(bin_size);
@@ -147,6 +158,8 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
     };
     let buffer = Index::<json::Buffer>::new(0);
     let mut children = Vec::with_capacity(parts.len());
+    let texture_of = push_textures(&mut root, &mut bin, buffer, model, textures, glb)?;
+    let image_bytes = bin.len();
 
     for (part, data) in &parts {
         let verts = &data.unified.vertices;
@@ -212,9 +225,39 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
             attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
         }
 
-        // Indices: every face fan-triangulated, u32.
+        // TANGENT where a normal map will be read (so no runtime has to guess one).
+        let normal_mapped = part.material.maps.normal.is_some()
+            && data.has_uvs()
+            && texture_of.get(part.material.maps.normal.unwrap_or(0) as usize).is_some_and(|t| t.is_some());
+        if normal_mapped {
+            let start = bin.len();
+            for t in tangents(part, data) {
+                put_f32s(&mut bin, t);
+            }
+            let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
+            let acc = push_accessor(
+                &mut root,
+                view,
+                count,
+                json::accessor::ComponentType::F32,
+                json::accessor::Type::Vec4,
+                None,
+                None,
+            );
+            attributes.insert(Valid(json::mesh::Semantic::Tangents), acc);
+        }
+
+        // Indices: every face fan-triangulated, u16 where every index fits.
         let start = bin.len();
+        let short = count < 65_536;
         let cv = &data.unified.corner_vertex;
+        let put = |bin: &mut Vec<u8>, i: u32| {
+            if short {
+                bin.extend_from_slice(&(i as u16).to_le_bytes());
+            } else {
+                put_u32(bin, i);
+            }
+        };
         for w in part.mesh.face_offsets.windows(2) {
             let Some(face) = cv.get(w[0] as usize..w[1] as usize) else {
                 continue;
@@ -223,42 +266,26 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
                 continue;
             };
             for pair in rest.windows(2) {
-                put_u32(&mut bin, first);
-                put_u32(&mut bin, pair[0]);
-                put_u32(&mut bin, pair[1]);
+                put(&mut bin, first);
+                put(&mut bin, pair[0]);
+                put(&mut bin, pair[1]);
             }
         }
-        let index_count = (bin.len() - start) / 4;
+        let index_count = (bin.len() - start) / if short { 2 } else { 4 };
         let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ElementArrayBuffer);
+        // Keep the next view 4-byte aligned.
+        bin.resize(pad4(bin.len()), 0);
         let indices = push_accessor(
             &mut root,
             view,
             index_count,
-            json::accessor::ComponentType::U32,
+            if short { json::accessor::ComponentType::U16 } else { json::accessor::ComponentType::U32 },
             json::accessor::Type::Scalar,
             None,
             None,
         );
 
-        let m = &part.material;
-        let material = root.push(json::Material {
-            name: Some(m.name.clone()),
-            alpha_mode: Valid(if m.base_color[3] < 1.0 {
-                json::material::AlphaMode::Blend
-            } else {
-                json::material::AlphaMode::Opaque
-            }),
-            double_sided: m.double_sided,
-            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-                base_color_factor: json::material::PbrBaseColorFactor(
-                    m.base_color.map(|c| c.clamp(0.0, 1.0)),
-                ),
-                metallic_factor: json::material::StrengthFactor(m.metallic.clamp(0.0, 1.0)),
-                roughness_factor: json::material::StrengthFactor(m.roughness.clamp(0.0, 1.0)),
-                ..Default::default()
-            },
-            ..Default::default()
-        });
+        let material = root.push(material(&part.material, data.has_uvs(), &texture_of));
         let mesh = root.push(json::Mesh {
             name: Some(part.name.clone()),
             primitives: vec![json::mesh::Primitive {
@@ -276,15 +303,21 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
         });
         children.push(root.push(node(part.name.clone(), Some(mesh), None)));
     }
-    debug_assert_eq!(bin.len(), bin_size);
+    debug_assert!(bin.len() - image_bytes >= bin_size);
 
     let top = root.push(node("sylva".to_owned(), None, Some(children)));
-    let scene = root.push(json::Scene {
-        name: Some("sylva".to_owned()),
-        nodes: vec![top],
-        extensions: None,
-        extras: Default::default(),
-    });
+    let extras = match &model.provenance {
+        Some(p) => {
+            let v = serde_json::json!({ "sylva": { "recipe": p.recipe, "seed": p.seed } });
+            Some(json::extras::RawValue::from_string(v.to_string()).map_err(|e| Error::InvalidGeometry {
+                what: "model".into(),
+                why: format!("glTF extras: {e}"),
+            })?)
+        }
+        None => None,
+    };
+    let scene =
+        root.push(json::Scene { name: Some("sylva".to_owned()), nodes: vec![top], extensions: None, extras });
     root.scene = Some(scene);
     root.push(json::Buffer {
         byte_length: USize64::from(bin.len()),
@@ -294,6 +327,196 @@ fn build(model: &Model) -> Result<(json::Root, Vec<u8>)> {
         extras: Default::default(),
     });
     Ok((root, bin))
+}
+
+/// The glTF texture index of each model image (`None` for [`TextureMode::None`]).
+type TextureIndex = Vec<Option<Index<json::Texture>>>;
+
+/// Adds the model's images, one texture per image and the two samplers (repeat, clamp);
+/// returns the texture of each image.
+fn push_textures(
+    root: &mut json::Root,
+    bin: &mut Vec<u8>,
+    buffer: Index<json::Buffer>,
+    model: &Model,
+    mode: &TextureMode,
+    glb: bool,
+) -> Result<TextureIndex> {
+    if model.images.is_empty() || matches!(mode, TextureMode::None) {
+        return Ok(vec![None; model.images.len()]);
+    }
+    use json::texture::{MagFilter, MinFilter, WrappingMode};
+    let sampler = |root: &mut json::Root, wrap: WrappingMode| {
+        root.push(json::texture::Sampler {
+            mag_filter: Some(Valid(MagFilter::Linear)),
+            min_filter: Some(Valid(MinFilter::LinearMipmapLinear)),
+            name: None,
+            wrap_s: Valid(wrap),
+            wrap_t: Valid(wrap),
+            extensions: None,
+            extras: Default::default(),
+        })
+    };
+    let uses = |repeat: bool| model.images.iter().any(|i| i.repeat == repeat);
+    let repeat = uses(true).then(|| sampler(root, WrappingMode::Repeat));
+    let clamp = uses(false).then(|| sampler(root, WrappingMode::ClampToEdge));
+    let pngs: Vec<Vec<u8>> = match mode {
+        TextureMode::Embed => {
+            use rayon::prelude::*;
+            model.images.par_iter().map(|i| i.image.to_png()).collect::<Result<_>>()?
+        }
+        _ => Vec::new(),
+    };
+    let mut out = Vec::with_capacity(model.images.len());
+    for (k, im) in model.images.iter().enumerate() {
+        let (uri, buffer_view, mime_type) = match mode {
+            TextureMode::Files { prefix } => (Some(format!("{prefix}{}.png", im.name)), None, None),
+            _ if glb => {
+                let start = bin.len();
+                bin.extend_from_slice(&pngs[k]);
+                let view = root.push(json::buffer::View {
+                    buffer,
+                    byte_length: USize64::from(pngs[k].len()),
+                    byte_offset: Some(USize64::from(start)),
+                    byte_stride: None,
+                    name: None,
+                    target: None,
+                    extensions: None,
+                    extras: Default::default(),
+                });
+                bin.resize(pad4(bin.len()), 0);
+                (None, Some(view), Some(json::image::MimeType("image/png".into())))
+            }
+            _ => {
+                let mut uri = String::from("data:image/png;base64,");
+                base64_into(&pngs[k], &mut uri);
+                (Some(uri), None, None)
+            }
+        };
+        let source = root.push(json::Image {
+            buffer_view,
+            mime_type,
+            name: Some(im.name.clone()),
+            uri,
+            extensions: None,
+            extras: Default::default(),
+        });
+        out.push(Some(root.push(json::Texture {
+            name: Some(im.name.clone()),
+            sampler: if im.repeat { repeat } else { clamp },
+            source,
+            extensions: None,
+            extras: Default::default(),
+        })));
+    }
+    Ok(out)
+}
+
+/// The glTF material of `m`; maps only where the part has UVs and the image was written.
+fn material(m: &crate::model::Material, has_uvs: bool, texture_of: &TextureIndex) -> json::Material {
+    let tex = |i: Option<u32>| {
+        if has_uvs {
+            i.and_then(|i| texture_of.get(i as usize).copied().flatten())
+        } else {
+            None
+        }
+    };
+    let info =
+        |index| json::texture::Info { index, tex_coord: 0, extensions: None, extras: Default::default() };
+    let base = tex(m.maps.base_color);
+    let orm = tex(m.maps.occlusion_roughness_metallic);
+    let alpha_mode = if m.alpha_cutoff.is_some() && base.is_some() {
+        json::material::AlphaMode::Mask
+    } else if m.base_color[3] < 1.0 {
+        json::material::AlphaMode::Blend
+    } else {
+        json::material::AlphaMode::Opaque
+    };
+    // With a colour map the map carries the colour; with an ORM map it carries the roughness.
+    let factor = if base.is_some() { [1.0, 1.0, 1.0, m.base_color[3]] } else { m.base_color };
+    json::Material {
+        name: Some(m.name.clone()),
+        alpha_cutoff: (alpha_mode == json::material::AlphaMode::Mask)
+            .then(|| json::material::AlphaCutoff(m.alpha_cutoff.unwrap_or(0.5).clamp(0.0, 1.0))),
+        alpha_mode: Valid(alpha_mode),
+        double_sided: m.double_sided,
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            base_color_factor: json::material::PbrBaseColorFactor(factor.map(|c| c.clamp(0.0, 1.0))),
+            base_color_texture: base.map(info),
+            metallic_factor: json::material::StrengthFactor(m.metallic.clamp(0.0, 1.0)),
+            roughness_factor: json::material::StrengthFactor(if orm.is_some() {
+                1.0
+            } else {
+                m.roughness.clamp(0.0, 1.0)
+            }),
+            metallic_roughness_texture: orm.map(info),
+            ..Default::default()
+        },
+        normal_texture: tex(m.maps.normal).map(|index| json::material::NormalTexture {
+            index,
+            scale: 1.0,
+            tex_coord: 0,
+            extensions: None,
+            extras: Default::default(),
+        }),
+        occlusion_texture: orm.map(|index| json::material::OcclusionTexture {
+            index,
+            strength: json::material::StrengthFactor(1.0),
+            tex_coord: 0,
+            extensions: None,
+            extras: Default::default(),
+        }),
+        ..Default::default()
+    }
+}
+
+/// Unit tangents (xyz along +u) with handedness (w: ±1, the bitangent cross(N, T)·w runs
+/// along +v of the mesh, up in the image — the normal maps' +Y) per output vertex, from
+/// the UV gradients of the triangles around it, made orthogonal to the vertex normal.
+/// Vertices without a usable UV gradient get any vector orthogonal to their normal.
+fn tangents(part: &Part, data: &VertexData) -> Vec<[f32; 4]> {
+    use glam::Vec3;
+    let verts = &data.unified.vertices;
+    let (mut t_acc, mut b_acc) = (vec![Vec3::ZERO; verts.len()], vec![Vec3::ZERO; verts.len()]);
+    let cv = &data.unified.corner_vertex;
+    for w in part.mesh.face_offsets.windows(2) {
+        let Some(face) = cv.get(w[0] as usize..w[1] as usize) else { continue };
+        let Some((&a, rest)) = face.split_first() else { continue };
+        for pair in rest.windows(2) {
+            let [ia, ib, ic] = [a, pair[0], pair[1]].map(|i| i as usize);
+            let (pa, pb, pc) =
+                (data.position(&verts[ia]), data.position(&verts[ib]), data.position(&verts[ic]));
+            let (ua, ub, uc) = (data.uv(&verts[ia]), data.uv(&verts[ib]), data.uv(&verts[ic]));
+            let (e1, e2) = (pb - pa, pc - pa);
+            let (d1, d2) = (ub - ua, uc - ua);
+            let det = d1.x * d2.y - d2.x * d1.y;
+            if !det.is_finite() || det.abs() < 1e-20 {
+                continue;
+            }
+            let r = 1.0 / det;
+            let t = (e1 * d2.y - e2 * d1.y) * r;
+            let b = (e2 * d1.x - e1 * d2.x) * r;
+            if !(t.is_finite() && b.is_finite()) {
+                continue;
+            }
+            for i in [ia, ib, ic] {
+                t_acc[i] += t;
+                b_acc[i] += b;
+            }
+        }
+    }
+    verts
+        .iter()
+        .enumerate()
+        .map(|(i, k)| {
+            let n = data.normal(k);
+            let t = (t_acc[i] - n * n.dot(t_acc[i]))
+                .try_normalize()
+                .unwrap_or_else(|| n.any_orthonormal_vector());
+            let w = if n.cross(t).dot(b_acc[i]) < 0.0 { -1.0 } else { 1.0 };
+            [t.x, t.y, t.z, w]
+        })
+        .collect()
 }
 
 /// A node with no transform.

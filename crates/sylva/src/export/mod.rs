@@ -74,22 +74,101 @@ impl Format {
     }
 }
 
-/// Writes `model` to `path` in the format given by its extension.
+/// Where a model's textures go (`output.textures`).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum TextureMode {
+    /// Inside the file: PNG buffer views in `.glb`, data URIs in `.gltf`. OBJ cannot
+    /// embed, so `.obj` writes files as [`TextureMode::Files`] does.
+    #[default]
+    Embed,
+    /// PNG files beside the model, named `<prefix><image>.png`, referred to by relative URI.
+    Files {
+        /// The file-name prefix (the model's stem and `_`), relative to the model.
+        prefix: String,
+    },
+    /// No textures: materials keep their flat colours.
+    None,
+}
+
+impl TextureMode {
+    /// The mode for `output.textures` (`embed`, `files`, `none`) and a model at `path`.
+    pub fn for_output(name: &str, path: &Path) -> Result<TextureMode> {
+        let stem =
+            path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "tree".into());
+        Ok(match name {
+            "embed" => TextureMode::Embed,
+            "files" => TextureMode::Files { prefix: format!("{stem}_") },
+            "none" => TextureMode::None,
+            other => {
+                return Err(Error::Recipe(format!(
+                    "`output.textures` is `{other}`; use embed, files or none"
+                )))
+            }
+        })
+    }
+}
+
+/// Writes `model` to `path` in the format given by its extension, its textures embedded
+/// (see [`write_with`]).
+pub fn write(model: &Model, path: &Path) -> Result<()> {
+    write_with(model, path, &TextureMode::Embed)
+}
+
+/// Writes `model` to `path` in the format given by its extension, its textures as
+/// `textures` says.
 ///
 /// Every part's mesh is validated first (indices in range, finite numbers); a problem is
 /// [`Error::InvalidGeometry`] naming the part, and nothing is written; so is a model
 /// without a single triangle. `.obj` also writes the material library next to it
 /// (`name.mtl`). Files are written atomically: on any error no partial file is left.
-pub fn write(model: &Model, path: &Path) -> Result<()> {
+///
+/// With [`TextureMode::Files`] (and for `.obj`, which cannot embed, unless `None`) the
+/// images are written first as `<prefix><name>.png` beside the model; if the model
+/// cannot be written they are removed again.
+pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<()> {
     let format = Format::from_path(path)?;
     validate_model(model)?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "tree".into());
+    let textures = match (format, textures) {
+        (Format::Obj | Format::Ply, TextureMode::Embed) => TextureMode::Files { prefix: format!("{stem}_") },
+        (_, t) => t.clone(),
+    };
+    let mut images_written = Vec::new();
+    if let (TextureMode::Files { prefix }, false) =
+        (&textures, model.images.is_empty() || format == Format::Ply)
+    {
+        use rayon::prelude::*;
+        let pngs: Vec<Vec<u8>> = model.images.par_iter().map(|i| i.image.to_png()).collect::<Result<_>>()?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        for (im, png) in model.images.iter().zip(&pngs) {
+            let p = dir.join(format!("{prefix}{}.png", im.name));
+            if let Err(e) = write_atomic(&p, |w| w.write_all(png)) {
+                images_written.iter().for_each(|q| {
+                    let _ = std::fs::remove_file(q);
+                });
+                return Err(e);
+            }
+            images_written.push(p);
+        }
+    }
+    let written = write_model(model, path, format, &textures);
+    if written.is_err() {
+        for p in &images_written {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+    written
+}
+
+/// [`write_with`] after validation and the image files.
+fn write_model(model: &Model, path: &Path, format: Format, textures: &TextureMode) -> Result<()> {
     match format {
         Format::Glb => {
-            let bytes = gltf::glb_unchecked(model)?;
+            let bytes = gltf::glb_unchecked(model, textures)?;
             write_atomic(path, |w| w.write_all(&bytes))
         }
         Format::Gltf => {
-            let json = gltf::gltf_json_unchecked(model)?;
+            let json = gltf::gltf_json_unchecked(model, textures)?;
             write_atomic(path, |w| w.write_all(json.as_bytes()))
         }
         Format::Obj => {
@@ -98,7 +177,11 @@ pub fn write(model: &Model, path: &Path) -> Result<()> {
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "materials.mtl".to_owned());
-            write_atomic(&mtl_path, |w| obj::write_mtl_unchecked(model, w))?;
+            let prefix = match textures {
+                TextureMode::Files { prefix } if !model.images.is_empty() => Some(prefix.as_str()),
+                _ => None,
+            };
+            write_atomic(&mtl_path, |w| obj::write_mtl_unchecked(model, w, prefix))?;
             let written = write_atomic(path, |w| obj::write_obj_unchecked(model, w, &mtl_name));
             if written.is_err() {
                 // Leave neither file: the library is useless without its OBJ.

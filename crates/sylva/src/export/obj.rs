@@ -1,14 +1,18 @@
 //! Wavefront OBJ + MTL writer.
 //!
 //! The `.obj` file names its material library (`mtllib`), then for every part with
-//! faces writes a group (`g <part>`), its material (`usemtl`), all its positions (`v`),
-//! UVs (`vt`) and normals (`vn`), and its faces as polygons, not triangulated
-//! (`f v/vt/vn`, 1-based, with the missing parts omitted: `v//vn`, `v/vt`, `v`). OBJ
-//! stores face-varying attributes natively, so UV seams need no vertex splitting.
+//! faces writes an object and a group (`o <part>`, `g <part>`: Blender imports one
+//! object per part), its material (`usemtl`), all its positions (`v`), UVs (`vt`) and
+//! normals (`vn`; a part without normals gets smooth area-weighted ones per position and
+//! `s 1`, so it imports smooth, not faceted), and its faces as polygons, not triangulated
+//! (`f v/vt/vn`, 1-based, with a missing UV omitted: `v//vn`). OBJ stores face-varying
+//! attributes natively, so UV seams need no vertex splitting.
 //!
 //! The `.mtl` file has one `newmtl` per distinct material with `Kd` (base colour), `Ka`,
 //! `Ks`, `Ns` (from roughness), `d` (alpha), `illum 2`, and the common PBR extension
-//! keys `Pr` (roughness) and `Pm` (metallic). Names are made safe for the line-based
+//! keys `Pr` (roughness) and `Pm` (metallic); with texture files, `map_Kd` (colour),
+//! `map_d` (alpha, leaf cards), `norm` and `map_Bump` (normal map), `map_Pr`
+//! (the ORM map) name them. Names are made safe for the line-based
 //! formats (whitespace becomes `_`); two different materials with one name get
 //! distinct names (`leaf`, `leaf_2`).
 //!
@@ -43,7 +47,7 @@ pub fn write_obj(model: &Model, obj: &mut dyn Write, mtl_name: &str) -> std::io:
 /// The model is validated first, like [`write_obj`].
 pub fn write_mtl(model: &Model, mtl: &mut dyn Write) -> std::io::Result<()> {
     validate_io(model)?;
-    write_mtl_unchecked(model, mtl)
+    write_mtl_unchecked(model, mtl, None)
 }
 
 /// [`write_obj`] for a model already validated.
@@ -57,6 +61,7 @@ pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: 
     for (part, mat) in model.parts.iter().zip(&part_material) {
         let Some(mat) = *mat else { continue };
         let mesh = &part.mesh;
+        writeln!(buf, "o {}", safe_name(&part.name))?;
         writeln!(buf, "g {}", safe_name(&part.name))?;
         writeln!(buf, "usemtl {}", materials[mat].0)?;
         for p in &mesh.positions {
@@ -69,14 +74,21 @@ pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: 
                 flush_if_full(&mut buf, out)?;
             }
         }
-        if let Some(normals) = &mesh.normals {
-            for n in &normals.values {
-                writeln!(buf, "vn {} {} {}", n.x, n.y, n.z)?;
-                flush_if_full(&mut buf, out)?;
-            }
+        // Given normals, or smooth ones per position (then indexed like the positions).
+        let smooth = mesh.normals.is_none().then(|| super::smooth_normals(mesh));
+        let normal_values = match (&mesh.normals, &smooth) {
+            (Some(n), _) => n.values.as_slice(),
+            (None, Some(s)) => s.as_slice(),
+            (None, None) => &[],
+        };
+        for n in normal_values {
+            writeln!(buf, "vn {} {} {}", n.x, n.y, n.z)?;
+            flush_if_full(&mut buf, out)?;
         }
+        writeln!(buf, "s 1")?;
         let uv_idx = mesh.uvs.as_ref().map(|c| c.indices.as_slice());
-        let n_idx = mesh.normals.as_ref().map(|c| c.indices.as_slice());
+        let n_idx =
+            Some(mesh.normals.as_ref().map_or(mesh.face_indices.as_slice(), |c| c.indices.as_slice()));
         for w in mesh.face_offsets.windows(2) {
             buf.push(b'f');
             for c in w[0] as usize..w[1] as usize {
@@ -113,14 +125,21 @@ pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: 
         }
         v_base += mesh.positions.len();
         vt_base += mesh.uvs.as_ref().map_or(0, |c| c.values.len());
-        vn_base += mesh.normals.as_ref().map_or(0, |c| c.values.len());
+        vn_base += normal_values.len();
     }
     out.write_all(&buf)?;
     out.flush()
 }
 
 /// [`write_mtl`] for a model already validated.
-pub(crate) fn write_mtl_unchecked(model: &Model, out: &mut dyn Write) -> std::io::Result<()> {
+///
+/// `textures`: the file-name prefix of the model's images written beside it (see
+/// [`super::TextureMode::Files`]), or `None` for flat colours only.
+pub(crate) fn write_mtl_unchecked(
+    model: &Model,
+    out: &mut dyn Write,
+    textures: Option<&str>,
+) -> std::io::Result<()> {
     let (_, materials) = material_table(model);
     let mut buf: Vec<u8> = Vec::with_capacity(4096);
     writeln!(buf, "# {GENERATOR}")?;
@@ -140,6 +159,24 @@ pub(crate) fn write_mtl_unchecked(model: &Model, out: &mut dyn Write) -> std::io
         writeln!(buf, "illum 2")?;
         writeln!(buf, "Pr {}", m.roughness)?;
         writeln!(buf, "Pm {}", m.metallic)?;
+        if let Some(prefix) = textures {
+            let file = |i: Option<u32>| {
+                i.and_then(|i| model.images.get(i as usize)).map(|im| format!("{prefix}{}.png", im.name))
+            };
+            if let Some(f) = file(m.maps.base_color) {
+                writeln!(buf, "map_Kd {f}")?;
+                if m.alpha_cutoff.is_some() {
+                    writeln!(buf, "map_d {f}")?;
+                }
+            }
+            if let Some(f) = file(m.maps.normal) {
+                writeln!(buf, "norm {f}")?;
+                writeln!(buf, "map_Bump -bm 1 {f}")?;
+            }
+            if let Some(f) = file(m.maps.occlusion_roughness_metallic) {
+                writeln!(buf, "map_Pr {f}")?;
+            }
+        }
     }
     out.write_all(&buf)?;
     out.flush()
@@ -231,8 +268,10 @@ mod tests {
         let mut out = Vec::new();
         write_obj(&model, &mut out, "t.mtl").unwrap();
         let text = String::from_utf8(out).unwrap();
-        assert!(text.contains("mtllib t.mtl\ng a_b\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
-        assert!(text.ends_with("g c\nusemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 4 5 6\n"), "{text}");
+        // One object per part; smooth normals per position where the mesh has none.
+        let part = "usemtl bark\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 0 1\ns 1\n";
+        assert!(text.contains(&format!("mtllib t.mtl\no a_b\ng a_b\n{part}f 1//1 2//2 3//3\n")), "{text}");
+        assert!(text.ends_with(&format!("o c\ng c\n{part}f 4//4 5//5 6//6\n")), "{text}");
     }
 
     #[test]

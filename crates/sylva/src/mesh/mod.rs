@@ -4,6 +4,7 @@
 //! The mesh type itself is [`crate::geometry::Mesh`] and the model the exporters write
 //! is [`crate::model::Model`]: plain data below every stage.
 
+pub mod cards;
 pub mod check;
 pub mod hull;
 pub mod obj_read;

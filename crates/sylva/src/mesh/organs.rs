@@ -16,11 +16,21 @@ use std::collections::HashMap;
 /// `x` of `~x`) to its mesh in the organ frame; organs naming a missing surface are
 /// returned by name in the second value (the caller reports them) and skipped.
 pub fn organ_mesh(skeleton: &Skeleton, surfaces: &HashMap<String, Mesh>) -> (Mesh, Vec<String>) {
+    organ_mesh_where(skeleton, surfaces, |_| true)
+}
+
+/// [`organ_mesh`] of the organs for which `keep` is true (the others are drawn
+/// elsewhere, such as leaf cards).
+pub fn organ_mesh_where(
+    skeleton: &Skeleton,
+    surfaces: &HashMap<String, Mesh>,
+    keep: impl Fn(&Organ) -> bool,
+) -> (Mesh, Vec<String>) {
     let mut out = Mesh::new();
     out.uvs = Some(FaceVarying::default());
     out.normals = Some(FaceVarying::default());
     let mut missing: Vec<String> = Vec::new();
-    for o in &skeleton.organs {
+    for o in skeleton.organs.iter().filter(|o| keep(o)) {
         let h = o.heading.normalize_or_zero();
         let mut u = (o.up - h * o.up.dot(h)).normalize_or_zero();
         if h == Vec3::ZERO {

@@ -106,9 +106,9 @@ fn sample(style: BarkStyle, n: &TileNoise, s: f32, t: f32) -> (f32, f32, f32) {
         }
         BarkStyle::Furrowed => {
             // Ridges along the branch (low frequency in t), wandering sideways.
-            let warp = n.layer(3).fbm(s * 3.0, t * 3.0, 3, 3, 3, 0.5);
+            let warp = n.layer(3).fbm(s * 3.0, t * 3.0, 3, 3, 2, 0.5);
             let ridge = 1.0 - n.fbm(s * 9.0 + 1.8 * warp, t * 2.0, 9, 2, 3, 0.45).abs();
-            let fine = n.layer(5).fbm(s * 24.0, t * 12.0, 24, 12, 2, 0.5);
+            let fine = n.layer(5).perlin(s * 24.0, t * 12.0, 24, 12);
             let h = (ridge * ridge * 0.85 + 0.15 * (0.5 + 0.5 * fine)).clamp(0.0, 1.0);
             (h, 0.6 * fine, 0.92 - 0.05 * h)
         }
@@ -123,8 +123,8 @@ fn sample(style: BarkStyle, n: &TileNoise, s: f32, t: f32) -> (f32, f32, f32) {
         }
         BarkStyle::Birch => {
             let lent = lenticel(n, s, t);
-            let patch = smoothstep(0.35, 0.55, n.layer(9).fbm(s * 3.0, t * 5.0, 3, 5, 4, 0.55));
-            let fine = n.layer(5).fbm(s * 16.0, t * 16.0, 16, 16, 2, 0.5);
+            let patch = smoothstep(0.35, 0.55, n.layer(9).fbm(s * 3.0, t * 5.0, 3, 5, 3, 0.55));
+            let fine = n.layer(5).perlin(s * 16.0, t * 16.0, 16, 16);
             let h = (0.8 - 0.55 * lent - 0.25 * patch + 0.05 * fine).clamp(0.0, 1.0);
             // Lenticels and patches are dark: push them to the cavity colour.
             let c = 0.3 * fine - 1.6 * lent.max(patch);

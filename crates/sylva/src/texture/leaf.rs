@@ -215,6 +215,41 @@ fn maple_outline(pb: &mut PathBuilder, w: f32, h: f32) {
     pb.close();
 }
 
+/// The atlas's cells at `size` × `size` pixels without drawing it (the leaf-card
+/// mesher needs the layout; the texture stage draws the image).
+pub fn atlas_layout(size: u32) -> LeafAtlas {
+    let size = size.max(6);
+    let (cols, rows) = (3u32, 2u32);
+    let (cw, ch) = (size / cols, size / rows);
+    let cells = LeafShape::ALL
+        .iter()
+        .enumerate()
+        .map(|(k, &shape)| {
+            cell_of(shape, k as u32 % cols, k as u32 / cols, cw as f32, ch as f32, size as f32)
+        })
+        .collect();
+    LeafAtlas { image: Image::default(), cells }
+}
+
+/// The texture coordinates of a cell at column `col`, row `row` (v up: image row 0 is
+/// v = 1), cells `w` × `h` pixels in an atlas of `size`.
+fn cell_of(shape: LeafShape, col: u32, row: u32, w: f32, h: f32, size: f32) -> AtlasCell {
+    let uv = |px: f32, py: f32| Vec2::new((col as f32 * w + px) / size, 1.0 - (row as f32 * h + py) / size);
+    let aspect = match shape {
+        LeafShape::Ovate => 0.46 * 2.0 * w / (0.9 * h),
+        LeafShape::Lanceolate => 0.2 * 2.0 * w / (0.9 * h),
+        _ => 0.94 * w / (0.9 * h),
+    };
+    AtlasCell {
+        shape,
+        min: uv(0.0, h),
+        max: uv(w, 0.0),
+        base: uv(0.5 * w, 0.995 * h),
+        tip: uv(0.5 * w, 0.06 * h),
+        aspect,
+    }
+}
+
 /// Draws the atlas at `size` × `size` pixels in `colour` (linear RGB) for `seed`.
 pub fn leaf_atlas(size: u32, colour: [f32; 3], seed: u64) -> LeafAtlas {
     let size = size.max(6);
@@ -309,22 +344,7 @@ pub fn leaf_atlas(size: u32, colour: [f32; 3], seed: u64) -> LeafAtlas {
             let i = ((y0 + y) * width + x0) * 4;
             image.data[i..i + row_px.len()].copy_from_slice(&row_px);
         }
-        // Texture coordinates of the cell (v up: image row 0 is v = 1).
-        let (sz, fw, fh) = (size as f32, w, h);
-        let uv = |px: f32, py: f32| Vec2::new((col as f32 * fw + px) / sz, 1.0 - (row as f32 * fh + py) / sz);
-        let aspect = match shape {
-            LeafShape::Ovate => 0.46 * 2.0 * w / (0.9 * h),
-            LeafShape::Lanceolate => 0.2 * 2.0 * w / (0.9 * h),
-            _ => 0.94 * w / (0.9 * h),
-        };
-        cells.push(AtlasCell {
-            shape,
-            min: uv(0.0, fh),
-            max: uv(fw, 0.0),
-            base: uv(0.5 * fw, 0.995 * fh),
-            tip: uv(0.5 * fw, 0.06 * fh),
-            aspect,
-        });
+        cells.push(cell_of(shape, col, row, w, h, size as f32));
     }
     LeafAtlas { image, cells }
 }
@@ -361,6 +381,7 @@ mod tests {
             assert!(a.image.sample(m.x, m.y)[3] > 0.5, "{:?}: no petiole", c.shape);
         }
         assert_eq!(a, leaf_atlas(192, [0.1, 0.3, 0.05], 1));
+        assert_eq!(atlas_layout(192).cells, a.cells);
         for name in LeafShape::NAMES {
             assert_eq!(LeafShape::from_name(name).unwrap().name(), name);
         }
