@@ -321,9 +321,17 @@ fn obj_reads_back_with_tobj() {
         if let Some(uvs) = &p.mesh.uvs {
             assert_eq!(mesh.texcoords.len() / 2, uvs.values.len(), "{}", p.name);
         }
-        if let Some(normals) = &p.mesh.normals {
-            assert_eq!(mesh.normals.len() / 3, normals.values.len(), "{}", p.name);
+        // Normals round-trip: the part's own, or the smooth ones per position that the
+        // writer adds where it has none (so a refined mesh imports smooth).
+        let want: Vec<Vec3> = match &p.mesh.normals {
+            Some(n) => n.values.clone(),
+            None => export::smooth_normals(&p.mesh),
+        };
+        assert_eq!(mesh.normals.len() / 3, want.len(), "{}", p.name);
+        for (k, n) in want.iter().enumerate() {
+            assert_eq!(mesh.normals[3 * k..3 * k + 3], n.to_array(), "{} normal {k}", p.name);
         }
+        assert_eq!(mesh.normal_indices.len(), mesh.indices.len(), "{}: every corner has a normal", p.name);
         // Every corner's position round-trips exactly.
         for (k, &i) in mesh.indices.iter().enumerate() {
             let i = i as usize * 3;
