@@ -90,6 +90,8 @@ fn every_preset_grows_and_validates() {
     }
     let refs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
     gltf_validator::assert_valid_gltf(&refs);
+    // A real client: three.js's GLTFLoader finds the bark maps and the alpha-cut cards.
+    gltf_validator::assert_threejs_loads(&refs);
     let _ = std::fs::remove_dir_all(&d);
 }
 
