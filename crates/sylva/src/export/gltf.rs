@@ -167,21 +167,18 @@ fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root
         let mut attributes = std::collections::BTreeMap::new();
 
         // POSITION, with its bounds.
-        let start = bin.len();
         let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
         for k in verts {
-            let p = data.position(k);
-            lo = lo.min(p);
-            hi = hi.max(p);
-            put_f32s(&mut bin, p.to_array());
+            lo = lo.min(data.position(k));
+            hi = hi.max(data.position(k));
         }
-        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
         let bounds = |v: glam::Vec3| Some(json::Value::from(v.to_array().to_vec()));
-        let acc = push_accessor(
+        let positions = verts.iter().map(|k| data.position(k).to_array());
+        let acc = push_floats(
             &mut root,
-            view,
-            count,
-            json::accessor::ComponentType::F32,
+            &mut bin,
+            buffer,
+            positions,
             json::accessor::Type::Vec3,
             bounds(lo),
             bounds(hi),
@@ -189,61 +186,21 @@ fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root
         attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
 
         // NORMAL, always unit length.
-        let start = bin.len();
-        for k in verts {
-            put_f32s(&mut bin, data.normal(k).to_array());
-        }
-        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
-        let acc = push_accessor(
-            &mut root,
-            view,
-            count,
-            json::accessor::ComponentType::F32,
-            json::accessor::Type::Vec3,
-            None,
-            None,
-        );
+        let normals = verts.iter().map(|k| data.normal(k).to_array());
+        let acc = push_floats(&mut root, &mut bin, buffer, normals, json::accessor::Type::Vec3, None, None);
         attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
 
         // TEXCOORD_0, v flipped to glTF's top-left origin.
         if data.has_uvs() {
-            let start = bin.len();
-            for k in verts {
-                let uv = data.uv(k);
-                put_f32s(&mut bin, [uv.x, 1.0 - uv.y]);
-            }
-            let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
-            let acc = push_accessor(
-                &mut root,
-                view,
-                count,
-                json::accessor::ComponentType::F32,
-                json::accessor::Type::Vec2,
-                None,
-                None,
-            );
+            let uvs = verts.iter().map(|k| data.uv(k)).map(|uv| [uv.x, 1.0 - uv.y]);
+            let acc = push_floats(&mut root, &mut bin, buffer, uvs, json::accessor::Type::Vec2, None, None);
             attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
         }
 
         // TANGENT where a normal map will be read (so no runtime has to guess one).
-        let normal_mapped = part.material.maps.normal.is_some()
-            && data.has_uvs()
-            && texture_of.get(part.material.maps.normal.unwrap_or(0) as usize).is_some_and(|t| t.is_some());
-        if normal_mapped {
-            let start = bin.len();
-            for t in tangents(part, data) {
-                put_f32s(&mut bin, t);
-            }
-            let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
-            let acc = push_accessor(
-                &mut root,
-                view,
-                count,
-                json::accessor::ComponentType::F32,
-                json::accessor::Type::Vec4,
-                None,
-                None,
-            );
+        if map_texture(part.material.maps.normal, data.has_uvs(), &texture_of).is_some() {
+            let t = tangents(part, data).into_iter();
+            let acc = push_floats(&mut root, &mut bin, buffer, t, json::accessor::Type::Vec4, None, None);
             attributes.insert(Valid(json::mesh::Semantic::Tangents), acc);
         }
 
@@ -412,15 +369,36 @@ fn push_textures(
     Ok(out)
 }
 
+/// The texture a material map `image` is written with: only where the part has UVs
+/// and the image was written.
+fn map_texture(image: Option<u32>, has_uvs: bool, texture_of: &TextureIndex) -> Option<Index<json::Texture>> {
+    image.filter(|_| has_uvs).and_then(|i| texture_of.get(i as usize).copied().flatten())
+}
+
+/// Appends `values` to `bin` as one tightly packed `ARRAY_BUFFER` view of `f32`
+/// components with an accessor of `type_` over it.
+fn push_floats<const N: usize>(
+    root: &mut json::Root,
+    bin: &mut Vec<u8>,
+    buffer: Index<json::Buffer>,
+    values: impl Iterator<Item = [f32; N]>,
+    type_: json::accessor::Type,
+    min: Option<json::Value>,
+    max: Option<json::Value>,
+) -> Index<json::Accessor> {
+    let start = bin.len();
+    let mut count = 0;
+    for v in values {
+        put_f32s(bin, v);
+        count += 1;
+    }
+    let view = push_view(root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
+    push_accessor(root, view, count, json::accessor::ComponentType::F32, type_, min, max)
+}
+
 /// The glTF material of `m`; maps only where the part has UVs and the image was written.
 fn material(m: &crate::model::Material, has_uvs: bool, texture_of: &TextureIndex) -> json::Material {
-    let tex = |i: Option<u32>| {
-        if has_uvs {
-            i.and_then(|i| texture_of.get(i as usize).copied().flatten())
-        } else {
-            None
-        }
-    };
+    let tex = |i: Option<u32>| map_texture(i, has_uvs, texture_of);
     let info =
         |index| json::texture::Info { index, tex_coord: 0, extensions: None, extras: Default::default() };
     let base = tex(m.maps.base_color);
