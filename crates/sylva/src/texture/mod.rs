@@ -162,15 +162,6 @@ impl TextureOptions {
     }
 }
 
-/// The textures of one tree: the bark maps and the leaf atlas.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TextureSet {
-    /// Bark maps.
-    pub bark: bark::BarkMaps,
-    /// The leaf atlas.
-    pub leaves: leaf::LeafAtlas,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
