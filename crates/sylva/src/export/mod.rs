@@ -122,30 +122,32 @@ pub fn write(model: &Model, path: &Path) -> Result<()> {
 /// without a single triangle. `.obj` also writes the material library next to it
 /// (`name.mtl`). Files are written atomically: on any error no partial file is left.
 ///
-/// With [`TextureMode::Files`] (and for `.obj`, which cannot embed, unless `None`) the
-/// images are written first as `<prefix><name>.png` beside the model; if the model
+/// With [`TextureMode::Files`] (and for `.obj`, which cannot embed, unless `None`; `.ply`
+/// never refers to images) the images are written first as `<prefix><name>.png` beside the model; if the model
 /// cannot be written they are removed again.
 pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<()> {
     let format = Format::from_path(path)?;
     validate_model(model)?;
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "tree".into());
+    // PLY cannot refer to images; OBJ cannot embed them, so it writes files.
     let textures = match (format, textures) {
-        (Format::Obj | Format::Ply, TextureMode::Embed) => TextureMode::Files { prefix: format!("{stem}_") },
+        (Format::Ply, _) => TextureMode::None,
+        (Format::Obj, TextureMode::Embed) => TextureMode::for_output("files", path)?,
         (_, t) => t.clone(),
     };
     let mut images_written = Vec::new();
-    if let (TextureMode::Files { prefix }, false) =
-        (&textures, model.images.is_empty() || format == Format::Ply)
-    {
+    let remove = |written: &[std::path::PathBuf]| {
+        for p in written {
+            let _ = std::fs::remove_file(p);
+        }
+    };
+    if let TextureMode::Files { prefix } = &textures {
         use rayon::prelude::*;
         let pngs: Vec<Vec<u8>> = model.images.par_iter().map(|i| i.image.to_png()).collect::<Result<_>>()?;
         let dir = path.parent().unwrap_or(Path::new(""));
         for (im, png) in model.images.iter().zip(&pngs) {
             let p = dir.join(format!("{prefix}{}.png", im.name));
             if let Err(e) = write_atomic(&p, |w| w.write_all(png)) {
-                images_written.iter().for_each(|q| {
-                    let _ = std::fs::remove_file(q);
-                });
+                remove(&images_written);
                 return Err(e);
             }
             images_written.push(p);
@@ -153,9 +155,7 @@ pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<
     }
     let written = write_model(model, path, format, &textures);
     if written.is_err() {
-        for p in &images_written {
-            let _ = std::fs::remove_file(p);
-        }
+        remove(&images_written);
     }
     written
 }

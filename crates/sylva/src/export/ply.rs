@@ -44,7 +44,7 @@ pub(crate) fn write_ply_unchecked(model: &Model, out: &mut dyn Write) -> std::io
         .filter(|p| p.mesh.face_count() > 0)
         .map(|p| {
             let c = p.material.base_color;
-            let srgb = |x: f32| (crate::texture::linear_to_srgb(x) * 255.0 + 0.5) as u8;
+            let srgb = |x: f32| crate::texture::to_byte(crate::texture::linear_to_srgb(x));
             (p.name.as_str(), VertexData::new(&p.mesh), [srgb(c[0]), srgb(c[1]), srgb(c[2])])
         })
         .collect();
@@ -174,7 +174,8 @@ mod tests {
         ));
         assert_eq!(out.len() - end, 300 * 37 + 298 * 13 + (1 + 16));
         // The first vertex's colour is the leaf material's, in sRGB, and its part is 0.
-        let c = Material::leaf().base_color.map(|x| (crate::texture::linear_to_srgb(x) * 255.0 + 0.5) as u8);
+        let c =
+            Material::leaf().base_color.map(|x| crate::texture::to_byte(crate::texture::linear_to_srgb(x)));
         assert_eq!(&out[end + 32..end + 37], &[c[0], c[1], c[2], 0, 0]);
     }
 }
