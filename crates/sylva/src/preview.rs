@@ -405,6 +405,7 @@ struct ScreenVertex {
 }
 
 /// A triangle's colour map: the image, its corners' UVs and the alpha cut-off.
+#[derive(Clone, Copy)]
 struct Texture<'a> {
     image: &'a crate::texture::Image,
     uv: [glam::Vec2; 3],
@@ -441,7 +442,7 @@ fn draw_triangle(
     base: Vec3,
     tex: Option<&Texture>,
 ) {
-    let mut tex_uv = tex.map(|t| t.uv);
+    let mut tex = tex.copied();
     let mut p = s.map(|v| (v.x, v.y));
     let (mut s, mut n) = (s, n);
     let mut area = edge(p[0], p[1], p[2].0, p[2].1);
@@ -454,12 +455,11 @@ fn draw_triangle(
         p.swap(1, 2);
         s.swap(1, 2);
         n.swap(1, 2);
-        if let Some(uv) = tex_uv.as_mut() {
-            uv.swap(1, 2);
+        if let Some(t) = tex.as_mut() {
+            t.uv.swap(1, 2);
         }
         area = -area;
     }
-    let tex = tex.zip(tex_uv).map(|(t, uv)| Texture { image: t.image, uv, cutoff: t.cutoff });
     let flip = if back { -1.0 } else { 1.0 };
     let face_n = face_n * flip;
     let n = n.map(|v| v * flip);
@@ -766,6 +766,47 @@ mod tests {
         let bg = background(&opts);
         let drawn = (0..200).filter(|&y| model_pixels(&img, &bg, 106..130, y..y + 1) > 0).count();
         assert!(drawn > 150, "sliver drawn on {drawn} rows");
+    }
+
+    /// The preview samples a part's colour map and drops what the alpha cut removes
+    /// (issue 23: the preview looks like the file).
+    #[test]
+    fn colour_maps_are_sampled_and_alpha_cut() {
+        use crate::geometry::FaceVarying;
+        use crate::model::{MaterialMaps, ModelImage};
+        let mut quad = square(false);
+        let uv = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
+        quad.uvs = Some(FaceVarying { values: uv.to_vec(), indices: vec![0, 1, 2, 0, 2, 3] });
+        // Left texel opaque red, right texel transparent.
+        let mut image = crate::texture::Image::new(2, 1, 4);
+        image.data = vec![255, 0, 0, 255, 0, 0, 255, 0];
+        let opts = PreviewOptions { width: 64, height: 64, supersample: 1, ..Default::default() };
+        let bg = background(&opts);
+        let draw = |cutoff: Option<f32>| {
+            let material = Material {
+                maps: MaterialMaps { base_color: Some(0), ..Default::default() },
+                alpha_cutoff: cutoff,
+                ..Material::bark()
+            };
+            let mut model = model_of(quad.clone(), material);
+            model.images.push(ModelImage { name: "t".into(), image: image.clone(), repeat: false });
+            render(&model, &opts).unwrap()
+        };
+        let (full, cut) = (draw(None), draw(Some(0.5)));
+        let (all, kept) = (model_pixels(&full, &bg, 0..64, 0..64), model_pixels(&cut, &bg, 0..64, 0..64));
+        assert!(
+            all > 1000 && (kept as f64) > 0.4 * all as f64 && (kept as f64) < 0.6 * all as f64,
+            "{kept} of {all}"
+        );
+        let (left, right) = (model_pixels(&cut, &bg, 0..32, 0..64), model_pixels(&cut, &bg, 32..64, 0..64));
+        assert!(left.min(right) * 10 < left.max(right), "one half cut away: {left} / {right}");
+        // Kept pixels are the map's red, not the bark's brown.
+        let red = (0..64)
+            .flat_map(|y| (0..64).map(move |x| (x, y)))
+            .filter(|&(x, y)| cut.pixel(x, y) != bg.pixel(x, y))
+            .filter_map(|(x, y)| cut.pixel(x, y))
+            .all(|p| p[0] > 3 * p[1].max(p[2]).max(8));
+        assert!(red, "colours come from the map");
     }
 
     #[test]
