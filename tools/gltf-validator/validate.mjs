@@ -2,11 +2,12 @@
 // the command line (.glb or .gltf) and prints every issue it reports.
 //
 //   npm ci --prefix tools/gltf-validator
-//   node tools/gltf-validator/validate.mjs out.glb out.gltf
+//   node tools/gltf-validator/validate.mjs [--no-infos] out.glb out.gltf
 //
 // Exit status: 0 when every file has no errors and no warnings (infos and hints are
-// fine), 1 when any file has an error or a warning or could not be read or parsed,
-// 2 on bad usage. Used by the Rust tests through crates/sylva/tests/common/gltf_validator.rs.
+// fine; with --no-infos an info fails too: an unused attribute or object, an
+// unsupported extension), 1 when any file has an error or a warning or could not be
+// read or parsed, 2 on bad usage. Used by the Rust tests through crates/sylva/tests/common/gltf_validator.rs.
 
 import { readFile } from "node:fs/promises";
 import path from "node:path";
@@ -14,7 +15,8 @@ import validator from "gltf-validator";
 
 const SEVERITY = ["error", "warning", "info", "hint"];
 
-const files = process.argv.slice(2);
+const noInfos = process.argv.includes("--no-infos");
+const files = process.argv.slice(2).filter((a) => a !== "--no-infos");
 if (files.length === 0) {
   console.error("usage: node validate.mjs FILE.glb|FILE.gltf ...");
   process.exit(2);
@@ -42,7 +44,7 @@ for (const file of files) {
     continue;
   }
   const issues = report.issues;
-  const bad = issues.numErrors + issues.numWarnings;
+  const bad = issues.numErrors + issues.numWarnings + (noInfos ? issues.numInfos : 0);
   console.log(
     `${file}: ${issues.numErrors} errors, ${issues.numWarnings} warnings, ` +
       `${issues.numInfos} infos, ${issues.numHints} hints` +

@@ -180,8 +180,8 @@ fn grow(args: GrowArgs) -> Result<()> {
     if skeleton_out {
         sylva::export::skeleton::write(&grown.skeleton, &out)?;
     } else {
-        let textures = sylva::export::TextureMode::for_output(&loaded.recipe.output.textures, &out)?;
-        sylva::export::write_with(&grown.model, &out, &textures)?;
+        let opts = sylva::export::ExportOptions::for_output(&loaded.recipe.output, &out)?;
+        sylva::export::write_with_options(&grown.model, &out, &opts)?;
     }
     if let Some(p) = &preview {
         let size = loaded.recipe.output.preview_size;

@@ -9,6 +9,7 @@ use crate::lsystem::files::view::{LineStyle, MovementKind};
 use crate::lsystem::files::{load_folder, ModelFolder};
 use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
+use crate::mesh::ground::SunkRoot;
 use crate::model::{BranchCurves, Material, Model, Part};
 use crate::recipe::{Generator, Loaded, LsystemGenerator, Origin, Recipe};
 use crate::skeleton::{Skeleton, SkeletonStats};
@@ -372,10 +373,33 @@ pub fn mesh(
     surfaces: &HashMap<String, Mesh>,
     report: &mut Report,
 ) -> Result<Model> {
+    let mut sunk_skeleton = skeleton.clone();
+    let sunk = sink(recipe, &mut sunk_skeleton);
+    mesh_sunk(recipe, &sunk_skeleton, &sunk, surfaces, report)
+}
+
+/// Sinks the skeleton's upright roots for a flat base (`mesh.base = "flat"`), see
+/// [`crate::mesh::ground`].
+fn sink(recipe: &Recipe, skeleton: &mut Skeleton) -> Vec<SunkRoot> {
+    if recipe.mesh.base == "flat" {
+        crate::mesh::ground::sink_roots(skeleton)
+    } else {
+        Vec::new()
+    }
+}
+
+/// [`mesh`] of a skeleton whose roots [`sink`] has already moved.
+fn mesh_sunk(
+    recipe: &Recipe,
+    skeleton: &Skeleton,
+    sunk: &[SunkRoot],
+    surfaces: &HashMap<String, Mesh>,
+    report: &mut Report,
+) -> Result<Model> {
     let t = Instant::now();
     let control = control_mesh(recipe, skeleton, report)?;
     report.mesh_time = t.elapsed();
-    finish(recipe, Fitted { control, refined: None }, skeleton, surfaces, report)
+    finish(recipe, Fitted { control, refined: None }, skeleton, sunk, surfaces, report)
 }
 
 /// Refines the bark's control mesh and adds the leaves: the model.
@@ -383,21 +407,45 @@ fn finish(
     recipe: &Recipe,
     fitted: Fitted,
     skeleton: &Skeleton,
+    sunk: &[SunkRoot],
     surfaces: &HashMap<String, Mesh>,
     report: &mut Report,
 ) -> Result<Model> {
-    let bark = match fitted.refined {
+    let mut bark = match fitted.refined {
         Some(refined) => refined,
         None => refine_bark(recipe, fitted.control)?,
     };
+    for (root, outcome) in sunk.iter().zip(crate::mesh::ground::cut_base(&mut bark, sunk)) {
+        use crate::mesh::ground::CutOutcome;
+        let why = match outcome {
+            CutOutcome::Flat(_) => continue,
+            CutOutcome::NothingBelow => "nothing near it reaches below its height",
+            CutOutcome::Open => "the cut's loops do not close",
+        };
+        report.warnings.push(format!(
+            "flat base: the trunk at root node {} is left as meshed ({why}); mesh.base = \"round\" keeps every mesher's own end",
+            root.node
+        ));
+    }
+    if recipe.textures.scale != 1.0 {
+        if let Some(uv) = bark.uvs.as_mut() {
+            uv.values.iter_mut().for_each(|t| *t *= recipe.textures.scale);
+        }
+    }
     let mut parts =
         vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
     if !skeleton.organs.is_empty() {
         use crate::mesh::cards::{is_card_leaf, leaf_cards};
-        let cards = recipe.leaves.mode == "cards" && recipe.output.textures != "none";
+        let cards =
+            ["cards", "instanced"].contains(&recipe.leaves.mode.as_str()) && recipe.output.textures != "none";
         let keep = |o: &crate::skeleton::Organ| !(cards && is_card_leaf(o));
         let (leaves, missing) = crate::mesh::organs::organ_mesh_where(skeleton, surfaces, keep);
         report.missing_surfaces = missing;
+        let crown = recipe.leaves.normals == "crown";
+        let mut leaves = leaves;
+        if crown {
+            crate::mesh::cards::bend_toward_crown(&mut leaves);
+        }
         if leaves.face_count() > 0 {
             parts.push(Part {
                 name: "leaves".into(),
@@ -409,7 +457,12 @@ fn finish(
         if cards {
             // The cell's geometry only: the atlas itself is drawn by the texture stage.
             let atlas = crate::texture::leaf::atlas_layout(recipe.textures.atlas_size);
-            let mesh = leaf_cards(skeleton, atlas.cell(recipe.leaves.leaf_shape()));
+            let count = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
+            let (per_card, shape) = recipe.leaves.cards(count);
+            let mut mesh = leaf_cards(skeleton, atlas.cell(shape), per_card);
+            if crown {
+                crate::mesh::cards::bend_toward_crown(&mut mesh);
+            }
             if mesh.face_count() > 0 {
                 let material = Material {
                     name: "leaf_card".into(),
@@ -423,8 +476,14 @@ fn finish(
     }
     let mut model = Model { parts, ..Default::default() };
     texture_model(recipe, &mut model);
-    report.triangles = model.triangle_count();
-    report.vertices = model.vertex_count();
+    if recipe.leaves.mode == "instanced" {
+        // The textured cards become one card shape and an instance per card.
+        crate::export::instance::instance_leaf_cards(&mut model, recipe, skeleton)?;
+    }
+    // Counted as drawn: every instance's shape once per instance.
+    let drawn = model.flattened();
+    report.triangles = drawn.triangle_count();
+    report.vertices = drawn.vertex_count();
     Ok(model)
 }
 
@@ -624,15 +683,19 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
             why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
     }
+    // The roots sink for a flat base before the fitting stage meshes the skeleton, and
+    // come back up once the model is built.
+    let sunk = sink(&loaded.recipe, &mut skeleton);
     let cleared = if loaded.recipe.mesh.clears_nodes(skeleton.len()) {
         clear_skeleton(&loaded.recipe, &mut skeleton, &mut report)?
     } else {
         None
     };
     let mut model = match cleared {
-        Some(fitted) => finish(&loaded.recipe, fitted, &skeleton, &surfaces, &mut report)?,
-        None => mesh(&loaded.recipe, &skeleton, &surfaces, &mut report)?,
+        Some(fitted) => finish(&loaded.recipe, fitted, &skeleton, &sunk, &surfaces, &mut report)?,
+        None => mesh_sunk(&loaded.recipe, &skeleton, &sunk, &surfaces, &mut report)?,
     };
+    crate::mesh::ground::restore_roots(&mut skeleton, &sunk);
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })

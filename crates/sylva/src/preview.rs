@@ -66,6 +66,10 @@ pub struct PreviewOptions {
     pub fov_deg: f32,
     /// Fixed view direction; `None` (default) chooses one from the model's shape.
     pub view: Option<ViewAngles>,
+    /// Bounds (min, max) to frame instead of the model's, so several models (two leaf
+    /// modes, frames of an animation) are drawn with one camera; `None` (default) frames
+    /// the model. Geometry outside is clipped.
+    pub frame: Option<(Vec3, Vec3)>,
 }
 
 impl Default for PreviewOptions {
@@ -78,6 +82,7 @@ impl Default for PreviewOptions {
             supersample: 2,
             fov_deg: 30.0,
             view: None,
+            frame: None,
         }
     }
 }
@@ -112,6 +117,8 @@ impl Image {
 /// (non-finite coordinates, indices out of range). An empty model gives a
 /// background-only image. Deterministic.
 pub fn render(model: &Model, opts: &PreviewOptions) -> Result<Image> {
+    // Instanced organs are drawn as the copies they stand for.
+    let model = &*model.flattened();
     let bad = |why: String| Error::InvalidGeometry { what: "preview".into(), why };
     for (name, v) in [("width", opts.width), ("height", opts.height)] {
         if !(1..=MAX_SIZE).contains(&v) {
@@ -147,10 +154,15 @@ pub fn render(model: &Model, opts: &PreviewOptions) -> Result<Image> {
     }
     let mut target = Target::new((w * ss) as i64, (h * ss) as i64);
     let srgb = Srgb::new();
-    if let Some((lo, hi)) = model.bounds() {
+    if let Some((lo, hi)) = opts.frame.or_else(|| model.bounds()) {
         let angles = opts.view.unwrap_or_else(|| auto_view(lo, hi));
         let cam = Camera::new(lo, hi, angles, opts.fov_deg);
-        draw_model(model, &cam, &srgb, &mut target);
+        let corners = opts.frame.map(|_| {
+            (0..8)
+                .map(|k| Vec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo))
+                .collect()
+        });
+        draw_model(model, &cam, corners, &srgb, &mut target);
     }
     Ok(resolve(&target, w, h, ss, opts, &srgb))
 }
@@ -313,16 +325,23 @@ impl Shader<'_> {
 }
 
 /// Projects every part, fits the projected extent into the frame and rasterizes.
-fn draw_model(model: &Model, cam: &Camera, srgb: &Srgb, t: &mut Target) {
+fn draw_model(model: &Model, cam: &Camera, fit: Option<Vec<Vec3>>, srgb: &Srgb, t: &mut Target) {
     let mut projected: Vec<Vec<Vec3>> = Vec::with_capacity(model.parts.len());
     let (mut lo, mut hi) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
     for part in &model.parts {
         let p: Vec<Vec3> = part.mesh.positions.iter().map(|&x| cam.project(x)).collect();
-        for q in &p {
-            lo = lo.min(q.truncate());
-            hi = hi.max(q.truncate());
+        if fit.is_none() {
+            for q in &p {
+                lo = lo.min(q.truncate());
+                hi = hi.max(q.truncate());
+            }
         }
         projected.push(p);
+    }
+    // A given frame is fitted by its corners.
+    for q in fit.iter().flatten().map(|&x| cam.project(x)) {
+        lo = lo.min(q.truncate());
+        hi = hi.max(q.truncate());
     }
     if !(lo.is_finite() && hi.is_finite()) {
         return;
@@ -341,7 +360,8 @@ fn draw_model(model: &Model, cam: &Camera, srgb: &Srgb, t: &mut Target) {
     let to_screen = |p: &Vec3| {
         let x = (wf * 0.5 + (p.x - mid.x) * scale) * SUBPIXEL as f32;
         let y = (hf * 0.5 - (p.y - mid.y) * scale) * SUBPIXEL as f32;
-        // Every vertex lands inside the frame; `as` saturates anything odd.
+        // Every vertex lands inside the frame (or, with a given frame, may lie outside and
+        // is clipped by the rasterizer); `as` saturates anything odd.
         ScreenVertex { x: (x + 0.5) as i64, y: (y + 0.5) as i64, iz: p.z }
     };
     let screen: Vec<Vec<ScreenVertex>> =

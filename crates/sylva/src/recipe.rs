@@ -65,19 +65,39 @@ pub struct LeavesSection {
     pub shape: String,
     /// Alpha cut-off of the cards (glTF `alphaCutoff`), in (0, 1).
     pub alpha_cutoff: f32,
+    /// Leaves per card, `0..=64`: 1 is a card per leaf, more groups the leaves of a twig
+    /// onto one card showing a twig of leaves (the atlas's cluster cell, or the needle
+    /// tuft); 0 (`auto`) groups them on trees with more than
+    /// [`AUTO_CLUSTER_LEAVES`] card leaves of a shape a twig card can show.
+    pub per_card: u32,
+    /// Leaf normals: `flat` (each leaf's own) or `crown` (bent toward the crown's outward
+    /// direction for soft canopy shading, [`crate::mesh::cards::bend_toward_crown`]).
+    pub normals: String,
 }
+
+/// Above this many card leaves `leaves.per_card = 0` groups leaves onto twig cards.
+pub const AUTO_CLUSTER_LEAVES: usize = 4000;
 
 impl Default for LeavesSection {
     fn default() -> Self {
-        LeavesSection { mode: "cards".into(), shape: "auto".into(), alpha_cutoff: 0.5 }
+        LeavesSection {
+            mode: "cards".into(),
+            shape: "auto".into(),
+            alpha_cutoff: 0.5,
+            per_card: 0,
+            normals: "flat".into(),
+        }
     }
 }
 
 impl LeavesSection {
     /// Checks the keys; errors name them.
     pub fn check(&self) -> Result<()> {
-        if !["cards", "geometry"].contains(&self.mode.as_str()) {
-            return Err(Error::Recipe(format!("`leaves.mode` is `{}`; use cards or geometry", self.mode)));
+        if !["cards", "instanced", "geometry"].contains(&self.mode.as_str()) {
+            return Err(Error::Recipe(format!(
+                "`leaves.mode` is `{}`; use cards, instanced or geometry",
+                self.mode
+            )));
         }
         if self.shape != "auto" && crate::texture::leaf::LeafShape::from_name(&self.shape).is_none() {
             return Err(Error::Recipe(format!(
@@ -92,7 +112,34 @@ impl LeavesSection {
                 self.alpha_cutoff
             )));
         }
+        if !["flat", "crown"].contains(&self.normals.as_str()) {
+            return Err(Error::Recipe(format!("`leaves.normals` is `{}`; use flat or crown", self.normals)));
+        }
+        if self.per_card > 64 {
+            return Err(Error::Recipe(format!("`leaves.per_card` must be in 0..=64, got {}", self.per_card)));
+        }
         Ok(())
+    }
+
+    /// Leaves per card and the atlas shape the cards show, for a tree with `leaves` card
+    /// leaves: an explicit `per_card` is kept; `auto` (0) is 1 up to
+    /// [`AUTO_CLUSTER_LEAVES`] and else enough to bring the cards near 2,500, at most 8,
+    /// for ovate and needle trees (other shapes stay one card per leaf). Groups of ovate
+    /// leaves show the cluster cell, groups of needles the needle tuft.
+    pub fn cards(&self, leaves: usize) -> (usize, crate::texture::leaf::LeafShape) {
+        use crate::texture::leaf::LeafShape;
+        let shape = self.leaf_shape();
+        let groupable = matches!(shape, LeafShape::Ovate | LeafShape::Cluster | LeafShape::Needles);
+        let per_card = match self.per_card {
+            0 if groupable && leaves > AUTO_CLUSTER_LEAVES => leaves.div_ceil(2500).clamp(2, 8),
+            0 => 1,
+            n => n as usize,
+        };
+        let shape = match shape {
+            LeafShape::Ovate if per_card > 1 => LeafShape::Cluster,
+            s => s,
+        };
+        (per_card, shape)
     }
 
     /// The shape the cards show (`auto` is ovate).
@@ -229,6 +276,11 @@ pub struct MeshSection {
     /// Branch ends: `round`, `flat` or `open`.
     #[serde(default = "default_tips")]
     pub tips: String,
+    /// The trunk's base: `flat` (cut at the root's height and closed flat, so the tree
+    /// stands on flat ground with every mesher; [`crate::mesh::ground`]) or `round` (each
+    /// mesher's own end).
+    #[serde(default = "default_base")]
+    pub base: String,
     /// Pull apart branches that pass through each other before meshing
     /// ([`crate::fit::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
     /// `quad`) on skeletons of up to [`DECOLLIDE_AUTO_NODES`] nodes, off for `tube`
@@ -328,6 +380,9 @@ fn default_sides() -> u32 {
 fn default_tips() -> String {
     "round".into()
 }
+fn default_base() -> String {
+    "flat".into()
+}
 
 impl Default for MeshSection {
     fn default() -> Self {
@@ -335,6 +390,7 @@ impl Default for MeshSection {
             method: default_method(),
             sides: default_sides(),
             tips: default_tips(),
+            base: default_base(),
             decollide: None,
             clear: None,
             tube: TubeOptions::default(),
@@ -400,6 +456,25 @@ pub struct OutputSection {
     /// model) or `none` (flat colours). OBJ always writes files unless `none`.
     #[serde(default = "default_textures")]
     pub textures: String,
+    /// What glTF readers without `EXT_mesh_gpu_instancing` get where leaves are
+    /// instanced: `none` (the instances; such a reader draws one leaf) or `merged` (every
+    /// leaf merged into one mesh, no extension).
+    #[serde(default = "default_none", skip_serializing_if = "is_none_name")]
+    pub instancing_fallback: String,
+    /// glTF compression: `none`, `quantize` (`KHR_mesh_quantization`) or `meshopt`
+    /// (quantized, then `EXT_meshopt_compression`); both extensions are required.
+    #[serde(default = "default_none", skip_serializing_if = "is_none_name")]
+    pub compress: String,
+}
+
+fn default_none() -> String {
+    "none".into()
+}
+
+/// Whether `s` is `none` (an `[output]` key at its default is left out of the recipe
+/// written to a file's metadata).
+fn is_none_name(s: &str) -> bool {
+    s == "none"
 }
 
 fn default_textures() -> String {
@@ -420,6 +495,8 @@ impl Default for OutputSection {
             preview: None,
             preview_size: default_preview_size(),
             textures: default_textures(),
+            instancing_fallback: default_none(),
+            compress: default_none(),
         }
     }
 }
@@ -715,8 +792,19 @@ impl Recipe {
                 format!("is `{}`; use embed, files or none", self.output.textures),
             );
         }
+        if crate::export::InstancingFallback::from_name(&self.output.instancing_fallback).is_none() {
+            let (v, names) = (&self.output.instancing_fallback, crate::export::InstancingFallback::NAMES);
+            return bad("output.instancing_fallback", format!("is `{v}`; use {names}"));
+        }
+        if crate::export::Compression::from_name(&self.output.compress).is_none() {
+            let (v, names) = (&self.output.compress, crate::export::Compression::NAMES);
+            return bad("output.compress", format!("is `{v}`; use {names}"));
+        }
         if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
+        }
+        if !["flat", "round"].contains(&self.mesh.base.as_str()) {
+            return bad("mesh.base", format!("is `{}`; use flat or round", self.mesh.base));
         }
         if !(1..=8192).contains(&self.output.preview_size) {
             return bad(

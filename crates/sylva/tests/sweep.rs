@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
 use sylva::mesh::sweep::{
-    guarded_offsets, pair_offsets, sweep_mesh, SweepMesh, SweepOptions, SweepTips, UMapping,
+    guarded_offsets, pair_offsets, sweep_mesh, SweepMesh, SweepOptions, SweepTips, UMapping, VMapping,
 };
 use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use sylva::skeleton::NO_PARENT;
@@ -541,7 +541,8 @@ fn loop_level_2_stays_valid() {
 #[test]
 fn stem_uvs() {
     let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
-    let s = sweep(&sk, false);
+    // The seed's v: path length over the longest path.
+    let s = sweep_mesh(&sk, &SweepOptions { v_mapping: VMapping::Path, ..Default::default() }).unwrap();
     let uv = s.mesh.uvs.as_ref().unwrap();
     assert_eq!(uv.indices.len(), s.mesh.face_indices.len());
     let vmax = uv.values.iter().fold(0.0f32, |a, v| a.max(v.y));
@@ -617,13 +618,41 @@ fn reflected_u_alternates_without_seams() {
     assert!(per_vertex_uv(&w.mesh).iter().any(|t| t.is_none()), "wrapped u has a seam");
 }
 
+/// Issue 23: the default texel `v` is `∫ ds / r` over a hexagon side: on a fork of equal
+/// radii (0.1) each metre is 10 units of `v`, as wide as a side is one unit of `u`; the
+/// children go on from the trunk's `v` (no seam, checked above), and `v` grows along
+/// every strip.
+#[test]
+fn texel_v_keeps_texels_square() {
+    let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
+    let s = sweep(&sk, false);
+    let uv = s.mesh.uvs.as_ref().unwrap();
+    let m = &s.mesh;
+    // On the trunk (radius 0.1, from the origin up to y = 2) a ring at height y has
+    // v = y / 0.1; the cone apexes (u = ½) are left out.
+    let mut trunk = 0;
+    for f in 0..m.face_count() {
+        for c in m.corners(f) {
+            let (p, t) = (m.positions[m.face_indices[c] as usize], uv.values[uv.indices[c] as usize]);
+            if t.x != 0.5 && p.y < 1.5 {
+                assert!((t.y * 0.1 - p.y).abs() < 1e-4, "v {} at {p}", t.y);
+                trunk += 1;
+            }
+        }
+    }
+    assert!(trunk > 0);
+    // Beyond the fork the children go on: 2 m of trunk, 2 m of child (radius 0.1 → 0.08).
+    let vmax = uv.values.iter().fold(0.0f32, |a, v| a.max(v.y));
+    assert!(vmax > 35.0, "v at the tips {vmax}");
+}
+
 /// Spec 001 property 23, Tile V: `v` restarts at every internode (0 at its start ring,
 /// 1 at its end ring); without it, `v` is the path length over the longest path.
 #[test]
 fn tile_v_restarts_per_internode() {
     let sk = fork(&[(-30.0, 0.1), (30.0, 0.1)], 0.1, 1.0);
     let t = sweep_mesh(&sk, &SweepOptions { tile_v: true, ..Default::default() }).unwrap();
-    let p = sweep_mesh(&sk, &SweepOptions::default()).unwrap();
+    let p = sweep_mesh(&sk, &SweepOptions { v_mapping: VMapping::Path, ..Default::default() }).unwrap();
     assert_eq!(t.mesh.face_indices, p.mesh.face_indices, "Tile V changes UVs only");
     let (ut, up) = (t.mesh.uvs.as_ref().unwrap(), p.mesh.uvs.as_ref().unwrap());
     // Every strip face of the tiled mesh has v in {0, 1}; the path-mapped one has

@@ -26,7 +26,9 @@
 //!
 //! Output is deterministic: the same model gives byte-identical output.
 
-use super::{validate_model, TextureMode, VertexData, GENERATOR};
+use super::{
+    validate_model, Compression, ExportOptions, InstancingFallback, TextureMode, VertexData, GENERATOR,
+};
 use crate::error::{Error, Result};
 use crate::model::{Model, Part};
 use gltf_json as json;
@@ -48,8 +50,13 @@ pub const DATA_URI_PREFIX: &str = "data:application/octet-stream;base64,";
 /// without triangles, or one whose buffer exceeds GLB's 4 GiB limit is
 /// [`Error::InvalidGeometry`].
 pub fn to_glb(model: &Model) -> Result<Vec<u8>> {
+    to_glb_with(model, &ExportOptions::default())
+}
+
+/// [`to_glb`] written as `options` say (textures, instancing fallback, compression).
+pub fn to_glb_with(model: &Model, options: &ExportOptions) -> Result<Vec<u8>> {
     validate_model(model)?;
-    glb_unchecked(model, &TextureMode::Embed)
+    glb_unchecked(model, options)
 }
 
 /// Encodes `model` as glTF 2.0 JSON (`.gltf`) with its buffer embedded as a base64
@@ -57,13 +64,18 @@ pub fn to_glb(model: &Model) -> Result<Vec<u8>> {
 ///
 /// Errors as [`to_glb`].
 pub fn to_gltf_json(model: &Model) -> Result<String> {
+    to_gltf_json_with(model, &ExportOptions::default())
+}
+
+/// [`to_gltf_json`] written as `options` say.
+pub fn to_gltf_json_with(model: &Model, options: &ExportOptions) -> Result<String> {
     validate_model(model)?;
-    gltf_json_unchecked(model, &TextureMode::Embed)
+    gltf_json_unchecked(model, options)
 }
 
 /// [`to_glb`] for a model already validated.
-pub(crate) fn glb_unchecked(model: &Model, textures: &TextureMode) -> Result<Vec<u8>> {
-    let (root, bin) = build(model, textures, true)?;
+pub(crate) fn glb_unchecked(model: &Model, options: &ExportOptions) -> Result<Vec<u8>> {
+    let (root, bin) = build(model, options, true)?;
     let json = root.to_vec().map_err(json_error)?;
     let json_len = pad4(json.len());
     let bin_len = pad4(bin.len());
@@ -91,8 +103,8 @@ pub(crate) fn glb_unchecked(model: &Model, textures: &TextureMode) -> Result<Vec
 }
 
 /// [`to_gltf_json`] for a model already validated.
-pub(crate) fn gltf_json_unchecked(model: &Model, textures: &TextureMode) -> Result<String> {
-    let (mut root, bin) = build(model, textures, false)?;
+pub(crate) fn gltf_json_unchecked(model: &Model, options: &ExportOptions) -> Result<String> {
+    let (mut root, bin) = build(model, options, false)?;
     if let Some(buffer) = root.buffers.first_mut() {
         buffer.uri = Some(data_uri(&bin));
     }
@@ -123,14 +135,34 @@ fn put_f32s<const N: usize>(out: &mut Vec<u8>, v: [f32; N]) {
 
 /// Builds the glTF document and its binary buffer (without a URI). `glb`: embedded
 /// images go into the buffer (else into data URIs).
-fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root, Vec<u8>)> {
+fn build(model: &Model, options: &ExportOptions, glb: bool) -> Result<(json::Root, Vec<u8>)> {
+    let flat;
+    let model = if options.instancing_fallback == InstancingFallback::Merged {
+        flat = model.flattened();
+        flat.as_ref()
+    } else {
+        model
+    };
     let parts: Vec<(&Part, VertexData)> = model
         .parts
         .iter()
         .filter(|p| p.mesh.triangle_count() > 0)
         .map(|p| (p, VertexData::new(&p.mesh)))
         .collect();
-    if parts.is_empty() {
+    // Shapes with instances and triangles, with their instances' transforms.
+    let shapes: Vec<(&Part, VertexData, Vec<glam::Mat4>)> = model
+        .shapes
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.mesh.triangle_count() > 0)
+        .map(|(k, s)| {
+            let t: Vec<glam::Mat4> =
+                model.instances.iter().filter(|i| i.shape as usize == k).map(|i| i.transform).collect();
+            (s, VertexData::new(&s.mesh), t)
+        })
+        .filter(|(_, _, t)| !t.is_empty())
+        .collect();
+    if parts.is_empty() && shapes.is_empty() {
         return Err(Error::InvalidGeometry {
             what: "model".into(),
             why: "no triangles to export (every part is empty)".into(),
@@ -144,8 +176,7 @@ fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root
             d.unified.vertices.len() * per_vertex + pad4(p.mesh.triangle_count() * index_bytes)
         })
         .sum();
-    let mut bin: Vec<u8> = Vec::with_capacity(bin_size);
-    let mut root = json::Root {
+    let root = json::Root {
         asset: json::Asset {
             generator: Some(GENERATOR.to_owned()),
             version: "2.0".to_owned(),
@@ -156,113 +187,26 @@ fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root
         },
         ..Default::default()
     };
-    let buffer = Index::<json::Buffer>::new(0);
-    let mut children = Vec::with_capacity(parts.len());
-    let texture_of = push_textures(&mut root, &mut bin, buffer, model, textures, glb)?;
-    let image_bytes = bin.len();
+    let mut doc = Doc::new(root, Vec::with_capacity(bin_size), options.compress);
+    let mut children = Vec::with_capacity(parts.len() + shapes.len());
+    let texture_of = push_textures(&mut doc.root, &mut doc.bin, doc.buffer, model, &options.textures, glb)?;
 
     for (part, data) in &parts {
-        let verts = &data.unified.vertices;
-        let count = verts.len();
-        let mut attributes = std::collections::BTreeMap::new();
-
-        // POSITION, with its bounds.
-        let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
-        for k in verts {
-            lo = lo.min(data.position(k));
-            hi = hi.max(data.position(k));
+        let (mesh, dequant) = push_mesh(&mut doc, part, data, &texture_of)?;
+        let mut n = node(part.name.clone(), Some(mesh), None);
+        if let Some(d) = dequant {
+            n.translation = Some(d.offset.to_array());
+            n.scale = Some([d.step; 3]);
         }
-        let bounds = |v: glam::Vec3| Some(json::Value::from(v.to_array().to_vec()));
-        let positions = verts.iter().map(|k| data.position(k).to_array());
-        let acc = push_floats(
-            &mut root,
-            &mut bin,
-            buffer,
-            positions,
-            json::accessor::Type::Vec3,
-            bounds(lo),
-            bounds(hi),
-        );
-        attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
-
-        // NORMAL, always unit length.
-        let normals = verts.iter().map(|k| data.normal(k).to_array());
-        let acc = push_floats(&mut root, &mut bin, buffer, normals, json::accessor::Type::Vec3, None, None);
-        attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
-
-        // TEXCOORD_0, v flipped to glTF's top-left origin.
-        if data.has_uvs() {
-            let uvs = verts.iter().map(|k| data.uv(k)).map(|uv| [uv.x, 1.0 - uv.y]);
-            let acc = push_floats(&mut root, &mut bin, buffer, uvs, json::accessor::Type::Vec2, None, None);
-            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
-        }
-
-        // TANGENT where a normal map will be read (so no runtime has to guess one).
-        if map_texture(part.material.maps.normal, data.has_uvs(), &texture_of).is_some() {
-            let t = tangents(part, data).into_iter();
-            let acc = push_floats(&mut root, &mut bin, buffer, t, json::accessor::Type::Vec4, None, None);
-            attributes.insert(Valid(json::mesh::Semantic::Tangents), acc);
-        }
-
-        // Indices: every face fan-triangulated, u16 where every index fits.
-        let start = bin.len();
-        let short = count < 65_536;
-        let cv = &data.unified.corner_vertex;
-        let put = |bin: &mut Vec<u8>, i: u32| {
-            if short {
-                bin.extend_from_slice(&(i as u16).to_le_bytes());
-            } else {
-                put_u32(bin, i);
-            }
-        };
-        for w in part.mesh.face_offsets.windows(2) {
-            let Some(face) = cv.get(w[0] as usize..w[1] as usize) else {
-                continue;
-            };
-            let Some((&first, rest)) = face.split_first() else {
-                continue;
-            };
-            for pair in rest.windows(2) {
-                put(&mut bin, first);
-                put(&mut bin, pair[0]);
-                put(&mut bin, pair[1]);
-            }
-        }
-        let index_count = (bin.len() - start) / if short { 2 } else { 4 };
-        let view = push_view(&mut root, buffer, start, bin.len(), json::buffer::Target::ElementArrayBuffer);
-        // Keep the next view 4-byte aligned.
-        bin.resize(pad4(bin.len()), 0);
-        let indices = push_accessor(
-            &mut root,
-            view,
-            index_count,
-            if short { json::accessor::ComponentType::U16 } else { json::accessor::ComponentType::U32 },
-            json::accessor::Type::Scalar,
-            None,
-            None,
-        );
-
-        let material = root.push(material(&part.material, data.has_uvs(), &texture_of));
-        let mesh = root.push(json::Mesh {
-            name: Some(part.name.clone()),
-            primitives: vec![json::mesh::Primitive {
-                attributes,
-                extensions: None,
-                extras: Default::default(),
-                indices: Some(indices),
-                material: Some(material),
-                mode: Valid(json::mesh::Mode::Triangles),
-                targets: None,
-            }],
-            extensions: None,
-            extras: Default::default(),
-            weights: None,
-        });
-        children.push(root.push(node(part.name.clone(), Some(mesh), None)));
+        children.push(doc.root.push(n));
     }
-    debug_assert!(bin.len() - image_bytes >= bin_size);
+    for (shape, data, transforms) in &shapes {
+        let (mesh, dequant) = push_mesh(&mut doc, shape, data, &texture_of)?;
+        children.push(push_instanced_node(&mut doc, shape, mesh, dequant, transforms)?);
+    }
 
-    let top = root.push(node("sylva".to_owned(), None, Some(children)));
+    let mut root = doc.finish()?;
+    let top = root.0.push(node("sylva".to_owned(), None, Some(children)));
     let extras = match &model.provenance {
         Some(p) => {
             let v = serde_json::json!({ "sylva": { "recipe": p.recipe, "seed": p.seed } });
@@ -273,17 +217,518 @@ fn build(model: &Model, textures: &TextureMode, glb: bool) -> Result<(json::Root
         }
         None => None,
     };
-    let scene =
-        root.push(json::Scene { name: Some("sylva".to_owned()), nodes: vec![top], extensions: None, extras });
-    root.scene = Some(scene);
-    root.push(json::Buffer {
-        byte_length: USize64::from(bin.len()),
-        name: None,
-        uri: None,
+    let scene = root.0.push(json::Scene {
+        name: Some("sylva".to_owned()),
+        nodes: vec![top],
+        extensions: None,
+        extras,
+    });
+    root.0.scene = Some(scene);
+    Ok(root)
+}
+
+/// `EXT_mesh_gpu_instancing`.
+const INSTANCING: &str = "EXT_mesh_gpu_instancing";
+/// `KHR_mesh_quantization`.
+const QUANTIZATION: &str = "KHR_mesh_quantization";
+/// `EXT_meshopt_compression`.
+const MESHOPT: &str = "EXT_meshopt_compression";
+
+/// The document being built, its binary buffer and how views are stored.
+struct Doc {
+    root: json::Root,
+    bin: Vec<u8>,
+    /// The buffer the GLB binary chunk (or the data URI) holds: buffer 0.
+    buffer: Index<json::Buffer>,
+    compress: Compression,
+    /// Length of the (virtual) uncompressed fallback buffer of meshopt views.
+    fallback_len: usize,
+    /// Extensions used, and whether each is required.
+    extensions: Vec<(&'static str, bool)>,
+}
+
+/// The layout of a buffer view's data, for `EXT_meshopt_compression`.
+#[derive(Debug, Clone, Copy)]
+enum Layout {
+    /// Vertex attributes (`ARRAY_BUFFER`): elements of `stride` bytes.
+    Vertices { stride: usize },
+    /// Instance attributes (no target): elements of `stride` bytes.
+    Instances { stride: usize },
+    /// A triangle list's indices of `size` (2 or 4) bytes each (`ELEMENT_ARRAY_BUFFER`).
+    Triangles { size: usize },
+}
+
+impl Doc {
+    fn new(root: json::Root, bin: Vec<u8>, compress: Compression) -> Self {
+        let mut doc =
+            Doc { root, bin, buffer: Index::new(0), compress, fallback_len: 0, extensions: Vec::new() };
+        match compress {
+            Compression::None => {}
+            Compression::Quantize => doc.use_extension(QUANTIZATION, true),
+            Compression::Meshopt => {
+                doc.use_extension(QUANTIZATION, true);
+                doc.use_extension(MESHOPT, true);
+            }
+        }
+        doc
+    }
+
+    /// Whether attributes are quantized.
+    fn quantize(&self) -> bool {
+        self.compress != Compression::None
+    }
+
+    /// Records that the file uses `name` (and requires it, if `required`).
+    fn use_extension(&mut self, name: &'static str, required: bool) {
+        if !self.extensions.iter().any(|(n, _)| *n == name) {
+            self.extensions.push((name, required));
+        }
+    }
+
+    /// Adds a buffer view holding `bytes` (`count` elements laid out as `layout`):
+    /// appended to the binary buffer (4-byte aligned), or with `output.compress =
+    /// "meshopt"` compressed into it, the view itself pointing into the fallback buffer.
+    fn view(&mut self, bytes: &[u8], count: usize, layout: Layout) -> Result<Index<json::buffer::View>> {
+        use json::buffer::Target;
+        let (target, stride) = match layout {
+            Layout::Vertices { stride } => (Some(Valid(Target::ArrayBuffer)), Some(stride)),
+            Layout::Instances { stride } => (None, Some(stride)),
+            Layout::Triangles { .. } => (Some(Valid(Target::ElementArrayBuffer)), None),
+        };
+        // A byteStride only where elements are padded (glTF requires it there).
+        let byte_stride = match layout {
+            Layout::Vertices { stride } | Layout::Instances { stride } if stride * count != bytes.len() => {
+                return Err(Error::InvalidGeometry {
+                    what: "model".into(),
+                    why: format!("glTF view of {} bytes is not {count} × {stride}", bytes.len()),
+                })
+            }
+            _ => stride.filter(|_| self.padded(layout)).map(json::buffer::Stride),
+        };
+        if self.compress == Compression::Meshopt {
+            let (encoded, extension) = meshopt_encode(bytes, count, layout)?;
+            let start = self.bin.len();
+            self.bin.extend_from_slice(&encoded);
+            self.bin.resize(pad4(self.bin.len()), 0);
+            let offset = self.fallback_len;
+            self.fallback_len = pad4(offset + bytes.len());
+            let mut ext = extension;
+            ext.insert("buffer".into(), 0.into());
+            ext.insert("byteOffset".into(), start.into());
+            ext.insert("byteLength".into(), encoded.len().into());
+            let mut others = serde_json::Map::new();
+            others.insert(MESHOPT.into(), serde_json::Value::Object(ext));
+            return Ok(self.root.push(json::buffer::View {
+                // The fallback buffer: pushed after the binary buffer, so index 1.
+                buffer: Index::new(1),
+                byte_length: USize64::from(bytes.len()),
+                byte_offset: Some(USize64::from(offset)),
+                byte_stride,
+                name: None,
+                target,
+                extensions: Some(json::extensions::buffer::View { others }),
+                extras: Default::default(),
+            }));
+        }
+        let start = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        let view = self.root.push(json::buffer::View {
+            buffer: self.buffer,
+            byte_length: USize64::from(bytes.len()),
+            byte_offset: Some(USize64::from(start)),
+            byte_stride,
+            name: None,
+            target,
+            extensions: None,
+            extras: Default::default(),
+        });
+        // Keep the next view 4-byte aligned.
+        self.bin.resize(pad4(self.bin.len()), 0);
+        Ok(view)
+    }
+
+    /// Whether views of `layout` carry padded elements (quantized VEC3 attributes), which
+    /// need an explicit `byteStride`. Float attributes are tightly packed.
+    fn padded(&self, layout: Layout) -> bool {
+        matches!(layout, Layout::Vertices { .. }) && self.quantize()
+    }
+
+    /// Adds an accessor reading a whole buffer view.
+    #[allow(clippy::too_many_arguments)]
+    fn accessor(
+        &mut self,
+        view: Index<json::buffer::View>,
+        count: usize,
+        component: json::accessor::ComponentType,
+        type_: json::accessor::Type,
+        normalized: bool,
+        min: Option<json::Value>,
+        max: Option<json::Value>,
+    ) -> Index<json::Accessor> {
+        self.root.push(json::Accessor {
+            buffer_view: Some(view),
+            byte_offset: None,
+            count: USize64::from(count),
+            component_type: Valid(json::accessor::GenericComponentType(component)),
+            extensions: None,
+            extras: Default::default(),
+            type_: Valid(type_),
+            min,
+            max,
+            name: None,
+            normalized,
+            sparse: None,
+        })
+    }
+
+    /// `values` as one view of `f32` components and an accessor of `type_` over it.
+    fn floats<const N: usize>(
+        &mut self,
+        values: impl Iterator<Item = [f32; N]>,
+        type_: json::accessor::Type,
+        layout: Layout,
+        bounds: Option<(json::Value, json::Value)>,
+    ) -> Result<Index<json::Accessor>> {
+        let mut bytes = Vec::new();
+        let mut count = 0;
+        for v in values {
+            put_f32s(&mut bytes, v);
+            count += 1;
+        }
+        let view = self.view(&bytes, count, layout)?;
+        let (min, max) = bounds.unzip();
+        Ok(self.accessor(view, count, json::accessor::ComponentType::F32, type_, false, min, max))
+    }
+
+    /// Adds the buffers (the binary one; with meshopt the fallback buffer after it) and
+    /// the extension lists; hands back the document and the binary buffer.
+    fn finish(mut self) -> Result<(json::Root, Vec<u8>)> {
+        self.root.push(json::Buffer {
+            byte_length: USize64::from(self.bin.len()),
+            name: None,
+            uri: None,
+            extensions: None,
+            extras: Default::default(),
+        });
+        if self.compress == Compression::Meshopt {
+            let mut others = serde_json::Map::new();
+            others.insert(MESHOPT.into(), serde_json::json!({ "fallback": true }));
+            self.root.push(json::Buffer {
+                byte_length: USize64::from(self.fallback_len.max(1)),
+                name: None,
+                uri: None,
+                extensions: Some(json::extensions::buffer::Buffer { others }),
+                extras: Default::default(),
+            });
+        }
+        for (name, required) in &self.extensions {
+            self.root.extensions_used.push(name.to_string());
+            if *required {
+                self.root.extensions_required.push(name.to_string());
+            }
+        }
+        Ok((self.root, self.bin))
+    }
+}
+
+/// How quantized positions decode: `p = offset + q · step` (the node's translation and
+/// uniform scale, `KHR_mesh_quantization`).
+#[derive(Debug, Clone, Copy)]
+struct Dequant {
+    offset: glam::Vec3,
+    step: f32,
+}
+
+/// Writes one part's mesh (one primitive) and its material; returns the mesh and, for
+/// quantized positions, how they decode (for the node that shows the mesh).
+fn push_mesh(
+    doc: &mut Doc,
+    part: &Part,
+    data: &VertexData,
+    texture_of: &TextureIndex,
+) -> Result<(Index<json::Mesh>, Option<Dequant>)> {
+    use json::accessor::{ComponentType as C, Type as T};
+    let verts = &data.unified.vertices;
+    let count = verts.len();
+    let mut attributes = std::collections::BTreeMap::new();
+    let quantize = doc.quantize();
+    let vertices = |stride| Layout::Vertices { stride };
+
+    // POSITION, with its bounds.
+    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+    for k in verts {
+        lo = lo.min(data.position(k));
+        hi = hi.max(data.position(k));
+    }
+    let bounds = |v: glam::Vec3| json::Value::from(v.to_array().to_vec());
+    let mut dequant = None;
+    if quantize {
+        // Unsigned 16-bit on a uniform grid over the bounds (padded to 8 bytes).
+        let extent = (hi - lo).max_element();
+        let step = if extent > 0.0 { extent / 65535.0 } else { 1.0 };
+        let mut bytes = Vec::with_capacity(8 * count);
+        let (mut qlo, mut qhi) = ([u16::MAX; 3], [0u16; 3]);
+        for k in verts {
+            let q =
+                ((data.position(k) - lo) / step).round().clamp(glam::Vec3::ZERO, glam::Vec3::splat(65535.0));
+            for (c, x) in q.to_array().into_iter().enumerate() {
+                let x = x as u16;
+                qlo[c] = qlo[c].min(x);
+                qhi[c] = qhi[c].max(x);
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+            bytes.extend_from_slice(&[0, 0]);
+        }
+        let view = doc.view(&bytes, count, vertices(8))?;
+        let (min, max) = (json::Value::from(qlo.to_vec()), json::Value::from(qhi.to_vec()));
+        let acc = doc.accessor(view, count, C::U16, T::Vec3, false, Some(min), Some(max));
+        attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
+        dequant = Some(Dequant { offset: lo, step });
+    } else {
+        let positions = verts.iter().map(|k| data.position(k).to_array());
+        let acc = doc.floats(positions, T::Vec3, vertices(12), Some((bounds(lo), bounds(hi))))?;
+        attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
+    }
+
+    // NORMAL, always unit length (8-bit normalized when quantized).
+    if quantize {
+        let bytes: Vec<u8> =
+            verts.iter().flat_map(|k| snorm8(data.normal(k).extend(0.0).to_array())).collect();
+        let view = doc.view(&bytes, count, vertices(4))?;
+        let acc = doc.accessor(view, count, C::I8, T::Vec3, true, None, None);
+        attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
+    } else {
+        let normals = verts.iter().map(|k| data.normal(k).to_array());
+        let acc = doc.floats(normals, T::Vec3, vertices(12), None)?;
+        attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
+    }
+
+    // TEXCOORD_0, v flipped to glTF's top-left origin; 16-bit normalized when quantized
+    // and every UV lies in [0, 1] (repeating bark UVs stay float).
+    if data.has_uvs() {
+        let uvs: Vec<[f32; 2]> = verts.iter().map(|k| data.uv(k)).map(|uv| [uv.x, 1.0 - uv.y]).collect();
+        if quantize && uvs.iter().flatten().all(|x| (0.0..=1.0).contains(x)) {
+            let bytes: Vec<u8> =
+                uvs.iter().flatten().flat_map(|&x| ((x * 65535.0).round() as u16).to_le_bytes()).collect();
+            let view = doc.view(&bytes, count, vertices(4))?;
+            let acc = doc.accessor(view, count, C::U16, T::Vec2, true, None, None);
+            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
+        } else {
+            let acc = doc.floats(uvs.into_iter(), T::Vec2, vertices(8), None)?;
+            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
+        }
+    }
+
+    // TANGENT where a normal map will be read (so no runtime has to guess one).
+    if map_texture(part.material.maps.normal, data.has_uvs(), texture_of).is_some() {
+        let t = tangents(part, data);
+        let acc = if quantize {
+            let bytes: Vec<u8> = t.iter().flat_map(|&v| snorm8(v)).collect();
+            let view = doc.view(&bytes, count, vertices(4))?;
+            doc.accessor(view, count, C::I8, T::Vec4, true, None, None)
+        } else {
+            doc.floats(t.into_iter(), T::Vec4, vertices(16), None)?
+        };
+        attributes.insert(Valid(json::mesh::Semantic::Tangents), acc);
+    }
+
+    // Indices: every face fan-triangulated, u16 where every index fits.
+    let short = count < 65_536;
+    let mut bytes = Vec::with_capacity(part.mesh.triangle_count() * if short { 6 } else { 12 });
+    let cv = &data.unified.corner_vertex;
+    let put = |bin: &mut Vec<u8>, i: u32| {
+        if short {
+            bin.extend_from_slice(&(i as u16).to_le_bytes());
+        } else {
+            put_u32(bin, i);
+        }
+    };
+    for w in part.mesh.face_offsets.windows(2) {
+        let Some(face) = cv.get(w[0] as usize..w[1] as usize) else {
+            continue;
+        };
+        let Some((&first, rest)) = face.split_first() else {
+            continue;
+        };
+        for pair in rest.windows(2) {
+            put(&mut bytes, first);
+            put(&mut bytes, pair[0]);
+            put(&mut bytes, pair[1]);
+        }
+    }
+    let size = if short { 2 } else { 4 };
+    let index_count = bytes.len() / size;
+    let view = doc.view(&bytes, index_count, Layout::Triangles { size })?;
+    let indices =
+        doc.accessor(view, index_count, if short { C::U16 } else { C::U32 }, T::Scalar, false, None, None);
+
+    let material = doc.root.push(material(&part.material, data.has_uvs(), texture_of));
+    let mesh = doc.root.push(json::Mesh {
+        name: Some(part.name.clone()),
+        primitives: vec![json::mesh::Primitive {
+            attributes,
+            extensions: None,
+            extras: Default::default(),
+            indices: Some(indices),
+            material: Some(material),
+            mode: Valid(json::mesh::Mode::Triangles),
+            targets: None,
+        }],
         extensions: None,
         extras: Default::default(),
+        weights: None,
     });
-    Ok((root, bin))
+    Ok((mesh, dequant))
+}
+
+/// A unit vector's components as `BYTE` normalized (`round(f · 127)`).
+fn snorm8(v: [f32; 4]) -> [u8; 4] {
+    v.map(|x| ((x.clamp(-1.0, 1.0) * 127.0).round() as i8) as u8)
+}
+
+/// Translation, rotation (unit quaternion) and scale of `m`, or `None` where its
+/// columns are not orthogonal (a shear, which `EXT_mesh_gpu_instancing` cannot store).
+fn trs(m: glam::DMat4) -> Option<([f64; 3], [f64; 4], [f64; 3])> {
+    let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    let (lx, ly, lz) = (x.length(), y.length(), z.length());
+    let orthogonal = |a: glam::DVec3, b: glam::DVec3, la: f64, lb: f64| a.dot(b).abs() <= 1e-4 * la * lb;
+    let positive = lx > 0.0 && ly > 0.0 && lz > 0.0;
+    if !(positive && orthogonal(x, y, lx, ly) && orthogonal(y, z, ly, lz) && orthogonal(x, z, lx, lz)) {
+        return None;
+    }
+    let (s, r, t) = m.to_scale_rotation_translation();
+    let r = r.normalize();
+    r.is_finite().then_some((t.to_array(), r.to_array(), s.to_array()))
+}
+
+/// Whether the scale of `m` is the same along its three axes (to 1e-4).
+fn uniform_scale(m: &glam::DMat4) -> bool {
+    let l = [m.x_axis.truncate().length(), m.y_axis.truncate().length(), m.z_axis.truncate().length()];
+    let (lo, hi) = (l.iter().copied().fold(f64::INFINITY, f64::min), l.iter().copied().fold(0.0, f64::max));
+    hi - lo <= 1e-4 * hi
+}
+
+/// The node showing `mesh` (shape `shape`) once per transform with
+/// `EXT_mesh_gpu_instancing`: `TRANSLATION`, `ROTATION` (unit quaternions) and `SCALE`
+/// as `FLOAT` accessors. Where every instance scales uniformly the node's own transform
+/// is the first instance's and the instances are relative to it, so a reader without
+/// the extension, which draws the mesh once at the node, shows the first copy in its
+/// place; otherwise the node has no transform. Quantized positions decode inside each
+/// instance's transform.
+fn push_instanced_node(
+    doc: &mut Doc,
+    shape: &Part,
+    mesh: Index<json::Mesh>,
+    dequant: Option<Dequant>,
+    transforms: &[glam::Mat4],
+) -> Result<Index<json::Node>> {
+    use glam::DMat4;
+    let decode = dequant.map_or(DMat4::IDENTITY, |d| {
+        DMat4::from_translation(d.offset.as_dvec3()) * DMat4::from_scale(glam::DVec3::splat(d.step as f64))
+    });
+    let all: Vec<DMat4> = transforms.iter().map(|m| m.as_dmat4()).collect();
+    let base =
+        all.first().copied().filter(|_| all.iter().all(uniform_scale)).and_then(|m| trs(m).map(|t| (m, t)));
+    let inverse = base.map_or(DMat4::IDENTITY, |(m, _)| m.inverse());
+    let bad = |k: usize| Error::InvalidGeometry {
+        what: format!("instance {k} of shape '{}'", shape.name),
+        why:
+            "its transform is not translation × rotation × scale (EXT_mesh_gpu_instancing stores only those)"
+                .into(),
+    };
+    let (mut t, mut r, mut s) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, m) in all.iter().enumerate() {
+        let (tk, rk, sk) = trs(inverse * *m * decode).ok_or_else(|| bad(k))?;
+        t.push(tk.map(|x| x as f32));
+        r.push(rk.map(|x| x as f32));
+        s.push(sk.map(|x| x as f32));
+    }
+    use json::accessor::Type as T;
+    let (lo, hi) = t.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
+        (std::array::from_fn(|c| lo[c].min(p[c])), std::array::from_fn(|c| hi[c].max(p[c])))
+    });
+    let bounds = Some((json::Value::from(lo.to_vec()), json::Value::from(hi.to_vec())));
+    let translation = doc.floats(t.into_iter(), T::Vec3, Layout::Instances { stride: 12 }, bounds)?;
+    let rotation = doc.floats(r.into_iter(), T::Vec4, Layout::Instances { stride: 16 }, None)?;
+    let scale = doc.floats(s.into_iter(), T::Vec3, Layout::Instances { stride: 12 }, None)?;
+    doc.use_extension(INSTANCING, false);
+    let mut n = node(shape.name.clone(), Some(mesh), None);
+    if let Some((_, (tt, rr, ss))) = base {
+        n.translation = Some(tt.map(|x| x as f32));
+        n.rotation = Some(json::scene::UnitQuaternion(rr.map(|x| x as f32)));
+        n.scale = Some(ss.map(|x| x as f32));
+    }
+    let mut others = serde_json::Map::new();
+    others.insert(
+        INSTANCING.into(),
+        serde_json::json!({ "attributes": {
+            "TRANSLATION": translation.value(),
+            "ROTATION": rotation.value(),
+            "SCALE": scale.value(),
+        }}),
+    );
+    n.extensions = Some(json::extensions::scene::Node { others });
+    Ok(doc.root.push(n))
+}
+
+/// With `output.compress = "meshopt"`: the `EXT_meshopt_compression` encoding of a
+/// view's bytes (vertex codec version 0, the extension's; index codec version 1, header
+/// `0xe1`) and the extension's `byteStride`, `count` and `mode` (the caller adds
+/// `buffer`, `byteOffset` and `byteLength`).
+fn meshopt_encode(
+    bytes: &[u8],
+    count: usize,
+    layout: Layout,
+) -> Result<(Vec<u8>, serde_json::Map<String, serde_json::Value>)> {
+    let failed = |e: meshopt::Error| Error::InvalidGeometry {
+        what: "model".into(),
+        why: format!("meshopt compression failed: {e:?}"),
+    };
+    let (encoded, stride, mode) = match layout {
+        Layout::Vertices { stride } | Layout::Instances { stride } => {
+            let encoded = match stride {
+                4 => meshopt_attributes::<4>(bytes),
+                8 => meshopt_attributes::<8>(bytes),
+                12 => meshopt_attributes::<12>(bytes),
+                16 => meshopt_attributes::<16>(bytes),
+                _ => {
+                    return Err(Error::InvalidGeometry {
+                        what: "model".into(),
+                        why: format!("meshopt: no attribute codec for {stride}-byte elements"),
+                    })
+                }
+            };
+            (encoded.map_err(failed)?, stride, "ATTRIBUTES")
+        }
+        Layout::Triangles { size } => {
+            let indices: Vec<u32> = match size {
+                2 => bytes.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as u32).collect(),
+                _ => bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect(),
+            };
+            let vertices = indices.iter().max().map_or(0, |&m| m as usize + 1);
+            // meshopt's default index codec is version 1; its header byte is 0xe1.
+            let encoded = meshopt::encoding::encode_index_buffer(&indices, vertices).map_err(failed)?;
+            if encoded.first() != Some(&0xe1) {
+                return Err(Error::InvalidGeometry {
+                    what: "model".into(),
+                    why: "meshopt wrote an index stream EXT_meshopt_compression cannot read".into(),
+                });
+            }
+            (encoded, size, "TRIANGLES")
+        }
+    };
+    let mut ext = serde_json::Map::new();
+    ext.insert("byteStride".into(), stride.into());
+    ext.insert("count".into(), count.into());
+    ext.insert("mode".into(), mode.into());
+    Ok((encoded, ext))
+}
+
+/// `bytes` as elements of `N` bytes through meshopt's attribute codec, version 0 (the one
+/// `EXT_meshopt_compression` specifies).
+fn meshopt_attributes<const N: usize>(bytes: &[u8]) -> std::result::Result<Vec<u8>, meshopt::Error> {
+    let (elements, _) = bytes.as_chunks::<N>();
+    meshopt::encoding::encode_vertex_buffer_level(elements, 2, Some(0))
 }
 
 /// The glTF texture index of each model image (`None` for [`TextureMode::None`]).
@@ -373,27 +818,6 @@ fn push_textures(
 /// and the image was written.
 fn map_texture(image: Option<u32>, has_uvs: bool, texture_of: &TextureIndex) -> Option<Index<json::Texture>> {
     image.filter(|_| has_uvs).and_then(|i| texture_of.get(i as usize).copied().flatten())
-}
-
-/// Appends `values` to `bin` as one tightly packed `ARRAY_BUFFER` view of `f32`
-/// components with an accessor of `type_` over it.
-fn push_floats<const N: usize>(
-    root: &mut json::Root,
-    bin: &mut Vec<u8>,
-    buffer: Index<json::Buffer>,
-    values: impl Iterator<Item = [f32; N]>,
-    type_: json::accessor::Type,
-    min: Option<json::Value>,
-    max: Option<json::Value>,
-) -> Index<json::Accessor> {
-    let start = bin.len();
-    let mut count = 0;
-    for v in values {
-        put_f32s(bin, v);
-        count += 1;
-    }
-    let view = push_view(root, buffer, start, bin.len(), json::buffer::Target::ArrayBuffer);
-    push_accessor(root, view, count, json::accessor::ComponentType::F32, type_, min, max)
 }
 
 /// The glTF material of `m`; maps only where the part has UVs and the image was written.
@@ -517,52 +941,6 @@ fn node(
         skin: None,
         weights: None,
     }
-}
-
-/// Adds a tightly packed buffer view over `bin[start..end]`.
-fn push_view(
-    root: &mut json::Root,
-    buffer: Index<json::Buffer>,
-    start: usize,
-    end: usize,
-    target: json::buffer::Target,
-) -> Index<json::buffer::View> {
-    root.push(json::buffer::View {
-        buffer,
-        byte_length: USize64::from(end - start),
-        byte_offset: Some(USize64::from(start)),
-        byte_stride: None,
-        name: None,
-        target: Some(Valid(target)),
-        extensions: None,
-        extras: Default::default(),
-    })
-}
-
-/// Adds an accessor reading a whole buffer view.
-fn push_accessor(
-    root: &mut json::Root,
-    view: Index<json::buffer::View>,
-    count: usize,
-    component: json::accessor::ComponentType,
-    type_: json::accessor::Type,
-    min: Option<json::Value>,
-    max: Option<json::Value>,
-) -> Index<json::Accessor> {
-    root.push(json::Accessor {
-        buffer_view: Some(view),
-        byte_offset: None,
-        count: USize64::from(count),
-        component_type: Valid(json::accessor::GenericComponentType(component)),
-        extensions: None,
-        extras: Default::default(),
-        type_: Valid(type_),
-        min,
-        max,
-        name: None,
-        normalized: false,
-        sparse: None,
-    })
 }
 
 /// `data:application/octet-stream;base64,…` for `bytes`.

@@ -14,9 +14,16 @@
 //! first use, so UV seams split vertices and shared corners stay shared. OBJ stores
 //! face-varying data natively and needs no unification.
 //!
+//! Instanced organs ([`Model::instances`], `leaves.mode = "instanced"`) go to glTF as
+//! one mesh per shape on a node with `EXT_mesh_gpu_instancing` (or merged, with
+//! [`InstancingFallback::Merged`]); OBJ and PLY cannot instance and write every copy
+//! ([`Model::flattened`], [`instance`]). [`ExportOptions`] gathers what `[output]` says
+//! about the file beyond its name: textures, the instancing fallback and compression.
+//!
 //! Output is deterministic: the same model gives byte-identical files.
 
 pub mod gltf;
+pub mod instance;
 pub mod obj;
 pub mod ply;
 pub mod skeleton;
@@ -25,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::fsutil::write_atomic;
 use crate::geometry::Mesh;
 use crate::model::Model;
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::path::Path;
 
 /// The extensions [`Format::from_path`] understands, for error messages.
@@ -108,14 +115,109 @@ impl TextureMode {
     }
 }
 
+/// What a glTF reader without `EXT_mesh_gpu_instancing` gets (`output.instancing_fallback`).
+///
+/// A node either carries the extension or not: a file cannot hold both the instanced
+/// leaves and merged copies without readers that support the extension drawing the
+/// leaves twice. So the choice is per file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InstancingFallback {
+    /// `none`: instances as `EXT_mesh_gpu_instancing` (in `extensionsUsed`, not required).
+    /// A reader without the extension draws the shape once, at the node's transform,
+    /// which is the first instance's: one leaf, in its place.
+    #[default]
+    None,
+    /// `merged`: every instance merged into an ordinary mesh, no extension: every reader
+    /// sees every leaf, at the size of a file without instancing.
+    Merged,
+}
+
+impl InstancingFallback {
+    /// The recipe names, for messages.
+    pub const NAMES: &'static str = "none or merged";
+
+    /// The fallback called `name` (`none`, `merged`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(InstancingFallback::None),
+            "merged" => Some(InstancingFallback::Merged),
+            _ => None,
+        }
+    }
+}
+
+/// Compression of the glTF buffer (`output.compress`); OBJ and PLY ignore it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Compression {
+    /// `none`: `FLOAT` attributes.
+    #[default]
+    None,
+    /// `quantize`: `KHR_mesh_quantization` (required): positions `SHORT`, normals and
+    /// tangents `BYTE` normalized, UVs `UNSIGNED_SHORT` normalized.
+    Quantize,
+    /// `meshopt`: quantized as `quantize`, then every geometry buffer view compressed
+    /// with `EXT_meshopt_compression` (required; no uncompressed fallback).
+    Meshopt,
+}
+
+impl Compression {
+    /// The recipe names, for messages.
+    pub const NAMES: &'static str = "none, quantize or meshopt";
+
+    /// The compression called `name` (`none`, `quantize`, `meshopt`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(Compression::None),
+            "quantize" => Some(Compression::Quantize),
+            "meshopt" => Some(Compression::Meshopt),
+            _ => None,
+        }
+    }
+}
+
+/// How a model is written beyond its file name: the `[output]` keys
+/// `textures`, `instancing_fallback` and `compress`.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct ExportOptions {
+    /// Where the textures go.
+    pub textures: TextureMode,
+    /// What glTF readers without `EXT_mesh_gpu_instancing` get.
+    pub instancing_fallback: InstancingFallback,
+    /// glTF buffer compression.
+    pub compress: Compression,
+}
+
+impl ExportOptions {
+    /// The options the recipe's `[output]` table gives for a model written to `path`;
+    /// an unknown value is [`Error::Recipe`] naming the key.
+    pub fn for_output(output: &crate::recipe::OutputSection, path: &Path) -> Result<ExportOptions> {
+        let bad = |key: &str, value: &str, names: &str| {
+            Error::Recipe(format!("`output.{key}` is `{value}`; use {names}"))
+        };
+        Ok(ExportOptions {
+            textures: TextureMode::for_output(&output.textures, path)?,
+            instancing_fallback: InstancingFallback::from_name(&output.instancing_fallback).ok_or_else(
+                || bad("instancing_fallback", &output.instancing_fallback, InstancingFallback::NAMES),
+            )?,
+            compress: Compression::from_name(&output.compress)
+                .ok_or_else(|| bad("compress", &output.compress, Compression::NAMES))?,
+        })
+    }
+}
+
 /// Writes `model` to `path` in the format given by its extension, its textures embedded
 /// (see [`write_with`]).
 pub fn write(model: &Model, path: &Path) -> Result<()> {
     write_with(model, path, &TextureMode::Embed)
 }
 
-/// Writes `model` to `path` in the format given by its extension, its textures as
-/// `textures` says.
+/// Writes `model` to `path` with its textures as `textures` says and the other options
+/// at their defaults (see [`write_with_options`]).
+pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<()> {
+    write_with_options(model, path, &ExportOptions { textures: textures.clone(), ..Default::default() })
+}
+
+/// Writes `model` to `path` in the format given by its extension, as `options` say.
 ///
 /// Every part's mesh is validated first (indices in range, finite numbers); a problem is
 /// [`Error::InvalidGeometry`] naming the part, and nothing is written; so is a model
@@ -125,7 +227,11 @@ pub fn write(model: &Model, path: &Path) -> Result<()> {
 /// With [`TextureMode::Files`] (and for `.obj`, which cannot embed, unless `None`; `.ply`
 /// never refers to images) the images are written first as `<prefix><name>.png` beside the model; if the model
 /// cannot be written they are removed again.
-pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<()> {
+///
+/// Instances are written as `EXT_mesh_gpu_instancing` to glTF (unless
+/// [`InstancingFallback::Merged`]) and merged for OBJ and PLY.
+pub fn write_with_options(model: &Model, path: &Path, options: &ExportOptions) -> Result<()> {
+    let textures = &options.textures;
     let format = Format::from_path(path)?;
     validate_model(model)?;
     // PLY cannot refer to images; OBJ cannot embed them, so it writes files.
@@ -153,22 +259,24 @@ pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<
             images_written.push(p);
         }
     }
-    let written = write_model(model, path, format, &textures);
+    let options = ExportOptions { textures, ..options.clone() };
+    let written = write_model(model, path, format, &options);
     if written.is_err() {
         remove(&images_written);
     }
     written
 }
 
-/// [`write_with`] after validation and the image files.
-fn write_model(model: &Model, path: &Path, format: Format, textures: &TextureMode) -> Result<()> {
+/// [`write_with_options`] after validation and the image files.
+fn write_model(model: &Model, path: &Path, format: Format, options: &ExportOptions) -> Result<()> {
+    let textures = &options.textures;
     match format {
         Format::Glb => {
-            let bytes = gltf::glb_unchecked(model, textures)?;
+            let bytes = gltf::glb_unchecked(model, options)?;
             write_atomic(path, |w| w.write_all(&bytes))
         }
         Format::Gltf => {
-            let json = gltf::gltf_json_unchecked(model, textures)?;
+            let json = gltf::gltf_json_unchecked(model, options)?;
             write_atomic(path, |w| w.write_all(json.as_bytes()))
         }
         Format::Obj => {
@@ -193,12 +301,14 @@ fn write_model(model: &Model, path: &Path, format: Format, textures: &TextureMod
     }
 }
 
-/// Checks every part's mesh with [`Mesh::validate`] and every material number for
-/// finiteness, and that the model has at least one triangle; the first problem is
-/// [`Error::InvalidGeometry`] naming the part (or the model).
+/// Checks every part's and shape's mesh with [`Mesh::validate`] and every material
+/// number for finiteness, every instance for a shape that exists and a finite transform,
+/// and that the model has at least one triangle; the first problem is
+/// [`Error::InvalidGeometry`] naming the part, shape or instance (or the model).
 pub fn validate_model(model: &Model) -> Result<()> {
-    for part in &model.parts {
-        let bad = |why: String| Error::InvalidGeometry { what: format!("part '{}'", part.name), why };
+    let named = model.parts.iter().map(|p| ("part", p)).chain(model.shapes.iter().map(|p| ("shape", p)));
+    for (kind, part) in named {
+        let bad = |why: String| Error::InvalidGeometry { what: format!("{kind} '{}'", part.name), why };
         part.mesh.validate().map_err(bad)?;
         let m = &part.material;
         if !(m.base_color.iter().all(|c| c.is_finite()) && m.metallic.is_finite() && m.roughness.is_finite())
@@ -206,7 +316,20 @@ pub fn validate_model(model: &Model) -> Result<()> {
             return Err(bad(format!("material '{}' has a non-finite value", m.name)));
         }
     }
-    if model.parts.iter().all(|p| p.mesh.face_count() == 0) {
+    for (k, inst) in model.instances.iter().enumerate() {
+        let bad = |why: String| Error::InvalidGeometry { what: format!("instance {k}"), why };
+        if inst.shape as usize >= model.shapes.len() {
+            return Err(bad(format!("refers to shape {}, but there are {}", inst.shape, model.shapes.len())));
+        }
+        if !inst.transform.is_finite() {
+            return Err(bad("its transform has a non-finite number".into()));
+        }
+        if Mat3::from_mat4(inst.transform).determinant().abs() < 1e-30 {
+            return Err(bad("its transform is singular (a zero scale)".into()));
+        }
+    }
+    let instanced = model.instances.iter().any(|i| model.shapes[i.shape as usize].mesh.face_count() > 0);
+    if !instanced && model.parts.iter().all(|p| p.mesh.face_count() == 0) {
         return Err(Error::InvalidGeometry {
             what: "model".into(),
             why: "no triangles to export (every part is empty)".into(),

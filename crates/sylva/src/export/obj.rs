@@ -22,6 +22,9 @@
 //! sharp", which the refiner treats the same); `sylva subdivide` and
 //! `mesh::obj_read` read them back.
 //!
+//! OBJ cannot instance: instanced organs ([`Model::instances`]) are written merged, one
+//! object per shape after the parts ([`Model::flattened`]).
+//!
 //! Numbers use Rust's shortest round-trip formatting of `f32`.
 
 use super::{validate_io, GENERATOR};
@@ -52,6 +55,8 @@ pub fn write_mtl(model: &Model, mtl: &mut dyn Write) -> std::io::Result<()> {
 
 /// [`write_obj`] for a model already validated.
 pub(crate) fn write_obj_unchecked(model: &Model, out: &mut dyn Write, mtl_name: &str) -> std::io::Result<()> {
+    let flat = model.flattened();
+    let model = flat.as_ref();
     let (part_material, materials) = material_table(model);
     let mut buf: Vec<u8> = Vec::with_capacity(CHUNK + 1024);
     writeln!(buf, "# {GENERATOR}")?;
@@ -140,7 +145,8 @@ pub(crate) fn write_mtl_unchecked(
     out: &mut dyn Write,
     textures: Option<&str>,
 ) -> std::io::Result<()> {
-    let (_, materials) = material_table(model);
+    let flat = model.flattened();
+    let (_, materials) = material_table(flat.as_ref());
     let mut buf: Vec<u8> = Vec::with_capacity(4096);
     writeln!(buf, "# {GENERATOR}")?;
     for (name, m) in &materials {

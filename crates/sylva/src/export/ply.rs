@@ -38,6 +38,8 @@ fn faces_for(n: usize) -> usize {
 
 /// [`write_ply`] for a model already validated.
 pub(crate) fn write_ply_unchecked(model: &Model, out: &mut dyn Write) -> std::io::Result<()> {
+    let flat = model.flattened();
+    let model = flat.as_ref();
     let parts: Vec<(&str, VertexData, [u8; 3])> = model
         .parts
         .iter()

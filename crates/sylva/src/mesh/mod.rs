@@ -6,6 +6,7 @@
 
 pub mod cards;
 pub mod check;
+pub mod ground;
 pub mod hull;
 pub mod obj_read;
 pub mod organs;

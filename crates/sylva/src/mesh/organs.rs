@@ -41,7 +41,7 @@ pub fn organ_mesh_where(
         }
         let x = h.cross(u);
         match &o.kind {
-            OrganKind::Polygon(v) => polygon(&mut out, v),
+            OrganKind::Polygon(v) => polygon(&mut out, v, o.position, h),
             OrganKind::Leaf => {
                 let w = o.size * 0.25;
                 let p = o.position;
@@ -82,9 +82,12 @@ fn push_face(out: &mut Mesh, pos: &[Vec3], uv: &[Vec2], n: &[Vec3]) {
     }
 }
 
-/// A planar polygon, fan-triangulated from its first vertex, UVs from its bounding box
-/// in its own plane, normal by Newell's method.
-fn polygon(out: &mut Mesh, v: &[Vec3]) {
+/// A planar polygon, welded: its outline's points once, fan-triangulated from the first
+/// point (so the unified output has one vertex per outline point). UVs run along the
+/// midrib: v from the organ's base (0) to its tip (1) along its heading projected into
+/// the blade's plane, u across (0.5 on the midrib), scaled to the outline's bounding
+/// box; one normal by Newell's method.
+fn polygon(out: &mut Mesh, v: &[Vec3], base: Vec3, heading: Vec3) {
     if v.len() < 3 || v.iter().any(|p| !p.is_finite()) {
         return;
     }
@@ -97,17 +100,43 @@ fn polygon(out: &mut Mesh, v: &[Vec3]) {
     if n == Vec3::ZERO {
         return; // degenerate (collinear) outline
     }
-    let e1 = (v[1] - v[0]).normalize_or_zero();
-    let e1 = if e1 == Vec3::ZERO { n.any_orthonormal_vector() } else { e1 };
-    let e2 = n.cross(e1);
-    let flat: Vec<Vec2> = v.iter().map(|p| Vec2::new((*p - v[0]).dot(e1), (*p - v[0]).dot(e2))).collect();
-    let lo = flat.iter().fold(Vec2::splat(f32::MAX), |a, b| a.min(*b));
-    let hi = flat.iter().fold(Vec2::splat(f32::MIN), |a, b| a.max(*b));
-    let span = (hi - lo).max(Vec2::splat(1e-9));
+    // The midrib: the heading in the blade's plane (else the first edge's direction).
+    let along = (heading - n * heading.dot(n))
+        .try_normalize()
+        .or_else(|| (v[1] - v[0]).try_normalize())
+        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let across = along.cross(n);
+    let flat: Vec<Vec2> =
+        v.iter().map(|p| Vec2::new((*p - base).dot(across), (*p - base).dot(along))).collect();
+    let lo = flat.iter().fold(Vec2::splat(f32::MAX), |a, b| a.min(*b)).min(Vec2::ZERO);
+    let hi = flat.iter().fold(Vec2::splat(f32::MIN), |a, b| a.max(*b)).max(Vec2::ZERO);
+    // Symmetric about the midrib across (u = 0.5 there), base to tip along.
+    let half = (-lo.x).max(hi.x).max(1e-9);
+    let len = (hi.y - lo.y).max(1e-9);
+    // Repeated outline points (a fan's closing point) are one vertex; fan triangles that
+    // fold onto a repeated point are dropped.
+    let first_of: Vec<u32> = (0..v.len())
+        .map(|k| if v.len() <= 64 { (0..k).find(|&j| v[j] == v[k]).unwrap_or(k) as u32 } else { k as u32 })
+        .collect();
+    let p0 = out.positions.len() as u32;
+    out.positions.extend_from_slice(v);
+    let mut corners: Vec<u32> = Vec::with_capacity(3 * (v.len() - 2));
     for k in 1..v.len() - 1 {
-        let tri = [v[0], v[k], v[k + 1]];
-        let uv = [(flat[0] - lo) / span, (flat[k] - lo) / span, (flat[k + 1] - lo) / span];
-        push_face(out, &tri, &uv, &[n; 3]);
+        let t = [first_of[0], first_of[k], first_of[k + 1]];
+        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+            out.push_face(&t.map(|i| p0 + i));
+            corners.extend_from_slice(&t);
+        }
+    }
+    if let Some(ch) = out.uvs.as_mut() {
+        let b = ch.values.len() as u32;
+        ch.values.extend(flat.iter().map(|f| Vec2::new(0.5 + 0.5 * f.x / half, (f.y - lo.y) / len)));
+        ch.indices.extend(corners.iter().map(|&k| b + k));
+    }
+    if let Some(ch) = out.normals.as_mut() {
+        let b = ch.values.len() as u32;
+        ch.values.push(n);
+        ch.indices.extend(corners.iter().map(|_| b));
     }
 }
 
@@ -221,6 +250,37 @@ mod tests {
         assert!(m.face_count() > 4 + 1 + 12 + 1);
         // The surface is scaled by 2 and its local y runs along the heading (+Y).
         assert!(m.positions.iter().any(|p| p.distance(Vec3::new(0.0, 2.0, 0.0)) < 1e-6));
+    }
+
+    #[test]
+    fn a_polygon_leaf_is_welded_with_uvs_along_its_midrib() {
+        // A Weber–Penn style fan: centre, six outline points, the first repeated.
+        let ring: Vec<Vec3> = (0..6)
+            .map(|k| {
+                let a = k as f32 / 6.0 * std::f32::consts::TAU;
+                Vec3::new(0.3 * a.sin(), 0.5 - 0.5 * a.cos(), 0.0)
+            })
+            .collect();
+        let mut fan = vec![Vec3::new(0.0, 0.5, 0.0)];
+        fan.extend_from_slice(&ring);
+        fan.push(ring[0]);
+        let mut sk = Skeleton::new();
+        sk.organs = vec![organ(OrganKind::Polygon(fan), 1.0)];
+        let (m, _) = organ_mesh(&sk, &HashMap::new());
+        m.validate().unwrap();
+        // Six triangles around the centre, seven output vertices (the closing point is
+        // the first one).
+        assert_eq!(m.face_count(), 6);
+        let unified = crate::export::unify(&m);
+        assert_eq!(unified.vertices.len(), 7);
+        // Base (0, 0, 0) → tip (0, 1, 0) runs along +v at u = 0.5.
+        let uv = m.uvs.as_ref().unwrap();
+        let uv_at = |p: Vec3| {
+            let c = m.face_indices.iter().position(|&i| m.positions[i as usize] == p).unwrap();
+            uv.values[uv.indices[c] as usize]
+        };
+        let (b, t) = (uv_at(ring[0]), uv_at(ring[3]));
+        assert!((b - Vec2::new(0.5, 0.0)).length() < 1e-6 && (t - Vec2::new(0.5, 1.0)).length() < 1e-6);
     }
 
     #[test]

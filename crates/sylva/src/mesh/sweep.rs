@@ -126,9 +126,14 @@
 //!    ring to its end ring through the twist offset, and a junction's child rings take
 //!    the trunk ring's parity (all junction rings have vertex 0 on the normal). With
 //!    [`UMapping::Wrapped`], `u = k/6` with the seam column duplicated (`u = 1`) in the
-//!    face-varying channel. `v` is the path length from the root divided by the longest
-//!    root-to-tip path (0 at the base, 1 at the end of the longest path, increasing along
-//!    every base-to-tip path), or with [`SweepOptions::tile_v`] 0 → 1 along every
+//!    face-varying channel. `v` by default ([`VMapping::Texel`], issue 23) is the
+//!    texel length from the root, `∫ ds / r(s)` along the path (radii linear along each
+//!    internode), divided by `r`'s share of a unit of `u` — one hexagon side with reflected
+//!    `u`, six with wrapped — so texels are square on every branch, thick or thin, and
+//!    `v` runs on without a jump from a trunk into its children; with
+//!    [`VMapping::Path`] (the seed's) it is the path length from the root divided by the
+//!    longest root-to-tip path (0 at the base, 1 at the end of the longest path,
+//!    increasing along every base-to-tip path), or with [`SweepOptions::tile_v`] 0 → 1 along every
 //!    internode (junction corners: 1 on the trunk ring, 0 on the child rings). Junction
 //!    corners take their own ring's coordinates; caps map their disc to `[0, 1]²`; a
 //!    cone apex gets the middle `u` of its triangle.
@@ -190,8 +195,10 @@ pub struct SweepOptions {
     pub tips: SweepTips,
     /// How `u` runs around a ring (default [`UMapping::Reflected`], the seed's stem UVs).
     pub u_mapping: UMapping,
+    /// How `v` runs along the branches (default [`VMapping::Texel`]: square texels).
+    pub v_mapping: VMapping,
     /// The seed's "Tile V": `v` runs from 0 to 1 along every internode instead of along
-    /// the longest root-to-tip path (default false).
+    /// the longest root-to-tip path (default false; overrides `v_mapping`).
     pub tile_v: bool,
     /// Loop levels at which the repair also checks the junctions (default 2, 0 = off,
     /// at most 3): once the control mesh is clean, it is refined this many times and a
@@ -246,6 +253,20 @@ pub enum UMapping {
     Wrapped,
 }
 
+/// How `v` runs along the sweep mesher's branches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VMapping {
+    /// `v` is the texel length from the root, `∫ ds / r(s)` over a unit of `u` (a
+    /// hexagon side of radius `r` with reflected `u`, the six sides with wrapped `u`):
+    /// square texels on every branch, continuous from a trunk into its children.
+    #[default]
+    Texel,
+    /// The seed's stem UVs: the path length from the root over the longest root-to-tip
+    /// path (0 → 1 over the whole tree; thin branches stretch).
+    Path,
+}
+
 impl Default for SweepOptions {
     fn default() -> Self {
         SweepOptions {
@@ -260,6 +281,7 @@ impl Default for SweepOptions {
             repair_rounds: 4,
             tips: SweepTips::Cone,
             u_mapping: UMapping::Reflected,
+            v_mapping: VMapping::Texel,
             tile_v: false,
             check_levels: 2,
             min_radius: crate::tolerance::RADIUS_FLOOR,
@@ -418,8 +440,13 @@ struct Plan {
     kind: Vec<Kind>,
     dir: Vec<DVec3>,
     len: Vec<f64>,
+    /// `v` at each node before division by `vmax`: path length, or texel length with
+    /// [`VMapping::Texel`].
     path: Vec<f64>,
     vmax: f64,
+    /// Radius per unit of `u` for [`VMapping::Texel`] (1 reflected, 6 wrapped); `None`
+    /// for path-length `v`.
+    texel: Option<f64>,
     /// Offset of a child's start ring from its parent node.
     off_start: Vec<f64>,
     /// Offset of a node's trunk ring back from the node.
@@ -514,6 +541,37 @@ fn fit_normal(axes: &[DVec3]) -> DVec3 {
 }
 
 impl Plan {
+    /// The `v` distance covered `x` metres into internode `p → i` of length `len`: `x`
+    /// itself for path-length `v`, or `∫₀ˣ ds / r(s)` over the radius per unit of `u`
+    /// for texel `v` (the radius runs linearly from `rad[p]` to `rad[i]`, as the rings').
+    fn texel_len(&self, p: usize, i: usize, len: f64, x: f64) -> f64 {
+        let Some(k) = self.texel else { return x };
+        let (r0, r1) = (self.rad[p], self.rad[i]);
+        let x = x.clamp(0.0, len.max(0.0));
+        let dr = r1 - r0;
+        let t = if len <= 0.0 || dr.abs() <= 1e-9 * r0 {
+            x / r0
+        } else {
+            let rx = r0 + dr * (x / len);
+            len / dr * (rx / r0).ln()
+        };
+        t / k
+    }
+
+    /// `v` (before `vmax`) `x` metres into internode `i` from its parent node.
+    fn v_start(&self, i: usize, x: f64) -> f64 {
+        let p = self.par[i] as usize;
+        self.path[p] + self.texel_len(p, i, self.len[i], x)
+    }
+
+    /// `v` (before `vmax`) `off` metres back from node `i` along its internode.
+    fn v_end(&self, i: usize, off: f64) -> f64 {
+        match self.texel {
+            None => self.path[i] - off,
+            Some(_) => self.v_start(i, self.len[i] - off),
+        }
+    }
+
     fn new(s: &Skeleton, opts: &SweepOptions) -> Plan {
         let n = s.len();
         let pos: Vec<DVec3> = s.position.iter().map(|p| p.as_dvec3()).collect();
@@ -555,6 +613,13 @@ impl Plan {
             len: Vec::new(),
             path: Vec::new(),
             vmax: 1.0,
+            texel: match opts.v_mapping {
+                VMapping::Texel => Some(match opts.u_mapping {
+                    UMapping::Reflected => 1.0,
+                    UMapping::Wrapped => SIDES as f64,
+                }),
+                VMapping::Path => None,
+            },
             off_start: Vec::new(),
             off_end: Vec::new(),
             normal: Vec::new(),
@@ -719,7 +784,7 @@ impl Plan {
                 let e = pos[i] - pos[p];
                 len[i] = e.length();
                 dir[i] = unit_or(e, DVec3::Y);
-                path[i] = path[p] + len[i];
+                path[i] = path[p] + self.texel_len(p, i, len[i], len[i]);
                 vmax = vmax.max(path[i]);
             }
         }
@@ -737,7 +802,14 @@ impl Plan {
         self.dir = dir;
         self.len = len;
         self.path = path;
-        self.vmax = if vmax > 0.0 { vmax } else { 1.0 };
+        // Texel `v` is not normalized: one unit of `v` is one unit of `u`.
+        self.vmax = if self.texel.is_some() {
+            1.0
+        } else if vmax > 0.0 {
+            vmax
+        } else {
+            1.0
+        };
         self.off_start = vec![0.0; n];
         self.off_end = vec![0.0; n];
         self.normal = vec![DVec3::ZERO; n];
@@ -1052,6 +1124,7 @@ impl Build<'_> {
         let va = if self.opts.tile_v {
             (1.0 + h / len.max(1e-12)) as f32
         } else {
+            let h = self.plan.texel.map_or(h, |k| h / (ring.r * k));
             ((ring.v + h) / self.plan.vmax) as f32
         };
         for k in 0..SIDES {
@@ -1235,7 +1308,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
             for x in [after, len - before].into_iter().filter(|&x| x > 0.0 && x < len) {
                 let ux = DQuat::from_rotation_arc(a.d, d) * a.u;
                 let rx = plan.rad[p] + (r - plan.rad[p]) * (x / len);
-                let mut ring = b.ring(plan.pos[p] + d * x, d, ux, rx, plan.path[p] + x);
+                let mut ring = b.ring(plan.pos[p] + d * x, d, ux, rx, plan.v_start(i, x));
                 let t = (x / len) as f32;
                 b.strip_part(&a, &mut ring, owner, (tile, t));
                 tile = t;
@@ -1257,11 +1330,11 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                 }
                 Kind::Junction if !fb => {
                     let off = plan.off_end[i];
-                    b.ring(plan.pos[i] - d * off, d, plan.normal[i], r, plan.path[i] - off)
+                    b.ring(plan.pos[i] - d * off, d, plan.normal[i], r, plan.v_end(i, off))
                 }
                 _ => {
                     let off = plan.off_end[i];
-                    b.ring(plan.pos[i] - d * off, d, ut, r, plan.path[i] - off)
+                    b.ring(plan.pos[i] - d * off, d, ut, r, plan.v_end(i, off))
                 }
             };
             b.strip_part(&a, &mut e, owner, (tile, 1.0));
@@ -1303,7 +1376,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     let c = c as usize;
                     let (off, d, u) = (plan.off_start[c], plan.dir[c], plan.kid_u[c]);
                     let mut ring =
-                        b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
+                        b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.v_start(c, off));
                     // Every junction ring has vertex 0 on the normal: the child takes
                     // the trunk's `u` parity.
                     ring.parity = trunk.parity;
@@ -1311,7 +1384,8 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                         // Asymmetric template: the extra ring takes the child's place in
                         // the junction, a strip joins it to the child's own ring.
                         let oc = plan.off_collar[c];
-                        let mut extra = b.ring(plan.pos[i] + d * oc, d, u, plan.collar[c], plan.path[i] + oc);
+                        let mut extra =
+                            b.ring(plan.pos[i] + d * oc, d, u, plan.collar[c], plan.v_start(c, oc));
                         extra.parity = trunk.parity;
                         b.strip(&extra, &mut ring, own);
                         ring.tile = 0.0;
@@ -1336,7 +1410,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     let off = plan.off_start[c];
                     let d = plan.dir[c];
                     let u = DQuat::from_rotation_arc(unit_or(from, d), d) * seed;
-                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.path[i] + off);
+                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.v_start(c, off));
                     b.flat_cap(&ring, true, own, false);
                     start[c] = Some(ring);
                 }

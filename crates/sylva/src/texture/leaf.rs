@@ -1,6 +1,6 @@
 //! The leaf atlas (issue 23): six cells of 3 × 2 on one RGBA image — ovate,
 //! lanceolate, lobed (maple-like, palmate veins), compound (pinnate leaflets on a
-//! rachis), a needle tuft and a cluster of three ovate leaves for cluster cards — drawn
+//! rachis), a needle tuft and a twig of seven ovate leaves for cluster cards — drawn
 //! with anti-aliased outlines (tiny-skia), veins and colour noise, alpha 0 outside.
 //!
 //! Every cell stands its leaf on its base: the petiole at the bottom centre, the tip at
@@ -27,7 +27,7 @@ pub enum LeafShape {
     Compound,
     /// A tuft of needles (pine, fir, larch).
     Needles,
-    /// Three ovate leaves from one point (cluster cards).
+    /// A twig of seven ovate leaves (cards for groups of leaves).
     Cluster,
 }
 
@@ -184,10 +184,17 @@ fn blades(shape: LeafShape, w: f32, h: f32) -> Vec<Blade> {
                 b(base, rot(a), len * (0.8 + 0.2 * (1.0 - (a / 36.0).abs())), 0.012 * w, Profile::Needle)
             })
             .collect(),
-        LeafShape::Cluster => [-34.0f32, 0.0, 34.0]
-            .iter()
-            .map(|&a| b(base, rot(a), 0.62 * len, 0.2 * w, Profile::Ovate))
-            .collect(),
+        // A twig of seven ovate leaves: three alternating pairs up the stem and one at
+        // its end, so a card for a group of leaves covers most of its cell.
+        LeafShape::Cluster => {
+            let mut v: Vec<Blade> =
+                [(0.16f32, -52.0f32), (0.3, 52.0), (0.44, -48.0), (0.56, 48.0), (0.66, -40.0), (0.72, 40.0)]
+                    .iter()
+                    .map(|&(t, a)| b(base + up * (t * len), rot(a), 0.36 * len, 0.17 * w, Profile::Ovate))
+                    .collect();
+            v.push(b(base + up * (0.7 * len), up, 0.3 * len, 0.16 * w, Profile::Ovate));
+            v
+        }
     }
 }
 
@@ -273,6 +280,7 @@ pub fn leaf_atlas(size: u32, colour: [f32; 3], seed: u64) -> LeafAtlas {
         let stem_top = match shape {
             LeafShape::Compound => 0.66,
             LeafShape::Lobed => 0.42,
+            LeafShape::Cluster => 0.75,
             _ => 0.05,
         };
         let mut pb = PathBuilder::new();

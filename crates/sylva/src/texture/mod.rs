@@ -135,11 +135,15 @@ pub struct TextureOptions {
     pub atlas_size: u32,
     /// Bark style: `auto` (the preset's), `smooth`, `furrowed`, `plated` or `birch`.
     pub bark: String,
+    /// Bark texture repeats per unit of the meshers' bark UVs (0.01–100; default 1):
+    /// 2 draws the pattern at half the size. The meshers' UVs keep square texels where
+    /// they can (one unit of u around a branch), so this is the one knob per tree.
+    pub scale: f32,
 }
 
 impl Default for TextureOptions {
     fn default() -> Self {
-        TextureOptions { bark_size: 1024, atlas_size: 1024, bark: "auto".into() }
+        TextureOptions { bark_size: 1024, atlas_size: 1024, bark: "auto".into(), scale: 1.0 }
     }
 }
 
@@ -150,6 +154,9 @@ impl TextureOptions {
             if !(16..=4096).contains(&v) {
                 return Err(Error::Recipe(format!("`textures.{k}` must be in 16..=4096, got {v}")));
             }
+        }
+        if !(0.01..=100.0).contains(&self.scale) {
+            return Err(Error::Recipe(format!("`textures.scale` must be in 0.01..=100, got {}", self.scale)));
         }
         if self.bark != "auto" && bark::BarkStyle::from_name(&self.bark).is_none() {
             return Err(Error::Recipe(format!(

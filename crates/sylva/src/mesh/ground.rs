@@ -1,0 +1,421 @@
+//! Flat trunk bases (issue 23, "clean files"): a tree that stands on flat terrain.
+//!
+//! Every mesher ends the trunk its own way — the hull mesher in a rounded base below the
+//! root node, quad + Catmull–Clark in a cap that subdivision shrinks above it, tube and
+//! sweep in a flat fan. To give every mesher the same base, the pipeline
+//!
+//! 1. **sinks** each upright root ([`sink_roots`]): the root node moves down by
+//!    [`SINK_RADII`] × its radius, so whatever the mesher and refinement do to the end,
+//!    the trunk's wall reaches below the root's original height (the ground plane);
+//! 2. **cuts** the refined bark at that plane ([`cut_base`]): faces near the root are
+//!    clipped to the half-space above it (Sutherland–Hodgman per face, intersection
+//!    points shared by the two faces of an edge, UVs and normals interpolated), and each
+//!    closed cut loop is filled with a fan around its centroid facing −y. The result is
+//!    a watertight base lying exactly on the plane.
+//!
+//! A root with a stem that does not rise (roots, creepers) is left as it is, and a cut
+//! whose loops do not close is abandoned with a warning (the mesh is unchanged).
+//! `mesh.base = "round"` keeps each mesher's own end.
+
+use crate::geometry::{FaceVarying, Mesh};
+use crate::skeleton::{Skeleton, NO_PARENT};
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+
+/// How far a root is sunk below its plane, in root radii.
+pub const SINK_RADII: f32 = 1.5;
+
+/// Faces with a vertex within this many root radii (horizontally) of a sunk root are
+/// cut at its plane; faces farther out are kept whole.
+pub const CUT_REACH_RADII: f32 = 6.0;
+
+/// A root moved down by [`sink_roots`]: where its base plane lies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunkRoot {
+    /// The root node.
+    pub node: u32,
+    /// The root node's original position (the plane is y = `at.y`).
+    pub at: Vec3,
+    /// The root's radius.
+    pub radius: f32,
+}
+
+/// Moves every upright root of `skeleton` down by [`SINK_RADII`] × its radius and
+/// returns where each was. A root is upright when every child rises at least half its
+/// internode length (a trunk); roots with a level or descending stem, a zero radius or
+/// no children are left alone.
+pub fn sink_roots(skeleton: &mut Skeleton) -> Vec<SunkRoot> {
+    let mut first_child: HashMap<u32, Vec<u32>> = HashMap::new();
+    for (i, &p) in skeleton.parent.iter().enumerate() {
+        if p != NO_PARENT && skeleton.parent.get(p as usize) == Some(&NO_PARENT) {
+            first_child.entry(p).or_default().push(i as u32);
+        }
+    }
+    let mut sunk = Vec::new();
+    for (i, &p) in skeleton.parent.iter().enumerate() {
+        if p != NO_PARENT {
+            continue;
+        }
+        let (at, radius) = (skeleton.position[i], skeleton.radius[i]);
+        let Some(children) = first_child.get(&(i as u32)) else { continue };
+        let upright = children.iter().all(|&c| {
+            let d = skeleton.position[c as usize] - at;
+            d.y > 0.5 * d.length() && d.y > 0.0
+        });
+        if !(upright && radius.is_finite() && radius > 0.0 && at.is_finite()) {
+            continue;
+        }
+        sunk.push(SunkRoot { node: i as u32, at, radius });
+    }
+    for s in &sunk {
+        skeleton.position[s.node as usize].y -= SINK_RADII * s.radius;
+    }
+    sunk
+}
+
+/// Puts the roots [`sink_roots`] moved back where they were.
+pub fn restore_roots(skeleton: &mut Skeleton, sunk: &[SunkRoot]) {
+    for s in sunk {
+        if let Some(p) = skeleton.position.get_mut(s.node as usize) {
+            *p = s.at;
+        }
+    }
+}
+
+/// What [`cut_base`] did at one root.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CutOutcome {
+    /// The base was cut and filled with this many loops.
+    Flat(usize),
+    /// Nothing near the root reaches below its plane (the mesh is unchanged).
+    NothingBelow,
+    /// The cut loops did not close (the mesh is unchanged).
+    Open,
+}
+
+/// Cuts `mesh` at the plane of each of `roots` and fills the cut (see the module docs).
+/// Returns one outcome per root.
+pub fn cut_base(mesh: &mut Mesh, roots: &[SunkRoot]) -> Vec<CutOutcome> {
+    roots.iter().map(|r| cut_one(mesh, r)).collect()
+}
+
+/// An intersection point's key: the two ends of the edge it lies on, ordered.
+fn edge_key(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
+    let plane = root.at.y;
+    let reach = CUT_REACH_RADII * root.radius;
+    let near = |p: Vec3| Vec2::new(p.x - root.at.x, p.z - root.at.z).length() <= reach;
+    let faces = mesh.face_count();
+    // Faces that take part: near the root with a corner below the plane.
+    let cut: Vec<bool> = (0..faces)
+        .map(|f| {
+            let face = mesh.face(f);
+            face.iter().any(|&i| mesh.positions[i as usize].y < plane)
+                && face.iter().any(|&i| near(mesh.positions[i as usize]))
+        })
+        .collect();
+    if !cut.iter().any(|&c| c) {
+        return CutOutcome::NothingBelow;
+    }
+    let mut out = Mesh::new();
+    out.positions = mesh.positions.clone();
+    out.creases = mesh.creases.clone();
+    let mut uvs = mesh.uvs.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
+    let mut normals =
+        mesh.normals.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
+    let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+    let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+    // Directed edges on the plane, in the kept polygons' winding: loop successor map.
+    let mut plane_edges: Vec<(u32, u32)> = Vec::new();
+    for (f, &cut_face) in cut.iter().enumerate() {
+        let corners = mesh.corners(f);
+        let pos: Vec<u32> = mesh.face_indices[corners.clone()].to_vec();
+        let uv: Option<Vec<u32>> = mesh.uvs.as_ref().map(|c| c.indices[corners.clone()].to_vec());
+        let nr: Option<Vec<u32>> = mesh.normals.as_ref().map(|c| c.indices[corners.clone()].to_vec());
+        let push = |out: &mut Mesh,
+                    uvs: &mut Option<FaceVarying<Vec2>>,
+                    normals: &mut Option<FaceVarying<Vec3>>,
+                    p: &[u32],
+                    u: &[u32],
+                    n: &[u32]| {
+            out.push_face(p);
+            if let Some(c) = uvs.as_mut() {
+                c.indices.extend_from_slice(u);
+            }
+            if let Some(c) = normals.as_mut() {
+                c.indices.extend_from_slice(n);
+            }
+        };
+        let empty: Vec<u32> = Vec::new();
+        if !cut_face {
+            push(
+                &mut out,
+                &mut uvs,
+                &mut normals,
+                &pos,
+                uv.as_ref().unwrap_or(&empty),
+                nr.as_ref().unwrap_or(&empty),
+            );
+            continue;
+        }
+        // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
+        // normal) and whether it lies on the plane.
+        let k = pos.len();
+        let d = |i: usize| mesh.positions[pos[i] as usize].y - plane;
+        let mut kept: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(k + 2);
+        let corner = |i: usize| {
+            (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
+        };
+        for i in 0..k {
+            let j = (i + 1) % k;
+            let (di, dj) = (d(i), d(j));
+            if di >= 0.0 {
+                kept.push(corner(i));
+            }
+            if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
+                let t = di / (di - dj);
+                let (a, b) = (pos[i], pos[j]);
+                let key = edge_key(a, b);
+                let p = *new_point.entry(key).or_insert_with(|| {
+                    let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+                    let mut q = pa + (pb - pa) * t;
+                    q.y = plane;
+                    out.positions.push(q);
+                    (out.positions.len() - 1) as u32
+                });
+                // t measured from the key's first end, so both faces agree.
+                let t_key = if a == key.0 { t } else { 1.0 - t };
+                let (ui, un) = (
+                    uvs.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
+                        let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
+                        *new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
+                            let v = c.values[u0 as usize].lerp(c.values[u1 as usize], t_key);
+                            c.values.push(v);
+                            (c.values.len() - 1) as u32
+                        })
+                    }),
+                    normals.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
+                        let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
+                        *new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
+                            let v =
+                                c.values[n0 as usize].lerp(c.values[n1 as usize], t_key).normalize_or_zero();
+                            c.values.push(v);
+                            (c.values.len() - 1) as u32
+                        })
+                    }),
+                );
+                kept.push((p, ui, un, true));
+            }
+        }
+        // The edges that run from a point on the plane to the next through the removed
+        // part: where the original polygon went below between them.
+        let n = kept.len();
+        for a in 0..n {
+            let b = (a + 1) % n;
+            if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
+                // On the plane at both ends: a boundary edge unless it is an edge of the
+                // original polygon (both original corners, consecutive).
+                let original =
+                    pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
+                if !original {
+                    plane_edges.push((kept[a].0, kept[b].0));
+                }
+            }
+        }
+        let distinct = {
+            let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
+            v.sort_unstable();
+            v.dedup();
+            v.len()
+        };
+        if distinct >= 3 {
+            let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
+            let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
+            let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
+            push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
+        }
+    }
+    // Chain the reversed plane edges into loops.
+    let mut next: HashMap<u32, u32> = HashMap::with_capacity(plane_edges.len());
+    for &(a, b) in &plane_edges {
+        if next.insert(b, a).is_some() {
+            return CutOutcome::Open;
+        }
+    }
+    let mut loops: Vec<Vec<u32>> = Vec::new();
+    let mut seen: HashMap<u32, ()> = HashMap::new();
+    let mut starts: Vec<u32> = next.keys().copied().collect();
+    starts.sort_unstable();
+    for s in starts {
+        if seen.contains_key(&s) {
+            continue;
+        }
+        let mut ring = vec![s];
+        seen.insert(s, ());
+        let mut v = s;
+        loop {
+            let Some(&w) = next.get(&v) else { return CutOutcome::Open };
+            if w == s {
+                break;
+            }
+            if seen.insert(w, ()).is_some() || ring.len() > plane_edges.len() {
+                return CutOutcome::Open;
+            }
+            ring.push(w);
+            v = w;
+        }
+        if ring.len() < 3 {
+            return CutOutcome::Open;
+        }
+        loops.push(ring);
+    }
+    if loops.is_empty() {
+        return CutOutcome::Open;
+    }
+    // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
+    // texel scale (one unit of u around the root's circumference).
+    let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
+    for ring in &loops {
+        let c = ring.iter().map(|&i| out.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
+        let centre = out.positions.len() as u32;
+        out.positions.push(Vec3::new(c.x, plane, c.z));
+        let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
+        let uv0 = uvs.as_mut().map(|ch| {
+            let first = ch.values.len() as u32;
+            ch.values.push(Vec2::splat(0.5));
+            ch.values.extend(ring.iter().map(|&i| uv_of(out.positions[i as usize])));
+            first
+        });
+        let n0 = normals.as_mut().map(|ch| {
+            ch.values.push(-Vec3::Y);
+            (ch.values.len() - 1) as u32
+        });
+        for (k, &a) in ring.iter().enumerate() {
+            let kb = (k + 1) % ring.len();
+            let b = ring[kb];
+            out.push_face(&[centre, a, b]);
+            if let (Some(ch), Some(u0)) = (uvs.as_mut(), uv0) {
+                ch.indices.extend_from_slice(&[u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
+            }
+            if let (Some(ch), Some(n0)) = (normals.as_mut(), n0) {
+                ch.indices.extend_from_slice(&[n0; 3]);
+            }
+        }
+    }
+    out.uvs = uvs;
+    out.normals = normals;
+    compact(&mut out);
+    *mesh = out;
+    CutOutcome::Flat(loops.len())
+}
+
+/// Drops positions no face uses (renumbering faces and creases).
+fn compact(mesh: &mut Mesh) {
+    let mut map = vec![u32::MAX; mesh.positions.len()];
+    let mut kept = Vec::with_capacity(mesh.positions.len());
+    for &i in &mesh.face_indices {
+        if map[i as usize] == u32::MAX {
+            map[i as usize] = kept.len() as u32;
+            kept.push(i);
+        }
+    }
+    // Keep the original order (stable output) rather than first use.
+    kept.sort_unstable();
+    for (new, &old) in kept.iter().enumerate() {
+        map[old as usize] = new as u32;
+    }
+    mesh.positions = kept.iter().map(|&i| mesh.positions[i as usize]).collect();
+    for i in &mut mesh.face_indices {
+        *i = map[*i as usize];
+    }
+    mesh.creases.retain(|c| map[c.a as usize] != u32::MAX && map[c.b as usize] != u32::MAX);
+    for c in &mut mesh.creases {
+        c.a = map[c.a as usize];
+        c.b = map[c.b as usize];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An open-topped square tube from y = −1 to y = 1 around the y axis, ending below
+    /// in a pyramid point at y = −2 (a "rounded" base), outward-facing quads.
+    fn tube() -> Mesh {
+        let mut m = Mesh::new();
+        let ring =
+            |y: f32| [(1.0, 1.0), (1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0)].map(|(x, z)| Vec3::new(x, y, z));
+        m.positions.extend(ring(1.0));
+        m.positions.extend(ring(-1.0));
+        m.positions.push(Vec3::new(0.0, -2.0, 0.0));
+        for k in 0..4u32 {
+            let j = (k + 1) % 4;
+            m.push_face(&[4 + k, 4 + j, j, k]);
+            m.push_face(&[8, 4 + j, 4 + k]);
+        }
+        m.uvs = Some(FaceVarying {
+            values: m.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect(),
+            indices: m.face_indices.clone(),
+        });
+        m
+    }
+
+    #[test]
+    fn a_cut_base_lies_flat_on_the_plane_and_closes_the_tube() {
+        let mut m = tube();
+        // Orientation check: the sides face outwards.
+        let f = m.face(0);
+        let [a, b, c] = [f[0], f[1], f[2]].map(|i| m.positions[i as usize]);
+        let outward = (b - a).cross(c - a).dot((a + c) * 0.5 - Vec3::new(0.0, (a.y + c.y) * 0.5, 0.0));
+        assert!(outward > 0.0);
+        let r = SunkRoot { node: 0, at: Vec3::ZERO, radius: 1.0 };
+        assert_eq!(cut_base(&mut m, &[r]), vec![CutOutcome::Flat(1)]);
+        m.validate().unwrap();
+        let lo = m.positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+        assert_eq!(lo, 0.0);
+        // Every edge is shared by exactly two faces except the open top ring (4 edges).
+        let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
+        for f in 0..m.face_count() {
+            let face = m.face(f);
+            for k in 0..face.len() {
+                let (a, b) = (face[k], face[(k + 1) % face.len()]);
+                *edges.entry(edge_key(a, b)).or_default() += if a < b { 1 } else { -1 };
+            }
+        }
+        let open: Vec<_> = edges.iter().filter(|(_, &s)| s != 0).collect();
+        assert_eq!(open.len(), 4, "only the top ring is open: {open:?}");
+        // The cap faces down.
+        let cap = m.face(m.face_count() - 1);
+        let [a, b, c] = [cap[0], cap[1], cap[2]].map(|i| m.positions[i as usize]);
+        assert!((b - a).cross(c - a).y < 0.0);
+        // UVs of the cut points are interpolated: the side corners at y = 0 have v = 0.
+        let uv = m.uvs.as_ref().unwrap();
+        assert_eq!(uv.indices.len(), m.face_indices.len());
+    }
+
+    #[test]
+    fn nothing_below_leaves_the_mesh_as_it_is() {
+        let mut m = tube();
+        let before = m.clone();
+        let r = SunkRoot { node: 0, at: Vec3::new(0.0, -5.0, 0.0), radius: 1.0 };
+        assert_eq!(cut_base(&mut m, &[r]), vec![CutOutcome::NothingBelow]);
+        assert_eq!(m, before);
+    }
+
+    #[test]
+    fn only_upright_roots_sink() {
+        let mut sk = Skeleton::new();
+        let r0 = sk.push(Vec3::ZERO, 0.2, NO_PARENT, Vec3::X, 0);
+        sk.push(Vec3::new(0.0, 1.0, 0.0), 0.1, r0, Vec3::X, 0);
+        let r1 = sk.push(Vec3::new(5.0, 0.0, 0.0), 0.2, NO_PARENT, Vec3::X, 0);
+        sk.push(Vec3::new(5.0, -1.0, 0.0), 0.1, r1, Vec3::X, 0);
+        let sunk = sink_roots(&mut sk);
+        assert_eq!(sunk, vec![SunkRoot { node: 0, at: Vec3::ZERO, radius: 0.2 }]);
+        assert!((sk.position[0].y + SINK_RADII * 0.2).abs() < 1e-6);
+        assert_eq!(sk.position[2], Vec3::new(5.0, 0.0, 0.0));
+    }
+}
