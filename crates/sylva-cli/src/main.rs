@@ -180,7 +180,7 @@ fn grow(args: GrowArgs) -> Result<()> {
     if skeleton_out {
         sylva::export::skeleton::write(&grown.skeleton, &out)?;
     } else {
-        let opts = sylva::export::ExportOptions::for_output(&loaded.recipe.output, &out)?;
+        let opts = loaded.recipe.output.export_options(&out)?;
         sylva::export::write_with_options(&grown.model, &out, &opts)?;
     }
     if let Some(p) = &preview {

@@ -337,6 +337,8 @@ fn quad_cage_of_a_chain_and_a_fork_is_the_seeds_own() {
         "mesh.quad.elbow_angle=90",
         "--set",
         "refine.levels=0",
+        "--set",
+        "mesh.base=\"round\"",
     ];
     for k in 1..=3usize {
         let lst = format!("LST 0.1\n{}", "Cylinder(0.2, 0.2, 1) MovRel3f(0, 1, 0)\n".repeat(k));

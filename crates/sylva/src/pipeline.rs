@@ -478,13 +478,30 @@ fn finish(
     texture_model(recipe, &mut model);
     if recipe.leaves.mode == "instanced" {
         // The textured cards become one card shape and an instance per card.
-        crate::export::instance::instance_leaf_cards(&mut model, recipe, skeleton)?;
+        instance_leaf_cards(&mut model, recipe, skeleton)?;
     }
     // Counted as drawn: every instance's shape once per instance.
     let drawn = model.flattened();
     report.triangles = drawn.triangle_count();
     report.vertices = drawn.vertex_count();
     Ok(model)
+}
+
+/// `leaves.mode = "instanced"`: replaces the model's `leaf_cards` part (written by the
+/// card mesher for `recipe`'s `leaves.per_card`) with one card shape and one instance per
+/// card, each on the skeleton node of its (first) leaf. Returns whether there were
+/// cards. Called after the texture stage, so the shape keeps the cards' material and
+/// atlas.
+pub fn instance_leaf_cards(model: &mut Model, recipe: &Recipe, skeleton: &Skeleton) -> Result<bool> {
+    use crate::mesh::cards::{is_card_leaf, leaf_groups};
+    let count = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
+    let (per_card, _) = recipe.leaves.cards(count);
+    let groups = leaf_groups(skeleton, per_card);
+    let nodes: Vec<u32> = groups
+        .iter()
+        .map(|g| g.first().map_or(crate::skeleton::NO_PARENT, |&i| skeleton.organs[i].node))
+        .collect();
+    model.instance_cards("leaf_cards", &nodes)
 }
 
 /// The recipe as TOML for the file's metadata, without where the output goes (the same

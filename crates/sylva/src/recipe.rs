@@ -467,6 +467,25 @@ pub struct OutputSection {
     pub compress: String,
 }
 
+impl OutputSection {
+    /// The writer's options this table gives for a model written to `path`; an unknown
+    /// value is [`Error::Recipe`] naming the key.
+    pub fn export_options(&self, path: &std::path::Path) -> Result<crate::export::ExportOptions> {
+        use crate::export::{Compression, ExportOptions, InstancingFallback, TextureMode};
+        let bad = |key: &str, value: &str, names: &str| {
+            Error::Recipe(format!("`output.{key}` is `{value}`; use {names}"))
+        };
+        Ok(ExportOptions {
+            textures: TextureMode::for_output(&self.textures, path)?,
+            instancing_fallback: InstancingFallback::from_name(&self.instancing_fallback).ok_or_else(
+                || bad("instancing_fallback", &self.instancing_fallback, InstancingFallback::NAMES),
+            )?,
+            compress: Compression::from_name(&self.compress)
+                .ok_or_else(|| bad("compress", &self.compress, Compression::NAMES))?,
+        })
+    }
+}
+
 fn default_none() -> String {
     "none".into()
 }

@@ -554,6 +554,8 @@ fn recipe_and_pipeline_select_the_quad_mesher() {
         // De-collision (on by default for quad) removes every fallback of this preset;
         // keep the raw skeleton so the fallback warning is exercised.
         ("mesh.decollide".to_string(), toml::Value::Boolean(false)),
+        // The mesher's own end: a flat base cuts the quads it crosses into n-gons.
+        ("mesh.base".to_string(), s("round")),
     ];
     let loaded = sylva::recipe::load("lsys-honda-c", &sets).unwrap();
     let grown = sylva::pipeline::grow(&loaded).unwrap();

@@ -17,7 +17,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::{FaceVarying, Mesh};
 use crate::model::{Instance, Model, Part};
-use crate::skeleton::{Skeleton, NO_PARENT};
+use crate::skeleton::NO_PARENT;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::borrow::Cow;
 
@@ -114,25 +114,6 @@ pub fn card_instances(mesh: &Mesh) -> std::result::Result<(Mesh, Vec<Mat4>), Str
             Some(FaceVarying { values: vec![Vec3::Z, -Vec3::Z], indices: vec![0, 0, 0, 0, 1, 1, 1, 1] });
     }
     Ok((shape, transforms))
-}
-
-/// `leaves.mode = "instanced"`: replaces the model's `leaf_cards` part (written by the
-/// card mesher for `recipe`'s `leaves.per_card`) with one card shape and one instance per
-/// card, each on the skeleton node of its (first) leaf. Returns whether there were
-/// cards. Called after the texture stage, so the shape keeps the cards' material and
-/// atlas.
-pub fn instance_leaf_cards(
-    model: &mut Model,
-    recipe: &crate::recipe::Recipe,
-    skeleton: &Skeleton,
-) -> Result<bool> {
-    use crate::mesh::cards::{is_card_leaf, leaf_groups};
-    let count = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
-    let (per_card, _) = recipe.leaves.cards(count);
-    let groups = leaf_groups(skeleton, per_card);
-    let nodes: Vec<u32> =
-        groups.iter().map(|g| g.first().map_or(NO_PARENT, |&i| skeleton.organs[i].node)).collect();
-    model.instance_cards("leaf_cards", &nodes)
 }
 
 impl Model {

@@ -187,24 +187,6 @@ pub struct ExportOptions {
     pub compress: Compression,
 }
 
-impl ExportOptions {
-    /// The options the recipe's `[output]` table gives for a model written to `path`;
-    /// an unknown value is [`Error::Recipe`] naming the key.
-    pub fn for_output(output: &crate::recipe::OutputSection, path: &Path) -> Result<ExportOptions> {
-        let bad = |key: &str, value: &str, names: &str| {
-            Error::Recipe(format!("`output.{key}` is `{value}`; use {names}"))
-        };
-        Ok(ExportOptions {
-            textures: TextureMode::for_output(&output.textures, path)?,
-            instancing_fallback: InstancingFallback::from_name(&output.instancing_fallback).ok_or_else(
-                || bad("instancing_fallback", &output.instancing_fallback, InstancingFallback::NAMES),
-            )?,
-            compress: Compression::from_name(&output.compress)
-                .ok_or_else(|| bad("compress", &output.compress, Compression::NAMES))?,
-        })
-    }
-}
-
 /// Writes `model` to `path` in the format given by its extension, its textures embedded
 /// (see [`write_with`]).
 pub fn write(model: &Model, path: &Path) -> Result<()> {

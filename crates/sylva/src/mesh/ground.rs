@@ -120,6 +120,9 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
     if !cut.iter().any(|&c| c) {
         return CutOutcome::NothingBelow;
     }
+    // A triangle mesh (hull, sweep, tube) stays one; a quad mesh (quad + Catmull–Clark)
+    // gets n-gons where the cut crosses its faces.
+    let triangles = mesh.face_offsets.windows(2).all(|w| w[1] - w[0] == 3);
     let mut out = Mesh::new();
     out.positions = mesh.positions.clone();
     out.creases = mesh.creases.clone();
@@ -236,7 +239,16 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
             let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
             let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
             let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
-            push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
+            if triangles && p.len() > 3 {
+                // A clipped triangle is a quad: fanned, so a triangle mesh stays one
+                // (Loop subdivision needs triangles). Clipped polygons are convex.
+                for t in 1..p.len() - 1 {
+                    let pick = |v: &[u32]| [v[0], v[t], v[t + 1]];
+                    push(&mut out, &mut uvs, &mut normals, &pick(&p), &pick(&u), &pick(&nn));
+                }
+            } else {
+                push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
+            }
         }
     }
     // Chain the reversed plane edges into loops.
