@@ -43,6 +43,7 @@ pub mod refine;
 pub mod skeleton;
 pub mod texture;
 pub mod tolerance;
+pub mod wind;
 
 pub use error::{Error, Result};
 pub use geometry::Mesh;
