@@ -432,6 +432,8 @@ fn finish(
             uv.values.iter_mut().for_each(|t| *t *= recipe.textures.scale);
         }
     }
+    // The skeleton node of each leaf card, for instancing.
+    let mut card_nodes = Vec::new();
     let mut parts =
         vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
     if !skeleton.organs.is_empty() {
@@ -439,10 +441,9 @@ fn finish(
         let cards =
             ["cards", "instanced"].contains(&recipe.leaves.mode.as_str()) && recipe.output.textures != "none";
         let keep = |o: &crate::skeleton::Organ| !(cards && is_card_leaf(o));
-        let (leaves, missing) = crate::mesh::organs::organ_mesh_where(skeleton, surfaces, keep);
+        let (mut leaves, missing) = crate::mesh::organs::organ_mesh_where(skeleton, surfaces, keep);
         report.missing_surfaces = missing;
         let crown = recipe.leaves.normals == "crown";
-        let mut leaves = leaves;
         if crown {
             crate::mesh::cards::bend_toward_crown(&mut leaves);
         }
@@ -459,8 +460,10 @@ fn finish(
             let atlas = crate::texture::leaf::atlas_layout(recipe.textures.atlas_size);
             let count = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
             let (per_card, shape) = recipe.leaves.cards(count);
-            let mut mesh = leaf_cards(skeleton, atlas.cell(shape), per_card);
-            if crown {
+            let (mut mesh, nodes) = leaf_cards(skeleton, atlas.cell(shape), per_card);
+            card_nodes = nodes;
+            // One shared instanced shape cannot hold per-card bent normals.
+            if crown && recipe.leaves.mode != "instanced" {
                 crate::mesh::cards::bend_toward_crown(&mut mesh);
             }
             if mesh.face_count() > 0 {
@@ -477,31 +480,15 @@ fn finish(
     let mut model = Model { parts, ..Default::default() };
     texture_model(recipe, &mut model);
     if recipe.leaves.mode == "instanced" {
-        // The textured cards become one card shape and an instance per card.
-        instance_leaf_cards(&mut model, recipe, skeleton)?;
+        // The textured cards become one card shape and an instance per card, each on the
+        // skeleton node of its first leaf.
+        model.instance_cards("leaf_cards", &card_nodes)?;
     }
     // Counted as drawn: every instance's shape once per instance.
     let drawn = model.flattened();
     report.triangles = drawn.triangle_count();
     report.vertices = drawn.vertex_count();
     Ok(model)
-}
-
-/// `leaves.mode = "instanced"`: replaces the model's `leaf_cards` part (written by the
-/// card mesher for `recipe`'s `leaves.per_card`) with one card shape and one instance per
-/// card, each on the skeleton node of its (first) leaf. Returns whether there were
-/// cards. Called after the texture stage, so the shape keeps the cards' material and
-/// atlas.
-pub fn instance_leaf_cards(model: &mut Model, recipe: &Recipe, skeleton: &Skeleton) -> Result<bool> {
-    use crate::mesh::cards::{is_card_leaf, leaf_groups};
-    let count = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
-    let (per_card, _) = recipe.leaves.cards(count);
-    let groups = leaf_groups(skeleton, per_card);
-    let nodes: Vec<u32> = groups
-        .iter()
-        .map(|g| g.first().map_or(crate::skeleton::NO_PARENT, |&i| skeleton.organs[i].node))
-        .collect();
-    model.instance_cards("leaf_cards", &nodes)
 }
 
 /// The recipe as TOML for the file's metadata, without where the output goes (the same

@@ -471,18 +471,28 @@ impl OutputSection {
     /// The writer's options this table gives for a model written to `path`; an unknown
     /// value is [`Error::Recipe`] naming the key.
     pub fn export_options(&self, path: &std::path::Path) -> Result<crate::export::ExportOptions> {
-        use crate::export::{Compression, ExportOptions, InstancingFallback, TextureMode};
-        let bad = |key: &str, value: &str, names: &str| {
-            Error::Recipe(format!("`output.{key}` is `{value}`; use {names}"))
-        };
-        Ok(ExportOptions {
-            textures: TextureMode::for_output(&self.textures, path)?,
-            instancing_fallback: InstancingFallback::from_name(&self.instancing_fallback).ok_or_else(
-                || bad("instancing_fallback", &self.instancing_fallback, InstancingFallback::NAMES),
-            )?,
-            compress: Compression::from_name(&self.compress)
-                .ok_or_else(|| bad("compress", &self.compress, Compression::NAMES))?,
+        Ok(crate::export::ExportOptions {
+            textures: crate::export::TextureMode::for_output(&self.textures, path)?,
+            instancing_fallback: self.instancing_fallback()?,
+            compress: self.compression()?,
         })
+    }
+
+    /// `instancing_fallback` parsed; an unknown name is an error naming the key.
+    fn instancing_fallback(&self) -> Result<crate::export::InstancingFallback> {
+        use crate::export::InstancingFallback;
+        let v = &self.instancing_fallback;
+        InstancingFallback::from_name(v).ok_or_else(|| {
+            Error::Recipe(format!("`output.instancing_fallback` is `{v}`; use {}", InstancingFallback::NAMES))
+        })
+    }
+
+    /// `compress` parsed; an unknown name is an error naming the key.
+    fn compression(&self) -> Result<crate::export::Compression> {
+        use crate::export::Compression;
+        let v = &self.compress;
+        Compression::from_name(v)
+            .ok_or_else(|| Error::Recipe(format!("`output.compress` is `{v}`; use {}", Compression::NAMES)))
     }
 }
 
@@ -811,14 +821,8 @@ impl Recipe {
                 format!("is `{}`; use embed, files or none", self.output.textures),
             );
         }
-        if crate::export::InstancingFallback::from_name(&self.output.instancing_fallback).is_none() {
-            let (v, names) = (&self.output.instancing_fallback, crate::export::InstancingFallback::NAMES);
-            return bad("output.instancing_fallback", format!("is `{v}`; use {names}"));
-        }
-        if crate::export::Compression::from_name(&self.output.compress).is_none() {
-            let (v, names) = (&self.output.compress, crate::export::Compression::NAMES);
-            return bad("output.compress", format!("is `{v}`; use {names}"));
-        }
+        self.output.instancing_fallback()?;
+        self.output.compression()?;
         if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
         }

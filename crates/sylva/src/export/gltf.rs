@@ -24,6 +24,17 @@
 //! (OpenGL / OBJ convention, v up); glTF puts it at the top left, so `v` is written as
 //! `1 − v`.
 //!
+//! Instances and compression (issue 23, [`ExportOptions`]): each shape of
+//! [`Model::shapes`] with instances is written once, on a node carrying
+//! `EXT_mesh_gpu_instancing` (TRANSLATION, ROTATION, SCALE; extension used, not
+//! required), or merged into ordinary parts with
+//! [`InstancingFallback::Merged`]. [`Compression::Quantize`] writes
+//! `KHR_mesh_quantization` (integer positions decoded by the node's transform, 8-bit
+//! normals and tangents, 16-bit UVs where they lie in [0, 1]); [`Compression::Meshopt`]
+//! also compresses every geometry view with `EXT_meshopt_compression` into a fallback
+//! buffer without data. Both extensions are then required. docs/textures.md says which
+//! readers honour them.
+//!
 //! Output is deterministic: the same model gives byte-identical output.
 
 use super::{

@@ -65,11 +65,11 @@ pub fn card_instances(mesh: &Mesh) -> std::result::Result<(Mesh, Vec<Mat4>), Str
                 "card {k}: its faces are not the quads [0 1 2 3] and [0 3 2 1] of its corners"
             ));
         }
-        if card_uvs(k) != first_uvs
-            && card_uvs(k)
-                .zip(first_uvs)
-                .is_none_or(|(a, b)| a.iter().zip(&b).any(|(p, q)| (*p - *q).length() > 1e-6))
-        {
+        let same_uvs = match (card_uvs(k), first_uvs) {
+            (Some(a), Some(b)) => a.iter().zip(&b).all(|(p, q)| (*p - *q).length() <= 1e-6),
+            (a, b) => a.is_none() && b.is_none(),
+        };
+        if !same_uvs {
             return Err(format!("card {k}: its UVs differ from the first card's"));
         }
         let c = &mesh.positions[4 * k..4 * k + 4];

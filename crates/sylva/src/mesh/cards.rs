@@ -117,8 +117,11 @@ pub fn leaf_groups(skeleton: &Skeleton, per_card: usize) -> Vec<Vec<usize>> {
 /// ([`leaf_groups`]), textured by `cell`. A single leaf's card is as long as the leaf and
 /// as wide as the cell's proportions make it; a group's card covers every leaf of the
 /// group (the texture keeps square texels, so the longer of the two extents decides).
-pub fn leaf_cards(skeleton: &Skeleton, cell: &AtlasCell, per_card: usize) -> Mesh {
+/// Also returns the skeleton node of each card's first leaf (a group without a usable
+/// frame gets no card, so this is the one list parallel to the cards).
+pub fn leaf_cards(skeleton: &Skeleton, cell: &AtlasCell, per_card: usize) -> (Mesh, Vec<u32>) {
     let mut m = Mesh::new();
+    let mut nodes = Vec::new();
     let mut uvs = FaceVarying::default();
     let mut normals = FaceVarying::default();
     // The drawn leaf spans base → tip of the cell; the card spans the whole cell.
@@ -136,6 +139,7 @@ pub fn leaf_cards(skeleton: &Skeleton, cell: &AtlasCell, per_card: usize) -> Mes
     for group in leaf_groups(skeleton, per_card) {
         let organs: Vec<&Organ> = group.iter().map(|&i| &skeleton.organs[i]).collect();
         let Some(f) = card_frame(&organs) else { continue };
+        nodes.push(organs[0].node);
         // Model units per texture unit; a group's card also covers its leaves' width.
         let (left, right) = f.across;
         let mut scale = f.length / span;
@@ -164,7 +168,7 @@ pub fn leaf_cards(skeleton: &Skeleton, cell: &AtlasCell, per_card: usize) -> Mes
     }
     m.uvs = Some(uvs);
     m.normals = Some(normals);
-    m
+    (m, nodes)
 }
 
 /// How far [`bend_toward_crown`] turns a leaf's normal toward the crown's outward
@@ -224,7 +228,8 @@ mod tests {
         sk.organs.push(Organ { kind: OrganKind::Sphere, ..sk.organs[0].clone() });
         let atlas = leaf_atlas(96, [0.1, 0.3, 0.1], 1);
         let cell = atlas.cell(LeafShape::Ovate);
-        let m = leaf_cards(&sk, cell, 1);
+        let (m, nodes) = leaf_cards(&sk, cell, 1);
+        assert_eq!(nodes, vec![0]);
         // One card (front + back) for the polygon; the sphere is not a card.
         assert_eq!((m.vertex_count(), m.face_count()), (4, 2));
         let uv = m.uvs.as_ref().unwrap();
@@ -259,7 +264,7 @@ mod tests {
             });
         }
         let atlas = leaf_atlas(96, [0.1, 0.3, 0.1], 1);
-        let mut m = leaf_cards(&sk, atlas.cell(LeafShape::Ovate), 1);
+        let (mut m, _) = leaf_cards(&sk, atlas.cell(LeafShape::Ovate), 1);
         bend_toward_crown(&mut m);
         m.validate().unwrap();
         let n = m.normals.as_ref().unwrap();

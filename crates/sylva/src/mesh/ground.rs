@@ -20,7 +20,7 @@
 use crate::geometry::{FaceVarying, Mesh};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{Vec2, Vec3};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// How far a root is sunk below its plane, in root radii.
 pub const SINK_RADII: f32 = 1.5;
@@ -45,10 +45,10 @@ pub struct SunkRoot {
 /// internode length (a trunk); roots with a level or descending stem, a zero radius or
 /// no children are left alone.
 pub fn sink_roots(skeleton: &mut Skeleton) -> Vec<SunkRoot> {
-    let mut first_child: HashMap<u32, Vec<u32>> = HashMap::new();
+    let mut root_children: HashMap<u32, Vec<u32>> = HashMap::new();
     for (i, &p) in skeleton.parent.iter().enumerate() {
         if p != NO_PARENT && skeleton.parent.get(p as usize) == Some(&NO_PARENT) {
-            first_child.entry(p).or_default().push(i as u32);
+            root_children.entry(p).or_default().push(i as u32);
         }
     }
     let mut sunk = Vec::new();
@@ -57,7 +57,7 @@ pub fn sink_roots(skeleton: &mut Skeleton) -> Vec<SunkRoot> {
             continue;
         }
         let (at, radius) = (skeleton.position[i], skeleton.radius[i]);
-        let Some(children) = first_child.get(&(i as u32)) else { continue };
+        let Some(children) = root_children.get(&(i as u32)) else { continue };
         let upright = children.iter().all(|&c| {
             let d = skeleton.position[c as usize] - at;
             d.y > 0.5 * d.length() && d.y > 0.0
@@ -136,9 +136,9 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
     let mut plane_edges: Vec<(u32, u32)> = Vec::new();
     for (f, &cut_face) in cut.iter().enumerate() {
         let corners = mesh.corners(f);
-        let pos: Vec<u32> = mesh.face_indices[corners.clone()].to_vec();
-        let uv: Option<Vec<u32>> = mesh.uvs.as_ref().map(|c| c.indices[corners.clone()].to_vec());
-        let nr: Option<Vec<u32>> = mesh.normals.as_ref().map(|c| c.indices[corners.clone()].to_vec());
+        let pos: &[u32] = &mesh.face_indices[corners.clone()];
+        let uv: Option<&[u32]> = mesh.uvs.as_ref().map(|c| &c.indices[corners.clone()]);
+        let nr: Option<&[u32]> = mesh.normals.as_ref().map(|c| &c.indices[corners.clone()]);
         let push = |out: &mut Mesh,
                     uvs: &mut Option<FaceVarying<Vec2>>,
                     normals: &mut Option<FaceVarying<Vec3>>,
@@ -153,16 +153,8 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
                 c.indices.extend_from_slice(n);
             }
         };
-        let empty: Vec<u32> = Vec::new();
         if !cut_face {
-            push(
-                &mut out,
-                &mut uvs,
-                &mut normals,
-                &pos,
-                uv.as_ref().unwrap_or(&empty),
-                nr.as_ref().unwrap_or(&empty),
-            );
+            push(&mut out, &mut uvs, &mut normals, pos, uv.unwrap_or(&[]), nr.unwrap_or(&[]));
             continue;
         }
         // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
@@ -259,22 +251,22 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
         }
     }
     let mut loops: Vec<Vec<u32>> = Vec::new();
-    let mut seen: HashMap<u32, ()> = HashMap::new();
+    let mut seen: HashSet<u32> = HashSet::new();
     let mut starts: Vec<u32> = next.keys().copied().collect();
     starts.sort_unstable();
     for s in starts {
-        if seen.contains_key(&s) {
+        if seen.contains(&s) {
             continue;
         }
         let mut ring = vec![s];
-        seen.insert(s, ());
+        seen.insert(s);
         let mut v = s;
         loop {
             let Some(&w) = next.get(&v) else { return CutOutcome::Open };
             if w == s {
                 break;
             }
-            if seen.insert(w, ()).is_some() || ring.len() > plane_edges.len() {
+            if !seen.insert(w) || ring.len() > plane_edges.len() {
                 return CutOutcome::Open;
             }
             ring.push(w);
