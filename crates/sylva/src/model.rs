@@ -8,7 +8,7 @@
 
 use crate::geometry::Mesh;
 use crate::skeleton::{Skeleton, NO_PARENT};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Quat, Vec3};
 
 /// Surface appearance of a part.
 #[derive(Debug, Clone, PartialEq)]
@@ -195,10 +195,66 @@ pub struct Joint {
 
 /// A skeletal rig for animation (filled by the wind stage, issue 24): joints chosen from
 /// the skeleton's axes, parent joints before their children.
+///
+/// Bind pose: every joint's rest rotation is the identity, so a joint's rest transform
+/// in model space is a translation to its `head` (its local translation is
+/// `head − parent.head`) and its inverse bind matrix is the translation by `−head`.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Rig {
     /// The joints, parents first.
     pub joints: Vec<Joint>,
+}
+
+/// A looping animation of a [`Rig`] (the wind stage's baked clip): joint-local
+/// rotations sampled at common times, played with linear interpolation (slerp).
+/// The last sample equals the first, so the clip loops without a jump.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Clip {
+    /// Name of the clip (`wind`).
+    pub name: String,
+    /// Sample times in seconds, increasing, from 0 to the clip's length.
+    pub times: Vec<f32>,
+    /// Per joint (parallel to [`Rig::joints`]), per sample: the joint's rotation relative
+    /// to its parent joint (unit quaternions; identity is the bind pose).
+    pub rotations: Vec<Vec<Quat>>,
+}
+
+impl Clip {
+    /// The clip's length in seconds (the last sample's time).
+    pub fn duration(&self) -> f32 {
+        self.times.last().copied().unwrap_or(0.0)
+    }
+
+    /// Each joint's rotation at time `t` (clamped to the clip), slerped between samples.
+    pub fn sample(&self, t: f32) -> Vec<Quat> {
+        let n = self.times.len().min(self.rotations.iter().map(Vec::len).min().unwrap_or(0));
+        if n < 2 {
+            return self.rotations.iter().map(|r| r.first().copied().unwrap_or(Quat::IDENTITY)).collect();
+        }
+        let b = self.times[..n].partition_point(|&x| x <= t).clamp(1, n - 1);
+        let (ta, tb) = (self.times[b - 1], self.times[b]);
+        let f = if tb > ta { ((t - ta) / (tb - ta)).clamp(0.0, 1.0) } else { 0.0 };
+        self.rotations.iter().map(|r| r[b - 1].slerp(r[b], f).normalize()).collect()
+    }
+
+    /// Each joint's model-space transform at time `t`: `parent · T(head − parent.head) · R`
+    /// (the skinning matrix of a joint is this times its inverse bind matrix `T(−head)`).
+    pub fn pose(&self, rig: &Rig, t: f32) -> Vec<Mat4> {
+        let rot = self.sample(t);
+        let mut out: Vec<Mat4> = Vec::with_capacity(rig.joints.len());
+        for (j, joint) in rig.joints.iter().enumerate() {
+            let r = rot.get(j).copied().unwrap_or(Quat::IDENTITY);
+            let m = match joint.parent {
+                Some(p) => {
+                    let p = p as usize;
+                    out[p] * Mat4::from_rotation_translation(r, joint.head - rig.joints[p].head)
+                }
+                None => Mat4::from_rotation_translation(r, joint.head),
+            };
+            out.push(m);
+        }
+        out
+    }
 }
 
 /// A placed copy of an organ shape (a leaf, a flower): exporters can weld, instance or
@@ -217,7 +273,7 @@ pub struct Instance {
 /// it. Filled by the LOD stage (issue 24).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Lod {
-    /// The level's parts (same names and materials as LOD0's).
+    /// The level's parts (bark and leaves as LOD0's; an impostor's billboards).
     pub parts: Vec<Part>,
     /// Smallest screen coverage (0–1 of the view's height) at which the level shows.
     pub screen_coverage: f32,
@@ -327,6 +383,11 @@ pub struct Model {
     pub rig: Option<Rig>,
     /// Coarser levels of detail after LOD0, finest first.
     pub lods: Vec<Lod>,
+    /// Smallest screen coverage at which LOD0 (the parts) shows, when there are
+    /// [`Model::lods`].
+    pub lod0_coverage: f32,
+    /// The rig's looping animation (the wind clip), when the model is skinned.
+    pub clip: Option<Clip>,
     /// The branch axes as Bézier chains with radii.
     pub curves: BranchCurves,
     /// Textures the materials refer to (texture stage, issue 23).

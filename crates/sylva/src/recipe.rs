@@ -48,9 +48,184 @@ pub struct Recipe {
     /// How leaves are written (`[leaves]`).
     #[serde(default)]
     pub leaves: LeavesSection,
+    /// Wind, rig and clip (`[wind]`, issue 24); left out of the file's metadata while
+    /// `preset = "none"` and every key is at its default.
+    #[serde(default, skip_serializing_if = "WindSection::is_off")]
+    pub wind: WindSection,
+    /// Levels of detail (`[lod]`, issue 24); left out of the file's metadata while off.
+    #[serde(default, skip_serializing_if = "LodSection::is_off")]
+    pub lod: LodSection,
     /// Output files.
     #[serde(default)]
     pub output: OutputSection,
+}
+
+/// `[wind]`: the wind of seed 003 (spec 003 §4) as a skinned rig with a looping clip and
+/// per-vertex shader channels. `preset = "none"` (the default) writes no rig.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WindSection {
+    /// `none` (no wind data), `calm`, `breeze` or `storm`.
+    pub preset: String,
+    /// Multiplier of the preset's mean wind, `0..=100`.
+    pub strength: f64,
+    /// Direction the wind blows toward, degrees about +y (0 = +x, 90 = +z).
+    pub direction: f64,
+    /// Multiplier of the preset's gust amplitudes (all four waves), `0..=100`.
+    pub gustiness: f64,
+    /// Multiplier of the two short waves' amplitudes (fast, small-scale motion), `0..=100`.
+    pub turbulence: f64,
+    /// Stiffness factor κ per branch order, trunk first (the last serves deeper orders);
+    /// larger bends more. Empty: the preset's.
+    pub stiffness: Vec<f64>,
+    /// Leaf flutter weight written to the `_WIND` channel's leaf component, `0..=1`.
+    pub leaf_flutter: f64,
+    /// Each level reads its parent's points of the previous step (the seed's lag).
+    pub legacy_lag: bool,
+    /// Most joints in the rig, `1..=1024` (game engines cap bones; 64 by default).
+    pub max_joints: u32,
+    /// Length of the looping clip in seconds, `0.5..=60`.
+    pub clip_seconds: f64,
+    /// Clip samples per second, `1..=120`.
+    pub fps: u32,
+}
+
+impl Default for WindSection {
+    fn default() -> Self {
+        WindSection {
+            preset: "none".into(),
+            strength: 1.0,
+            direction: 0.0,
+            gustiness: 1.0,
+            turbulence: 1.0,
+            stiffness: Vec::new(),
+            leaf_flutter: 0.5,
+            legacy_lag: false,
+            max_joints: 64,
+            clip_seconds: 4.0,
+            fps: 30,
+        }
+    }
+}
+
+impl WindSection {
+    /// The table at its defaults (no wind).
+    pub fn is_off(&self) -> bool {
+        *self == WindSection::default()
+    }
+
+    /// Whether the model gets a rig, clip and wind channels.
+    pub fn enabled(&self) -> bool {
+        self.preset != "none"
+    }
+
+    /// Checks the keys; errors name them.
+    pub fn check(&self) -> Result<()> {
+        let bad = |k: &str, why: String| Err(Error::Recipe(format!("`wind.{k}` {why}")));
+        if !["none", "calm", "breeze", "storm"].contains(&self.preset.as_str()) {
+            return bad("preset", format!("is `{}`; use none, calm, breeze or storm", self.preset));
+        }
+        for (k, v) in
+            [("strength", self.strength), ("gustiness", self.gustiness), ("turbulence", self.turbulence)]
+        {
+            if !(0.0..=100.0).contains(&v) {
+                return bad(k, format!("must be in 0..=100, got {v}"));
+            }
+        }
+        if !self.direction.is_finite() {
+            return bad("direction", format!("must be a finite number of degrees, got {}", self.direction));
+        }
+        if let Some(k) = self.stiffness.iter().find(|k| !(0.0..=100.0).contains(*k)) {
+            return bad("stiffness", format!("values must be in 0..=100, got {k}"));
+        }
+        if self.stiffness.len() > 64 {
+            return bad("stiffness", format!("has {} values; at most 64", self.stiffness.len()));
+        }
+        if !(0.0..=1.0).contains(&self.leaf_flutter) {
+            return bad("leaf_flutter", format!("must be in 0..=1, got {}", self.leaf_flutter));
+        }
+        if !(1..=1024).contains(&self.max_joints) {
+            return bad("max_joints", format!("must be in 1..=1024, got {}", self.max_joints));
+        }
+        if !(0.5..=60.0).contains(&self.clip_seconds) {
+            return bad("clip_seconds", format!("must be in 0.5..=60, got {}", self.clip_seconds));
+        }
+        if !(1..=120).contains(&self.fps) {
+            return bad("fps", format!("must be in 1..=120, got {}", self.fps));
+        }
+        Ok(())
+    }
+
+    /// The wind module's options this table gives (`None` for `preset = "none"`).
+    pub fn options(&self) -> Option<crate::wind::WindOptions> {
+        let mut w = crate::wind::WindOptions::preset(&self.preset)?;
+        let preset_dir = w.mean.try_normalize().map_or(0.0, |d| d.y.atan2(d.x).to_degrees());
+        let turn = glam::DMat2::from_angle((self.direction - preset_dir).to_radians());
+        w.mean = turn * w.mean * self.strength;
+        for (i, wave) in w.waves.iter_mut().enumerate() {
+            wave.direction = turn * wave.direction;
+            wave.amplitude *= self.gustiness * if i >= 2 { self.turbulence } else { 1.0 };
+        }
+        if !self.stiffness.is_empty() {
+            w.stiffness = self.stiffness.clone();
+        }
+        w.legacy_lag = self.legacy_lag;
+        Some(w)
+    }
+}
+
+/// `[lod]`: the chain of levels of detail (issue 24). Empty `levels` and no impostor
+/// (the default) write the model alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LodSection {
+    /// Triangle budget of each level, LOD0 first, decreasing (`--lod 30000,8000,2000`).
+    pub levels: Vec<u32>,
+    /// A last level of crossed billboards textured from an octahedral impostor atlas.
+    pub impostor: bool,
+    /// Views per side of the hemi-octahedral impostor atlas, `2..=16`.
+    pub atlas_frames: u32,
+    /// Edge of the impostor atlas in pixels, `64..=4096`.
+    pub atlas_size: u32,
+}
+
+impl Default for LodSection {
+    fn default() -> Self {
+        LodSection { levels: Vec::new(), impostor: false, atlas_frames: 8, atlas_size: 1024 }
+    }
+}
+
+impl LodSection {
+    /// The table at its defaults (no LOD chain).
+    pub fn is_off(&self) -> bool {
+        *self == LodSection::default()
+    }
+
+    /// Whether a chain is built.
+    pub fn enabled(&self) -> bool {
+        !self.levels.is_empty() || self.impostor
+    }
+
+    /// Checks the keys; errors name them.
+    pub fn check(&self) -> Result<()> {
+        let bad = |k: &str, why: String| Err(Error::Recipe(format!("`lod.{k}` {why}")));
+        if self.levels.len() > 8 {
+            return bad("levels", format!("has {} budgets; at most 8", self.levels.len()));
+        }
+        if let Some(b) = self.levels.iter().find(|&&b| !(12..=10_000_000).contains(&b)) {
+            return bad("levels", format!("budgets must be in 12..=10000000 triangles, got {b}"));
+        }
+        if self.levels.windows(2).any(|w| w[1] >= w[0]) {
+            return bad("levels", format!("budgets must decrease, got {:?}", self.levels));
+        }
+        if !(2..=16).contains(&self.atlas_frames) {
+            return bad("atlas_frames", format!("must be in 2..=16, got {}", self.atlas_frames));
+        }
+        if !(64..=4096).contains(&self.atlas_size) {
+            return bad("atlas_size", format!("must be in 64..=4096, got {}", self.atlas_size));
+        }
+        Ok(())
+    }
 }
 
 /// `[leaves]`: how leaf organs are written.
@@ -465,6 +640,15 @@ pub struct OutputSection {
     /// (quantized, then `EXT_meshopt_compression`); both extensions are required.
     #[serde(default = "default_none", skip_serializing_if = "is_none_name")]
     pub compress: String,
+    /// glTF levels of detail: `msft` (the coarser levels are nodes outside the scene that
+    /// LOD0's `MSFT_lod` names; plain viewers show LOD0) or `scene` (every level a node
+    /// of the scene, named `_LOD0 … _LODn` for engines that group by name).
+    #[serde(default = "default_msft", skip_serializing_if = "is_msft")]
+    pub lod_layout: String,
+    /// Also write the wind channels packed into `COLOR_0` / `TEXCOORD_1` (docs/wind.md);
+    /// readers that apply vertex colours then tint the model.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub wind_colors: bool,
 }
 
 impl OutputSection {
@@ -475,7 +659,19 @@ impl OutputSection {
             textures: crate::export::TextureMode::for_output(&self.textures, path)?,
             instancing_fallback: self.instancing_fallback()?,
             compress: self.compression()?,
+            lod_layout: self.lod_layout()?,
+            wind_colors: self.wind_colors,
         })
+    }
+
+    /// `lod_layout` parsed; an unknown name is an error naming the key.
+    fn lod_layout(&self) -> Result<crate::export::LodLayout> {
+        use crate::export::LodLayout;
+        match self.lod_layout.as_str() {
+            "msft" => Ok(LodLayout::Msft),
+            "scene" => Ok(LodLayout::Scene),
+            v => Err(Error::Recipe(format!("`output.lod_layout` is `{v}`; use msft or scene"))),
+        }
     }
 
     /// `instancing_fallback` parsed; an unknown name is an error naming the key.
@@ -498,6 +694,15 @@ impl OutputSection {
 
 fn default_none() -> String {
     "none".into()
+}
+
+fn default_msft() -> String {
+    "msft".into()
+}
+
+/// Whether `s` is `msft` (`output.lod_layout` at its default).
+fn is_msft(s: &str) -> bool {
+    s == "msft"
 }
 
 /// Whether `s` is `none` (an `[output]` key at its default is left out of the recipe
@@ -526,6 +731,8 @@ impl Default for OutputSection {
             textures: default_textures(),
             instancing_fallback: default_none(),
             compress: default_none(),
+            lod_layout: default_msft(),
+            wind_colors: false,
         }
     }
 }
@@ -815,6 +1022,8 @@ impl Recipe {
         }
         self.textures.check()?;
         self.leaves.check()?;
+        self.wind.check()?;
+        self.lod.check()?;
         if !["embed", "files", "none"].contains(&self.output.textures.as_str()) {
             return bad(
                 "output.textures",
@@ -823,6 +1032,7 @@ impl Recipe {
         }
         self.output.instancing_fallback()?;
         self.output.compression()?;
+        self.output.lod_layout()?;
         if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
             return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
         }
@@ -870,11 +1080,13 @@ mod tests {
                 "fit.decollide" => toml::Value::try_from(&r.fit.decollide),
                 "textures" => toml::Value::try_from(&r.textures),
                 "leaves" => toml::Value::try_from(&r.leaves),
+                "wind" => toml::Value::try_from(&r.wind),
+                "lod" => toml::Value::try_from(&r.lod),
                 _ => toml::Value::try_from(&r.fit.clear),
             }
             .unwrap()
         }
-        let tables: [(&str, &str, toml::Value); 8] = [
+        let tables: [(&str, &str, toml::Value); 10] = [
             ("mesh.tube", "### `[mesh.tube]`", toml::Value::try_from(TubeOptions::default()).unwrap()),
             ("mesh.hull", "### `[mesh.hull]`", toml::Value::try_from(HullOptions::default()).unwrap()),
             ("mesh.sweep", "### `[mesh.sweep]`", toml::Value::try_from(SweepOptions::default()).unwrap()),
@@ -891,6 +1103,8 @@ mod tests {
                 toml::Value::try_from(crate::texture::TextureOptions::default()).unwrap(),
             ),
             ("leaves", "## `[leaves]`", toml::Value::try_from(LeavesSection::default()).unwrap()),
+            ("wind", "## `[wind]`", toml::Value::try_from(WindSection::default()).unwrap()),
+            ("lod", "## `[lod]`", toml::Value::try_from(LodSection::default()).unwrap()),
         ];
         for (table, heading, defaults) in tables {
             let fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();

@@ -175,8 +175,20 @@ impl Compression {
     }
 }
 
+/// Where glTF puts the coarser levels of detail (`output.lod_layout`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LodLayout {
+    /// `msft`: LOD1…n are nodes outside the scene named by LOD0's `MSFT_lod` (with
+    /// `MSFT_screencoverage` hints); plain viewers show LOD0 only.
+    #[default]
+    Msft,
+    /// `scene`: every level is a node of the scene (`<name>_LOD0 … _LODn`), for engines
+    /// that build LOD groups from names; `MSFT_lod` is written too.
+    Scene,
+}
+
 /// How a model is written beyond its file name: the `[output]` keys
-/// `textures`, `instancing_fallback` and `compress`.
+/// `textures`, `instancing_fallback`, `compress`, `lod_layout` and `wind_colors`.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ExportOptions {
     /// Where the textures go.
@@ -185,6 +197,10 @@ pub struct ExportOptions {
     pub instancing_fallback: InstancingFallback,
     /// glTF buffer compression.
     pub compress: Compression,
+    /// Where the levels of detail go.
+    pub lod_layout: LodLayout,
+    /// Also pack the wind channels into `COLOR_0` / `TEXCOORD_1` (docs/wind.md).
+    pub wind_colors: bool,
 }
 
 /// Writes `model` to `path` in the format given by its extension, its textures embedded
