@@ -69,9 +69,46 @@ struct GrowArgs {
     /// Set any recipe key: `--set generator.angle=22.5 --set mesh.sides=6`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
+    /// Wind preset (`none`, `calm`, `breeze`, `storm`): a skinned rig, a looping clip and
+    /// wind shader channels in the output (recipe key `wind.preset`; docs/wind.md).
+    #[arg(long, value_name = "PRESET")]
+    wind: Option<String>,
+    /// Levels of detail as triangle budgets, LOD0 first, optionally ending in
+    /// `impostor`: `--lod 30000,8000,2000,impostor` (recipe table `[lod]`; docs/lod.md).
+    #[arg(long, value_name = "BUDGETS")]
+    lod: Option<String>,
+    /// Render one loop of the wind clip with the CPU preview to an animated GIF (`.gif`)
+    /// or PNG (`.png`); turns on `--wind breeze` unless a wind preset is set.
+    #[arg(long, value_name = "FILE")]
+    preview_wind: Option<PathBuf>,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// `--lod 30000,8000,2000,impostor` as recipe overrides (`lod.levels`, `lod.impostor`).
+fn lod_overrides(spec: &str) -> Result<Vec<(String, toml::Value)>> {
+    let mut levels = Vec::new();
+    let mut impostor = false;
+    for (i, item) in spec.split(',').map(str::trim).enumerate() {
+        if item.eq_ignore_ascii_case("impostor") {
+            impostor = true;
+        } else if impostor {
+            return Err(miette::miette!("--lod {spec}: `impostor` must come last (item {})", i + 1));
+        } else {
+            let n: u32 = item.replace('_', "").parse().map_err(|_| {
+                miette::miette!(
+                    "--lod {spec}: item {} (`{item}`) is neither a triangle budget nor `impostor`",
+                    i + 1
+                )
+            })?;
+            levels.push(toml::Value::Integer(n.into()));
+        }
+    }
+    Ok(vec![
+        ("lod.levels".into(), toml::Value::Array(levels)),
+        ("lod.impostor".into(), toml::Value::Boolean(impostor)),
+    ])
 }
 
 #[derive(Subcommand, Debug)]
@@ -152,7 +189,26 @@ fn grow(args: GrowArgs) -> Result<()> {
     if let Some(px) = args.preview_size {
         sets.push(("output.preview_size".into(), toml::Value::Integer(px.into())));
     }
-    let loaded = recipe::load(&what, &sets)?;
+    if let Some(w) = &args.wind {
+        sets.push(("wind.preset".into(), toml::Value::String(w.clone())));
+    }
+    if let Some(l) = &args.lod {
+        sets.extend(lod_overrides(l)?);
+    }
+    if let Some(p) = &args.preview_wind {
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if !["gif", "png", "apng"].contains(&ext.as_str()) {
+            return Err(miette::miette!(
+                "--preview-wind {}: `.{ext}` is not an animation format; use .gif or .png (APNG)",
+                p.display()
+            ));
+        }
+    }
+    let mut loaded = recipe::load(&what, &sets)?;
+    if args.preview_wind.is_some() && !loaded.recipe.wind.enabled() {
+        sets.push(("wind.preset".into(), toml::Value::String("breeze".into())));
+        loaded = recipe::load(&what, &sets)?;
+    }
     let out = PathBuf::from(&loaded.recipe.output.file);
     // `.lst` and `.json` outputs are skeletons; anything else must be a mesh format.
     let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
@@ -188,6 +244,13 @@ fn grow(args: GrowArgs) -> Result<()> {
         let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
         let img = sylva::preview::render(&grown.model, &opts)?;
         sylva::preview::write_png(&img, p)?;
+    }
+    if let Some(p) = &args.preview_wind {
+        let size = loaded.recipe.output.preview_size.min(512);
+        let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
+        let fps = 15;
+        let frames = sylva::animation::wind_frames(&grown.model, &opts, fps)?;
+        sylva::animation::write_animation(&frames, fps, p)?;
     }
     if !args.quiet {
         let r = &grown.report;
@@ -243,8 +306,29 @@ fn grow(args: GrowArgs) -> Result<()> {
             }
         }
         println!("  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices);
+        if r.joints > 0 {
+            let clip = grown.model.clip.as_ref().map_or(0.0, |c| c.duration());
+            println!(
+                "  wind: {} joints, {:.1} s clip, {:.1} ms",
+                r.joints,
+                clip,
+                r.wind_time.as_secs_f64() * 1e3
+            );
+        }
+        for (k, lod) in grown.model.lods.iter().enumerate() {
+            let tris: usize = lod.parts.iter().map(|p| p.mesh.triangle_count()).sum();
+            println!(
+                "  LOD{}: {} triangles, from {:.0} % of the view",
+                k + 1,
+                tris,
+                lod.screen_coverage * 100.0
+            );
+        }
         println!("  wrote {}", out.display());
         if let Some(p) = &preview {
+            println!("  wrote {}", p.display());
+        }
+        if let Some(p) = &args.preview_wind {
             println!("  wrote {}", p.display());
         }
     }

@@ -96,6 +96,88 @@ fn every_preset_grows_and_validates() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Issue 24's acceptance: every preset written with a wind rig, its clip, the `_WIND` /
+/// `_PIVOT` channels (and their `COLOR_0` / `TEXCOORD_1` packing) and an LOD chain down to
+/// an impostor passes the validator with 0 errors and 0 warnings, and three.js loads it.
+#[test]
+fn every_preset_with_wind_and_lods_validates() {
+    let d = tempdir("wind-presets");
+    let mut files = Vec::new();
+    for name in presets().into_iter().filter(|n| !n.starts_with("curves-")) {
+        let out = d.join(format!("{name}.glb"));
+        let r = sylva(
+            &[
+                "grow",
+                &name,
+                "-o",
+                out.to_str().unwrap(),
+                "--no-preview",
+                "--quiet",
+                "--wind",
+                "breeze",
+                "--lod",
+                "3000,800,impostor",
+                "--set",
+                "lod.atlas_frames=4",
+                "--set",
+                "lod.atlas_size=256",
+                "--set",
+                "output.wind_colors=true",
+                "--set",
+                "wind.fps=10",
+            ],
+            &d,
+        );
+        assert_eq!(r.code, 0, "{name}: {}", r.stderr);
+        files.push(out);
+    }
+    let refs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+    gltf_validator::assert_valid_gltf(&refs);
+    gltf_validator::assert_threejs_loads(&refs);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn wind_lod_and_preview_wind_from_the_command_line() {
+    let d = tempdir("wind");
+    let r = sylva(
+        &["grow", "lsys-honda-a", "--wind", "breeze", "--lod", "4000,1000,impostor", "--preview-size", "96"]
+            .into_iter()
+            .chain(["--preview-wind", "wind.gif", "-o", "tree.glb"])
+            .collect::<Vec<_>>(),
+        &d,
+    );
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("wind: ") && r.stdout.contains("joints"), "{}", r.stdout);
+    assert!(r.stdout.contains("LOD2"), "{}", r.stdout);
+    let gif = std::fs::read(d.join("wind.gif")).unwrap();
+    assert_eq!(&gif[..6], b"GIF89a");
+    gltf_validator::assert_valid_gltf(&[d.join("tree.glb").as_path()]);
+    // APNG, and --preview-wind alone turns the breeze on.
+    let r = sylva(
+        &["grow", "lsys-honda-a", "--preview-size", "64", "--preview-wind", "w.png", "-o", "t.glb"],
+        &d,
+    );
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let png = std::fs::read(d.join("w.png")).unwrap();
+    assert!(png.windows(4).any(|w| w == b"acTL"), "an animated PNG");
+    // Bad input: a clear error and no file.
+    for (args, want) in [
+        (vec!["--lod", "3000,impostor,500"], "impostor` must come last"),
+        (vec!["--lod", "3000,lots"], "`lots`"),
+        (vec!["--lod", "300,3000"], "lod.levels"),
+        (vec!["--wind", "gale"], "wind.preset"),
+        (vec!["--preview-wind", "w.bmp"], ".bmp"),
+    ] {
+        let mut all = vec!["grow", "lsys-honda-a", "--no-preview", "-o", "bad.glb"];
+        all.extend(args);
+        let r = sylva(&all, &d);
+        assert_ne!(r.code, 0, "{all:?}");
+        assert!(r.stderr.contains(want), "{all:?}: {}", r.stderr);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn readme_commands() {
     let d = tempdir("readme");

@@ -23,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+pub mod animation;
 pub mod curves;
 pub mod diagnostic;
 pub mod error;

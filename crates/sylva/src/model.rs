@@ -318,8 +318,9 @@ pub struct BranchCurves {
 }
 
 impl BranchCurves {
-    /// Fits one Bézier chain per skeleton axis (an axis follows each node's first child;
-    /// other children start axes of their own): the segments interpolate the nodes, with
+    /// Fits one Bézier chain per skeleton axis (an axis follows each node's child of the
+    /// same branch order, the thickest if several, else its first child; other children
+    /// start axes of their own): the segments interpolate the nodes, with
     /// Catmull–Rom tangents (the chord at the ends) so the chain is C¹ along the axis.
     /// The radii are the nodes' radii.
     pub fn fit(skeleton: &Skeleton) -> BranchCurves {
@@ -336,11 +337,22 @@ impl BranchCurves {
             loop {
                 let last = *nodes.last().unwrap() as usize;
                 let kids = children.of(last);
-                let Some((&first, rest)) = kids.split_first() else { break };
-                for &k in rest {
+                // The axis goes on into the child of its own order (the thickest such,
+                // then the first), else into the first child.
+                let own = skeleton.order[last];
+                let next = kids
+                    .iter()
+                    .copied()
+                    .filter(|&k| skeleton.order[k as usize] == own)
+                    .reduce(
+                        |a, b| if skeleton.radius[b as usize] > skeleton.radius[a as usize] { b } else { a },
+                    )
+                    .or_else(|| kids.first().copied());
+                let Some(next) = next else { break };
+                for &k in kids.iter().filter(|&&k| k != next) {
                     queue.push_back((k, Some(axis)));
                 }
-                nodes.push(first);
+                nodes.push(next);
             }
             // A side axis starts at its parent node, so its first segment leaves the parent's axis.
             let base = skeleton.parent[start as usize];

@@ -47,6 +47,10 @@ pub struct Report {
     pub warnings: Vec<String>,
     /// One line from generators other than the L-system: what they built.
     pub summary: String,
+    /// Joints of the wind rig (0 without `[wind]`).
+    pub joints: usize,
+    /// Time spent rigging, skinning and baking the wind clip.
+    pub wind_time: Duration,
 }
 
 /// The products of a run.
@@ -667,6 +671,19 @@ pub fn clear_skeleton(
     }
 }
 
+/// The wind stage (issue 24): with `wind.preset` other than `none`, a rig of joints
+/// chosen from the branch curves, skin weights and wind channels on every part of every
+/// level, and a looping clip baked from the wind (see [`crate::wind`]).
+pub fn wind_stage(recipe: &Recipe, model: &mut Model, report: &mut Report) {
+    let Some(wind) = recipe.wind.options() else { return };
+    let t = Instant::now();
+    let plan = crate::wind::JointPlan::new(&model.curves, recipe.wind.max_joints as usize);
+    crate::wind::rig_model(model, &plan, recipe.wind.leaf_flutter as f32);
+    model.clip = Some(crate::wind::bake_clip(&plan, &wind, recipe.wind.clip_seconds, recipe.wind.fps));
+    report.joints = plan.rig.joints.len();
+    report.wind_time = t.elapsed();
+}
+
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
@@ -701,6 +718,7 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     };
     crate::mesh::ground::restore_roots(&mut skeleton, &sunk);
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
+    wind_stage(&loaded.recipe, &mut model, &mut report);
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
 }

@@ -3,15 +3,23 @@
 //!
 //! The tree is a hierarchy of cubic Bézier branches ([`WindRig`], one per segment of
 //! [`BranchCurves`]: a segment's parent is the segment before it on its axis, or the
-//! parent axis's segment that ends at the axis's base node). Each step, parents first:
+//! parent axis's segment that ends at the axis's base node; for a generator's own
+//! Béziers, whose segments do not follow the nodes, the parent axis's segment and
+//! parameter nearest the axis's first point). Each step, parents first:
 //!
 //! 1. the branch's rest control points are carried rigidly by its parent's *current*
 //!    frame at the attach parameter (P₀ lands on the parent's animated curve);
 //! 2. the force field is sampled at the branch tip P₃ — in (x, z) only, the same at every
 //!    height: `F(x, z, t) = W̄ + Σᵢ Aᵢ Dᵢ sin(ωᵢ (Dᵢ·(x, z)) + φᵢ t)`, `ωᵢ = 2π/λᵢ`,
 //!    `φᵢ = speedᵢ ωᵢ` (Finch-style waves returning forces);
-//! 3. targets `Pₖ* = P̂ₖ + wₖ κ F` with `wₖ = (k/3)^γ` (`w₀ = 0`) and `κ` the stiffness of
-//!    the branch's order;
+//! 3. targets `Pₖ* = P̂ₖ + wₖ κ (L²/H) F` with `wₖ = (k/3)^γ` (`w₀ = 0`), `κ` the
+//!    stiffness of the branch's order, `L` the branch's chord and `H` the tree's height.
+//!    The factor `L²/H` is sylva's (the spec applies `κ F` to every branch alike): a
+//!    branch of chord `L` then turns by about `κ F L / H`, so an axis bends the same
+//!    however finely the generator cut it into segments, and `F` reads as a fraction of
+//!    the tree's height (a trunk of stiffness κ sways its top by about `κ F H / 2`);
+//!    with the spec's form a tree of 40 short segments bends forty times more than one
+//!    of the same shape cut into a few;
 //! 4. relaxation from the last step, `Pₖ ← Pₖ + β (Pₖ* − Pₖ)`;
 //! 5. lengths re-projected, `Pₖ ← Pₖ₋₁ + ℓₖ normalize(Pₖ − Pₖ₋₁)` (rest lengths ℓₖ);
 //! 6. joint angles between consecutive legs clamped below [`MAX_JOINT_DEG`].
@@ -24,6 +32,12 @@
 
 use crate::model::BranchCurves;
 use glam::{DQuat, DVec2, DVec3};
+
+pub mod clip;
+pub mod rig;
+
+pub use clip::{bake_clip, posed};
+pub use rig::{rig_model, JointPlan};
 
 /// Largest angle between consecutive control-polygon legs (the deformer needs < 90°).
 pub const MAX_JOINT_DEG: f64 = 89.0;
@@ -69,8 +83,8 @@ impl WindOptions {
     pub fn preset(name: &str) -> Option<WindOptions> {
         match name {
             "calm" => Some(WindOptions::calm()),
-            "breeze" => Some(WindOptions::blowing(0.04, 0.03, 0.0)),
-            "storm" => Some(WindOptions::blowing(0.25, 0.15, 0.0)),
+            "breeze" => Some(WindOptions::blowing(0.08, 0.06, 0.0)),
+            "storm" => Some(WindOptions::blowing(0.4, 0.25, 0.0)),
             _ => None,
         }
     }
@@ -118,6 +132,19 @@ impl WindOptions {
         (k as f64 / 3.0).powf(self.gamma)
     }
 
+    /// The same wind with every wave's speed snapped so that it completes a whole number
+    /// of cycles (at least one where its amplitude is not zero) in `seconds`: the force
+    /// is then periodic with that period, so a clip of that length loops.
+    pub fn looped(&self, seconds: f64) -> WindOptions {
+        let mut w = self.clone();
+        for wave in &mut w.waves {
+            let cycles = (wave.speed * seconds / wave.wavelength.max(1e-9)).round();
+            let cycles = if cycles == 0.0 && wave.amplitude != 0.0 { 1.0 } else { cycles };
+            wave.speed = cycles * wave.wavelength / seconds;
+        }
+        w
+    }
+
     fn kappa(&self, order: u16) -> f64 {
         self.stiffness.get(order as usize).or(self.stiffness.last()).copied().unwrap_or(1.0)
     }
@@ -138,6 +165,9 @@ pub struct WindBranch {
     pub rest: [DVec3; 4],
     /// Rest leg lengths ℓ₁…ℓ₃.
     lengths: [f64; 3],
+    /// How much of the force the branch takes: `L² / H` for its chord `L` and the tree's
+    /// height `H` (see the module docs).
+    pub reach: f64,
 }
 
 /// The animated state of every branch's control points.
@@ -165,6 +195,14 @@ fn tangent(p: &[DVec3; 4], t: f64) -> DVec3 {
 impl WindRig {
     /// One branch per segment of `curves`, at rest.
     pub fn new(curves: &BranchCurves) -> WindRig {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for s in curves.axes.iter().flat_map(|a| &a.segments) {
+            for p in s.points {
+                lo = lo.min(p.y as f64);
+                hi = hi.max(p.y as f64);
+            }
+        }
+        let height = if hi > lo { hi - lo } else { 1.0 };
         let mut branches: Vec<WindBranch> = Vec::new();
         // Per axis: the branch index of each of its segments.
         let mut of_axis: Vec<Vec<usize>> = Vec::with_capacity(curves.axes.len());
@@ -172,24 +210,73 @@ impl WindRig {
             let mut ids = Vec::with_capacity(axis.segments.len());
             // The parent axis's segment that ends at this axis's base node.
             let base = axis.nodes.first().copied();
+            // Where the chain follows its nodes (fitted curves), the segment ending at the
+            // base node; else (a generator's own Béziers, Weber–Penn's) the point of the
+            // parent's chain nearest the axis's first point.
             let hang = axis.parent.and_then(|pa| {
                 let pa = pa as usize;
                 let parent = curves.axes.get(pa)?;
-                let seg = parent.nodes.iter().skip(1).position(|&n| Some(n) == base)?;
-                of_axis.get(pa)?.get(seg).copied()
+                let ids = of_axis.get(pa)?;
+                if parent.nodes.len() == parent.segments.len() + 1 {
+                    if let Some(seg) = parent.nodes.iter().skip(1).position(|&n| Some(n) == base) {
+                        return ids.get(seg).map(|&b| (b, 1.0));
+                    }
+                }
+                let p0 = axis.segments.first()?.points[0];
+                let mut best = (f32::INFINITY, 0usize, 1.0f32);
+                for (k, s) in parent.segments.iter().enumerate() {
+                    for i in 0..=32 {
+                        let t = i as f32 / 32.0;
+                        let d = s.eval(t).distance_squared(p0);
+                        if d < best.0 {
+                            best = (d, k, t);
+                        }
+                    }
+                }
+                ids.get(best.1).map(|&b| (b, best.2 as f64))
             });
             for (k, s) in axis.segments.iter().enumerate() {
-                let parent = if k == 0 { hang } else { ids.last().copied() };
+                let (parent, attach) = if k == 0 {
+                    (hang.map(|h| h.0), hang.map_or(1.0, |h| h.1))
+                } else {
+                    (ids.last().copied(), 1.0)
+                };
                 let depth = parent.map_or(0, |p: usize| branches[p].depth + 1);
                 let rest = s.points.map(|p| p.as_dvec3());
                 let lengths = [1, 2, 3].map(|i| (rest[i] - rest[i - 1]).length());
+                let reach = (rest[3] - rest[0]).length_squared() / height;
                 ids.push(branches.len());
-                branches.push(WindBranch { parent, attach: 1.0, order: axis.order, depth, rest, lengths });
+                branches.push(WindBranch { parent, attach, order: axis.order, depth, rest, lengths, reach });
             }
             of_axis.push(ids);
         }
         let points = branches.iter().map(|b| b.rest).collect();
         WindRig { branches, points, time: 0.0 }
+    }
+
+    /// The rig restricted to the branches `keep` marks and their ancestors, and where each
+    /// old branch went (`None` where dropped). Parents stay before children, so stepping
+    /// the subset moves its branches exactly as stepping the whole rig would.
+    pub fn subset(&self, keep: &[bool]) -> (WindRig, Vec<Option<usize>>) {
+        let n = self.branches.len();
+        let mut kept: Vec<bool> = (0..n).map(|i| keep.get(i).copied().unwrap_or(false)).collect();
+        for i in (0..n).rev() {
+            if kept[i] {
+                if let Some(p) = self.branches[i].parent {
+                    kept[p] = true;
+                }
+            }
+        }
+        let mut map = vec![None; n];
+        let mut out = WindRig { branches: Vec::new(), points: Vec::new(), time: self.time };
+        for i in (0..n).filter(|&i| kept[i]) {
+            map[i] = Some(out.branches.len());
+            let mut b = self.branches[i].clone();
+            b.parent = b.parent.and_then(|p| map[p]);
+            out.branches.push(b);
+            out.points.push(self.points[i]);
+        }
+        (out, map)
     }
 
     /// The rig back at rest.
@@ -219,9 +306,9 @@ impl WindRig {
                         b.rest
                     } else {
                         let r = DQuat::from_rotation_arc(t_rest, t_now);
-                        let mut q = b.rest.map(|x| c_now + r * (x - c_rest));
-                        q[0] = c_now;
-                        q
+                        // P₀ keeps its rest offset from the attach point (zero for fitted
+                        // chains, whose axes start on their parent's curve).
+                        b.rest.map(|x| c_now + r * (x - c_rest))
                     }
                 }
             };
@@ -231,7 +318,7 @@ impl WindRig {
             if b.depth == 0 {
                 f += impulse;
             }
-            let f = DVec3::new(f.x, 0.0, f.y) * wind.kappa(b.order);
+            let f = DVec3::new(f.x, 0.0, f.y) * (wind.kappa(b.order) * b.reach);
             // 3.–4. Targets and relaxation; P₀ is the attach point.
             let mut p = self.points[i];
             p[0] = carried[0];

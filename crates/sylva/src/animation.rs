@@ -1,0 +1,130 @@
+//! The wind preview (issue 24, item 5): a model's looping clip drawn by the CPU preview
+//! renderer ([`crate::preview`]) frame by frame, and written as an animated GIF or an
+//! animated PNG (APNG), so a user sees the wind without a viewer (`--preview-wind`).
+//!
+//! The camera is fixed for the whole clip: it frames the rest pose's bounds grown by a
+//! tenth on every side, so the swaying crown stays in the picture. Frames are posed with
+//! [`crate::wind::posed`] (linear blend skinning, as glTF readers do) at `fps` over one
+//! clip length; the file loops forever.
+
+use crate::error::{Error, Result};
+use crate::fsutil::write_atomic;
+use crate::model::Model;
+use crate::preview::{render, Image, PreviewOptions};
+
+/// Most frames an animation may hold.
+pub const MAX_FRAMES: usize = 1200;
+
+/// The frames of one loop of `model`'s clip at `fps`, rendered with `opts` (its `frame`
+/// is replaced by the rest pose's bounds grown by 10 %). A model without a rig or clip
+/// gives one frame.
+///
+/// Errors: an `fps` outside `1..=60`, more than [`MAX_FRAMES`] frames, or what
+/// [`render`] reports.
+pub fn wind_frames(model: &Model, opts: &PreviewOptions, fps: u32) -> Result<Vec<Image>> {
+    if !(1..=60).contains(&fps) {
+        return Err(Error::InvalidGeometry {
+            what: "wind preview".into(),
+            why: format!("{fps} frames per second; use 1..=60"),
+        });
+    }
+    let flat = model.flattened();
+    let mut opts = opts.clone();
+    if let Some((lo, hi)) = flat.bounds() {
+        let pad = (hi - lo) * 0.1;
+        opts.frame = Some((lo - pad, hi + pad));
+    }
+    let duration = model.clip.as_ref().map_or(0.0, |c| c.duration());
+    let frames =
+        if model.rig.is_some() && duration > 0.0 { (duration * fps as f32).round() as usize } else { 1 };
+    if frames > MAX_FRAMES {
+        return Err(Error::InvalidGeometry {
+            what: "wind preview".into(),
+            why: format!("{frames} frames ({duration} s at {fps} fps); at most {MAX_FRAMES}"),
+        });
+    }
+    (0..frames.max(1))
+        .map(|f| {
+            let t = f as f32 / fps as f32;
+            render(&crate::wind::posed(&flat, t), &opts)
+        })
+        .collect()
+}
+
+/// Writes `frames` as a looping animation at `fps`: an animated GIF for a `.gif` path,
+/// an animated PNG for `.png` / `.apng`, atomically.
+///
+/// Errors: no frames, frames of different sizes, an unknown extension, or a failed write.
+pub fn write_animation(frames: &[Image], fps: u32, path: &std::path::Path) -> Result<()> {
+    let bad = |why: String| Error::InvalidGeometry { what: format!("animation {}", path.display()), why };
+    let Some(first) = frames.first() else { return Err(bad("no frames".into())) };
+    let (w, h) = (first.width, first.height);
+    if frames.iter().any(|f| f.width != w || f.height != h || f.rgba.len() != (w * h * 4) as usize) {
+        return Err(bad("frames differ in size".into()));
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let fps = fps.clamp(1, 100);
+    let io = |e: &dyn std::fmt::Display| std::io::Error::other(e.to_string());
+    match ext.as_str() {
+        "gif" => {
+            let (gw, gh) = (
+                u16::try_from(w).map_err(|_| bad(format!("{w} pixels is too wide for GIF")))?,
+                u16::try_from(h).map_err(|_| bad(format!("{h} pixels is too tall for GIF")))?,
+            );
+            write_atomic(path, |out| {
+                let mut enc = gif::Encoder::new(out, gw, gh, &[]).map_err(|e| io(&e))?;
+                enc.set_repeat(gif::Repeat::Infinite).map_err(|e| io(&e))?;
+                for f in frames {
+                    let mut rgba = f.rgba.clone();
+                    let mut frame = gif::Frame::from_rgba_speed(gw, gh, &mut rgba, 10);
+                    frame.delay = (100 / fps) as u16;
+                    enc.write_frame(&frame).map_err(|e| io(&e))?;
+                }
+                Ok(())
+            })
+        }
+        "png" | "apng" => write_atomic(path, |out| {
+            let mut enc = png::Encoder::new(out, w, h);
+            enc.set_color(png::ColorType::Rgba);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_animated(frames.len() as u32, 0).map_err(|e| io(&e))?;
+            enc.set_frame_delay(1, fps as u16).map_err(|e| io(&e))?;
+            let mut writer = enc.write_header().map_err(|e| io(&e))?;
+            for f in frames {
+                writer.write_image_data(&f.rgba).map_err(|e| io(&e))?;
+            }
+            writer.finish().map_err(|e| io(&e))
+        }),
+        _ => Err(bad(format!("`.{ext}` is not an animation format; use .gif or .png (APNG)"))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(v: u8) -> Image {
+        Image { width: 4, height: 3, rgba: vec![v; 48] }
+    }
+
+    #[test]
+    fn gif_and_apng_are_written_and_bad_input_is_refused() {
+        let dir = std::env::temp_dir().join(format!("sylva-anim-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let frames = [frame(10), frame(200)];
+        let gif = dir.join("a.gif");
+        write_animation(&frames, 15, &gif).unwrap();
+        assert_eq!(&std::fs::read(&gif).unwrap()[..6], b"GIF89a");
+        let png = dir.join("a.png");
+        write_animation(&frames, 15, &png).unwrap();
+        let bytes = std::fs::read(&png).unwrap();
+        assert!(bytes.windows(4).any(|w| w == b"acTL"), "an animated PNG");
+        assert!(write_animation(&[], 15, &gif).is_err());
+        assert!(
+            write_animation(&[frame(1), Image { width: 2, height: 2, rgba: vec![0; 16] }], 15, &gif).is_err()
+        );
+        let e = write_animation(&frames, 15, &dir.join("a.bmp")).unwrap_err();
+        assert!(e.to_string().contains(".bmp"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
