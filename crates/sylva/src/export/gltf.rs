@@ -35,13 +35,61 @@
 //! buffer without data. Both extensions are then required. docs/textures.md says which
 //! readers honour them.
 //!
+//! Rig, wind and levels of detail (issue 24). A model with a [`crate::model::Rig`] or
+//! with [`Model::lods`] is laid out differently (a model with neither keeps the layout
+//! above, byte for byte): each level becomes one node at the scene root holding one mesh
+//! with one primitive per non-empty part (a skinned mesh's node must be a root: the
+//! validator's `NODE_SKINNED_MESH_NON_ROOT`), named `sylva` without levels, else
+//! `sylva_LOD0`, `sylva_LOD1`, …
+//!
+//! - Levels: the LOD0 node carries `MSFT_lod` (`ids`: the nodes of LOD1…n; in
+//!   `extensionsUsed`, not required) and `extras.MSFT_screencoverage`, one coverage per
+//!   level, LOD0's ([`Model::lod0_coverage`]) first. With [`LodLayout::Msft`] only LOD0
+//!   is in the scene; with [`LodLayout::Scene`] every level is. A level without triangles
+//!   is a node without a mesh. Without a rig, quantized positions share one grid per
+//!   level (the level node's transform decodes it), and instanced shapes hang under the
+//!   LOD0 node.
+//! - Rig: a node per joint, `joint_<i>` in [`crate::model::Rig::joints`] order, children
+//!   following [`crate::model::Joint::parent`], translation `head − parent.head` (a root
+//!   joint: `head`), rotation the identity (omitted); the root joints hang under one
+//!   node `sylva_rig` at the scene root (one common root for the skin, in the scene with
+//!   every level). One skin `sylva_rig`: every joint in rig order, inverse bind matrices
+//!   (`MAT4 FLOAT`, the translations by `−head`) and `skeleton` the root joint (or
+//!   `sylva_rig` where there are several). Every level node with a mesh has the skin and
+//!   no transform. Every primitive has `JOINTS_0` (`UNSIGNED_BYTE` for up to 256 joints,
+//!   else `UNSIGNED_SHORT`) and `WEIGHTS_0` (`FLOAT`): a joint listed twice is merged,
+//!   weights are renormalized in `f32`, a zero weight has joint 0; a part without skin
+//!   weights is bound wholly to joint 0. Instances are merged into parts (as
+//!   [`InstancingFallback::Merged`]): a skinned mesh ignores node transforms.
+//!   Compression keeps positions `FLOAT` in a rigged model (a skinned mesh cannot decode
+//!   them with its node's transform); normals, tangents and UVs are quantized as usual,
+//!   and meshopt compresses every view, the rig's and the clip's included.
+//! - Clip ([`crate::model::Clip`]): one animation named after it, with one shared
+//!   `FLOAT` time accessor (with `min`/`max`) and, per joint, a `LINEAR` sampler of unit
+//!   quaternions (`VEC4 FLOAT`) and a channel on the joint's `rotation`. Every joint is
+//!   animated, identity or not.
+//! - Wind channels, where a part or shape has them (in either layout;
+//!   [`crate::model::VertexAttributes`], per mesh position, fetched through each glTF
+//!   vertex's position index): `_WIND` (`VEC4
+//!   FLOAT`: trunk weight, branch weight, leaf flutter, phase) and `_PIVOT` (`VEC4
+//!   FLOAT`: the branch anchor xyz in model space, the branch level w). With
+//!   [`ExportOptions::wind_colors`], for shaders that cannot read custom attributes,
+//!   also:
+//!   - `COLOR_0`, `VEC4 UNSIGNED_BYTE` normalized, each value clamped to \[0, 1\] and
+//!     stored as `round(255 · x)`: R = phase (`_WIND.w`), G = leaf flutter (`_WIND.z`),
+//!     B = branch weight (`_WIND.y`), A = trunk weight (`_WIND.x`). Readers that use
+//!     vertex colours (three.js does) tint the material by it.
+//!   - `TEXCOORD_1`, `VEC2 FLOAT`: (trunk weight, branch weight), unclamped. A part
+//!     without UVs then gets a `TEXCOORD_0` of zeros (glTF numbers sets without gaps).
+//!
 //! Output is deterministic: the same model gives byte-identical output.
 
 use super::{
-    validate_model, Compression, ExportOptions, InstancingFallback, TextureMode, VertexData, GENERATOR,
+    validate_model, Compression, ExportOptions, InstancingFallback, LodLayout, TextureMode, VertexData,
+    GENERATOR,
 };
 use crate::error::{Error, Result};
-use crate::model::{Model, Part};
+use crate::model::{Clip, Model, Part, Rig};
 use gltf_json as json;
 use json::validation::{Checked::Valid, USize64};
 use json::Index;
@@ -148,20 +196,102 @@ fn put_f32s<const N: usize>(out: &mut Vec<u8>, v: [f32; N]) {
 /// images go into the buffer (else into data URIs).
 fn build(model: &Model, options: &ExportOptions, glb: bool) -> Result<(json::Root, Vec<u8>)> {
     let flat;
-    let model = if options.instancing_fallback == InstancingFallback::Merged {
+    // Skinned meshes ignore node transforms, so a rigged model's instances are merged.
+    let model = if options.instancing_fallback == InstancingFallback::Merged || model.rig.is_some() {
         flat = model.flattened();
         flat.as_ref()
     } else {
         model
     };
+    if model.rig.is_some() || !model.lods.is_empty() {
+        return build_levels(model, options, glb);
+    }
     let parts: Vec<(&Part, VertexData)> = model
         .parts
         .iter()
         .filter(|p| p.mesh.triangle_count() > 0)
         .map(|p| (p, VertexData::new(&p.mesh)))
         .collect();
-    // Shapes with instances and triangles, with their instances' transforms.
-    let shapes: Vec<(&Part, VertexData, Vec<glam::Mat4>)> = model
+    let shapes = instanced_shapes(model);
+    if parts.is_empty() && shapes.is_empty() {
+        return Err(no_triangles());
+    }
+    let bin_size: usize = parts
+        .iter()
+        .map(|(p, d)| {
+            let per_vertex = if d.has_uvs() { 32 } else { 24 };
+            let index_bytes = if d.unified.vertices.len() < 65_536 { 6 } else { 12 };
+            d.unified.vertices.len() * per_vertex + pad4(p.mesh.triangle_count() * index_bytes)
+        })
+        .sum();
+    let mut doc = Doc::new(new_root(), Vec::with_capacity(bin_size), options.compress);
+    let mut children = Vec::with_capacity(parts.len() + shapes.len());
+    let texture_of = push_textures(&mut doc.root, &mut doc.bin, doc.buffer, model, &options.textures, glb)?;
+
+    for (part, data) in &parts {
+        let (mesh, dequant) = push_mesh(&mut doc, part, data, &texture_of, &Channels::wind(part, options))?;
+        let mut n = node(part.name.clone(), Some(mesh), None);
+        if let Some(d) = dequant {
+            n.translation = Some(d.offset.to_array());
+            n.scale = Some([d.step; 3]);
+        }
+        children.push(doc.root.push(n));
+    }
+    for (shape, data, transforms) in &shapes {
+        let (mesh, dequant) = push_mesh(&mut doc, shape, data, &texture_of, &Channels::wind(shape, options))?;
+        children.push(push_instanced_node(&mut doc, shape, mesh, dequant, transforms, None)?);
+    }
+
+    let mut root = doc.finish()?;
+    let top = root.0.push(node("sylva".to_owned(), None, Some(children)));
+    push_scene(&mut root.0, model, vec![top])?;
+    Ok(root)
+}
+
+/// An empty document with sylva's `asset`.
+fn new_root() -> json::Root {
+    json::Root {
+        asset: json::Asset {
+            generator: Some(GENERATOR.to_owned()),
+            version: "2.0".to_owned(),
+            copyright: None,
+            extensions: None,
+            extras: Default::default(),
+            min_version: None,
+        },
+        ..Default::default()
+    }
+}
+
+/// The error for a model without a triangle to write.
+fn no_triangles() -> Error {
+    Error::InvalidGeometry {
+        what: "model".into(),
+        why: "no triangles to export (every part is empty)".into(),
+    }
+}
+
+/// `value` as glTF `extras`.
+fn raw_json(value: serde_json::Value) -> Result<Box<json::extras::RawValue>> {
+    json::extras::RawValue::from_string(value.to_string())
+        .map_err(|e| Error::InvalidGeometry { what: "model".into(), why: format!("glTF extras: {e}") })
+}
+
+/// Adds the scene `sylva` of `nodes` (its `extras` the model's provenance) as the
+/// default scene.
+fn push_scene(root: &mut json::Root, model: &Model, nodes: Vec<Index<json::Node>>) -> Result<()> {
+    let extras = match &model.provenance {
+        Some(p) => Some(raw_json(serde_json::json!({ "sylva": { "recipe": p.recipe, "seed": p.seed } }))?),
+        None => None,
+    };
+    let scene = root.push(json::Scene { name: Some("sylva".to_owned()), nodes, extensions: None, extras });
+    root.scene = Some(scene);
+    Ok(())
+}
+
+/// The shapes with instances and triangles, with their instances' transforms.
+fn instanced_shapes(model: &Model) -> Vec<(&Part, VertexData<'_>, Vec<glam::Mat4>)> {
+    model
         .shapes
         .iter()
         .enumerate()
@@ -172,70 +302,280 @@ fn build(model: &Model, options: &ExportOptions, glb: bool) -> Result<(json::Roo
             (s, VertexData::new(&s.mesh), t)
         })
         .filter(|(_, _, t)| !t.is_empty())
-        .collect();
-    if parts.is_empty() && shapes.is_empty() {
-        return Err(Error::InvalidGeometry {
-            what: "model".into(),
-            why: "no triangles to export (every part is empty)".into(),
-        });
-    }
-    let bin_size: usize = parts
-        .iter()
-        .map(|(p, d)| {
-            let per_vertex = if d.has_uvs() { 32 } else { 24 };
-            let index_bytes = if d.unified.vertices.len() < 65_536 { 6 } else { 12 };
-            d.unified.vertices.len() * per_vertex + pad4(p.mesh.triangle_count() * index_bytes)
+        .collect()
+}
+
+/// [`build`] for a model with a rig or levels of detail (see the module docs): one node
+/// per level at the scene root, holding one mesh with a primitive per non-empty part;
+/// the rig's joints under a `sylva_rig` node, its skin and its clip.
+fn build_levels(model: &Model, options: &ExportOptions, glb: bool) -> Result<(json::Root, Vec<u8>)> {
+    let rig = model.rig.as_ref();
+    let levels: Vec<Vec<(&Part, VertexData)>> = std::iter::once(&model.parts)
+        .chain(model.lods.iter().map(|l| &l.parts))
+        .map(|parts| {
+            parts
+                .iter()
+                .filter(|p| p.mesh.triangle_count() > 0)
+                .map(|p| (p, VertexData::new(&p.mesh)))
+                .collect()
         })
-        .sum();
-    let root = json::Root {
-        asset: json::Asset {
-            generator: Some(GENERATOR.to_owned()),
-            version: "2.0".to_owned(),
-            copyright: None,
+        .collect();
+    // Empty for a rigged model, whose instances are merged.
+    let shapes = instanced_shapes(model);
+    if levels[0].is_empty() && shapes.is_empty() {
+        return Err(no_triangles());
+    }
+    let level_name =
+        |k: usize| if model.lods.is_empty() { "sylva".to_owned() } else { format!("sylva_LOD{k}") };
+    let mut doc = Doc::new(new_root(), Vec::new(), options.compress);
+    let texture_of = push_textures(&mut doc.root, &mut doc.bin, doc.buffer, model, &options.textures, glb)?;
+    // `UNSIGNED_BYTE` joint indices where they fit.
+    let small_joints = rig.map(|r| r.joints.len() <= 256);
+
+    // One mesh per level; without a rig, quantized positions share one grid per level
+    // (decoded by the level node's transform).
+    let mut meshes: Vec<(Option<Index<json::Mesh>>, Option<Dequant>)> = Vec::with_capacity(levels.len());
+    for (k, parts) in levels.iter().enumerate() {
+        if parts.is_empty() {
+            meshes.push((None, None));
+            continue;
+        }
+        let positions = if doc.quantize() && rig.is_none() {
+            let bounds = parts.iter().map(|(_, d)| position_bounds(d));
+            let (lo, hi) = bounds.reduce(|(a, b), (c, d)| (a.min(c), b.max(d))).unwrap_or_default();
+            Positions::Grid(grid(lo, hi))
+        } else {
+            Positions::Float
+        };
+        let mut primitives = Vec::with_capacity(parts.len());
+        for (part, data) in parts {
+            let skin = small_joints.map(|small| Skinning { entries: skin_entries(part), small });
+            let channels = Channels { skin, ..Channels::wind(part, options) };
+            primitives.push(push_primitive(&mut doc, part, data, &texture_of, positions, &channels)?);
+        }
+        let mesh = doc.root.push(json::Mesh {
+            name: Some(level_name(k)),
+            primitives,
             extensions: None,
             extras: Default::default(),
-            min_version: None,
-        },
-        ..Default::default()
-    };
-    let mut doc = Doc::new(root, Vec::with_capacity(bin_size), options.compress);
-    let mut children = Vec::with_capacity(parts.len() + shapes.len());
-    let texture_of = push_textures(&mut doc.root, &mut doc.bin, doc.buffer, model, &options.textures, glb)?;
+            weights: None,
+        });
+        let dequant = match positions {
+            Positions::Grid(d) => Some(d),
+            Positions::Float => None,
+        };
+        meshes.push((Some(mesh), dequant));
+    }
 
-    for (part, data) in &parts {
-        let (mesh, dequant) = push_mesh(&mut doc, part, data, &texture_of)?;
-        let mut n = node(part.name.clone(), Some(mesh), None);
+    let rigged = rig.map(|r| push_rig(&mut doc, r, model.clip.as_ref())).transpose()?;
+
+    // Instanced shapes (a model with levels but no rig) hang under LOD0's node.
+    let mut children = Vec::with_capacity(shapes.len());
+    for (shape, data, transforms) in &shapes {
+        let (mesh, dequant) = push_mesh(&mut doc, shape, data, &texture_of, &Channels::wind(shape, options))?;
+        children.push(push_instanced_node(&mut doc, shape, mesh, dequant, transforms, meshes[0].1)?);
+    }
+
+    // The level nodes, LOD0 first; LOD0 names the others with MSFT_lod.
+    let base = doc.root.nodes.len();
+    let ids: Vec<Index<json::Node>> = (1..levels.len()).map(|k| Index::new((base + k) as u32)).collect();
+    for (k, &(mesh, dequant)) in meshes.iter().enumerate() {
+        let kids = (k == 0 && !children.is_empty()).then(|| children.clone());
+        let mut n = node(level_name(k), mesh, kids);
         if let Some(d) = dequant {
             n.translation = Some(d.offset.to_array());
             n.scale = Some([d.step; 3]);
         }
-        children.push(doc.root.push(n));
-    }
-    for (shape, data, transforms) in &shapes {
-        let (mesh, dequant) = push_mesh(&mut doc, shape, data, &texture_of)?;
-        children.push(push_instanced_node(&mut doc, shape, mesh, dequant, transforms)?);
-    }
-
-    let mut root = doc.finish()?;
-    let top = root.0.push(node("sylva".to_owned(), None, Some(children)));
-    let extras = match &model.provenance {
-        Some(p) => {
-            let v = serde_json::json!({ "sylva": { "recipe": p.recipe, "seed": p.seed } });
-            Some(json::extras::RawValue::from_string(v.to_string()).map_err(|e| Error::InvalidGeometry {
-                what: "model".into(),
-                why: format!("glTF extras: {e}"),
-            })?)
+        if mesh.is_some() {
+            n.skin = rigged.map(|(_, skin)| skin);
         }
-        None => None,
-    };
-    let scene = root.0.push(json::Scene {
-        name: Some("sylva".to_owned()),
-        nodes: vec![top],
-        extensions: None,
-        extras,
-    });
-    root.0.scene = Some(scene);
+        if k == 0 && !ids.is_empty() {
+            let mut others = serde_json::Map::new();
+            let ids: Vec<usize> = ids.iter().map(|i| i.value()).collect();
+            others.insert(MSFT_LOD.into(), serde_json::json!({ "ids": ids }));
+            n.extensions = Some(json::extensions::scene::Node { others });
+            // One coverage per level, LOD0's included; f32s written at their shortest.
+            let coverage: Vec<serde_json::Value> = std::iter::once(model.lod0_coverage)
+                .chain(model.lods.iter().map(|l| l.screen_coverage))
+                .map(|c| c.to_string().parse::<f64>().ok().and_then(serde_json::Number::from_f64).into())
+                .collect();
+            n.extras = Some(raw_json(serde_json::json!({ "MSFT_screencoverage": coverage }))?);
+        }
+        let index = doc.root.push(n);
+        debug_assert_eq!(index.value(), base + k);
+    }
+    if !ids.is_empty() {
+        doc.use_extension(MSFT_LOD, false);
+    }
+    let mut scene = vec![Index::new(base as u32)];
+    if options.lod_layout == LodLayout::Scene {
+        scene.extend(&ids);
+    }
+    scene.extend(rigged.map(|(top, _)| top));
+    let mut root = doc.finish()?;
+    push_scene(&mut root.0, model, scene)?;
     Ok(root)
+}
+
+/// The rig: a node per joint (`joint_<i>`, in rig order, its translation `head −
+/// parent.head`, rotation the identity), the root joints under one `sylva_rig` node, the
+/// skin (inverse bind matrices the translations by `−head`) and, with a clip, its
+/// animation. Returns the `sylva_rig` node and the skin.
+fn push_rig(doc: &mut Doc, rig: &Rig, clip: Option<&Clip>) -> Result<(Index<json::Node>, Index<json::Skin>)> {
+    use json::accessor::Type as T;
+    let ibm = rig.joints.iter().map(|j| glam::Mat4::from_translation(-j.head).to_cols_array());
+    let ibm = doc.floats(ibm, T::Mat4, Layout::Data { stride: 64 }, None)?;
+    let base = doc.root.nodes.len();
+    let index = |j: usize| Index::<json::Node>::new((base + j) as u32);
+    let mut children = vec![Vec::new(); rig.joints.len()];
+    for (j, joint) in rig.joints.iter().enumerate() {
+        if let Some(p) = joint.parent {
+            children[p as usize].push(index(j));
+        }
+    }
+    for (j, (joint, kids)) in rig.joints.iter().zip(children).enumerate() {
+        let mut n = node(format!("joint_{j}"), None, (!kids.is_empty()).then_some(kids));
+        let t = joint.parent.map_or(joint.head, |p| joint.head - rig.joints[p as usize].head);
+        n.translation = Some(t.to_array());
+        let pushed = doc.root.push(n);
+        debug_assert_eq!(pushed, index(j));
+    }
+    let roots: Vec<Index<json::Node>> =
+        (0..rig.joints.len()).filter(|&j| rig.joints[j].parent.is_none()).map(index).collect();
+    let skeleton = if roots.len() == 1 { roots[0] } else { Index::new(doc.root.nodes.len() as u32) };
+    let top = doc.root.push(node("sylva_rig".to_owned(), None, Some(roots)));
+    let skin = doc.root.push(json::Skin {
+        extensions: None,
+        extras: Default::default(),
+        inverse_bind_matrices: Some(ibm),
+        joints: (0..rig.joints.len()).map(index).collect(),
+        name: Some("sylva_rig".to_owned()),
+        skeleton: Some(skeleton),
+    });
+    if let Some(clip) = clip {
+        push_clip(doc, clip, &(0..rig.joints.len()).map(index).collect::<Vec<_>>())?;
+    }
+    Ok((top, skin))
+}
+
+/// The clip as one animation: one shared `FLOAT` time accessor (with its bounds), and per
+/// joint a `LINEAR` sampler of unit quaternions and a `rotation` channel.
+fn push_clip(doc: &mut Doc, clip: &Clip, joints: &[Index<json::Node>]) -> Result<()> {
+    use json::accessor::Type as T;
+    use json::animation::{Channel, Interpolation, Property, Sampler, Target};
+    let (first, last) = (clip.times.first().copied().unwrap_or(0.0), clip.duration());
+    let bounds = Some((json::Value::from(vec![first]), json::Value::from(vec![last])));
+    let input = doc.floats(clip.times.iter().map(|&t| [t]), T::Scalar, Layout::Data { stride: 4 }, bounds)?;
+    let (mut samplers, mut channels) = (Vec::new(), Vec::new());
+    for (rotations, &node) in clip.rotations.iter().zip(joints) {
+        let quats = rotations.iter().map(|q| q.normalize().to_array());
+        let output = doc.floats(quats, T::Vec4, Layout::Data { stride: 16 }, None)?;
+        let sampler = Index::new(samplers.len() as u32);
+        samplers.push(Sampler {
+            extensions: None,
+            extras: Default::default(),
+            input,
+            interpolation: Valid(Interpolation::Linear),
+            output,
+        });
+        channels.push(Channel {
+            sampler,
+            target: Target {
+                extensions: None,
+                extras: Default::default(),
+                node,
+                path: Valid(Property::Rotation),
+            },
+            extensions: None,
+            extras: Default::default(),
+        });
+    }
+    doc.root.push(json::Animation {
+        extensions: None,
+        extras: Default::default(),
+        channels,
+        name: Some(clip.name.clone()),
+        samplers,
+    });
+    Ok(())
+}
+
+/// Skinning of one primitive: a cleaned-up entry per mesh position ([`skin_entry`]) and
+/// whether the joint indices are written as `UNSIGNED_BYTE`.
+struct Skinning {
+    entries: Vec<([u16; 4], [f32; 4])>,
+    small: bool,
+}
+
+/// What a primitive carries beyond position, normal, UV and tangent: skinning, and the
+/// wind channels (per mesh position; empty when absent).
+struct Channels<'a> {
+    skin: Option<Skinning>,
+    wind: &'a [[f32; 4]],
+    pivot: &'a [[f32; 4]],
+    /// Also pack the wind into `COLOR_0` and `TEXCOORD_1`.
+    wind_colors: bool,
+}
+
+impl<'a> Channels<'a> {
+    /// The wind channels of `part` (no skinning).
+    fn wind(part: &'a Part, options: &ExportOptions) -> Self {
+        Channels {
+            skin: None,
+            wind: &part.attributes.wind,
+            pivot: &part.attributes.pivot,
+            wind_colors: options.wind_colors,
+        }
+    }
+}
+
+/// A part's skin entries per mesh position; a part without skin weights is bound wholly
+/// to joint 0.
+fn skin_entries(part: &Part) -> Vec<([u16; 4], [f32; 4])> {
+    match &part.skin {
+        Some(s) => s.joints.iter().zip(&s.weights).map(|(&j, &w)| skin_entry(j, w)).collect(),
+        None => vec![([0; 4], [1.0, 0.0, 0.0, 0.0]); part.mesh.positions.len()],
+    }
+}
+
+/// One vertex's joints and weights as the glTF validator wants them: a joint listed twice
+/// gets the sum of its weights, the non-zero weights come first and sum to 1 in `f32`
+/// (to 1e-7 per weight, summed in order), and a zero weight has joint index 0.
+fn skin_entry(joints: [u16; 4], weights: [f32; 4]) -> ([u16; 4], [f32; 4]) {
+    let (mut j, mut w, mut n) = ([0u16; 4], [0f32; 4], 0);
+    for (&jj, &ww) in joints.iter().zip(&weights) {
+        if ww.is_nan() || ww <= 0.0 {
+            continue;
+        }
+        match j[..n].iter().position(|&x| x == jj) {
+            Some(k) => w[k] += ww,
+            None => {
+                (j[n], w[n]) = (jj, ww);
+                n += 1;
+            }
+        }
+    }
+    let sum: f32 = w.iter().sum();
+    if n == 0 || !sum.is_finite() {
+        return ([0; 4], [1.0, 0.0, 0.0, 0.0]);
+    }
+    for x in &mut w[..n] {
+        *x /= sum;
+    }
+    let largest = (0..n).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0);
+    for _ in 0..4 {
+        let err = 1.0 - w.iter().fold(0f32, |a, &x| a + x);
+        if err.abs() <= 1e-7 * n as f32 {
+            break;
+        }
+        w[largest] += err;
+    }
+    for k in 0..4 {
+        if w[k] <= 0.0 {
+            (j[k], w[k]) = (0, 0.0);
+        }
+    }
+    (j, w)
 }
 
 /// `EXT_mesh_gpu_instancing`.
@@ -244,6 +584,8 @@ const INSTANCING: &str = "EXT_mesh_gpu_instancing";
 const QUANTIZATION: &str = "KHR_mesh_quantization";
 /// `EXT_meshopt_compression`.
 const MESHOPT: &str = "EXT_meshopt_compression";
+/// `MSFT_lod`.
+const MSFT_LOD: &str = "MSFT_lod";
 
 /// The document being built, its binary buffer and how views are stored.
 struct Doc {
@@ -265,6 +607,9 @@ enum Layout {
     Vertices { stride: usize },
     /// Instance attributes (no target): elements of `stride` bytes.
     Instances { stride: usize },
+    /// Other data read by element (no target, no `byteStride`): inverse bind matrices,
+    /// animation times and rotations, elements of `stride` bytes.
+    Data { stride: usize },
     /// A triangle list's indices of `size` (2 or 4) bytes each (`ELEMENT_ARRAY_BUFFER`).
     Triangles { size: usize },
 }
@@ -303,12 +648,14 @@ impl Doc {
         use json::buffer::Target;
         let (target, stride) = match layout {
             Layout::Vertices { stride } => (Some(Valid(Target::ArrayBuffer)), Some(stride)),
-            Layout::Instances { stride } => (None, Some(stride)),
+            Layout::Instances { stride } | Layout::Data { stride } => (None, Some(stride)),
             Layout::Triangles { .. } => (Some(Valid(Target::ElementArrayBuffer)), None),
         };
         // A byteStride only where elements are padded (glTF requires it there).
         let byte_stride = match layout {
-            Layout::Vertices { stride } | Layout::Instances { stride } if stride * count != bytes.len() => {
+            Layout::Vertices { stride } | Layout::Instances { stride } | Layout::Data { stride }
+                if stride * count != bytes.len() =>
+            {
                 return Err(Error::InvalidGeometry {
                     what: "model".into(),
                     why: format!("glTF view of {} bytes is not {count} × {stride}", bytes.len()),
@@ -450,15 +797,74 @@ struct Dequant {
     step: f32,
 }
 
-/// Writes one part's mesh (one primitive) and its material; returns the mesh and, for
-/// quantized positions, how they decode (for the node that shows the mesh).
+/// Writes one part's mesh (one primitive, with `channels`) and its material; returns the
+/// mesh and, for quantized positions, how they decode (for the node that shows the mesh).
 fn push_mesh(
     doc: &mut Doc,
     part: &Part,
     data: &VertexData,
     texture_of: &TextureIndex,
+    channels: &Channels,
 ) -> Result<(Index<json::Mesh>, Option<Dequant>)> {
+    let positions = if doc.quantize() {
+        let (lo, hi) = position_bounds(data);
+        Positions::Grid(grid(lo, hi))
+    } else {
+        Positions::Float
+    };
+    let primitive = push_primitive(doc, part, data, texture_of, positions, channels)?;
+    let mesh = doc.root.push(json::Mesh {
+        name: Some(part.name.clone()),
+        primitives: vec![primitive],
+        extensions: None,
+        extras: Default::default(),
+        weights: None,
+    });
+    let dequant = match positions {
+        Positions::Grid(d) => Some(d),
+        Positions::Float => None,
+    };
+    Ok((mesh, dequant))
+}
+
+/// How a primitive's positions are written.
+#[derive(Debug, Clone, Copy)]
+enum Positions {
+    /// `FLOAT`.
+    Float,
+    /// `UNSIGNED_SHORT` on this grid (`KHR_mesh_quantization`).
+    Grid(Dequant),
+}
+
+/// The bounds of a part's output vertices.
+fn position_bounds(data: &VertexData) -> (glam::Vec3, glam::Vec3) {
+    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+    for k in &data.unified.vertices {
+        lo = lo.min(data.position(k));
+        hi = hi.max(data.position(k));
+    }
+    (lo, hi)
+}
+
+/// The uniform unsigned 16-bit grid over the box `lo`–`hi`.
+fn grid(lo: glam::Vec3, hi: glam::Vec3) -> Dequant {
+    let extent = (hi - lo).max_element();
+    let step = if extent > 0.0 { extent / 65535.0 } else { 1.0 };
+    Dequant { offset: lo, step }
+}
+
+/// Writes one part's primitive (positions as `positions` says, `channels` beyond the
+/// usual attributes) and its material.
+fn push_primitive(
+    doc: &mut Doc,
+    part: &Part,
+    data: &VertexData,
+    texture_of: &TextureIndex,
+    positions: Positions,
+    channels: &Channels,
+) -> Result<json::mesh::Primitive> {
     use json::accessor::{ComponentType as C, Type as T};
+    use json::mesh::Semantic;
     let verts = &data.unified.vertices;
     let count = verts.len();
     let mut attributes = std::collections::BTreeMap::new();
@@ -466,22 +872,16 @@ fn push_mesh(
     let vertices = |stride| Layout::Vertices { stride };
 
     // POSITION, with its bounds.
-    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
-    for k in verts {
-        lo = lo.min(data.position(k));
-        hi = hi.max(data.position(k));
-    }
+    let (lo, hi) = position_bounds(data);
     let bounds = |v: glam::Vec3| json::Value::from(v.to_array().to_vec());
-    let mut dequant = None;
-    if quantize {
-        // Unsigned 16-bit on a uniform grid over the bounds (padded to 8 bytes).
-        let extent = (hi - lo).max_element();
-        let step = if extent > 0.0 { extent / 65535.0 } else { 1.0 };
+    if let Positions::Grid(Dequant { offset, step }) = positions {
+        // Unsigned 16-bit on a uniform grid (padded to 8 bytes).
         let mut bytes = Vec::with_capacity(8 * count);
         let (mut qlo, mut qhi) = ([u16::MAX; 3], [0u16; 3]);
         for k in verts {
-            let q =
-                ((data.position(k) - lo) / step).round().clamp(glam::Vec3::ZERO, glam::Vec3::splat(65535.0));
+            let q = ((data.position(k) - offset) / step)
+                .round()
+                .clamp(glam::Vec3::ZERO, glam::Vec3::splat(65535.0));
             for (c, x) in q.to_array().into_iter().enumerate() {
                 let x = x as u16;
                 qlo[c] = qlo[c].min(x);
@@ -493,12 +893,11 @@ fn push_mesh(
         let view = doc.view(&bytes, count, vertices(8))?;
         let (min, max) = (json::Value::from(qlo.to_vec()), json::Value::from(qhi.to_vec()));
         let acc = doc.accessor(view, count, C::U16, T::Vec3, false, Some(min), Some(max));
-        attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
-        dequant = Some(Dequant { offset: lo, step });
+        attributes.insert(Valid(Semantic::Positions), acc);
     } else {
         let positions = verts.iter().map(|k| data.position(k).to_array());
         let acc = doc.floats(positions, T::Vec3, vertices(12), Some((bounds(lo), bounds(hi))))?;
-        attributes.insert(Valid(json::mesh::Semantic::Positions), acc);
+        attributes.insert(Valid(Semantic::Positions), acc);
     }
 
     // NORMAL, always unit length (8-bit normalized when quantized).
@@ -507,11 +906,11 @@ fn push_mesh(
             verts.iter().flat_map(|k| snorm8(data.normal(k).extend(0.0).to_array())).collect();
         let view = doc.view(&bytes, count, vertices(4))?;
         let acc = doc.accessor(view, count, C::I8, T::Vec3, true, None, None);
-        attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
+        attributes.insert(Valid(Semantic::Normals), acc);
     } else {
         let normals = verts.iter().map(|k| data.normal(k).to_array());
         let acc = doc.floats(normals, T::Vec3, vertices(12), None)?;
-        attributes.insert(Valid(json::mesh::Semantic::Normals), acc);
+        attributes.insert(Valid(Semantic::Normals), acc);
     }
 
     // TEXCOORD_0, v flipped to glTF's top-left origin; 16-bit normalized when quantized
@@ -523,10 +922,10 @@ fn push_mesh(
                 uvs.iter().flatten().flat_map(|&x| ((x * 65535.0).round() as u16).to_le_bytes()).collect();
             let view = doc.view(&bytes, count, vertices(4))?;
             let acc = doc.accessor(view, count, C::U16, T::Vec2, true, None, None);
-            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
+            attributes.insert(Valid(Semantic::TexCoords(0)), acc);
         } else {
             let acc = doc.floats(uvs.into_iter(), T::Vec2, vertices(8), None)?;
-            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), acc);
+            attributes.insert(Valid(Semantic::TexCoords(0)), acc);
         }
     }
 
@@ -540,7 +939,61 @@ fn push_mesh(
         } else {
             doc.floats(t.into_iter(), T::Vec4, vertices(16), None)?
         };
-        attributes.insert(Valid(json::mesh::Semantic::Tangents), acc);
+        attributes.insert(Valid(Semantic::Tangents), acc);
+    }
+
+    // Skinning: JOINTS_0 (8- or 16-bit) and WEIGHTS_0 per mesh position.
+    let at = |k: &super::VertexKey| k.position as usize;
+    if let Some(skin) = &channels.skin {
+        let none = ([0u16; 4], [1.0, 0.0, 0.0, 0.0]);
+        let entry = |k: &super::VertexKey| skin.entries.get(at(k)).copied().unwrap_or(none);
+        let acc = if skin.small {
+            let bytes: Vec<u8> = verts.iter().flat_map(|k| entry(k).0.map(|j| j as u8)).collect();
+            let view = doc.view(&bytes, count, vertices(4))?;
+            doc.accessor(view, count, C::U8, T::Vec4, false, None, None)
+        } else {
+            let bytes: Vec<u8> = verts.iter().flat_map(|k| entry(k).0).flat_map(u16::to_le_bytes).collect();
+            let view = doc.view(&bytes, count, vertices(8))?;
+            doc.accessor(view, count, C::U16, T::Vec4, false, None, None)
+        };
+        attributes.insert(Valid(Semantic::Joints(0)), acc);
+        let acc = doc.floats(verts.iter().map(|k| entry(k).1), T::Vec4, vertices(16), None)?;
+        attributes.insert(Valid(Semantic::Weights(0)), acc);
+    }
+
+    // The wind channels: `_WIND`, `_PIVOT` and, packed for shaders, COLOR_0 / TEXCOORD_1.
+    let value = |ch: &[[f32; 4]], k: &super::VertexKey| ch.get(at(k)).copied().unwrap_or([0.0; 4]);
+    if !channels.wind.is_empty() {
+        let wind = verts.iter().map(|k| value(channels.wind, k));
+        let acc = doc.floats(wind, T::Vec4, vertices(16), None)?;
+        attributes.insert(Valid(Semantic::Extras("WIND".into())), acc);
+        if channels.wind_colors {
+            let unorm8 = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+            let bytes: Vec<u8> = verts
+                .iter()
+                .flat_map(|k| {
+                    let w = value(channels.wind, k);
+                    [w[3], w[2], w[1], w[0]].map(unorm8)
+                })
+                .collect();
+            let view = doc.view(&bytes, count, vertices(4))?;
+            let acc = doc.accessor(view, count, C::U8, T::Vec4, true, None, None);
+            attributes.insert(Valid(Semantic::Colors(0)), acc);
+            let trunk_branch = verts.iter().map(|k| value(channels.wind, k)).map(|w| [w[0], w[1]]);
+            let acc = doc.floats(trunk_branch, T::Vec2, vertices(8), None)?;
+            attributes.insert(Valid(Semantic::TexCoords(1)), acc);
+            // glTF numbers texture coordinate sets without gaps: a part without UVs gets
+            // zero TEXCOORD_0, so the wind stays in set 1 on every primitive.
+            if !data.has_uvs() {
+                let acc = doc.floats(verts.iter().map(|_| [0.0f32; 2]), T::Vec2, vertices(8), None)?;
+                attributes.insert(Valid(Semantic::TexCoords(0)), acc);
+            }
+        }
+    }
+    if !channels.pivot.is_empty() {
+        let pivot = verts.iter().map(|k| value(channels.pivot, k));
+        let acc = doc.floats(pivot, T::Vec4, vertices(16), None)?;
+        attributes.insert(Valid(Semantic::Extras("PIVOT".into())), acc);
     }
 
     // Indices: every face fan-triangulated, u16 where every index fits.
@@ -574,22 +1027,15 @@ fn push_mesh(
         doc.accessor(view, index_count, if short { C::U16 } else { C::U32 }, T::Scalar, false, None, None);
 
     let material = doc.root.push(material(&part.material, data.has_uvs(), texture_of));
-    let mesh = doc.root.push(json::Mesh {
-        name: Some(part.name.clone()),
-        primitives: vec![json::mesh::Primitive {
-            attributes,
-            extensions: None,
-            extras: Default::default(),
-            indices: Some(indices),
-            material: Some(material),
-            mode: Valid(json::mesh::Mode::Triangles),
-            targets: None,
-        }],
+    Ok(json::mesh::Primitive {
+        attributes,
         extensions: None,
         extras: Default::default(),
-        weights: None,
-    });
-    Ok((mesh, dequant))
+        indices: Some(indices),
+        material: Some(material),
+        mode: Valid(json::mesh::Mode::Triangles),
+        targets: None,
+    })
 }
 
 /// A unit vector's components as `BYTE` normalized (`round(f · 127)`).
@@ -625,13 +1071,15 @@ fn uniform_scale(m: &glam::DMat4) -> bool {
 /// is the first instance's and the instances are relative to it, so a reader without
 /// the extension, which draws the mesh once at the node, shows the first copy in its
 /// place; otherwise the node has no transform. Quantized positions decode inside each
-/// instance's transform.
+/// instance's transform. `parent`: the grid the parent node's transform decodes (a
+/// level node of quantized positions), undone by this node's transform.
 fn push_instanced_node(
     doc: &mut Doc,
     shape: &Part,
     mesh: Index<json::Mesh>,
     dequant: Option<Dequant>,
     transforms: &[glam::Mat4],
+    parent: Option<Dequant>,
 ) -> Result<Index<json::Node>> {
     use glam::DMat4;
     let decode = dequant.map_or(DMat4::IDENTITY, |d| {
@@ -664,7 +1112,16 @@ fn push_instanced_node(
     let scale = doc.floats(s.into_iter(), T::Vec3, Layout::Instances { stride: 12 }, None)?;
     doc.use_extension(INSTANCING, false);
     let mut n = node(shape.name.clone(), Some(mesh), None);
-    if let Some((_, (tt, rr, ss))) = base {
+    // The node's own transform: the first instance's, relative to the parent's grid.
+    let own = match (base, parent) {
+        (base, None) => base.map(|(_, t)| t),
+        (base, Some(p)) => {
+            let undo = DMat4::from_scale(glam::DVec3::splat(1.0 / p.step as f64))
+                * DMat4::from_translation(-p.offset.as_dvec3());
+            Some(trs(undo * base.map_or(DMat4::IDENTITY, |(m, _)| m)).ok_or_else(|| bad(0))?)
+        }
+    };
+    if let Some((tt, rr, ss)) = own {
         n.translation = Some(tt.map(|x| x as f32));
         n.rotation = Some(json::scene::UnitQuaternion(rr.map(|x| x as f32)));
         n.scale = Some(ss.map(|x| x as f32));
@@ -696,12 +1153,13 @@ fn meshopt_encode(
         why: format!("meshopt compression failed: {e:?}"),
     };
     let (encoded, stride, mode) = match layout {
-        Layout::Vertices { stride } | Layout::Instances { stride } => {
+        Layout::Vertices { stride } | Layout::Instances { stride } | Layout::Data { stride } => {
             let encoded = match stride {
                 4 => meshopt_attributes::<4>(bytes),
                 8 => meshopt_attributes::<8>(bytes),
                 12 => meshopt_attributes::<12>(bytes),
                 16 => meshopt_attributes::<16>(bytes),
+                64 => meshopt_attributes::<64>(bytes),
                 _ => {
                     return Err(Error::InvalidGeometry {
                         what: "model".into(),

@@ -20,6 +20,12 @@
 //! ([`Model::flattened`], [`instance`]). [`ExportOptions`] gathers what `[output]` says
 //! about the file beyond its name: textures, the instancing fallback and compression.
 //!
+//! The real-time data of issue 24 — a rig with its skin weights and wind clip, the wind
+//! channels and levels of detail ([`ExportOptions::lod_layout`],
+//! [`ExportOptions::wind_colors`]) — goes to glTF only ([`gltf`] describes its layout);
+//! OBJ and PLY write LOD0 (the model's parts) and ignore the rig, clip, channels and
+//! levels.
+//!
 //! Output is deterministic: the same model gives byte-identical files.
 
 pub mod gltf;
@@ -299,12 +305,54 @@ fn write_model(model: &Model, path: &Path, format: Format, options: &ExportOptio
     }
 }
 
-/// Checks every part's and shape's mesh with [`Mesh::validate`] and every material
-/// number for finiteness, every instance for a shape that exists and a finite transform,
-/// and that the model has at least one triangle; the first problem is
-/// [`Error::InvalidGeometry`] naming the part, shape or instance (or the model).
+/// Checks every part's and shape's mesh with [`Mesh::validate`] (and the parts of every
+/// level of detail), every material number for finiteness, every extra vertex channel
+/// ([`crate::model::VertexAttributes::validate`]), every instance for a shape that exists
+/// and a finite transform, and that the model has at least one triangle.
+///
+/// The rig and its clip (issue 24): a rig has joints, each with a finite head and a
+/// parent before it; a part's skin weights (only in a model with a rig) hold one entry per
+/// position, joint indices below the joint count and finite, non-negative weights with a
+/// positive sum; a clip (only with a rig) has at least one sample time, all finite,
+/// non-negative and increasing, and one finite, non-zero rotation per joint and time;
+/// LOD screen coverages are finite and non-negative.
+///
+/// The first problem is [`Error::InvalidGeometry`] naming the part, shape, instance, rig,
+/// clip or LOD (or the model).
 pub fn validate_model(model: &Model) -> Result<()> {
-    let named = model.parts.iter().map(|p| ("part", p)).chain(model.shapes.iter().map(|p| ("shape", p)));
+    let joints = model.rig.as_ref().map(|r| r.joints.len());
+    let lod_parts = model
+        .lods
+        .iter()
+        .enumerate()
+        .flat_map(|(k, l)| l.parts.iter().map(move |p| (format!("LOD {} part", k + 1), p)));
+    if let Some(rig) = &model.rig {
+        let bad = |why: String| Error::InvalidGeometry { what: "rig".into(), why };
+        if rig.joints.is_empty() {
+            return Err(bad("has no joints".into()));
+        }
+        for (j, joint) in rig.joints.iter().enumerate() {
+            if !joint.head.is_finite() {
+                return Err(bad(format!("joint {j}'s head is not finite")));
+            }
+            if let Some(p) = joint.parent.filter(|&p| p as usize >= j) {
+                return Err(bad(format!("joint {j}'s parent {p} does not come before it")));
+            }
+        }
+    }
+    if let Some(clip) = &model.clip {
+        let bad = |why: String| Error::InvalidGeometry { what: format!("clip '{}'", clip.name), why };
+        let Some(joints) = joints else {
+            return Err(bad("the model has no rig to play it".into()));
+        };
+        validate_clip(clip, joints).map_err(bad)?;
+    }
+    let named = model
+        .parts
+        .iter()
+        .map(|p| ("part".to_owned(), p))
+        .chain(model.shapes.iter().map(|p| ("shape".to_owned(), p)))
+        .chain(lod_parts);
     for (kind, part) in named {
         let bad = |why: String| Error::InvalidGeometry { what: format!("{kind} '{}'", part.name), why };
         part.mesh.validate().map_err(bad)?;
@@ -312,6 +360,26 @@ pub fn validate_model(model: &Model) -> Result<()> {
         if !(m.base_color.iter().all(|c| c.is_finite()) && m.metallic.is_finite() && m.roughness.is_finite())
         {
             return Err(bad(format!("material '{}' has a non-finite value", m.name)));
+        }
+        let positions = part.mesh.positions.len();
+        part.attributes.validate(positions).map_err(bad)?;
+        if let Some(skin) = &part.skin {
+            let Some(joints) = joints else {
+                return Err(bad("has skin weights, but the model has no rig".into()));
+            };
+            validate_skin(skin, positions, joints).map_err(bad)?;
+        }
+    }
+    if !model.lods.is_empty() {
+        let coverages =
+            std::iter::once(model.lod0_coverage).chain(model.lods.iter().map(|l| l.screen_coverage));
+        for (k, c) in coverages.enumerate() {
+            if !(c.is_finite() && c >= 0.0) {
+                return Err(Error::InvalidGeometry {
+                    what: format!("LOD {k}"),
+                    why: format!("its screen coverage {c} is not a finite, non-negative number"),
+                });
+            }
         }
     }
     for (k, inst) in model.instances.iter().enumerate() {
@@ -332,6 +400,59 @@ pub fn validate_model(model: &Model) -> Result<()> {
             what: "model".into(),
             why: "no triangles to export (every part is empty)".into(),
         });
+    }
+    Ok(())
+}
+
+/// Checks a part's skin weights against its position count and the rig's joint count.
+fn validate_skin(
+    skin: &crate::model::SkinWeights,
+    positions: usize,
+    joints: usize,
+) -> std::result::Result<(), String> {
+    if skin.joints.len() != positions || skin.weights.len() != positions {
+        return Err(format!(
+            "skin has {} joint and {} weight entries for {positions} positions",
+            skin.joints.len(),
+            skin.weights.len()
+        ));
+    }
+    for (v, (j, w)) in skin.joints.iter().zip(&skin.weights).enumerate() {
+        if let Some(&bad) = j.iter().find(|&&j| j as usize >= joints) {
+            return Err(format!("vertex {v} refers to joint {bad}, but the rig has {joints}"));
+        }
+        if !w.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err(format!("vertex {v} has a negative or non-finite skin weight"));
+        }
+        if w.iter().sum::<f32>() <= 0.0 {
+            return Err(format!("vertex {v}'s skin weights sum to zero"));
+        }
+    }
+    Ok(())
+}
+
+/// Checks a clip's times and its rotations against the rig's joint count.
+fn validate_clip(clip: &crate::model::Clip, joints: usize) -> std::result::Result<(), String> {
+    let t = &clip.times;
+    if t.is_empty() {
+        return Err("has no sample times".into());
+    }
+    if !t.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        return Err("a sample time is negative or not finite".into());
+    }
+    if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(format!("sample time {} ({}) does not increase on {}", i + 1, t[i + 1], t[i]));
+    }
+    if clip.rotations.len() != joints {
+        return Err(format!("has rotations for {} joints, but the rig has {joints}", clip.rotations.len()));
+    }
+    for (j, r) in clip.rotations.iter().enumerate() {
+        if r.len() != t.len() {
+            return Err(format!("joint {j} has {} rotations for {} sample times", r.len(), t.len()));
+        }
+        if !r.iter().all(|q| q.is_finite() && q.length_squared() > 1e-12) {
+            return Err(format!("joint {j} has a zero or non-finite rotation"));
+        }
     }
     Ok(())
 }
