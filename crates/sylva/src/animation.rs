@@ -3,7 +3,8 @@
 //! animated PNG (APNG), so a user sees the wind without a viewer (`--preview-wind`).
 //!
 //! The camera is fixed for the whole clip: it frames the rest pose's bounds grown by a
-//! tenth on every side, so the swaying crown stays in the picture. Frames are posed with
+//! sixth of their largest extent on every side, so the swaying crown stays in the
+//! picture. Frames are posed with
 //! [`crate::wind::posed`] (linear blend skinning, as glTF readers do) at `fps` over one
 //! clip length; the file loops forever.
 
@@ -16,7 +17,7 @@ use crate::preview::{render, Image, PreviewOptions};
 pub const MAX_FRAMES: usize = 1200;
 
 /// The frames of one loop of `model`'s clip at `fps`, rendered with `opts` (its `frame`
-/// is replaced by the rest pose's bounds grown by 10 %). A model without a rig or clip
+/// is replaced by the rest pose's bounds with room to sway). A model without a rig or clip
 /// gives one frame.
 ///
 /// Errors: an `fps` outside `1..=60`, more than [`MAX_FRAMES`] frames, or what
@@ -31,7 +32,8 @@ pub fn wind_frames(model: &Model, opts: &PreviewOptions, fps: u32) -> Result<Vec
     let flat = model.flattened();
     let mut opts = opts.clone();
     if let Some((lo, hi)) = flat.bounds() {
-        let pad = (hi - lo) * 0.1;
+        // Room for the crown to sway: a sixth of the largest extent on every side.
+        let pad = glam::Vec3::splat((hi - lo).max_element() / 6.0);
         opts.frame = Some((lo - pad, hi + pad));
     }
     let duration = model.clip.as_ref().map_or(0.0, |c| c.duration());
