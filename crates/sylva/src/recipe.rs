@@ -847,6 +847,19 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
     Ok(recipe)
 }
 
+/// Keys the recipe leaves out when it is written at their defaults (so files' metadata
+/// keeps its old form): missing from the round trip, they are still known. The `[wind]`
+/// and `[lod]` tables check their own keys (`deny_unknown_fields`).
+const SKIPPED_AT_DEFAULT: [&str; 7] = [
+    "wind",
+    "lod",
+    "output.preview",
+    "output.instancing_fallback",
+    "output.compress",
+    "output.lod_layout",
+    "output.wind_colors",
+];
+
 /// Keys of `input` that do not survive the round trip into `back`.
 fn unknown_keys(input: &toml::Table, back: &toml::Table, prefix: &str, out: &mut Vec<String>) {
     for (k, v) in input {
@@ -855,6 +868,7 @@ fn unknown_keys(input: &toml::Table, back: &toml::Table, prefix: &str, out: &mut
             continue; // free-form: any constant name
         }
         match (v, back.get(k)) {
+            (_, None) if SKIPPED_AT_DEFAULT.contains(&path.as_str()) => {}
             (_, None) => out.push(path),
             (toml::Value::Table(a), Some(toml::Value::Table(b))) => unknown_keys(a, b, &path, out),
             _ => {}
@@ -1197,6 +1211,20 @@ mod tests {
         assert!(e.to_string().contains("unknown key `generator.angel`"), "{e}");
         let e = load("lsys-honda-a", &sets(&["colour=3"])).unwrap_err();
         assert!(e.to_string().contains("unknown key `colour`"), "{e}");
+        // Keys at the defaults the written recipe leaves out are still known.
+        for (k, v) in [
+            ("output.compress", "\"none\""),
+            ("output.instancing_fallback", "\"none\""),
+            ("output.lod_layout", "\"msft\""),
+            ("output.wind_colors", "false"),
+            ("wind.preset", "\"none\""),
+            ("lod.impostor", "false"),
+        ] {
+            let set = parse_set(&format!("{k}={v}")).unwrap();
+            load("lsys-honda-a", &[set]).unwrap_or_else(|e| panic!("{k} = {v}: {e}"));
+        }
+        let e = load("lsys-honda-a", &sets(&["wind.gusts=1"])).unwrap_err();
+        assert!(e.to_string().contains("gusts"), "{e}");
         let e = load("lsys-honda-a", &sets(&["mesh.sides=2"])).unwrap_err();
         assert!(e.to_string().contains("mesh.sides"), "{e}");
         let e = load("lsys-honda-a", &sets(&["mesh.sides=many"])).unwrap_err();
