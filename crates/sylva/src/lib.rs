@@ -25,6 +25,7 @@
 
 pub mod animation;
 pub mod curves;
+pub mod deform;
 pub mod diagnostic;
 pub mod error;
 pub mod export;
