@@ -1,0 +1,28 @@
+//! sylva's real-time half on wgpu (issue 25; seeds 002 and 003, spec 003 §3–§5): what
+//! the engine computes on the CPU, computed on a GPU (or Mesa's software Vulkan) with
+//! WGSL compute shaders, agreeing with the engine's CPU reference within stated
+//! tolerances.
+//!
+//! ```text
+//!  sylva::wind::WindRig + WindOptions ──► wind::GpuWind ──► control points (storage buffer)
+//!       one compute dispatch per branch depth level (no lag), or one over a copy (legacy lag)
+//!  sylva::Mesh (coarse cage) + PnOptions ──► pn::PnPatches ──► pn::GpuPn ──► PN samples
+//!       compute: control nets per patch, then points + normals over an instanced (u, v) grid
+//!  later: deform (WGSL branch deformer over the wind's points), render (instanced trees)
+//! ```
+//!
+//! [`Gpu`] opens a headless adapter (any kind, software included) and carries the buffer
+//! and readback helpers; [`Gpu::or_skip`] is the gate every GPU test and bench goes
+//! through, so `cargo test --workspace` passes without a Vulkan driver and fails where
+//! `SYLVA_REQUIRE_GPU=1` says a GPU must be there. The engine crate `sylva` stays free of
+//! GPU dependencies: this crate depends on it, never the other way round.
+
+#![warn(missing_docs)]
+
+pub mod gpu;
+pub mod pn;
+pub mod wind;
+
+pub use gpu::{Gpu, GpuError};
+pub use pn::{GpuPn, PatchGrid, PnPatches};
+pub use wind::GpuWind;
