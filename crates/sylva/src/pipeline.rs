@@ -718,6 +718,12 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     };
     crate::mesh::ground::restore_roots(&mut skeleton, &sunk);
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
+    if loaded.recipe.lod.enabled() {
+        return Err(Error::Recipe(
+            "`[lod]` (--lod): the LOD chain is not built yet (issue 24 item 4 is open); remove lod.levels and lod.impostor"
+                .into(),
+        ));
+    }
     wind_stage(&loaded.recipe, &mut model, &mut report);
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
