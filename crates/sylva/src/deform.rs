@@ -879,26 +879,9 @@ fn segment_tangent(seg: &CurveSegment, t: f32) -> Option<Vec3> {
 /// else (a generator's own Béziers) the parent chain's point nearest the axis's first
 /// point, over 33 samples per segment — the wind rig's attach point.
 fn hang_direction(curves: &BranchCurves, axis: usize) -> Option<Vec3> {
-    let a = &curves.axes[axis];
-    let parent = curves.axes.get(a.parent? as usize)?;
-    if parent.nodes.len() == parent.segments.len() + 1 {
-        let base = a.nodes.first();
-        if let Some(k) = parent.nodes.iter().skip(1).position(|n| Some(n) == base) {
-            return segment_tangent(&parent.segments[k], 1.0);
-        }
-    }
-    let p0 = a.segments.first()?.points[0];
-    let mut best = (f32::INFINITY, 0usize, 1.0f32);
-    for (k, s) in parent.segments.iter().enumerate() {
-        for i in 0..=32 {
-            let t = i as f32 / 32.0;
-            let d = s.eval(t).distance_squared(p0);
-            if d < best.0 {
-                best = (d, k, t);
-            }
-        }
-    }
-    segment_tangent(parent.segments.get(best.1)?, best.2)
+    let (k, t) = curves.attach(axis)?;
+    let parent = &curves.axes[curves.axes[axis].parent? as usize];
+    segment_tangent(parent.segments.get(k)?, t)
 }
 
 /// One record per curve segment of `curves` (axes in order, each base to tip: the order

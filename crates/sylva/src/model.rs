@@ -380,6 +380,36 @@ impl BranchCurves {
     }
 }
 
+impl BranchCurves {
+    /// Where axis `axis` hangs on its parent axis: the parent's segment index and the
+    /// parameter on it. For chains that follow their nodes (fitted curves) the segment
+    /// ending at the axis's base node (parameter 1); else (a generator's own Béziers,
+    /// Weber–Penn's) the sample nearest the axis's first point, over 33 samples per
+    /// segment. `None` for a root axis or an axis without segments.
+    pub fn attach(&self, axis: usize) -> Option<(usize, f32)> {
+        let a = self.axes.get(axis)?;
+        let parent = self.axes.get(a.parent? as usize)?;
+        if parent.nodes.len() == parent.segments.len() + 1 {
+            let base = a.nodes.first();
+            if let Some(k) = parent.nodes.iter().skip(1).position(|n| Some(n) == base) {
+                return Some((k, 1.0));
+            }
+        }
+        let p0 = a.segments.first()?.points[0];
+        let mut best = (f32::INFINITY, 0usize, 1.0f32);
+        for (k, s) in parent.segments.iter().enumerate() {
+            for i in 0..=32 {
+                let t = i as f32 / 32.0;
+                let d = s.eval(t).distance_squared(p0);
+                if d < best.0 {
+                    best = (d, k, t);
+                }
+            }
+        }
+        (best.0.is_finite()).then_some((best.1, best.2))
+    }
+}
+
 /// What the exporters write: named parts, plus what the real-time stages add. Filled by
 /// `pipeline::grow` (parts and branch curves); the organ, wind and LOD stages fill the
 /// rest (empty until they run).

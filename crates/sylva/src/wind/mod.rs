@@ -206,34 +206,12 @@ impl WindRig {
         let mut branches: Vec<WindBranch> = Vec::new();
         // Per axis: the branch index of each of its segments.
         let mut of_axis: Vec<Vec<usize>> = Vec::with_capacity(curves.axes.len());
-        for axis in &curves.axes {
+        for (a, axis) in curves.axes.iter().enumerate() {
             let mut ids = Vec::with_capacity(axis.segments.len());
-            // The parent axis's segment that ends at this axis's base node.
-            let base = axis.nodes.first().copied();
-            // Where the chain follows its nodes (fitted curves), the segment ending at the
-            // base node; else (a generator's own Béziers, Weber–Penn's) the point of the
-            // parent's chain nearest the axis's first point.
-            let hang = axis.parent.and_then(|pa| {
-                let pa = pa as usize;
-                let parent = curves.axes.get(pa)?;
-                let ids = of_axis.get(pa)?;
-                if parent.nodes.len() == parent.segments.len() + 1 {
-                    if let Some(seg) = parent.nodes.iter().skip(1).position(|&n| Some(n) == base) {
-                        return ids.get(seg).map(|&b| (b, 1.0));
-                    }
-                }
-                let p0 = axis.segments.first()?.points[0];
-                let mut best = (f32::INFINITY, 0usize, 1.0f32);
-                for (k, s) in parent.segments.iter().enumerate() {
-                    for i in 0..=32 {
-                        let t = i as f32 / 32.0;
-                        let d = s.eval(t).distance_squared(p0);
-                        if d < best.0 {
-                            best = (d, k, t);
-                        }
-                    }
-                }
-                ids.get(best.1).map(|&b| (b, best.2 as f64))
+            // The branch and parameter on the parent axis where this axis hangs.
+            let hang = curves.attach(a).and_then(|(seg, t)| {
+                let ids = of_axis.get(axis.parent? as usize)?;
+                ids.get(seg).map(|&b| (b, t as f64))
             });
             for (k, s) in axis.segments.iter().enumerate() {
                 let (parent, attach) = if k == 0 {
