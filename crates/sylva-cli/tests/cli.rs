@@ -119,6 +119,12 @@ fn every_preset_with_wind_validates() {
                 "output.wind_colors=true",
                 "--set",
                 "wind.fps=10",
+                "--lod",
+                "3000,800,impostor",
+                "--set",
+                "lod.atlas_frames=4",
+                "--set",
+                "lod.atlas_size=256",
             ],
             &d,
         );
@@ -154,12 +160,19 @@ fn wind_and_preview_wind_from_the_command_line() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     let png = std::fs::read(d.join("w.png")).unwrap();
     assert!(png.windows(4).any(|w| w == b"acTL"), "an animated PNG");
+    // A level chain from the command line: three levels and the impostor.
+    let r = sylva(
+        &["grow", "lsys-honda-a", "--no-preview", "--lod", "3000,300", "-o", "lod.glb"],
+        &d,
+    );
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("LOD1"), "{}", r.stdout);
+    gltf_validator::assert_valid_gltf(&[d.join("lod.glb").as_path()]);
     // Bad input: a clear error and no file.
     for (args, want) in [
         (vec!["--lod", "3000,impostor,500"], "impostor` must come last"),
         (vec!["--lod", "3000,lots"], "`lots`"),
         (vec!["--lod", "300,3000"], "lod.levels"),
-        (vec!["--lod", "3000,300"], "not built yet"),
         (vec!["--wind", "gale"], "wind.preset"),
         (vec!["--preview-wind", "w.bmp"], ".bmp"),
     ] {

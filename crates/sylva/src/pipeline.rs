@@ -718,13 +718,95 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     };
     crate::mesh::ground::restore_roots(&mut skeleton, &sunk);
     model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
-    if loaded.recipe.lod.enabled() {
-        return Err(Error::Recipe(
-            "`[lod]` (--lod): the LOD chain is not built yet (issue 24 item 4 is open); remove lod.levels and lod.impostor"
-                .into(),
-        ));
-    }
+    lod_stage(loaded, &skeleton, &surfaces, &mut model, &mut report)?;
     wind_stage(&loaded.recipe, &mut model, &mut report);
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
+}
+
+/// The LOD stage (issue 24, `[lod]`): builds the chain of [`crate::lod::build_chain`]
+/// and puts it into the model (LOD0 replaces the parts, LOD1…n and the impostor go to
+/// [`Model::lods`]). Each level re-meshes the pruned skeleton through [`mesh`] with the
+/// recipe's `mesh.sides`, `[refine]` and `leaves.per_card` changed as the level asks,
+/// and without drawing textures (`output.textures = "none"`): the levels take the full
+/// model's materials and maps, so the leaf cards are cut here, from the full atlas's
+/// layout, as the finishing step cuts them. Returns what each level is (nothing without
+/// `[lod]`); its warnings go to `report`, whose triangle and vertex counts become
+/// LOD0's.
+pub fn lod_stage(
+    loaded: &Loaded,
+    skeleton: &Skeleton,
+    surfaces: &HashMap<String, Mesh>,
+    model: &mut Model,
+    report: &mut Report,
+) -> Result<Vec<crate::lod::LevelReport>> {
+    use crate::mesh::cards::{bend_toward_crown, is_card_leaf, leaf_cards};
+    let recipe = &loaded.recipe;
+    if !recipe.lod.enabled() {
+        return Ok(Vec::new());
+    }
+    recipe.lod.check()?;
+    let cards =
+        ["cards", "instanced"].contains(&recipe.leaves.mode.as_str()) && recipe.output.textures != "none";
+    let card_leaves = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
+    let refine_levels = match recipe.refine_scheme()? {
+        Some(_) => recipe.refine.levels.min(6),
+        None => 0,
+    };
+    let opts = crate::lod::LodOptions {
+        budgets: recipe.lod.levels.clone(),
+        impostor: recipe.lod.impostor,
+        atlas_frames: recipe.lod.atlas_frames,
+        atlas_size: recipe.lod.atlas_size,
+        sides: recipe.mesh.sides.max(crate::mesh::tube::MIN_SIDES),
+        min_sides: crate::mesh::tube::MIN_SIDES,
+        refine_factor: 4u32.pow(refine_levels),
+        per_card: if cards && card_leaves > 0 { recipe.leaves.cards(card_leaves).0 as u32 } else { 0 },
+    };
+    let mut warnings: Vec<String> = Vec::new();
+    let mut remesh = |sk: &Skeleton, s: &crate::lod::LevelSettings| -> Result<Model> {
+        let mut r = recipe.clone();
+        r.mesh.sides = s.sides;
+        if !s.refine {
+            r.refine.levels = 0;
+            r.refine.limit = false;
+        }
+        r.output.textures = "none".into();
+        r.leaves.mode = "cards".into();
+        // The cards are cut below; `mesh` makes the bark and any other organs.
+        let mut bare = sk.clone();
+        if cards {
+            bare.organs.retain(|o| !is_card_leaf(o));
+        }
+        let mut own = Report::default();
+        let mut level = mesh(&r, &bare, surfaces, &mut own)?;
+        warnings.append(&mut own.warnings);
+        if cards {
+            let mut leaves = recipe.leaves.clone();
+            leaves.per_card = s.per_card;
+            let (per_card, shape) = leaves.cards(card_leaves);
+            let atlas = crate::texture::leaf::atlas_layout(recipe.textures.atlas_size);
+            let (mut m, _) = leaf_cards(sk, atlas.cell(shape), per_card);
+            if recipe.leaves.normals == "crown" {
+                bend_toward_crown(&mut m);
+            }
+            if m.face_count() > 0 {
+                level.parts.push(Part::new("leaf_cards", m, Material::leaf()));
+            }
+        }
+        Ok(level)
+    };
+    let chain = crate::lod::build_chain(model, skeleton, &opts, &mut remesh)?;
+    for w in warnings.into_iter().chain(chain.warnings.iter().cloned()) {
+        if !report.warnings.contains(&w) {
+            report.warnings.push(w);
+        }
+    }
+    let levels = chain.levels.clone();
+    chain.apply(model)?;
+    // The report counts what the file shows first: LOD0.
+    let drawn = model.flattened();
+    report.triangles = drawn.triangle_count();
+    report.vertices = drawn.vertex_count();
+    Ok(levels)
 }
