@@ -318,6 +318,64 @@ fn space_filled_polylines_do_not_cross() {
     }
 }
 
+/// Property 21, parent and child (issue 26): a child may cross its parent only while
+/// it peels off, within `peel` units of arc from its release point; past that, touching
+/// the parent's cells is a crossing. Before the fix a child that ran along its parent
+/// (touching its cells every step) was never counted as peeled off and crossed it 26–58
+/// units past the release point in `curves-space-filling` and `curves-perlin`.
+#[test]
+fn children_cross_their_parent_only_where_they_peel_off() {
+    let cases = [
+        (Region::Rect { min: DVec2::ZERO, max: DVec2::new(1000.0, 800.0) }, Field::Uniform(1.0), 4),
+        (
+            Region::Rect { min: DVec2::ZERO, max: DVec2::new(1000.0, 800.0) },
+            Field::Perlin { noise: Perlin::new(7), scale: 120.0, strength: 1.0 },
+            5,
+        ),
+    ];
+    let cross = |(a, b): (DVec2, DVec2), (c, d): (DVec2, DVec2)| {
+        let o = |p: DVec2, q: DVec2, r: DVec2| (q - p).perp_dot(r - p);
+        o(a, b, c) * o(a, b, d) < 0.0 && o(c, d, a) * o(c, d, b) < 0.0
+    };
+    for (region, field, seed) in cases {
+        let (params, res) = test_fill(region, field, seed, 312);
+        assert!(res.curves.len() > 100, "only {} curves", res.curves.len());
+        let mut worst = 0.0f64;
+        for child in &res.curves {
+            let Some((p, _)) = child.parent else { continue };
+            let parent = &res.curves[p].trace.points;
+            let mut arc = 0.0;
+            for w in child.trace.points.windows(2) {
+                for q in parent.windows(2) {
+                    if cross((w[0], w[1]), (q[0], q[1])) {
+                        worst = worst.max(arc);
+                    }
+                }
+                arc += w[0].distance(w[1]);
+            }
+        }
+        println!("seed {seed}: farthest child–parent crossing {worst:.1} units of arc from the release");
+        assert!(worst <= params.peel, "a child crosses its parent {worst:.1} units past its release");
+    }
+    // The two presets the defect was found in (default peel, 12 units).
+    for name in ["curves-space-filling", "curves-perlin"] {
+        let d = curves::load_preset(name, &[]).unwrap().generate().unwrap().drawing;
+        let mut worst = 0.0f64;
+        for child in &d.curves {
+            let Some((p, _)) = child.parent else { continue };
+            let mut arc = 0.0;
+            for w in child.points.windows(2) {
+                if d.curves[p].points.windows(2).any(|q| cross((w[0], w[1]), (q[0], q[1]))) {
+                    worst = worst.max(arc);
+                }
+                arc += w[0].distance(w[1]);
+            }
+        }
+        println!("{name}: farthest child–parent crossing {worst:.1} units of arc from the release");
+        assert!(worst <= 12.0, "{name}: a child crosses its parent {worst:.1} units past its release");
+    }
+}
+
 /// Same seed, same curves; another seed, other curves.
 #[test]
 fn space_filling_is_deterministic() {

@@ -18,11 +18,15 @@
 //! For each such cell:
 //!
 //! - `EMPTY`: the particle claims it;
-//! - its **parent**'s: allowed while the particle is peeling off the parent — until it
-//!   has travelled `peel` units without touching a parent cell; afterwards touching the
+//! - its **parent**'s: allowed while the particle is peeling off the parent — during
+//!   its first `peel` units of arc from the release point; afterwards touching the
 //!   parent again is a crossing (the seed allows parent cells everywhere, which lets a
 //!   child cross its parent far from the release point; spec 004 §8 item 21 forbids
-//!   that). The cell also records the one child that peeled through it: a sibling
+//!   that). The allowance is counted from the release, not from the last parent cell
+//!   touched: a child running alongside its parent touches its cells every step and
+//!   would otherwise never count as peeled off (it crossed its parent 26–58 units past
+//!   the release in `curves-space-filling` and `curves-perlin`, issue 26); such a child
+//!   now fails its rung and the next one is tried. The cell also records the one child that peeled through it: a sibling
 //!   entering it is a crossing (two children running along their parent would
 //!   otherwise cross each other unseen inside the parent's cells);
 //! - its **own**, claimed within the last `recent` steps: allowed (a step often stays in
@@ -338,8 +342,8 @@ pub struct FillParams {
     pub cell: f64,
     /// Own cells claimed within this many steps may be re-entered.
     pub recent: u32,
-    /// Arc length a child may travel off its parent's cells before touching them
-    /// again becomes a crossing.
+    /// Arc length from its release point during which a child may touch its parent's
+    /// cells (peeling off); touching them later is a crossing.
     pub peel: f64,
     /// Stop a particle when its radius of curvature falls below this.
     pub min_radius: f64,
@@ -488,7 +492,8 @@ struct Walker<'a> {
     claimed: Vec<usize>,
     peeled: Vec<usize>,
     cells: Vec<usize>,
-    since_parent: f64,
+    /// Arc length drawn so far (the parent's cells are allowed while it is ≤ `peel`).
+    travelled: f64,
     step: u32,
 }
 
@@ -510,7 +515,6 @@ impl Walker<'_> {
         self.cells.clear();
         self.grid.segment_cells(from, to, &mut self.cells);
         let step = self.step + 1;
-        let mut touched_parent = false;
         for &c in &self.cells {
             let o = self.grid.owner[c];
             if o == EMPTY {
@@ -522,10 +526,9 @@ impl Walker<'_> {
                 }
             } else if o == self.parent && self.parent != EMPTY {
                 let p = self.grid.peeler[c];
-                if self.since_parent > self.peel || (p != EMPTY && p != self.id) {
+                if self.travelled > self.peel || (p != EMPTY && p != self.id) {
                     return Control::Abort;
                 }
-                touched_parent = true;
             } else {
                 return Control::Abort;
             }
@@ -538,7 +541,7 @@ impl Walker<'_> {
                 self.peeled.push(c);
             }
         }
-        self.since_parent = if touched_parent { 0.0 } else { self.since_parent + from.distance(to) };
+        self.travelled += from.distance(to);
         self.step = step;
         Control::Continue
     }
@@ -584,7 +587,7 @@ pub fn space_fill(
             claimed: Vec::new(),
             peeled: Vec::new(),
             cells: Vec::with_capacity(8),
-            since_parent: 0.0,
+            travelled: 0.0,
             step: 0,
         };
         // The start point's own cell: claim it (or accept the parent's).
