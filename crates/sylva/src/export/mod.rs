@@ -1,5 +1,6 @@
 //! Model exporters: glTF 2.0 (binary `.glb` and self-contained `.gltf`), Wavefront OBJ +
-//! MTL and binary little-endian PLY.
+//! MTL, binary little-endian PLY and POV-Ray 3.7 (a `.pov` scene and one `.inc` per
+//! mesh, seed 001 §A.3–A.4).
 //!
 //! [`write()`] picks the format from the file extension ([`Format::from_path`]), checks
 //! every part's mesh ([`crate::Mesh::validate`]) so that no NaN or bad index reaches a
@@ -32,6 +33,7 @@ pub mod gltf;
 pub mod instance;
 pub mod obj;
 pub mod ply;
+pub mod pov;
 pub mod skeleton;
 
 use crate::error::{Error, Result};
@@ -42,7 +44,7 @@ use glam::{Mat3, Vec2, Vec3};
 use std::path::Path;
 
 /// The extensions [`Format::from_path`] understands, for error messages.
-pub const EXTENSIONS: &str = ".glb, .gltf, .obj, .ply";
+pub const EXTENSIONS: &str = ".glb, .gltf, .obj, .ply, .pov";
 
 /// The generator string written into every file: `sylva <version>`.
 pub const GENERATOR: &str = concat!("sylva ", env!("CARGO_PKG_VERSION"));
@@ -58,12 +60,14 @@ pub enum Format {
     Obj,
     /// Binary little-endian PLY.
     Ply,
+    /// A POV-Ray 3.7 scene with one `mesh2` include file per part beside it ([`pov`]).
+    Pov,
 }
 
 impl Format {
     /// Chooses the format from the extension of `path` (case-insensitive).
     ///
-    /// Anything other than `.glb`, `.gltf`, `.obj` or `.ply` is
+    /// Anything other than `.glb`, `.gltf`, `.obj`, `.ply` or `.pov` is
     /// [`Error::UnknownFormat`].
     pub fn from_path(path: &Path) -> Result<Format> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -72,6 +76,7 @@ impl Format {
             "gltf" => Ok(Format::Gltf),
             "obj" => Ok(Format::Obj),
             "ply" => Ok(Format::Ply),
+            "pov" => Ok(Format::Pov),
             _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: EXTENSIONS }),
         }
     }
@@ -83,6 +88,7 @@ impl Format {
             Format::Gltf => "gltf",
             Format::Obj => "obj",
             Format::Ply => "ply",
+            Format::Pov => "pov",
         }
     }
 }
@@ -228,7 +234,7 @@ pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<
 /// without a single triangle. `.obj` also writes the material library next to it
 /// (`name.mtl`). Files are written atomically: on any error no partial file is left.
 ///
-/// With [`TextureMode::Files`] (and for `.obj`, which cannot embed, unless `None`; `.ply`
+/// With [`TextureMode::Files`] (and for `.obj` and `.pov`, which cannot embed, unless `None`; `.ply`
 /// never refers to images) the images are written first as `<prefix><name>.png` beside the model; if the model
 /// cannot be written they are removed again.
 ///
@@ -238,10 +244,10 @@ pub fn write_with_options(model: &Model, path: &Path, options: &ExportOptions) -
     let textures = &options.textures;
     let format = Format::from_path(path)?;
     validate_model(model)?;
-    // PLY cannot refer to images; OBJ cannot embed them, so it writes files.
+    // PLY cannot refer to images; OBJ and POV-Ray cannot embed them, so they write files.
     let textures = match (format, textures) {
         (Format::Ply, _) => TextureMode::None,
-        (Format::Obj, TextureMode::Embed) => TextureMode::for_output("files", path)?,
+        (Format::Obj | Format::Pov, TextureMode::Embed) => TextureMode::for_output("files", path)?,
         (_, t) => t.clone(),
     };
     let mut images_written = Vec::new();
@@ -302,6 +308,36 @@ fn write_model(model: &Model, path: &Path, format: Format, options: &ExportOptio
             written
         }
         Format::Ply => write_atomic(path, |w| ply::write_ply_unchecked(model, w)),
+        Format::Pov => {
+            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let dir = path.parent().unwrap_or(Path::new(""));
+            let incs = pov::includes(model, &stem);
+            let flat = model.flattened();
+            let mut written = Vec::new();
+            let mut result = Ok(());
+            for inc in &incs {
+                let p = dir.join(&inc.file);
+                result = write_atomic(&p, |w| pov::write_inc(&flat.parts[inc.part].mesh, &inc.ident, w));
+                if result.is_err() {
+                    break;
+                }
+                written.push(p);
+            }
+            let prefix = match textures {
+                TextureMode::Files { prefix } if !model.images.is_empty() => Some(prefix.as_str()),
+                _ => None,
+            };
+            if result.is_ok() {
+                result = write_atomic(path, |w| pov::write_scene(model, &incs, prefix, w));
+            }
+            if result.is_err() {
+                // Leave no include without its scene.
+                for p in written {
+                    let _ = std::fs::remove_file(p);
+                }
+            }
+            result
+        }
     }
 }
 
