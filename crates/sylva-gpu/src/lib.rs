@@ -19,6 +19,8 @@
 
 #![warn(missing_docs)]
 
+pub mod branches;
+pub mod deform;
 pub mod gpu;
 pub mod pn;
 pub mod wind;
