@@ -51,6 +51,10 @@ pub struct Report {
     pub joints: usize,
     /// Time spent rigging, skinning and baking the wind clip.
     pub wind_time: Duration,
+    /// Work the quad mesher's repair spent in this run's meshings, against
+    /// `mesh.quad.max_repair_work` (shared by every meshing of the run but the LOD
+    /// levels').
+    pub repair_work: u64,
 }
 
 /// The products of a run.
@@ -203,6 +207,7 @@ pub fn turtle_options(g: &LsystemGenerator, folder: Option<&ModelFolder>) -> Tur
         step: g.step,
         width: g.width,
         width_factor: g.width_factor,
+        max_nodes: g.max_nodes,
         ..Default::default()
     };
     let Some(view) = folder.and_then(|f| f.view.as_ref()) else { return opts };
@@ -351,8 +356,15 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 let (name, text) = loaded.read(&g.file)?;
                 let (symbols, string) = crate::import::cpfg_str::parse(&name, &text)?;
                 report.modules = string.len();
-                let opts =
-                    TurtleOptions { angle: g.angle, step: g.step, width: g.width, ..Default::default() };
+                let opts = TurtleOptions {
+                    angle: g.angle,
+                    step: g.step,
+                    width: g.width,
+                    max_nodes: g.max_nodes,
+                    // cpfg's frame (seed 001 property 10): H = +Y, L = −X, U = +Z.
+                    left: lsystem::turtle::CPFG_LEFT,
+                    ..Default::default()
+                };
                 let source = lsystem::source::Source::new(&name, "", &[])?;
                 lsystem::interpret(&symbols, &string, &opts, &source)?
             } else {
@@ -361,7 +373,8 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                     "new-root" => crate::import::lst::GapPolicy::NewRoot,
                     _ => crate::import::lst::GapPolicy::Bridge,
                 };
-                let opts = crate::import::lst::LstOptions { gap, ..Default::default() };
+                let opts =
+                    crate::import::lst::LstOptions { gap, max_nodes: g.max_nodes, ..Default::default() };
                 crate::import::load_skeleton_with(&path, &opts)?
             };
             report.interpret_time = t.elapsed();
@@ -552,6 +565,10 @@ fn texture_model(recipe: &Recipe, model: &mut Model) {
 fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Mesh> {
     let mut mesher = recipe.mesh.mesher()?;
     if let crate::mesh::Mesher::Quad(q) = &mut mesher {
+        // One repair budget for every meshing of the run (the clearing meshes once a
+        // round): what is left of it, at least 1 (the smallest value the mesher takes;
+        // its next repair then stops with the budget's error).
+        q.max_repair_work = q.max_repair_work.saturating_sub(report.repair_work).max(1);
         // The level-2 repair costs seconds per 10 k nodes: above the de-collision limit
         // (where the skeleton is not de-collided either) the cage is left as built.
         if skeleton.len() > crate::recipe::DECOLLIDE_AUTO_NODES {
@@ -564,6 +581,7 @@ fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Re
         }
     }
     let cage = mesher.cage(skeleton)?;
+    report.repair_work = report.repair_work.saturating_add(cage.work);
     report.axes = cage.axes;
     report.warnings.extend(cage.warnings);
     Ok(cage.mesh)
@@ -577,12 +595,30 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
         return Ok(mesh);
     }
     let opts = SubdivideOptions {
-        refine: RefineOptions { scheme, levels: recipe.refine.levels, ..Default::default() },
+        refine: RefineOptions {
+            scheme,
+            levels: recipe.refine.levels,
+            max_faces: recipe.refine.max_faces,
+            ..Default::default()
+        },
         limit: recipe.refine.limit,
         ..Default::default()
     };
     // Without `limit` the result has no normals; the exporters compute smooth ones.
-    Ok(subdivide(&mesh, &[], &opts)?)
+    subdivide(&mesh, &[], &opts).map_err(refine_budget)
+}
+
+/// A `[refine]` face-budget error as a message naming `refine.max_faces`; other
+/// refinement errors unchanged.
+fn refine_budget(e: crate::refine::RefineError) -> Error {
+    match e {
+        crate::refine::RefineError::Budget { levels, faces, limit } => Error::Recipe(format!(
+            "`refine.max_faces`: {levels} levels of subdivision would make {faces} faces, more than the face \
+             budget of {limit} (use fewer `refine.levels`, or raise the budget with --set refine.max_faces=N; \
+             a refined face costs about 200 bytes at the refinement's peak)"
+        )),
+        e => e.into(),
+    }
 }
 
 /// Pulls apart the skeleton's crossing branches before meshing (`mesh.decollide`), and
@@ -627,7 +663,9 @@ pub fn clear_skeleton(
         Some(scheme) => (scheme, recipe.refine.levels.min(3)),
         None => (Scheme::Loop, 0),
     };
-    let opts = ClearOptions { levels, ..recipe.fit.clear.clone() };
+    // The refinement searched stays within `[refine]`'s face budget too.
+    let max_faces = recipe.fit.clear.max_faces.min(recipe.refine.max_faces);
+    let opts = ClearOptions { levels, max_faces, ..recipe.fit.clear.clone() };
     // The clearing's refinement is the output's when it has the same scheme and levels
     // and no limit step (the same `subdivide` call, so the same bytes).
     let reusable = recipe.refine_scheme()?.is_some()
@@ -636,14 +674,34 @@ pub fn clear_skeleton(
         && !recipe.refine.limit;
     // The last meshing's report and the radii it was made with.
     let mut last: Option<(Report, Vec<f32>)> = None;
+    // The quad repair's budget is shared by every meshing of the pass.
+    let mut repair_work = report.repair_work;
+    // The repair work of the last meshing: the next one needs about as much.
+    let mut last_work = 0u64;
     let cleared = clear_crossings_refined(skeleton, &opts, |s| {
+        let left = recipe.mesh.quad.max_repair_work.saturating_sub(repair_work);
+        if last_work > left {
+            // Stop before a meshing that would run out of budget part way (a 15 k-node
+            // quad meshing takes seconds): the same error, one meshing earlier.
+            return Err(Error::Recipe(format!(
+                "`mesh.quad.max_repair_work`: the mesh clearing's next quad meshing needs about {last_work} units \
+                 of repair work (as much as its last), more than the {left} left of the budget of {} (one \
+                 budget serves all the meshings of a run); raise it with --set mesh.quad.max_repair_work=N, \
+                 lower mesh.quad.repair_rounds or fit.clear.max_rounds, or turn the clearing off with \
+                 mesh.clear = false",
+                recipe.mesh.quad.max_repair_work
+            )));
+        }
         let t = Instant::now();
-        let mut own = Report::default();
+        let mut own = Report { repair_work, ..Report::default() };
         let mesh = control_mesh(recipe, s, &mut own)?;
+        last_work = own.repair_work - repair_work;
+        repair_work = own.repair_work;
         own.mesh_time = t.elapsed();
         last = Some((own, s.radius.clone()));
         Ok((mesh, scheme))
     })?;
+    report.repair_work = repair_work;
     let r = cleared.report;
     match (r.before, r.after) {
         (None, _) => report.warnings.push(format!(

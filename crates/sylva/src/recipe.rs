@@ -362,6 +362,20 @@ pub struct ImportGenerator {
     /// Initial line width (a diameter) for `.str` files.
     #[serde(default = "default_width")]
     pub width: f64,
+    /// Node budget (issue 27): the most skeleton nodes the file may make; checked before
+    /// the skeleton is allocated. Left out of written metadata at its default.
+    #[serde(default = "default_max_nodes", skip_serializing_if = "is_default_max_nodes")]
+    pub max_nodes: usize,
+}
+
+fn default_max_nodes() -> usize {
+    crate::skeleton::DEFAULT_MAX_NODES
+}
+
+/// Whether `n` is the default node budget (left out of the recipe written to a file's
+/// metadata, so files keep their old form).
+fn is_default_max_nodes(n: &usize) -> bool {
+    *n == crate::skeleton::DEFAULT_MAX_NODES
 }
 
 fn default_gap() -> String {
@@ -391,6 +405,10 @@ pub struct LsystemGenerator {
     /// Module budget: the most modules any derived string may hold.
     #[serde(default = "default_budget")]
     pub max_modules: usize,
+    /// Node budget (issue 27): the most skeleton nodes the turtle may draw (counted
+    /// before the skeleton is allocated). Left out of written metadata at its default.
+    #[serde(default = "default_max_nodes", skip_serializing_if = "is_default_max_nodes")]
+    pub max_nodes: usize,
     /// Overrides of the file's `#define` constants (name → value).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub define: BTreeMap<String, toml::Value>,
@@ -603,6 +621,28 @@ pub struct RefineSection {
     /// Push the result to the limit surface with exact limit normals.
     #[serde(default)]
     pub limit: bool,
+    /// Face budget of the subdivision (issue 27): a refinement that would make more
+    /// faces is an error naming this key, checked before anything is allocated. Left
+    /// out of written metadata at its default ([`DEFAULT_REFINE_MAX_FACES`]).
+    #[serde(default = "default_refine_max_faces", skip_serializing_if = "is_default_refine_max_faces")]
+    pub max_faces: usize,
+}
+
+/// Default of `refine.max_faces`: 20 M refined faces, about 3–4 GiB at the peak of the
+/// refinement (the refiner's topology, positions, indices and UVs), so a run stays
+/// under the 6 GiB the robustness campaign allows.
+pub const DEFAULT_REFINE_MAX_FACES: usize = 20_000_000;
+
+/// Largest `refine.max_faces` accepted.
+pub const REFINE_MAX_FACES_LIMIT: usize = 1_000_000_000;
+
+fn default_refine_max_faces() -> usize {
+    DEFAULT_REFINE_MAX_FACES
+}
+
+/// Whether `n` is the default `refine.max_faces` (left out of written metadata).
+fn is_default_refine_max_faces(n: &usize) -> bool {
+    *n == DEFAULT_REFINE_MAX_FACES
 }
 
 fn default_scheme() -> String {
@@ -611,7 +651,12 @@ fn default_scheme() -> String {
 
 impl Default for RefineSection {
     fn default() -> Self {
-        RefineSection { scheme: default_scheme(), levels: 0, limit: false }
+        RefineSection {
+            scheme: default_scheme(),
+            levels: 0,
+            limit: false,
+            max_faces: DEFAULT_REFINE_MAX_FACES,
+        }
     }
 }
 
@@ -850,7 +895,12 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
 /// Keys the recipe leaves out when it is written at their defaults (so files' metadata
 /// keeps its old form): missing from the round trip, they are still known. The `[wind]`
 /// and `[lod]` tables check their own keys (`deny_unknown_fields`).
-const SKIPPED_AT_DEFAULT: [&str; 7] = [
+const SKIPPED_AT_DEFAULT: [&str; 12] = [
+    "fit.decollide.max_work",
+    "generator.max_nodes",
+    "refine.max_faces",
+    "mesh.quad.max_repair_work",
+    "fit.clear.max_work",
     "wind",
     "lod",
     "output.preview",
@@ -990,6 +1040,9 @@ impl Recipe {
                 if g.max_modules == 0 {
                     return bad("generator.max_modules", "must be at least 1".into());
                 }
+                if g.max_nodes == 0 {
+                    return bad("generator.max_nodes", "must be at least 1".into());
+                }
                 for (k, v) in &g.define {
                     if matches!(v, toml::Value::Table(_) | toml::Value::Array(_)) {
                         return bad(&format!("generator.define.{k}"), "must be a number or a string".into());
@@ -1014,6 +1067,9 @@ impl Recipe {
                 if g.width < 0.0 {
                     return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
                 }
+                if g.max_nodes == 0 {
+                    return bad("generator.max_nodes", "must be at least 1".into());
+                }
             }
         }
         // The shared keys first: each mesher's table is checked with them filled in.
@@ -1032,6 +1088,12 @@ impl Recipe {
             return bad(
                 "refine.levels",
                 format!("is {}; at most 6 (each level multiplies faces by 4)", self.refine.levels),
+            );
+        }
+        if !(1..=REFINE_MAX_FACES_LIMIT).contains(&self.refine.max_faces) {
+            return bad(
+                "refine.max_faces",
+                format!("must be in 1..={REFINE_MAX_FACES_LIMIT}, got {}", self.refine.max_faces),
             );
         }
         self.textures.check()?;
@@ -1120,7 +1182,26 @@ mod tests {
             ("wind", "## `[wind]`", toml::Value::try_from(WindSection::default()).unwrap()),
             ("lod", "## `[lod]`", toml::Value::try_from(LodSection::default()).unwrap()),
         ];
-        for (table, heading, defaults) in tables {
+        for (table, heading, written) in tables {
+            let mut defaults = written.clone();
+            // The budget keys left out of written metadata at their defaults (issue 27)
+            // are fields and documented too.
+            let skipped = [
+                (
+                    "mesh.quad.max_repair_work",
+                    toml::Value::Integer(crate::mesh::quad::DEFAULT_REPAIR_WORK as i64),
+                ),
+                ("fit.clear.max_work", toml::Value::Integer(crate::fit::clear::DEFAULT_CLEAR_WORK as i64)),
+                (
+                    "fit.decollide.max_work",
+                    toml::Value::Integer(crate::fit::decollide::DEFAULT_DECOLLIDE_WORK as i64),
+                ),
+            ];
+            for (key, v) in skipped {
+                if let Some(field) = key.strip_prefix(table).and_then(|k| k.strip_prefix('.')) {
+                    defaults.as_table_mut().unwrap().insert(field.into(), v);
+                }
+            }
             let fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();
             let mut documented = documented_keys(heading);
             documented.sort();
@@ -1130,7 +1211,7 @@ mod tests {
             for (k, v) in defaults.as_table().unwrap() {
                 let l = load("lsys-honda-a", &[(format!("{table}.{k}"), v.clone())])
                     .unwrap_or_else(|e| panic!("{table}.{k} = {v}: {e}"));
-                assert_eq!(table_of(&l.recipe, table), defaults, "{table}.{k}: the table is at its defaults");
+                assert_eq!(table_of(&l.recipe, table), written, "{table}.{k}: the table is at its defaults");
             }
             let e = load("lsys-honda-a", &sets(&[&format!("{table}.no_such_key=1")])).unwrap_err();
             assert!(e.to_string().contains("no_such_key"), "{table}: {e}");
@@ -1141,6 +1222,11 @@ mod tests {
             ("fit.decollide.max_rounds=1000", "fit.decollide.max_rounds"),
             ("fit.clear.step=1.5", "fit.clear.step"),
             ("fit.clear.max_pairs=0", "fit.clear.max_pairs"),
+            ("fit.clear.max_work=0", "fit.clear.max_work"),
+            ("fit.decollide.max_work=0", "fit.decollide.max_work"),
+            ("mesh.quad.max_repair_work=0", "max_repair_work"),
+            ("refine.max_faces=0", "refine.max_faces"),
+            ("generator.max_nodes=0", "generator.max_nodes"),
             ("mesh.quad.support=-1", "mesh.quad.support"),
             ("textures.bark_size=8", "textures.bark_size"),
             ("textures.bark=\"mossy\"", "textures.bark"),

@@ -13,6 +13,17 @@ use glam::{DVec3, Vec3};
 /// Parent index of a root node.
 pub const NO_PARENT: u32 = u32::MAX;
 
+/// Most nodes a skeleton read or drawn from outside data may have by default (issue 27):
+/// the turtle and the skeleton readers (LST, JSON, `.str`) check it before they
+/// allocate, so a file or grammar cannot ask the meshers for more than they can build
+/// in memory (a tube mesh costs about 4 kB per node).
+pub const DEFAULT_MAX_NODES: usize = 1_000_000;
+
+/// How to raise the node budget, for messages.
+pub const NODE_BUDGET_HELP: &str =
+    "the skeleton node budget (`generator.max_nodes`, default 1,000,000) bounds what the meshers are \
+     asked to build: grow fewer steps, or raise it with --set generator.max_nodes=N";
+
 /// A placed organ (leaf, flower, petal) attached to a skeleton node.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Organ {
@@ -54,6 +65,13 @@ pub struct Skeleton {
     pub position: Vec<Vec3>,
     /// Branch radius at each node in metres (not the diameter).
     pub radius: Vec<f32>,
+    /// Explicit radius at the **start** of the internode ending at each node, in metres:
+    /// an internode is then a truncated cone from this radius to the node's `radius`
+    /// (an LST `Cylinder(r0, r1, len)` keeps its r0 here). Empty when no node has one
+    /// (every generator's skeleton); otherwise one entry per node, `None` where the
+    /// mesher's own default applies (each mesher documents it, e.g. the parent node's
+    /// radius along an axis). Ignored on roots. Read it with [`Skeleton::start_radius()`].
+    pub start_radius: Vec<Option<f32>>,
     /// Parent node index, [`NO_PARENT`] for roots. Always smaller than the node's own index.
     pub parent: Vec<u32>,
     /// Orientation reference per node: a unit vector perpendicular (or nearly) to the
@@ -108,7 +126,36 @@ pub enum SkeletonError {
     /// Too many nodes for u32 indices.
     #[error("skeleton has {0} nodes, more than u32 indices allow")]
     TooLarge(usize),
+    /// An organ hangs on a node that does not exist.
+    #[error("organ {organ} hangs on node {node}, but the skeleton has {nodes} nodes")]
+    OrganNode {
+        /// Offending organ.
+        organ: usize,
+        /// The node it names.
+        node: u32,
+        /// Number of nodes.
+        nodes: usize,
+    },
+    /// An organ or node value that is finite but so large that geometry built from it
+    /// overflows (`f32::MAX / 4`).
+    #[error(
+        "{what} {index} has a {field} of magnitude {value:e}, beyond the largest a mesh can be built from"
+    )]
+    OutOfRange {
+        /// `node` or `organ`.
+        what: &'static str,
+        /// Its index.
+        index: usize,
+        /// Which field.
+        field: &'static str,
+        /// The value.
+        value: f32,
+    },
 }
+
+/// Largest coordinate, radius or size [`Skeleton::validate`] accepts: sums and
+/// differences of a few of them (internode vectors, ring offsets) stay finite in `f32`.
+pub const MAX_COORDINATE: f32 = f32::MAX / 16.0;
 
 /// Summary statistics of a skeleton.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -155,6 +202,9 @@ impl Skeleton {
         let i = self.position.len() as u32;
         self.position.push(position);
         self.radius.push(radius);
+        if !self.start_radius.is_empty() {
+            self.start_radius.push(None);
+        }
         self.parent.push(parent);
         self.up.push(up);
         self.order.push(order);
@@ -162,8 +212,32 @@ impl Skeleton {
         i
     }
 
-    /// Checks the invariants: equal column lengths, parent-first order, finite numbers
-    /// and non-negative radii.
+    /// The explicit start radius of the internode ending at `node` (the `start_radius`
+    /// column), or `None` when the
+    /// mesher's default applies (also for roots and out-of-range nodes).
+    pub fn start_radius(&self, node: usize) -> Option<f32> {
+        match self.parent.get(node) {
+            Some(&p) if p != NO_PARENT => self.start_radius.get(node).copied().flatten(),
+            _ => None,
+        }
+    }
+
+    /// Sets the explicit start radius of the internode ending at `node` (creating the
+    /// column on first use). Does nothing for a node that does not exist.
+    pub fn set_start_radius(&mut self, node: usize, radius: Option<f32>) {
+        if node >= self.len() {
+            return;
+        }
+        if self.start_radius.len() != self.len() {
+            self.start_radius.resize(self.len(), None);
+        }
+        self.start_radius[node] = radius;
+    }
+
+    /// Checks the invariants: equal column lengths (`start_radius` may also be empty),
+    /// parent-first order (so parents are in range and the graph has no cycle), finite
+    /// numbers no larger than [`MAX_COORDINATE`], non-negative radii (start radii too),
+    /// organs on existing nodes with finite geometry.
     pub fn validate(&self) -> Result<(), SkeletonError> {
         let n = self.position.len();
         if n >= u32::MAX as usize {
@@ -178,6 +252,30 @@ impl Skeleton {
         ] {
             if len != n {
                 return Err(SkeletonError::ColumnLength { positions: n, column, len });
+            }
+        }
+        if !self.start_radius.is_empty() && self.start_radius.len() != n {
+            return Err(SkeletonError::ColumnLength {
+                positions: n,
+                column: "start_radius",
+                len: self.start_radius.len(),
+            });
+        }
+        for (i, r) in self.start_radius.iter().enumerate() {
+            match *r {
+                Some(r) if !r.is_finite() => {
+                    return Err(SkeletonError::NonFinite { node: i, field: "start radius" })
+                }
+                Some(r) if r < 0.0 => return Err(SkeletonError::NegativeRadius { node: i, radius: r }),
+                Some(r) if r > MAX_COORDINATE => {
+                    return Err(SkeletonError::OutOfRange {
+                        what: "node",
+                        index: i,
+                        field: "start radius",
+                        value: r,
+                    })
+                }
+                _ => {}
             }
         }
         for i in 0..n {
@@ -198,12 +296,39 @@ impl Skeleton {
             if r < 0.0 {
                 return Err(SkeletonError::NegativeRadius { node: i, radius: r });
             }
+            let far = self.position[i].abs().max_element();
+            if far > MAX_COORDINATE {
+                return Err(SkeletonError::OutOfRange {
+                    what: "node",
+                    index: i,
+                    field: "position",
+                    value: far,
+                });
+            }
+            if r > MAX_COORDINATE {
+                return Err(SkeletonError::OutOfRange { what: "node", index: i, field: "radius", value: r });
+            }
         }
         for (k, o) in self.organs.iter().enumerate() {
-            let ok =
-                o.position.is_finite() && o.heading.is_finite() && o.up.is_finite() && o.size.is_finite();
+            let vertices = match &o.kind {
+                OrganKind::Polygon(v) => v.as_slice(),
+                _ => &[],
+            };
+            let ok = o.position.is_finite()
+                && o.heading.is_finite()
+                && o.up.is_finite()
+                && o.size.is_finite()
+                && vertices.iter().all(|v| v.is_finite());
             if !ok {
                 return Err(SkeletonError::NonFinite { node: k, field: "organ" });
+            }
+            if o.node != NO_PARENT && o.node as usize >= n {
+                return Err(SkeletonError::OrganNode { organ: k, node: o.node, nodes: n });
+            }
+            for (field, value) in [("position", o.position.abs().max_element()), ("size", o.size.abs())] {
+                if value > MAX_COORDINATE {
+                    return Err(SkeletonError::OutOfRange { what: "organ", index: k, field, value });
+                }
             }
         }
         Ok(())

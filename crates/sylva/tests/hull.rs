@@ -815,3 +815,81 @@ fn a_collapse_does_not_straighten_a_bend() {
     assert!(m.clamped.contains(&stub));
     assert!(hull_mesh(&s, &HullOptions { max_straightening: -1.0, ..Default::default() }).is_err());
 }
+
+// ---------------------------------------------------------------------------------------
+// Truncated cones (issue 26: spec 000 §2.1, §2.5)
+
+/// Volume of a truncated cone of height `h` and end radii `r0`, `r1`.
+fn frustum_volume(h: f64, r0: f64, r1: f64) -> f64 {
+    std::f64::consts::PI * h * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
+}
+
+/// Parses `text` as LST and meshes it with caps (a closed surface), `sides` per loop;
+/// checks the mesh is a closed, consistently oriented 2-manifold and returns its volume
+/// by the divergence theorem.
+fn capped_lst_volume(name: &str, text: &str, sides: u32) -> f64 {
+    let sk = sylva::import::lst::parse(name, text, &Default::default()).unwrap();
+    let h = hull_mesh(&sk, &HullOptions { sides, caps: true, ..Default::default() }).unwrap();
+    let t = check(name, &h.mesh);
+    assert_eq!(t.boundary_loops, 0, "{name}: capped mesh has holes");
+    assert_eq!(t.components, 1, "{name}: pieces");
+    assert!(h.fallbacks.is_empty(), "{name}: fallbacks {:?}", h.fallbacks);
+    checks::closed_oriented_manifold(&h.mesh, true).unwrap_or_else(|e| panic!("{name}: {e}"));
+    h.mesh.signed_volume()
+}
+
+/// An LST `Cylinder(0.5, 0.1, 4)` is a truncated cone: the hull mesh's volume is the
+/// frustum's within 5 % (a cylinder of the end radius has under a tenth of it), and its
+/// loops shrink linearly from 0.5 at the base to 0.1 at the tip.
+#[test]
+fn an_lst_cone_is_meshed_as_a_truncated_cone() {
+    let text = "LST 0.1\nCylinder(0.5, 0.1, 4) MovRel3f(0, 4, 0)\n";
+    let want = frustum_volume(4.0, 0.5, 0.1);
+    let got = capped_lst_volume("cone.lst", text, 64);
+    assert!((got / want - 1.0).abs() < 0.05, "volume {got}, frustum {want}");
+    // Every vertex lies on the cone r(y) = 0.5 − 0.1 y (the loops are inscribed).
+    let sk = sylva::import::lst::parse("cone.lst", text, &Default::default()).unwrap();
+    let h = hull_mesh(&sk, &HullOptions { sides: 8, ..Default::default() }).unwrap();
+    for p in &h.mesh.positions {
+        let r = (p.x * p.x + p.z * p.z).sqrt();
+        assert!((r - (0.5 - 0.1 * p.y)).abs() < 1e-5, "vertex {p} off the cone");
+    }
+}
+
+/// A cylinder whose start radius differs from the radius of the node it starts at (the
+/// second one: 0.8 on top of a 0.5 end) keeps it: the two frusta's volumes add up.
+#[test]
+fn an_lst_chain_keeps_each_cylinders_start_radius() {
+    let text = "LST 0.1\nCylinder(1, 0.5, 2) MovRel3f(0, 2, 0)\nCylinder(0.8, 0.2, 3) MovRel3f(0, 3, 0)\n";
+    let want = frustum_volume(2.0, 1.0, 0.5) + frustum_volume(3.0, 0.8, 0.2);
+    let got = capped_lst_volume("chain.lst", text, 64);
+    assert!((got / want - 1.0).abs() < 0.05, "volume {got}, frusta {want}");
+    // A fork whose lateral starts fatter than it ends, at an angle.
+    let text = "LST 0.1\nCylinder(0.4, 0.3, 3) MovRel3f(0, 3, 0)\nSB() RotRel3f(0.8, 0, 0, 1) \
+                Cylinder(0.25, 0.05, 3) MovRel3f(0, 3, 0) EB()\nCylinder(0.3, 0.2, 3) MovRel3f(0, 3, 0)\n";
+    let sk = sylva::import::lst::parse("fork.lst", text, &Default::default()).unwrap();
+    let g = simplify(&sk, &HullOptions::default()).unwrap();
+    let lateral = g.branches.iter().find(|b| b.node == 2).unwrap();
+    assert_eq!((lateral.start_radius, lateral.end_radius), (0.25, 0.05f32 as f64));
+    full_check("fork.lst", &sk, 8, true);
+}
+
+/// Start radii are validated like radii, and a column of the wrong length is an error.
+#[test]
+fn bad_start_radii_are_errors() {
+    let mut sk = y_fork();
+    sk.set_start_radius(1, Some(-0.1));
+    assert!(hull_mesh(&sk, &HullOptions::default()).is_err());
+    sk.set_start_radius(1, Some(f32::NAN));
+    assert!(hull_mesh(&sk, &HullOptions::default()).is_err());
+    sk.set_start_radius(1, None);
+    hull_mesh(&sk, &HullOptions::default()).unwrap();
+    sk.start_radius.pop();
+    assert!(hull_mesh(&sk, &HullOptions::default()).is_err());
+    // `push` keeps a present column in step; a root's entry is ignored.
+    let mut sk = y_fork();
+    sk.set_start_radius(0, Some(9.0));
+    let n = sk.push(Vec3::new(0.0, 3.0, 0.0), 0.01, 2, Vec3::X, 0) as usize;
+    assert_eq!((sk.start_radius.len(), sk.start_radius(n), sk.start_radius(0)), (n + 1, None, None));
+    sk.validate().unwrap();
+}

@@ -11,7 +11,10 @@ use sylva::preview::{render, PreviewOptions, ViewAngles};
 
 fn sets(levels: &[i64], impostor: bool, extra: &[(&str, toml::Value)]) -> Vec<(String, toml::Value)> {
     let mut out = vec![
-        ("lod.levels".to_string(), toml::Value::Array(levels.iter().map(|&b| toml::Value::Integer(b)).collect())),
+        (
+            "lod.levels".to_string(),
+            toml::Value::Array(levels.iter().map(|&b| toml::Value::Integer(b)).collect()),
+        ),
         ("lod.impostor".to_string(), toml::Value::Boolean(impostor)),
     ];
     out.extend(extra.iter().map(|(k, v)| (k.to_string(), v.clone())));
@@ -29,13 +32,18 @@ fn chain(preset: &str, sets: &[(String, toml::Value)]) -> (sylva::pipeline::Grow
     let mut report = sylva::pipeline::Report::default();
     let t = std::time::Instant::now();
     let levels =
-        sylva::pipeline::lod_stage(&loaded, &full.skeleton, &Default::default(), &mut model, &mut report).unwrap();
+        sylva::pipeline::lod_stage(&loaded, &full.skeleton, &Default::default(), &mut model, &mut report)
+            .unwrap();
     println!("{preset}: chain built in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     for w in &report.warnings {
         println!("  warning: {w}");
     }
     for (k, l) in levels.iter().enumerate() {
-        let parts: Vec<String> = l.parts.iter().map(|p| format!("{} {} → {} ({:?})", p.name, p.meshed, p.triangles, p.method)).collect();
+        let parts: Vec<String> = l
+            .parts
+            .iter()
+            .map(|p| format!("{} {} → {} ({:?})", p.name, p.meshed, p.triangles, p.method))
+            .collect();
         println!(
             "  LOD{k} {:?}: budget {:?}, {} triangles, {} cards, {} nodes, coverage {:.4}, {:.1} ms; {:?}; {}",
             l.kind,
@@ -74,7 +82,13 @@ fn mask(model: &Model, opts: &PreviewOptions) -> Vec<bool> {
     image.rgba.chunks(4).map(|p| p[..3] != BACKGROUND).collect()
 }
 
-fn options(frame: (Vec3, Vec3), size: u32, azimuth_deg: f32, elevation_deg: f32, fov_deg: f32) -> PreviewOptions {
+fn options(
+    frame: (Vec3, Vec3),
+    size: u32,
+    azimuth_deg: f32,
+    elevation_deg: f32,
+    fov_deg: f32,
+) -> PreviewOptions {
     PreviewOptions {
         width: size,
         height: size,
@@ -111,7 +125,9 @@ fn check_budgets(levels: &[LevelReport]) {
 fn check_structure(full: &Model, model: &Model) {
     sylva::export::validate_model(model).unwrap();
     let mut last = f32::INFINITY;
-    for (k, c) in std::iter::once(model.lod0_coverage).chain(model.lods.iter().map(|l| l.screen_coverage)).enumerate() {
+    for (k, c) in
+        std::iter::once(model.lod0_coverage).chain(model.lods.iter().map(|l| l.screen_coverage)).enumerate()
+    {
         assert!(c > 0.0 && c < last, "LOD{k}'s coverage {c} after {last}");
         last = c;
     }
@@ -122,8 +138,13 @@ fn check_structure(full: &Model, model: &Model) {
                 continue;
             }
             let original = full.parts.iter().chain(&full.shapes).find(|q| q.name == p.name);
-            let original = original.unwrap_or_else(|| panic!("LOD{k} part `{}` is not a part of the full model", p.name));
-            assert_eq!(p.material, original.material, "LOD{k} part `{}` shares the full model's material", p.name);
+            let original = original
+                .unwrap_or_else(|| panic!("LOD{k} part `{}` is not a part of the full model", p.name));
+            assert_eq!(
+                p.material, original.material,
+                "LOD{k} part `{}` shares the full model's material",
+                p.name
+            );
             if let Some(n) = &p.mesh.normals {
                 assert!(n.values.iter().all(|v| (v.length() - 1.0).abs() < 1e-3), "unit normals");
             }
@@ -138,14 +159,21 @@ fn check_structure(full: &Model, model: &Model) {
 fn silhouettes(model: &Model, size: u32) -> Vec<Vec<f64>> {
     let frame = alone(model, level(model, 0)).bounds().unwrap();
     let views = [0.0f32, 90.0, 180.0, 270.0];
-    let lod0: Vec<Vec<bool>> =
-        views.iter().map(|&az| mask(&alone(model, level(model, 0)), &options(frame, size, az, 10.0, 30.0))).collect();
+    let lod0: Vec<Vec<bool>> = views
+        .iter()
+        .map(|&az| mask(&alone(model, level(model, 0)), &options(frame, size, az, 10.0, 30.0)))
+        .collect();
     (1..=model.lods.len().min(2))
         .map(|k| {
             views
                 .iter()
                 .zip(&lod0)
-                .map(|(&az, reference)| covers(reference, &mask(&alone(model, level(model, k)), &options(frame, size, az, 10.0, 30.0))))
+                .map(|(&az, reference)| {
+                    covers(
+                        reference,
+                        &mask(&alone(model, level(model, k)), &options(frame, size, az, 10.0, 30.0)),
+                    )
+                })
                 .collect()
         })
         .collect()
@@ -172,7 +200,11 @@ fn percent(v: &[f64]) -> String {
 /// The cheap one: Honda's tree a (40,960 bark triangles, no leaves), small atlas.
 #[test]
 fn honda_chain_hits_its_budgets() {
-    let s = sets(&[20000, 5000, 1000], true, &[("lod.atlas_size", toml::Value::Integer(256)), ("lod.atlas_frames", toml::Value::Integer(4))]);
+    let s = sets(
+        &[20000, 5000, 1000],
+        true,
+        &[("lod.atlas_size", toml::Value::Integer(256)), ("lod.atlas_frames", toml::Value::Integer(4))],
+    );
     let (full, model, levels) = chain("lsys-honda-a", &s);
     check_budgets(&levels);
     check_structure(&full.model, &model);
@@ -202,7 +234,11 @@ fn a_generous_budget_keeps_the_full_model_and_the_chain_is_deterministic() {
     // Through `grow` as well, with the warning in the report.
     let grown = sylva::pipeline::grow(&sylva::recipe::load("lsys-honda-a", &s).unwrap()).unwrap();
     assert_eq!(grown.model.lods, model.lods);
-    assert!(grown.report.warnings.iter().any(|w| w.contains("LOD0") && w.contains("as it is")), "{:?}", grown.report.warnings);
+    assert!(
+        grown.report.warnings.iter().any(|w| w.contains("LOD0") && w.contains("as it is")),
+        "{:?}",
+        grown.report.warnings
+    );
 }
 
 #[test]
@@ -218,21 +254,37 @@ fn bad_options_are_errors() {
         refine_factor: 1,
         per_card: 0,
     };
-    let mut never = |_: &sylva::Skeleton, _: &sylva::lod::LevelSettings| -> sylva::Result<Model> { unreachable!() };
+    let mut never =
+        |_: &sylva::Skeleton, _: &sylva::lod::LevelSettings| -> sylva::Result<Model> { unreachable!() };
     let e = sylva::lod::build_chain(&full.model, &full.skeleton, &opts, &mut never).unwrap_err();
     assert!(e.to_string().contains("decrease"), "{e}");
-    let e = sylva::lod::build_chain(&full.model, &full.skeleton, &sylva::lod::LodOptions { budgets: vec![], ..opts.clone() }, &mut never)
-        .unwrap_err();
+    let e = sylva::lod::build_chain(
+        &full.model,
+        &full.skeleton,
+        &sylva::lod::LodOptions { budgets: vec![], ..opts.clone() },
+        &mut never,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("no levels"), "{e}");
-    let e = sylva::lod::build_chain(&Model::default(), &full.skeleton, &sylva::lod::LodOptions { budgets: vec![100], ..opts.clone() }, &mut never)
-        .unwrap_err();
+    let e = sylva::lod::build_chain(
+        &Model::default(),
+        &full.skeleton,
+        &sylva::lod::LodOptions { budgets: vec![100], ..opts.clone() },
+        &mut never,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("no triangles"), "{e}");
     // A failing re-mesh is the chain's error.
     let mut failing = |_: &sylva::Skeleton, _: &sylva::lod::LevelSettings| -> sylva::Result<Model> {
         Err(sylva::Error::Recipe("remesh failed".into()))
     };
-    let e = sylva::lod::build_chain(&full.model, &full.skeleton, &sylva::lod::LodOptions { budgets: vec![100], ..opts }, &mut failing)
-        .unwrap_err();
+    let e = sylva::lod::build_chain(
+        &full.model,
+        &full.skeleton,
+        &sylva::lod::LodOptions { budgets: vec![100], ..opts },
+        &mut failing,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("remesh failed"), "{e}");
     let e = sylva::recipe::load("lsys-honda-a", &sets(&[1000, 1000], false, &[])).unwrap_err();
     assert!(e.to_string().contains("lod.levels"), "{e}");
@@ -249,7 +301,11 @@ fn aspen_chain_keeps_budgets_and_silhouettes() {
     for size in [128, 256] {
         let sil = silhouettes(&model, size);
         let imp = impostor_match(&model, size);
-        println!("wp-quaking-aspen silhouettes ({size} px): LOD1 {}; LOD2 {}", percent(&sil[0]), percent(&sil[1]));
+        println!(
+            "wp-quaking-aspen silhouettes ({size} px): LOD1 {}; LOD2 {}",
+            percent(&sil[0]),
+            percent(&sil[1])
+        );
         println!("wp-quaking-aspen impostor ({size} px): {}", percent(&imp));
         if size == 256 {
             assert!(sil[0].iter().all(|&x| x >= 0.9), "LOD1 {}", percent(&sil[0]));

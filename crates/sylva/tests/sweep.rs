@@ -1028,3 +1028,38 @@ fn a_general_junction_that_folds_under_subdivision_falls_back() {
     assert!(unchecked.fallbacks.is_empty() && unchecked.junctions.contains(&n91));
     assert!(level2(&unchecked.mesh).intersection_count.unwrap() > 0);
 }
+
+/// An LST `Cylinder(0.5, 0.1, 4)` is a truncated cone (issue 26, spec 000 §2.1): the
+/// closed sweep (capped base, pruned flat tip) has the volume of the hexagonal frustum
+/// within 5 % (a prism of the end radius has under a tenth of it), and its rings have
+/// radius 0.5 at the base and 0.1 at the tip.
+#[test]
+fn an_lst_cone_is_swept_as_a_truncated_cone() {
+    let text = "LST 0.1\nCylinder(0.5, 0.1, 4) MovRel3f(0, 4, 0)\n";
+    let sk = sylva::import::lst::parse("cone.lst", text, &Default::default()).unwrap();
+    let opts = SweepOptions { caps: true, tips: SweepTips::Pruned, ..Default::default() };
+    let s = sweep_mesh(&sk, &opts).unwrap();
+    assert_valid("cone.lst", &s, 1, true);
+    // Regular hexagons of circumradius r: area 3√3/2 r²; similar sections, so the
+    // frustum formula h/3 (A0 + √(A0 A1) + A1) is exact.
+    let area = |r: f64| 1.5 * 3f64.sqrt() * r * r;
+    let (a0, a1) = (area(0.5), area(0.1));
+    let want = 4.0 / 3.0 * (a0 + (a0 * a1).sqrt() + a1);
+    let got = s.mesh.signed_volume();
+    assert!((got / want - 1.0).abs() < 0.05, "volume {got}, hexagonal frustum {want}");
+    let ring = |y: f32, want: f32| {
+        let near = s.mesh.positions.iter().filter(|p| (p.y - y).abs() < 1e-6);
+        near.map(|p| (p.x * p.x + p.z * p.z).sqrt()).filter(|r| (r - want).abs() < 1e-5).count()
+    };
+    assert_eq!((ring(0.0, 0.5), ring(4.0, 0.1)), (6, 6), "ring radii at the base and the tip");
+    // A lateral that starts fatter than it ends keeps its start radius at its ring.
+    let text = "LST 0.1\nCylinder(0.4, 0.3, 3) MovRel3f(0, 3, 0)\nSB() RotRel3f(0.8, 0, 0, 1) \
+                Cylinder(0.25, 0.05, 3) MovRel3f(0, 3, 0) EB()\nCylinder(0.3, 0.2, 3) MovRel3f(0, 3, 0)\n";
+    let sk = sylva::import::lst::parse("fork.lst", text, &Default::default()).unwrap();
+    let s = sweep_mesh(&sk, &opts).unwrap();
+    assert_valid("fork.lst", &s, 1, true);
+    let mut plain = sk.clone();
+    plain.set_start_radius(2, None);
+    let thin = sweep_mesh(&plain, &opts).unwrap();
+    assert!(s.mesh.signed_volume() > thin.mesh.signed_volume(), "the lateral's start radius is not used");
+}

@@ -3,8 +3,13 @@
 //! - [`to_lst`] writes an LST file that [`crate::import::lst::parse`] reads back to the
 //!   same skeleton (positions and radii within 1e-6 relative, same parents). It replays
 //!   the reader's turtle while writing, so rounding never accumulates along a branch.
+//!   Each internode's start radius ([`Skeleton::start_radius()`]) is its cylinder's r0
+//!   and reads back exactly; where the skeleton has none, r0 is the parent node's
+//!   radius, which reads back as an explicit start radius (the reader records every
+//!   cylinder's r0). A root's radius is read back from its first cylinder's r0.
 //! - [`to_json`] / [`from_json`] are an exact round trip of every field, organs
-//!   included (`docs/formats.md` documents the format).
+//!   included (`docs/formats.md` documents the format), except the start radii, which
+//!   the JSON format does not hold yet.
 //! - [`write()`] chooses the format from the file extension and writes atomically.
 //!
 //! What LST cannot hold: materials, organs and the exact `up` reference (an imported
@@ -57,7 +62,8 @@ pub fn write(skeleton: &Skeleton, path: &Path) -> Result<()> {
 ///
 /// Each internode is one line, `RotRel3f(angle, x, y, z) Cylinder(r0, r1, length)
 /// MovRel3f(0, length, 0)` (the rotation is left out when the direction does not
-/// change), with r0 the parent node's radius; a child that is not its parent's last,
+/// change), with r0 the internode's start radius ([`Skeleton::start_radius()`]), or the
+/// parent node's radius where it has none; a child that is not its parent's last,
 /// or whose order differs from its parent's, is wrapped in `SB()` … `EB()`. A root is
 /// reached with `MovRel3f(x, y, z)` from the origin. Numbers are printed so that they
 /// read back exactly (Rust's shortest round-trip form).
@@ -210,7 +216,8 @@ impl LstWriter<'_> {
                 let _ = self.t.rot(angle, axis.x, axis.y, axis.z);
             }
         }
-        let (r0, r1) = (num32(sk.radius[from]).0, num32(sk.radius[to]).0);
+        let r0 = sk.start_radius(to).unwrap_or(sk.radius[from]);
+        let (r0, r1) = (num32(r0).0, num32(sk.radius[to]).0);
         let _ = write!(self.out, "Cylinder({r0}, {r1}, {len})");
         self.t.current = to as u32;
         if len > 0.0 {
@@ -317,6 +324,31 @@ mod tests {
         let want = (Vec3::Z - h * h.dot(Vec3::Z)).normalize();
         assert!((back.up[2] - want).length() < 1e-6, "{} {want}", back.up[2]);
         assert!((back.up[3] - Vec3::X).length() < 1e-6);
+    }
+
+    /// Issue 26: read → write → read keeps every cylinder's start and end radius, also
+    /// where a cylinder starts thinner or fatter than the node it starts at.
+    #[test]
+    fn lst_keeps_each_cylinders_start_radius() {
+        let text =
+            "LST 0.1\nCylinder(0.5, 0.1, 4) MovRel3f(0, 4, 0)\nCylinder(0.3, 0.05, 2) MovRel3f(0, 2, 0)\n\
+                    SB() RotRel3f(0.7, 0, 0, 1) Cylinder(0.02, 0.01, 1) MovRel3f(0, 1, 0) EB()\n\
+                    Cylinder(0.05, 0.04, 1)\n";
+        let radii = |t: &lst::LstTree| -> Vec<(f64, f64)> {
+            t.branches.iter().map(|b| (b.start_radius, b.end_radius)).collect()
+        };
+        let a = lst::parse_tree("a.lst", text, &LstOptions::default()).unwrap();
+        assert_eq!(radii(&a), [(0.5, 0.1), (0.3, 0.05), (0.02, 0.01), (0.05, 0.04)]);
+        assert_eq!(a.skeleton.start_radius(2), Some(0.3));
+        let written = to_lst(&a.skeleton);
+        let b = lst::parse_tree("b.lst", &written, &LstOptions::default()).unwrap();
+        assert_eq!(b.skeleton.parent, a.skeleton.parent);
+        assert_eq!(b.skeleton.radius, a.skeleton.radius);
+        assert_eq!(b.skeleton.start_radius, a.skeleton.start_radius, "{written}");
+        assert_eq!(radii(&b), radii(&a));
+        assert_eq!(to_lst(&b.skeleton), written);
+        // Without explicit start radii r0 is the parent node's radius, as before.
+        assert!(to_lst(&fork()).contains("Cylinder(0.2, 0.1, "));
     }
 
     #[test]

@@ -78,6 +78,25 @@ pub struct ClearOptions {
     /// radii under it are raised to it first and thinning never goes below it (the
     /// joint meshers draw thinner sections at that size anyway).
     pub min_radius: f64,
+    /// Work budget of the whole pass (issue 27): refined faces searched, summed over its
+    /// rounds (each round meshes, refines and searches about as many), counted before
+    /// each refinement. A pass that needs more stops with an error naming
+    /// `fit.clear.max_work` (counted, not timed, so the result stays deterministic).
+    /// Left out of written metadata at its default ([`DEFAULT_CLEAR_WORK`]).
+    #[serde(skip_serializing_if = "is_default_clear_work")]
+    pub max_work: u64,
+}
+
+/// Default [`ClearOptions::max_work`]: 12 M refined faces, e.g. three rounds at the
+/// default [`ClearOptions::max_faces`] (4 M), which keeps the pass to seconds.
+pub const DEFAULT_CLEAR_WORK: u64 = 12_000_000;
+
+/// Largest [`ClearOptions::max_work`] accepted.
+pub const MAX_CLEAR_WORK: u64 = 100_000_000_000;
+
+/// Whether `w` is the default work budget (left out of written metadata).
+fn is_default_clear_work(w: &u64) -> bool {
+    *w == DEFAULT_CLEAR_WORK
 }
 
 impl Default for ClearOptions {
@@ -92,6 +111,7 @@ impl Default for ClearOptions {
             max_faces: 4_000_000,
             max_pairs: 100_000,
             min_radius: crate::tolerance::RADIUS_FLOOR,
+            max_work: DEFAULT_CLEAR_WORK,
         }
     }
 }
@@ -113,6 +133,8 @@ pub struct ClearReport {
     pub truncated: bool,
     /// Internodes (by child node) the crossings left lie on, at most 16.
     pub unresolved: Vec<u32>,
+    /// Work spent ([`ClearOptions::max_work`]'s units: refined faces searched).
+    pub work: u64,
     /// Wall time, meshing included.
     pub elapsed: Duration,
 }
@@ -139,6 +161,9 @@ impl ClearOptions {
         }
         if o.levels > 4 {
             return bad("levels", format!("must be at most 4, got {}", o.levels));
+        }
+        if !(1..=MAX_CLEAR_WORK).contains(&o.max_work) {
+            return bad("max_work", format!("must be in 1..={MAX_CLEAR_WORK}, got {}", o.max_work));
         }
         // Work bounds: each scales the pass's running time or memory.
         for (name, v, max) in [
@@ -212,7 +237,7 @@ where
     // has stalled for `patience` rounds, wide thinning (runner-ups and whole junctions)
     // with the full patience again.
     let mut wide = false;
-    while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts)? {
+    while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts, &mut report.work)? {
         let count = faces.len() / 2;
         if report.before.is_none() {
             report.before = Some(count);
@@ -276,11 +301,28 @@ where
 /// Centres of the refined faces that cross another (both faces of each pair, in turn),
 /// with the refined mesh, or `None` when the refinement is over
 /// [`ClearOptions::max_faces`].
-fn crossing_faces(mesh: &Mesh, scheme: Scheme, opts: &ClearOptions) -> Result<Option<(Vec<DVec3>, Mesh)>> {
+/// The refined faces count against [`ClearOptions::max_work`] (`work`, the pass's
+/// total so far) before the refinement is made.
+fn crossing_faces(
+    mesh: &Mesh,
+    scheme: Scheme,
+    opts: &ClearOptions,
+    work: &mut u64,
+) -> Result<Option<(Vec<DVec3>, Mesh)>> {
     let estimate = mesh.face_count() * 4usize.pow(opts.levels);
     if estimate > opts.max_faces {
         return Ok(None);
     }
+    let total = work.saturating_add(estimate as u64);
+    if total > opts.max_work {
+        return Err(Error::Recipe(format!(
+            "`fit.clear.max_work`: the mesh clearing has searched {work} refined faces and its next round needs \
+             {estimate} more, over its work budget of {} (raise it with --set fit.clear.max_work=N, lower \
+             fit.clear.max_rounds, or turn the pass off with mesh.clear = false)",
+            opts.max_work
+        )));
+    }
+    *work = total;
     let fine = if opts.levels == 0 {
         mesh.clone()
     } else {

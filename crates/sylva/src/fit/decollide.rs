@@ -128,6 +128,44 @@ pub struct DecollideOptions {
     /// apart on `wp-balsam-fir` crossed as 1.5 mm tubes while their capsules, of radius
     /// 0, were "clear").
     pub min_radius: f64,
+    /// Work budget of the whole pass (issue 27): one unit per skeleton node of every
+    /// collision search and per capsule query of the rotation trials, over all rounds
+    /// and last resorts (counted, not timed, so the result stays deterministic). A pass
+    /// that needs more stops with an error naming `fit.decollide.max_work`. Left out of
+    /// written metadata at its default ([`DEFAULT_DECOLLIDE_WORK`]).
+    #[serde(skip_serializing_if = "is_default_decollide_work")]
+    pub max_work: u64,
+}
+
+/// Default [`DecollideOptions::max_work`]: 5·10⁷ units, over the 30 k-node presets'
+/// worst case (8 rounds at `work_per_node` = 200) and about 15 s of work on this
+/// project's 2-core machine.
+pub const DEFAULT_DECOLLIDE_WORK: u64 = 50_000_000;
+
+/// Largest [`DecollideOptions::max_work`] accepted.
+pub const MAX_DECOLLIDE_WORK: u64 = 100_000_000_000;
+
+/// Whether `w` is the default work budget (left out of written metadata).
+fn is_default_decollide_work(w: &u64) -> bool {
+    *w == DEFAULT_DECOLLIDE_WORK
+}
+
+/// The work a pass has spent, against [`DecollideOptions::max_work`].
+struct Work {
+    spent: std::cell::Cell<u64>,
+    max: u64,
+}
+
+impl Work {
+    /// Adds `n` units.
+    fn charge(&self, n: usize) {
+        self.spent.set(self.spent.get().saturating_add(n as u64));
+    }
+
+    /// Whether the spent work is over the budget.
+    fn over(&self) -> bool {
+        self.spent.get() > self.max
+    }
 }
 
 impl Default for DecollideOptions {
@@ -145,6 +183,7 @@ impl Default for DecollideOptions {
             max_moved: 4000,
             work_per_node: 200,
             min_radius: crate::tolerance::RADIUS_FLOOR,
+            max_work: DEFAULT_DECOLLIDE_WORK,
         }
     }
 }
@@ -195,13 +234,15 @@ impl DecollideReport {
 const CHECK_TOLERANCE: f64 = 0.01;
 
 /// Pulls apart the branches of `skeleton` that pass through each other (see the module
-/// documentation). Errors only on an invalid skeleton or options; what cannot be
+/// documentation). Errors on an invalid skeleton or options, and when the pass needs
+/// more than [`DecollideOptions::max_work`]; otherwise what cannot be
 /// resolved within [`DecollideOptions::max_rounds`] is reported, not an error.
 pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<DecollideReport> {
     let t0 = Instant::now();
     skeleton.validate()?;
     opts.check()?;
     let raised = raise_to_floor(skeleton, opts.min_radius);
+    let work = Work { spent: std::cell::Cell::new(skeleton.len() as u64), max: opts.max_work };
     let first = skeleton_collisions(skeleton, CHECK_TOLERANCE);
     let mut report = DecollideReport { before: first.len(), raised, ..Default::default() };
     if first.is_empty() {
@@ -211,26 +252,40 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     let topo = Topology::new(skeleton);
     report.near_joint = first.iter().filter(|p| near_joint(skeleton, &topo, p[0], p[1], opts)).count();
     let original_radius = skeleton.radius.clone();
-    (report.rounds, report.rotations) = rounds(skeleton, &topo, opts, opts.max_rounds);
+    (report.rounds, report.rotations) = rounds(skeleton, &topo, opts, opts.max_rounds, &work);
+    work.charge(skeleton.len());
     let mut left = collisions(skeleton, &topo, opts.clearance);
     if !left.is_empty() {
         // What rotation could not clear is thinned like a near-joint pair (down to
         // `min_thinning`), then tips are pulled back.
         let deep = DecollideOptions { far_thinning: opts.min_thinning, ..opts.clone() };
         if thin(skeleton, &topo, &left, &deep) {
+            work.charge(skeleton.len());
             left = collisions(skeleton, &topo, opts.clearance);
         }
         report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance);
         if report.retracted > 0 {
+            work.charge(skeleton.len());
             left = collisions(skeleton, &topo, opts.clearance);
         }
         report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance);
         if report.extended > 0 {
+            work.charge(skeleton.len());
             left = collisions(skeleton, &topo, opts.clearance);
         }
-        if !left.is_empty() {
-            report.traded = trade(skeleton, &topo, &left, opts, &mut report.rotations);
+        if !left.is_empty() && !work.over() {
+            report.traded = trade(skeleton, &topo, &left, opts, &mut report.rotations, &work);
         }
+    }
+    if work.over() {
+        return Err(Error::Recipe(format!(
+            "`fit.decollide.max_work`: the skeleton de-collision of {} nodes needs more than its work budget \
+             of {} units (skeleton nodes per collision search plus capsule queries of the rotation trials); \
+             raise it with --set fit.decollide.max_work=N, lower fit.decollide.max_rounds or \
+             fit.decollide.work_per_node, or turn the pass off with mesh.decollide = false",
+            skeleton.len(),
+            opts.max_work
+        )));
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
     report.unresolved = skeleton_collisions(skeleton, CHECK_TOLERANCE);
@@ -267,6 +322,9 @@ impl DecollideOptions {
                 "angles",
                 format!("must be at most 64 angles in (0, 180] degrees, got {:?}", o.angles),
             );
+        }
+        if !(1..=MAX_DECOLLIDE_WORK).contains(&o.max_work) {
+            return bad("max_work", format!("must be in 1..={MAX_DECOLLIDE_WORK}, got {}", o.max_work));
         }
         // Work bounds: each scales the pass's running time.
         for (name, v, max) in [
@@ -555,17 +613,31 @@ fn collisions(s: &Skeleton, topo: &Topology, clearance: f64) -> Vec<[usize; 2]> 
 /// Runs at most `max_rounds` rounds of thinning, then rotation, on the collisions left;
 /// stops early when none are left or a round changed nothing. Returns the rounds run
 /// and the rotations applied.
-fn rounds(s: &mut Skeleton, topo: &Topology, o: &DecollideOptions, max_rounds: usize) -> (usize, usize) {
+fn rounds(
+    s: &mut Skeleton,
+    topo: &Topology,
+    o: &DecollideOptions,
+    max_rounds: usize,
+    work: &Work,
+) -> (usize, usize) {
     let (mut run, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
+        if work.over() {
+            break;
+        }
+        work.charge(s.len());
         let pairs = collisions(s, topo, o.clearance);
         if pairs.is_empty() {
             break;
         }
         run += 1;
         let thinned = thin(s, topo, &pairs, o);
+        if thinned {
+            work.charge(s.len());
+        }
         let pairs = if thinned { collisions(s, topo, o.clearance) } else { pairs };
-        let moved = rotate_pairs(s, topo, &pairs, o);
+        let (moved, spent) = rotate_pairs(s, topo, &pairs, o);
+        work.charge(spent);
         rotations += moved;
         if !thinned && moved == 0 {
             break;
@@ -662,7 +734,13 @@ struct Trial {
 }
 
 /// Moves subtrees to separate the pairs that thinning left; returns rotations applied.
-fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOptions) -> usize {
+/// Also returns the work spent (capsule queries).
+fn rotate_pairs(
+    s: &mut Skeleton,
+    topo: &Topology,
+    pairs: &[[usize; 2]],
+    o: &DecollideOptions,
+) -> (usize, usize) {
     let mut bvh = Bvh::build(s, o.clearance);
     let mut moved = 0;
     let (mut work, budget) = (0usize, o.work_per_node.saturating_mul(s.len()));
@@ -748,7 +826,7 @@ fn rotate_pairs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &Dec
             moved += 1;
         }
     }
-    moved
+    (moved, work)
 }
 
 /// The subtrees that may be rotated to separate internodes `a` and `b` (`away` points
@@ -803,10 +881,15 @@ fn trade(
     pairs: &[[usize; 2]],
     o: &DecollideOptions,
     rotations: &mut usize,
+    work: &Work,
 ) -> usize {
+    work.charge(s.len());
     let mut total = collisions(s, topo, o.clearance).len();
     let mut traded = 0;
     for &[a, b] in pairs {
+        if work.over() {
+            break;
+        }
         let (ca, cb) = (capsule(s, a), capsule(s, b));
         if total == 0 || !collide(s, topo, (a, &ca), (b, &cb), o.clearance) {
             continue;
@@ -821,6 +904,7 @@ fn trade(
         }
         moves.extend(stub_motions(s, topo, [a, b], o.clearance).into_iter().map(|(_, x, mv, _)| (x, mv)));
         let bvh = Bvh::build(s, o.clearance);
+        work.charge(s.len() + moves.iter().map(|&(c, _)| topo.size(c)).sum::<usize>());
         let mut scored: Vec<(usize, usize)> = moves
             .par_iter()
             .enumerate()
@@ -838,10 +922,16 @@ fn trade(
         scored.sort_unstable();
         for &(_, k) in scored.iter().take(TRADE_TRIALS) {
             let (c, mv) = moves[k];
+            if work.over() {
+                break;
+            }
             let mut copy = s.clone();
             let mut copy_bvh = Bvh::build(&copy, o.clearance);
             apply(&mut copy, topo, &mut copy_bvh, c, &mv, o.clearance);
-            let moved = usize::from(mv.shift == DVec3::ZERO) + rounds(&mut copy, topo, o, TRADE_ROUNDS).1;
+            work.charge(2 * s.len());
+            let moved =
+                usize::from(mv.shift == DVec3::ZERO) + rounds(&mut copy, topo, o, TRADE_ROUNDS, work).1;
+            work.charge(s.len());
             let n = collisions(&copy, topo, o.clearance).len();
             if n < total {
                 *s = copy;

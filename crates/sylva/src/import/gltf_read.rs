@@ -46,7 +46,31 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
                     base64_decode(&uri[pos + 8..])
                         .ok_or_else(|| bad(path, format!("buffer {i}: bad base64")))?
                 } else {
-                    let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+                    let rel = Path::new(uri);
+                    if rel.is_absolute() || uri.contains(':') {
+                        return Err(bad(
+                            path,
+                            format!("buffer {i}: uri `{uri}` is not a relative file name"),
+                        ));
+                    }
+                    let file = path.parent().unwrap_or(Path::new(".")).join(rel);
+                    // A regular file of at most byteLength + 4 bytes (not a device or a pipe,
+                    // which could be read forever).
+                    let meta = std::fs::metadata(&file)
+                        .map_err(|source| Error::Read { path: file.clone(), source })?;
+                    if !meta.is_file() {
+                        return Err(bad(path, format!("buffer {i}: `{uri}` is not a regular file")));
+                    }
+                    if meta.len() > b.byte_length.0.saturating_add(4).max(1 << 20) {
+                        return Err(bad(
+                            path,
+                            format!(
+                                "buffer {i}: `{uri}` holds {} bytes, byteLength says {}",
+                                meta.len(),
+                                b.byte_length.0
+                            ),
+                        ));
+                    }
                     std::fs::read(&file).map_err(|source| Error::Read { path: file, source })?
                 }
             }
@@ -78,6 +102,9 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
             }
             let positions: Vec<Vec3> =
                 floats.0.chunks_exact(3).map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)).collect();
+            if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+                return Err(bad(path, format!("{name}: POSITION {k} is not finite")));
+            }
             let indices: Vec<u32> = match &p.indices {
                 Some(ix) => {
                     let (vals, n) = read_accessor(&root, &buffers, ix.value()).map_err(ctx)?;
@@ -88,6 +115,12 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
                 }
                 None => (0..positions.len() as u32).collect(),
             };
+            if let Some(&v) = indices.iter().find(|&&v| v as usize >= positions.len()) {
+                return Err(bad(
+                    path,
+                    format!("{name}: index {v} is out of range ({} vertices)", positions.len()),
+                ));
+            }
             if !indices.len().is_multiple_of(3) {
                 return Err(bad(path, format!("{name}: {} indices is not a multiple of 3", indices.len())));
             }
@@ -151,17 +184,34 @@ fn read_accessor(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result
         Valid(json::accessor::GenericComponentType(ComponentType::U8)) => (1, |s| s[0] as f64),
         _ => return Err(format!("accessor {index}: unsupported component type")),
     };
-    let count = a.count.0 as usize;
     let view_index =
         a.buffer_view.as_ref().ok_or(format!("accessor {index}: no buffer view (sparse?)"))?.value();
     let view = root.buffer_views.get(view_index).ok_or(format!("buffer view {view_index} does not exist"))?;
     let buf = buffers.get(view.buffer.value()).ok_or(format!("buffer view {view_index}: no such buffer"))?;
-    let start = view.byte_offset.map_or(0, |o| o.0 as usize) + a.byte_offset.map_or(0, |o| o.0 as usize);
-    let stride = view.byte_stride.map_or(size * n, |s| s.0);
-    let end = view.byte_offset.map_or(0, |o| o.0 as usize) + view.byte_length.0 as usize;
-    if count > 0 && (start + (count - 1) * stride + size * n > end.min(buf.len())) {
-        return Err(format!("accessor {index}: {count} elements run past its buffer view"));
+    // Every offset and length is checked in u64 before anything is read or allocated:
+    // a count or offset near 2⁶⁴ must not wrap around into a small number.
+    let past = || format!("accessor {index}: {} elements run past its buffer view", a.count.0);
+    let view_start = view.byte_offset.map_or(0, |o| o.0);
+    let start = view_start.checked_add(a.byte_offset.map_or(0, |o| o.0)).ok_or_else(past)?;
+    let elem = (size * n) as u64;
+    let stride = view.byte_stride.map_or(elem, |s| s.0 as u64);
+    if stride < elem {
+        return Err(format!(
+            "accessor {index}: byteStride {stride} is shorter than an element ({elem} bytes)"
+        ));
     }
+    let end = view_start.checked_add(view.byte_length.0).ok_or_else(past)?.min(buf.len() as u64);
+    let count = a.count.0;
+    if count > 0 {
+        let last = (count - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(start))
+            .and_then(|x| x.checked_add(elem));
+        if last.is_none_or(|l| l > end) {
+            return Err(past());
+        }
+    }
+    let (count, start, stride) = (count as usize, start as usize, stride as usize);
     let mut out = Vec::with_capacity(count * n);
     for i in 0..count {
         for c in 0..n {

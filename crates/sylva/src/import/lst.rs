@@ -50,10 +50,11 @@
 //!    "lenient"), an error ("strict"), or a new root.
 //!
 //! "The same place" means within [`LstOptions::tolerance`] × max(1, |coordinates|) in
-//! every coordinate. A node keeps the radius it was made with: the r0 of a cylinder that
-//! starts at an existing node is not stored in the skeleton (meshers taper each internode
-//! from its parent node's radius, as for the turtle), but it is kept in
-//! [`LstBranch::start_radius`].
+//! every coordinate. A node keeps the radius it was made with (r1, or r0 for a root);
+//! every cylinder's r0 (for a bridge: its parent node's radius) is kept as the **start
+//! radius** of the internode ending at its top node ([`Skeleton::start_radius()`]), so
+//! the meshers build each cylinder as the truncated cone r0 → r1 even where r0 differs
+//! from the radius of the node it starts at. It is also in [`LstBranch::start_radius`].
 //!
 //! The seed's sample (Fig. 4.6) gives 6 cylinders and, under the lenient policy, one
 //! bridge: after its last `EB()` it moves 5 units up the trunk before the last cylinder.
@@ -90,11 +91,19 @@ pub struct LstOptions {
     pub tolerance: f64,
     /// Metres per LST unit, applied to positions, lengths and radii (default 1).
     pub scale: f64,
+    /// Most skeleton nodes the file may make (issue 27; default
+    /// [`crate::skeleton::DEFAULT_MAX_NODES`]).
+    pub max_nodes: usize,
 }
 
 impl Default for LstOptions {
     fn default() -> Self {
-        LstOptions { gap: GapPolicy::Bridge, tolerance: 1e-6, scale: 1.0 }
+        LstOptions {
+            gap: GapPolicy::Bridge,
+            tolerance: 1e-6,
+            scale: 1.0,
+            max_nodes: crate::skeleton::DEFAULT_MAX_NODES,
+        }
     }
 }
 
@@ -678,6 +687,7 @@ impl<'o> Builder<'o> {
                     let axis = d.normalize_or(frame.y_axis);
                     let bup = perpendicular(axis, [frame.x_axis, frame.z_axis, frame.y_axis]);
                     let bridge = self.node(start, r0.v, cur, bup, depth).map_err(fail)?;
+                    self.sk.set_start_radius(bridge as usize, Some(self.sk.radius[cur as usize]));
                     let s = self.opts.scale;
                     self.branches.push(LstBranch {
                         start_node: cur,
@@ -693,7 +703,12 @@ impl<'o> Builder<'o> {
                 }
             }
         };
+        let r0s = r0.v * self.opts.scale;
+        if !(r0s.is_finite() && r0s <= f64::from(crate::skeleton::MAX_COORDINATE)) {
+            return Err(fail(format!("radius {} is beyond the range of skeleton radii", fmt_num(r0s))));
+        }
         let node = self.node(top, r1.v, base, up, depth).map_err(fail)?;
+        self.sk.set_start_radius(node as usize, Some(r0s as f32));
         let s = self.opts.scale;
         self.branches.push(LstBranch {
             start_node: base,
@@ -714,9 +729,16 @@ impl<'o> Builder<'o> {
         if self.sk.len() >= (u32::MAX - 1) as usize {
             return Err("more skeleton nodes than u32 indices allow".into());
         }
+        if self.sk.len() >= self.opts.max_nodes {
+            return Err(format!(
+                "this cylinder makes more than {} skeleton nodes, the node budget ({})",
+                self.opts.max_nodes,
+                crate::skeleton::NODE_BUDGET_HELP
+            ));
+        }
         let s = self.opts.scale;
         let (ps, rs) = (p * s, r * s);
-        let max = f64::from(f32::MAX);
+        let max = f64::from(crate::skeleton::MAX_COORDINATE);
         if !ps.is_finite() || ps.abs().max_element() > max {
             return Err(format!("position {} is beyond the range of skeleton coordinates", fmt_point(ps)));
         }

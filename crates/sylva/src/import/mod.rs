@@ -45,7 +45,8 @@ pub fn load_skeleton(path: &Path) -> Result<Skeleton> {
     load_skeleton_with(path, &lst::LstOptions::default())
 }
 
-/// Like [`load_skeleton`], with explicit options for `.lst` files.
+/// Like [`load_skeleton`], with explicit options for `.lst` files (their node budget,
+/// [`lst::LstOptions::max_nodes`], bounds JSON skeletons too).
 pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleton> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let name = path.display().to_string();
@@ -56,7 +57,7 @@ pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleto
         }
         "json" => {
             let text = crate::fsutil::read_to_string(path)?;
-            skel_json::from_json_named(&name, &text)
+            skel_json::from_json_budget(&name, &text, opts.max_nodes)
         }
         _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS }),
     }

@@ -67,6 +67,12 @@ pub fn from_json(text: &str) -> Result<Skeleton> {
 
 /// [`from_json`] with a file name for the messages.
 pub fn from_json_named(name: &str, text: &str) -> Result<Skeleton> {
+    from_json_budget(name, text, crate::skeleton::DEFAULT_MAX_NODES)
+}
+
+/// [`from_json_named`] with a node budget (`generator.max_nodes`): a skeleton of more
+/// than `max_nodes` nodes is an error, checked before any node is built.
+pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skeleton> {
     let mut de = serde_json::Deserializer::from_str(text);
     let doc: JsonDoc = match serde_path_to_error::deserialize(&mut de) {
         Ok(doc) => match de.end() {
@@ -86,6 +92,14 @@ pub fn from_json_named(name: &str, text: &str) -> Result<Skeleton> {
         return Err(bad(format!(
             "unsupported skeleton version {}: this sylva reads version {JSON_VERSION}",
             doc.version
+        )));
+    }
+    if doc.nodes.len() > max_nodes {
+        return Err(bad(format!(
+            "{} nodes: more than the skeleton node budget of {} ({})",
+            doc.nodes.len(),
+            max_nodes,
+            crate::skeleton::NODE_BUDGET_HELP
         )));
     }
     let mut sk = Skeleton::new();

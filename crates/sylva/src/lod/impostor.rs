@@ -76,12 +76,9 @@ pub fn build(parts: &[Part], images: &[ModelImage], n: u32, size: u32, image_bas
         .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
         .ok_or_else(|| bad("LOD0 has no faces to draw".into()))?;
     let centre = (bounds.0 + bounds.1) * 0.5;
-    let radius = parts
-        .iter()
-        .flat_map(|p| p.mesh.positions.iter())
-        .map(|p| p.distance(centre))
-        .fold(0.0f32, f32::max)
-        * 1.01;
+    let radius =
+        parts.iter().flat_map(|p| p.mesh.positions.iter()).map(|p| p.distance(centre)).fold(0.0f32, f32::max)
+            * 1.01;
     if !(radius > 0.0 && radius.is_finite()) {
         return Err(bad(format!("LOD0 has no extent (radius {radius})")));
     }
@@ -161,10 +158,15 @@ fn pad(rgba: &mut [u8], f: usize) {
                         k += 1;
                     }
                 }
-                if k > 0 {
-                    for c in 0..3 {
-                        rgba[i * 4 + c] = ((sum[c] + k / 2) / k) as u8;
+                let half = k / 2;
+                let mut any = false;
+                for c in 0..3 {
+                    if let Some(v) = (sum[c] + half).checked_div(k) {
+                        rgba[i * 4 + c] = v as u8;
+                        any = true;
                     }
+                }
+                if any {
                     filled[i] = true;
                 }
             }
@@ -230,7 +232,11 @@ fn billboards(centre: Vec3, radius: f32, n: u32, frame: u32, size: u32, image_ba
         metallic: 0.0,
         roughness: 0.9,
         double_sided: true,
-        maps: MaterialMaps { base_color: Some(image_base), normal: Some(image_base + 1), ..Default::default() },
+        maps: MaterialMaps {
+            base_color: Some(image_base),
+            normal: Some(image_base + 1),
+            ..Default::default()
+        },
         alpha_cutoff: Some(0.5),
     };
     Part::new("impostor", mesh, material)

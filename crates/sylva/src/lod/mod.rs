@@ -340,7 +340,12 @@ pub fn build_chain(
                     .iter()
                     .map(|p| {
                         let n = p.mesh.triangle_count();
-                        PartReport { name: p.name.clone(), triangles: n, meshed: n, method: simplify::Method::Kept }
+                        PartReport {
+                            name: p.name.clone(),
+                            triangles: n,
+                            meshed: n,
+                            method: simplify::Method::Kept,
+                        }
                     })
                     .collect(),
                 cards: 0,
@@ -361,7 +366,12 @@ pub fn build_chain(
                 "LOD{k}: {} triangles, {:+.1} % off its budget of {budget} (parts: {})",
                 report.triangles,
                 off * 100.0,
-                report.parts.iter().map(|p| format!("{} {}", p.name, p.triangles)).collect::<Vec<_>>().join(", ")
+                report
+                    .parts
+                    .iter()
+                    .map(|p| format!("{} {}", p.name, p.triangles))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
         }
         if k == 0 {
@@ -377,7 +387,13 @@ pub fn build_chain(
     if opts.impostor {
         let t = Instant::now();
         let parts = lod0_parts.as_deref().unwrap_or(&flat.parts);
-        let imp = impostor::build(parts, &full.images, opts.atlas_frames, opts.atlas_size, full.images.len() as u32)?;
+        let imp = impostor::build(
+            parts,
+            &full.images,
+            opts.atlas_frames,
+            opts.atlas_size,
+            full.images.len() as u32,
+        )?;
         let c = *cov.last().unwrap_or(&0.0);
         let n = imp.part.mesh.triangle_count();
         chain.levels.push(LevelReport {
@@ -424,7 +440,8 @@ impl Context<'_> {
 
     /// Estimated bark triangles of `internodes` internodes at `sides` sides, refined or not.
     fn bark_estimate(&self, internodes: usize, sides: u32, refine: bool) -> f64 {
-        let per = self.bark as f64 / (self.internodes as f64 * self.opts.sides as f64 * self.opts.refine_factor as f64);
+        let per = self.bark as f64
+            / (self.internodes as f64 * self.opts.sides as f64 * self.opts.refine_factor as f64);
         per * internodes as f64 * sides as f64 * if refine { self.opts.refine_factor as f64 } else { 1.0 }
     }
 
@@ -515,14 +532,22 @@ impl Context<'_> {
             if let Some(m) = material_of(full, &part.name) {
                 part.material = m.clone();
             }
-            reports.push(PartReport { name: part.name.clone(), triangles: part.mesh.triangle_count(), meshed: n, method });
+            reports.push(PartReport {
+                name: part.name.clone(),
+                triangles: part.mesh.triangle_count(),
+                meshed: n,
+                method,
+            });
             if part.mesh.face_count() > 0 {
                 parts.push(part);
             }
         }
         let triangles = reports.iter().map(|p| p.triangles).sum();
-        let cards_made =
-            parts.iter().filter(|p| p.name == "leaf_cards").map(|p| p.mesh.triangle_count() / CARD_TRIANGLES).sum();
+        let cards_made = parts
+            .iter()
+            .filter(|p| p.name == "leaf_cards")
+            .map(|p| p.mesh.triangle_count() / CARD_TRIANGLES)
+            .sum();
         let report = LevelReport {
             kind: LevelKind::Rebuilt,
             budget: Some(budget),

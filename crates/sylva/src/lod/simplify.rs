@@ -58,7 +58,8 @@ pub fn simplify(mesh: &Mesh, target: usize, what: &str) -> Result<(Mesh, Method)
         // units along a branch, and a seam is kept anyway).
         let mut attrs = Vec::with_capacity(t.keys.len() * 5);
         for k in &t.keys {
-            let n = mesh.normals.as_ref().and_then(|c| c.values.get(k[2] as usize)).copied().unwrap_or_default();
+            let n =
+                mesh.normals.as_ref().and_then(|c| c.values.get(k[2] as usize)).copied().unwrap_or_default();
             let uv = mesh.uvs.as_ref().and_then(|c| c.values.get(k[1] as usize)).copied().unwrap_or_default();
             attrs.extend([n.x, n.y, n.z, uv.x, uv.y]);
         }
@@ -184,7 +185,10 @@ mod tests {
         let (out, method) = simplify(&m, before / 5, "test").unwrap();
         out.validate().unwrap();
         let after = out.triangle_count();
-        assert!((after as f64 - (before / 5) as f64).abs() <= 0.1 * (before / 5) as f64, "{before} → {after}");
+        assert!(
+            (after as f64 - (before / 5) as f64).abs() <= 0.1 * (before / 5) as f64,
+            "{before} → {after}"
+        );
         assert_ne!(method, Method::Kept);
         assert_eq!(out.uvs.is_some(), m.uvs.is_some());
         assert_eq!(out.normals.is_some(), m.normals.is_some());

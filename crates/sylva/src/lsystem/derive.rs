@@ -21,12 +21,48 @@ fn error_words(kind: ErrorKind) -> &'static str {
         ErrorKind::DivisionByZero => "division by zero",
         ErrorKind::OutOfRange => "an array index or loop count out of range",
         ErrorKind::UndefinedName => "a function that the model does not define",
+        ErrorKind::Budget => "the derivation's work budget is used up",
         _ => "the result is not a finite number",
     }
 }
 
 /// Default limit on the number of modules in a derived string.
 pub const DEFAULT_MODULE_BUDGET: usize = 50_000_000;
+
+/// Work allowed per module of the module budget (issue 27): a derivation, with its
+/// decomposition, homomorphism, query passes and environmental program, may do at most
+/// `WORK_PER_MODULE × budget` units of work (each rewritten or written module counts
+/// [`MODULE_WORK`], each module of a query pass [`QUERY_WORK`], each expression
+/// operation, loop iteration of a block and context scan step one, each step
+/// [`STEP_WORK`]), so a grammar that would derive for
+/// minutes stops with an error naming `generator.max_modules`, which raises both.
+pub const WORK_PER_MODULE: u64 = 64;
+
+/// Work charged for each module a step reads or writes.
+pub const MODULE_WORK: u64 = 4;
+
+/// Work charged for each module of a query pass (the turtle runs over the whole string
+/// after every step of a model with `?P`, `?H`, `?U`, `?L` or `?E` modules; a turtle
+/// step costs about ten times a rewritten module).
+pub const QUERY_WORK: u64 = 64;
+
+/// Work charged for each derivation step, whatever its length (a short string derived
+/// for billions of steps runs out of budget too).
+pub const STEP_WORK: u64 = 256;
+
+/// Most parameters a derived string may hold per module of the module budget (its
+/// parameters are one `f64` array with `u32` offsets, so also at most `u32::MAX`).
+pub const PARAMS_PER_MODULE: usize = 4;
+
+/// The work budget of a module budget.
+pub fn work_budget(module_budget: usize) -> u64 {
+    (module_budget as u64).saturating_mul(WORK_PER_MODULE)
+}
+
+/// The parameter budget of a module budget.
+pub fn param_budget(module_budget: usize) -> usize {
+    module_budget.saturating_mul(PARAMS_PER_MODULE).min(u32::MAX as usize)
+}
 
 /// Options of a derivation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,7 +107,22 @@ impl LSystem {
     /// An evaluator for a derivation: globals initialised, the `define:` and `Start:`
     /// blocks run, `functions` available to `func(id, x)`.
     pub fn evaluator(&self, seed: u64, functions: ModelFunctions) -> Result<Evaluator, Box<LsystemError>> {
+        self.evaluator_within(seed, functions, usize::MAX)
+    }
+
+    /// [`LSystem::evaluator`] whose work and strings are limited by the module budget
+    /// `budget` ([`work_budget`]).
+    pub fn evaluator_within(
+        &self,
+        seed: u64,
+        functions: ModelFunctions,
+        budget: usize,
+    ) -> Result<Evaluator, Box<LsystemError>> {
         let mut ev = Evaluator::new(seed);
+        if budget != usize::MAX {
+            ev.work_limit = work_budget(budget);
+            ev.module_limit = budget;
+        }
         ev.globals = self.globals.init.clone();
         ev.functions = functions;
         for (block, what) in [(&self.define_block, "the define: block"), (&self.start, "the Start: block")] {
@@ -104,6 +155,7 @@ impl LSystem {
                 buf.push(v);
             }
             self.expand(&self.decomposition, "decomposition", m.sym, &buf, 0, &mut out, ev, &mut scratch)?;
+            self.charge_module(ev, &out)?;
         }
         Ok(out)
     }
@@ -153,32 +205,112 @@ impl LSystem {
                 )));
         }
         let env = if self.environment_at.is_some() { env } else { None };
-        let queries = |m: &mut ModuleString| match turtle {
+        let queries = |m: &mut ModuleString, ev: &mut Evaluator| match turtle {
             Some(t) if self.has_queries || env.is_some() => {
-                super::turtle::answer_queries(&self.symbols, m, t, &self.source, env)
+                // A query pass runs the turtle over the whole string.
+                ev.charge(QUERY_WORK.saturating_mul(m.len() as u64), 0)
+                    .map_err(|e| self.eval_error(e, "answering the query modules", None))?;
+                let left = ev.work_limit.saturating_sub(ev.work);
+                let used =
+                    super::turtle::answer_queries_within(&self.symbols, m, t, &self.source, env, left)?;
+                ev.charge(used, 0).map_err(|e| self.eval_error(e, "running the environmental program", None))
             }
             _ => Ok(()),
         };
-        let mut ev = self.evaluator(opts.seed, functions)?;
-        let mut cur = self.axiom_string(&mut ev)?;
-        if cur.len() > opts.budget {
-            return Err(self.budget_error(0, opts, cur.len()));
-        }
-        queries(&mut cur)?;
-        let mut next = ModuleString::new();
-        for step in 1..=opts.steps {
-            self.run_block(&self.start_each, &mut ev, "the StartEach: block")?;
-            self.step(&cur, &mut next, &mut ev, opts, step)?;
-            std::mem::swap(&mut cur, &mut next);
-            queries(&mut cur)?;
-            self.run_block(&self.end_each, &mut ev, "the EndEach: block")?;
-            ev.steps_done = step;
-            if ev.stopped {
-                break;
+        let mut ev =
+            self.evaluator_within(opts.seed, functions, opts.budget).map_err(|e| self.work_note(e, opts))?;
+        let result = (|| {
+            let mut cur = self.axiom_string(&mut ev)?;
+            if cur.len() > opts.budget {
+                return Err(self.budget_error(0, opts, cur.len()));
             }
+            queries(&mut cur, &mut ev)?;
+            let mut next = ModuleString::new();
+            for step in 1..=opts.steps {
+                ev.charge(STEP_WORK, 0)
+                    .map_err(|e| self.eval_error(e, &format!("starting step {step}"), None))?;
+                self.run_block(&self.start_each, &mut ev, "the StartEach: block")?;
+                self.step(&cur, &mut next, &mut ev, opts, step)?;
+                std::mem::swap(&mut cur, &mut next);
+                queries(&mut cur, &mut ev)?;
+                self.run_block(&self.end_each, &mut ev, "the EndEach: block")?;
+                ev.steps_done = step;
+                if ev.stopped {
+                    break;
+                }
+            }
+            self.run_block(&self.end, &mut ev, "the End: block")?;
+            Ok(cur)
+        })();
+        match result {
+            Ok(cur) => Ok((cur, ev)),
+            Err(e) => Err(self.work_note(e, opts)),
         }
-        self.run_block(&self.end, &mut ev, "the End: block")?;
-        Ok((cur, ev))
+    }
+
+    /// Adds the numbers and the key to an exhausted work budget's message.
+    fn work_note(&self, mut e: Box<LsystemError>, opts: &DeriveOptions) -> Box<LsystemError> {
+        if e.kind == ErrorKind::Budget && e.message.contains("work budget") {
+            e.message = format!(
+                "{}: more than {} units of work ({WORK_PER_MODULE} per module of the module budget \
+                 generator.max_modules = {})",
+                e.message,
+                work_budget(opts.budget),
+                opts.budget
+            );
+            e.with_help(
+                "the grammar does too much work (an endless loop, a string that is rewritten for \
+                 very many steps, or quadratic context matching): derive fewer steps (-n) or raise the \
+                 budget with --set generator.max_modules=N",
+            )
+        } else {
+            e
+        }
+    }
+
+    /// Charges one written module and checks the string against the module and
+    /// parameter budgets of `ev`.
+    #[inline]
+    fn charge_module(&self, ev: &mut Evaluator, out: &ModuleString) -> Result<(), Box<LsystemError>> {
+        ev.charge(MODULE_WORK, 0).map_err(|e| self.eval_error(e, "writing the string", None))?;
+        if out.syms.len() > ev.module_limit {
+            return Err(self.size_error(
+                ev,
+                "the derived string",
+                out.syms.len(),
+                "modules",
+                ev.module_limit,
+            ));
+        }
+        let params = param_budget(ev.module_limit);
+        if out.params.len() > params {
+            return Err(self.size_error(ev, "the derived string", out.params.len(), "parameters", params));
+        }
+        Ok(())
+    }
+
+    fn size_error(
+        &self,
+        ev: &Evaluator,
+        what: &str,
+        len: usize,
+        unit: &str,
+        limit: usize,
+    ) -> Box<LsystemError> {
+        let per = if unit == "parameters" {
+            format!(" ({PARAMS_PER_MODULE} per module of the module budget)")
+        } else {
+            String::new()
+        };
+        self.source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "{what} exceeds the module budget after {} step(s): more than {limit} {unit}{per} (reached {len})",
+                    ev.steps_done
+                ),
+            )
+            .with_help("derive fewer steps (-n) or raise the limit with --set generator.max_modules=N")
     }
 
     /// One parallel rewriting step from `cur` into `out` (cleared first).
@@ -215,9 +347,12 @@ impl LSystem {
         let mut tmp = ModuleString::new();
         let mut scratch = Vec::new();
         let mut next = 0;
+        let params_limit = param_budget(opts.budget);
         while next < cur.len() {
             let i = next;
             next += 1;
+            ev.charge(MODULE_WORK, 0)
+                .map_err(|e| self.eval_error(e, &format!("rewriting step {step}"), None))?;
             let (sym, params) = cur.module(i);
             // The L-system whose rules apply here: a sub-L-system between `?(n, s)`
             // and its `$`, else this one.
@@ -287,7 +422,24 @@ impl LSystem {
             if out.syms.len() > opts.budget {
                 return Err(self.budget_error(step, opts, out.syms.len()));
             }
+            if out.params.len() > params_limit {
+                let e = self.source.error_nowhere(
+                    ErrorKind::Budget,
+                    &format!(
+                        "derivation step {step} of {} exceeds the module budget: more than {params_limit} \
+                         parameters ({PARAMS_PER_MODULE} per module of generator.max_modules = {}; reached {})",
+                        opts.steps,
+                        opts.budget,
+                        out.params.len()
+                    ),
+                );
+                return Err(e.with_help(
+                    "derive fewer steps (-n) or raise the limit with --set generator.max_modules=N",
+                ));
+            }
         }
+        ev.charge(MODULE_WORK.saturating_mul(out.len() as u64), 0)
+            .map_err(|e| self.eval_error(e, &format!("writing step {step}"), None))?;
         Ok(())
     }
 
@@ -438,11 +590,15 @@ impl LSystem {
                 }
                 buf.extend_from_slice(q);
             }
-            if !p.left.is_empty() && !self.match_left(&p.left, i, cur, brackets, buf) {
-                return Ok(None);
-            }
+            let mut scanned = 0u64;
+            let left_ok = p.left.is_empty() || self.match_left(&p.left, i, cur, brackets, buf, &mut scanned);
             let after = i + 1 + p.rest.len();
-            if !p.right.is_empty() && !self.match_right(&p.right, 0, after, cur, brackets, buf) {
+            let ok = left_ok
+                && (p.right.is_empty()
+                    || self.match_right(&p.right, 0, after, cur, brackets, buf, &mut scanned));
+            ev.charge(scanned, p.at)
+                .map_err(|e| self.eval_error(e, "matching the context", Some((p, params))))?;
+            if !ok {
                 return Ok(None);
             }
         }
@@ -474,6 +630,7 @@ impl LSystem {
         cur: &ModuleString,
         brackets: &[u32],
         buf: &mut Vec<f64>,
+        scanned: &mut u64,
     ) -> bool {
         let open = self.symbols.get("[");
         let close = self.symbols.get("]");
@@ -485,6 +642,7 @@ impl LSystem {
         let mut wrapped = false;
         for (k, &(sym, ar)) in left.iter().enumerate().rev() {
             loop {
+                *scanned += 1;
                 if pos < 0 {
                     // A ring L-system's string is circular: wrap once, never onto i.
                     if !self.ring || wrapped {
@@ -524,6 +682,7 @@ impl LSystem {
     /// skipped, the end of the current branch stops the match; a `[` in the context
     /// descends into a following branch (any sibling may match) and a `]` in the context
     /// continues after the end of the current branch.
+    #[allow(clippy::too_many_arguments)]
     fn match_right(
         &self,
         ctx: &[ContextItem],
@@ -532,6 +691,7 @@ impl LSystem {
         cur: &ModuleString,
         brackets: &[u32],
         buf: &mut Vec<f64>,
+        scanned: &mut u64,
     ) -> bool {
         if k == ctx.len() {
             return true;
@@ -546,12 +706,14 @@ impl LSystem {
                 loop {
                     while p < n && skip(cur.syms[p]) {
                         p += 1;
+                        *scanned += 1;
                     }
+                    *scanned += 1;
                     if p >= n || Some(cur.syms[p]) != open {
                         return false;
                     }
                     let mark = buf.len();
-                    if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf) {
+                    if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf, scanned) {
                         return true;
                     }
                     buf.truncate(mark);
@@ -561,11 +723,12 @@ impl LSystem {
             ContextItem::Close => {
                 let mut p = pos;
                 while p < n {
+                    *scanned += 1;
                     let s = cur.syms[p];
                     if Some(s) == open {
                         p = brackets[p] as usize + 1;
                     } else if Some(s) == close {
-                        return self.match_right(ctx, k + 1, p + 1, cur, brackets, buf);
+                        return self.match_right(ctx, k + 1, p + 1, cur, brackets, buf, scanned);
                     } else {
                         p += 1;
                     }
@@ -576,6 +739,7 @@ impl LSystem {
                 let mut p = pos;
                 let mut wrapped = false;
                 loop {
+                    *scanned += 1;
                     if p >= n {
                         // A ring L-system's string is circular: the first context module
                         // may wrap around once, never onto the predecessor.
@@ -606,7 +770,7 @@ impl LSystem {
                 }
                 let mark = buf.len();
                 buf.extend_from_slice(params);
-                if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf) {
+                if self.match_right(ctx, k + 1, p + 1, cur, brackets, buf, scanned) {
                     return true;
                 }
                 buf.truncate(mark);
@@ -659,44 +823,105 @@ impl LSystem {
         ev: &mut Evaluator,
         scratch: &mut Vec<f64>,
     ) -> Result<(), Box<LsystemError>> {
-        let prods = match rules.by_symbol.get(sym as usize) {
-            Some(p) if !p.is_empty() => p,
-            _ => {
-                out.push(sym, params);
-                return Ok(());
-            }
-        };
-        let mut buf = Vec::new();
-        let Some((k, uses_buf)) = self.select(&rules.productions, prods, params, None, ev, &mut buf)? else {
+        if rules.by_symbol.get(sym as usize).is_none_or(|p| p.is_empty()) {
             out.push(sym, params);
-            return Ok(());
-        };
-        if depth >= rules.max_depth {
-            if rules.depth_explicit {
-                let p = &rules.productions[k];
-                return Err(self.source.error(
-                    ErrorKind::OutOfRange,
-                    p.at as usize,
-                    p.len as usize,
-                    &format!(
-                        "module {} still has a {what} production at the maximum depth {} (line {})",
-                        self.format_module(sym, params),
-                        rules.max_depth,
-                        p.line
-                    ),
-                    "applies past the maximum depth",
+            return self.charge_expanded(what, ev, out);
+        }
+        // Depth first with an explicit stack (modules still to expand, last on top, and
+        // their depths): `maximum depth: 10000` must not overflow the thread's stack.
+        let mut pending = ModuleString::new();
+        let mut depths: Vec<u32> = Vec::new();
+        pending.push(sym, params);
+        depths.push(depth);
+        let mut cur: Vec<f64> = Vec::new();
+        let mut buf = Vec::new();
+        let mut tmp = ModuleString::new();
+        while let Some(depth) = depths.pop() {
+            let sym = pending.syms.pop().expect("one module per depth");
+            pending.pofs.pop();
+            let from = *pending.pofs.last().expect("pofs starts with 0") as usize;
+            cur.clear();
+            cur.extend_from_slice(&pending.params[from..]);
+            pending.params.truncate(from);
+            let prods = match rules.by_symbol.get(sym as usize) {
+                Some(p) if !p.is_empty() => p,
+                _ => {
+                    out.push(sym, &cur);
+                    self.charge_expanded(what, ev, out)?;
+                    continue;
+                }
+            };
+            ev.charge(MODULE_WORK, 0)
+                .map_err(|e| self.eval_error(e, &format!("applying the {what}"), None))?;
+            let Some((k, uses_buf)) = self.select(&rules.productions, prods, &cur, None, ev, &mut buf)?
+            else {
+                out.push(sym, &cur);
+                self.charge_expanded(what, ev, out)?;
+                continue;
+            };
+            if depth >= rules.max_depth {
+                if rules.depth_explicit {
+                    let p = &rules.productions[k];
+                    return Err(self.source.error(
+                        ErrorKind::OutOfRange,
+                        p.at as usize,
+                        p.len as usize,
+                        &format!(
+                            "module {} still has a {what} production at the maximum depth {} (line {})",
+                            self.format_module(sym, &cur),
+                            rules.max_depth,
+                            p.line
+                        ),
+                        "applies past the maximum depth",
+                    ));
+                }
+                out.push(sym, &cur);
+                self.charge_expanded(what, ev, out)?;
+                continue;
+            }
+            let p = &rules.productions[k];
+            let locals: &[f64] = if uses_buf { &buf } else { &cur };
+            tmp.syms.clear();
+            tmp.params.clear();
+            tmp.pofs.clear();
+            tmp.pofs.push(0);
+            self.emit(p, locals, &mut tmp, ev, scratch)?;
+            // The successor's modules, first on top.
+            for j in (0..tmp.len()).rev() {
+                let (s2, p2) = tmp.module(j);
+                pending.push(s2, p2);
+                depths.push(depth + 1);
+            }
+            if pending.params.len() > param_budget(ev.module_limit) || pending.len() > ev.module_limit {
+                return Err(self.size_error(
+                    ev,
+                    &format!("the {what}"),
+                    pending.len(),
+                    "pending modules",
+                    ev.module_limit,
                 ));
             }
-            out.push(sym, params);
-            return Ok(());
         }
-        let p = &rules.productions[k];
-        let locals: Vec<f64> = if uses_buf { buf } else { params.to_vec() };
-        let mut tmp = ModuleString::new();
-        self.emit(p, &locals, &mut tmp, ev, scratch)?;
-        for j in 0..tmp.len() {
-            let (s2, p2) = tmp.module(j);
-            self.expand(rules, what, s2, p2, depth + 1, out, ev, scratch)?;
+        Ok(())
+    }
+
+    /// After `expand` wrote a module: the module and parameter budgets, checked while
+    /// a decomposition or homomorphism writes, so a recursive rule cannot run away
+    /// inside one module.
+    #[inline]
+    fn charge_expanded(
+        &self,
+        what: &str,
+        ev: &mut Evaluator,
+        out: &ModuleString,
+    ) -> Result<(), Box<LsystemError>> {
+        if out.syms.len() > ev.module_limit || out.params.len() > param_budget(ev.module_limit) {
+            let (len, unit, limit) = if out.syms.len() > ev.module_limit {
+                (out.syms.len(), "modules", ev.module_limit)
+            } else {
+                (out.params.len(), "parameters", param_budget(ev.module_limit))
+            };
+            return Err(self.size_error(ev, &format!("the {what}"), len, unit, limit));
         }
         Ok(())
     }
@@ -738,6 +963,10 @@ impl LSystem {
             ),
             None => String::new(),
         };
+        if e.kind == ErrorKind::Budget && e.at == 0 && prod.is_none() {
+            // Work charged for the string as a whole has no place in the file.
+            return self.source.error_nowhere(e.kind, &format!("{what} while {doing}{context}"));
+        }
         self.source.error(e.kind, e.at as usize, 1, &format!("{what} while {doing}{context}"), what)
     }
 
@@ -766,15 +995,37 @@ impl LSystem {
             return Ok(std::borrow::Cow::Borrowed(m));
         }
         let owner = self.owners(m)?;
-        let mut out = ModuleString::with_capacity(m.len(), m.params.len());
+        let mut out =
+            ModuleString::with_capacity(m.len().min(budget), m.params.len().min(param_budget(budget)));
         let mut scratch = Vec::new();
+        // The homomorphism has a work budget of its own, as large as the derivation's.
+        let saved = (ev.module_limit, ev.work_limit);
+        ev.module_limit = budget;
+        ev.work_limit = ev.work.saturating_add(work_budget(budget));
+        let r = self.interpret_into(m, ev, budget, &owner, &mut out, &mut scratch);
+        (ev.module_limit, ev.work_limit) = saved;
+        r?;
+        Ok(std::borrow::Cow::Owned(out))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn interpret_into(
+        &self,
+        m: &ModuleString,
+        ev: &mut Evaluator,
+        budget: usize,
+        owner: &[u16],
+        out: &mut ModuleString,
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), Box<LsystemError>> {
         for i in 0..m.len() {
             let (sym, params) = m.module(i);
             let sys = match owner.get(i) {
                 Some(&k) if k > 0 => &self.subsystems[k as usize - 1].lsystem,
                 _ => self,
             };
-            sys.expand(&sys.homomorphism, "homomorphism", sym, params, 0, &mut out, ev, &mut scratch)?;
+            sys.expand(&sys.homomorphism, "homomorphism", sym, params, 0, out, ev, scratch)
+                .map_err(|e| self.work_note(e, &DeriveOptions { steps: 0, budget, seed: 0 }))?;
             if out.len() > budget {
                 let e = self.source.error_nowhere(
                     ErrorKind::Budget,
@@ -783,7 +1034,7 @@ impl LSystem {
                 return Err(e.with_help("raise the limit with --set generator.max_modules=N"));
             }
         }
-        Ok(std::borrow::Cow::Owned(out))
+        Ok(())
     }
 
     /// One module as text: `A(1,0.5)`.

@@ -78,18 +78,29 @@ impl Environment {
 
     /// Answers every sensor: writes the program's responses into `sensors[i].values`.
     pub fn respond(&self, sensors: &mut [Sensor]) {
+        let _ = self.respond_within(sensors, u64::MAX);
+    }
+
+    /// [`Environment::respond`] doing at most `work` units of work (one per neighbour
+    /// tested, one per sensor): `Ok(work done)`, or `Err(work)` when that was not enough
+    /// (sensors piled up in one place make the neighbour search quadratic), with the
+    /// sensors left unanswered.
+    pub fn respond_within(&self, sensors: &mut [Sensor], work: u64) -> Result<u64, u64> {
         match *self {
-            Environment::Honda81 { radius } => honda81(sensors, radius),
+            Environment::Honda81 { radius } => honda81(sensors, radius, work),
         }
     }
 }
 
+/// The grid cell of `p`; coordinates beyond ±2⁶² cells are clamped (the cell index of a
+/// far-away sensor must not overflow when its neighbours are visited).
 fn cell(p: DVec3, size: f64) -> (i64, i64, i64) {
-    let c = (p / size).floor();
+    const FAR: f64 = (1u64 << 62) as f64;
+    let c = (p / size).floor().clamp(DVec3::splat(-FAR), DVec3::splat(FAR));
     (c.x as i64, c.y as i64, c.z as i64)
 }
 
-fn honda81(sensors: &mut [Sensor], radius: f64) {
+fn honda81(sensors: &mut [Sensor], radius: f64, work: u64) -> Result<u64, u64> {
     let mut grid: HashMap<(i64, i64, i64), Vec<usize>> = HashMap::new();
     for (i, s) in sensors.iter().enumerate() {
         if s.position.is_finite() {
@@ -98,39 +109,50 @@ fn honda81(sensors: &mut [Sensor], radius: f64) {
     }
     let vigor = |s: &Sensor| s.values.first().copied().unwrap_or(0.0);
     let r2 = radius * radius;
-    let answers: Vec<f64> = sensors
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            if !s.position.is_finite() {
-                return 0.0;
-            }
-            let (cx, cy, cz) = cell(s.position, radius);
-            let v = vigor(s);
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let Some(list) = grid.get(&(cx + dx, cy + dy, cz + dz)) else { continue };
-                        for &j in list {
-                            if j != i
-                                && sensors[j].position.distance_squared(s.position) < r2
-                                && vigor(&sensors[j]) >= v
-                            {
-                                return 0.0;
-                            }
+    let mut used = 0u64;
+    let mut answers: Vec<f64> = Vec::with_capacity(sensors.len());
+    for (i, s) in sensors.iter().enumerate() {
+        used = used.saturating_add(1);
+        if used > work {
+            return Err(work);
+        }
+        if !s.position.is_finite() {
+            answers.push(0.0);
+            continue;
+        }
+        let (cx, cy, cz) = cell(s.position, radius);
+        let v = vigor(s);
+        let mut answer = 1.0;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = (cx.wrapping_add(dx), cy.wrapping_add(dy), cz.wrapping_add(dz));
+                    let Some(list) = grid.get(&key) else { continue };
+                    used = used.saturating_add(list.len() as u64);
+                    if used > work {
+                        return Err(work);
+                    }
+                    for &j in list {
+                        if j != i
+                            && sensors[j].position.distance_squared(s.position) < r2
+                            && vigor(&sensors[j]) >= v
+                        {
+                            answer = 0.0;
+                            break 'search;
                         }
                     }
                 }
             }
-            1.0
-        })
-        .collect();
+        }
+        answers.push(answer);
+    }
     for (s, a) in sensors.iter_mut().zip(answers) {
         match s.values.first_mut() {
             Some(x) => *x = a,
             None => s.values.push(a),
         }
     }
+    Ok(used)
 }
 
 #[cfg(test)]

@@ -33,6 +33,10 @@ pub struct Global {
     pub dims: Vec<u32>,
 }
 
+/// Most numbers all global variables and arrays of an L-system hold together (2²⁵, so
+/// 256 MiB): several arrays of the 2²⁴ elements one may have cannot add up to gigabytes.
+pub const MAX_GLOBAL_SLOTS: u64 = 1 << 25;
+
 /// The global variables of an L-system: names, slots and initial values.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Globals {
@@ -58,6 +62,12 @@ impl Globals {
         let len: u64 = dims.iter().map(|&d| d as u64).product();
         if len == 0 || len > 1 << 24 {
             return Err(format!("array `{name}` has {len} elements (allowed 1..16777216)"));
+        }
+        if self.init.len() as u64 + len > MAX_GLOBAL_SLOTS {
+            return Err(format!(
+                "array `{name}` has {len} elements: with the L-system's other globals that is more than \
+                 {MAX_GLOBAL_SLOTS} numbers, the limit on all of its arrays together"
+            ));
         }
         if values.len() as u64 > len {
             return Err(format!("array `{name}` has {len} elements but {} initial values", values.len()));
@@ -364,6 +374,15 @@ pub struct Evaluator {
     /// Derivation steps applied so far.
     pub steps_done: u32,
     loops: u64,
+    /// Work done so far (issue 27): expression operations, loop iterations and, counted
+    /// by the derivation, rewritten modules, context scan steps and turtle passes.
+    pub work: u64,
+    /// The work budget: evaluation fails with [`ErrorKind::Budget`] past it
+    /// (`u64::MAX`, no limit, unless a derivation sets one).
+    pub work_limit: u64,
+    /// Most modules a string written through this evaluator (derivation, decomposition,
+    /// homomorphism) may hold: the module budget, `usize::MAX` unless a derivation sets it.
+    pub module_limit: usize,
 }
 
 impl std::fmt::Debug for Evaluator {
@@ -387,6 +406,9 @@ impl Evaluator {
             stopped: false,
             steps_done: 0,
             loops: 0,
+            work: 0,
+            work_limit: u64::MAX,
+            module_limit: usize::MAX,
         }
     }
 
@@ -418,7 +440,18 @@ impl Evaluator {
         }
     }
 
+    /// Counts `units` of work; an error past [`Evaluator::work_limit`].
+    #[inline]
+    pub fn charge(&mut self, units: u64, at: u32) -> Result<(), EvalError> {
+        self.work = self.work.saturating_add(units);
+        if self.work > self.work_limit {
+            return Err(EvalError { kind: ErrorKind::Budget, at });
+        }
+        Ok(())
+    }
+
     fn run<S: Slots>(&mut self, e: &Expr, mut locals: S) -> Result<f64, EvalError> {
+        self.charge(e.ops.len() as u64, e.at)?;
         let st = &mut self.stack;
         st.clear();
         let globals = &mut self.globals;
@@ -506,6 +539,14 @@ impl Evaluator {
                     st.push(0.0);
                 }
                 Op::Call(f, at) => {
+                    if f == Func::Biran {
+                        // biran(n, p) draws n times.
+                        let n = st.len().checked_sub(2).map_or(0.0, |k| st[k]).clamp(0.0, 1e6) as u64;
+                        self.work = self.work.saturating_add(n);
+                        if self.work > self.work_limit {
+                            return Err(EvalError { kind: ErrorKind::Budget, at });
+                        }
+                    }
                     let v = call(f, st, &mut self.rng, &self.functions)
                         .ok_or(EvalError { kind: ErrorKind::UndefinedName, at })?;
                     st.push(v);
@@ -555,6 +596,11 @@ impl Evaluator {
                     self.loops += 1;
                     if self.loops > LOOP_LIMIT {
                         return Err(EvalError { kind: ErrorKind::OutOfRange, at });
+                    }
+                    // A loop iteration runs its body again: charge the whole block.
+                    self.work = self.work.saturating_add(ops.len() as u64);
+                    if self.work > self.work_limit {
+                        return Err(EvalError { kind: ErrorKind::Budget, at });
                     }
                 }
             }
@@ -681,7 +727,8 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunctions) -> Op
         UserFunc => {
             let x = pop();
             let id = pop();
-            let k = id as i64 - 1;
+            // Saturating: `func(-1e308, x)` is no function, not an overflow.
+            let k = (id as i64).saturating_sub(1);
             if k < 0 || k as usize >= ext.functions.len() {
                 return None;
             }
@@ -689,7 +736,7 @@ fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunctions) -> Op
         }
         CurveX | CurveY | CurveZ | CurveGal => {
             let t = if f == CurveGal { 0.0 } else { pop() };
-            let id = pop() as i64 - 1;
+            let id = (pop() as i64).saturating_sub(1);
             let c = ext.curves.get(usize::try_from(id).ok()?)?;
             match f {
                 CurveX => c.at(t).x,

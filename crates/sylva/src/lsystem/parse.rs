@@ -1152,6 +1152,11 @@ impl LSystem {
         self.check_symbol(&name, i)?;
         let sym = self.intern(&name, i)?;
         let mut params = Vec::new();
+        // Blanks may separate a module from its parameters, as in cpfg: `A (x)`.
+        let open = skip_ws(s, next, end);
+        if open < end && s[open] == b'(' {
+            next = open;
+        }
         if next < end && s[next] == b'(' {
             let close = matching(s, next, end, b'(', b')').ok_or_else(|| {
                 self.source.error(
@@ -1259,6 +1264,11 @@ impl LSystem {
             let sym = self.intern(&name, i)?;
             let at = i;
             i = next;
+            // cpfg accepts blanks between a module and its parameters: `F (1)`, `\ (90)`.
+            let open = skip_ws(s, i, end);
+            if open < end && s[open] == b'(' {
+                i = open;
+            }
             let mut args = Vec::new();
             if i < end && s[i] == b'(' {
                 let close = matching(s, i, end, b'(', b')').ok_or_else(|| {

@@ -19,6 +19,14 @@ use std::sync::Arc;
 /// name and the text, or `None` when there is no such file.
 pub type IncludeResolver<'a> = &'a dyn Fn(&str) -> Option<(String, String)>;
 
+/// Most characters one logical line may expand to (issue 27: `#define A B B`,
+/// `#define B C C`, … doubles at every level; C preprocessors have no such limit, an
+/// L-system file has no use for a longer line).
+pub const MAX_EXPANDED_LINE: usize = 1 << 20;
+
+/// Most characters the whole preprocessed text may have.
+pub const MAX_PREPROCESSED: usize = 1 << 26;
+
 struct Cond {
     active: bool,
     taken: bool,
@@ -78,7 +86,14 @@ impl Source {
             let s: String = line.iter().map(|&(c, _)| c).collect();
             let trimmed = s.trim_start();
             let active = conds.last().map(|c| c.active).unwrap_or(true);
-            if let Some(rest) = trimmed.strip_prefix('#') {
+            // A directive is `#`, optional blanks, then a name (or nothing: the null
+            // directive). `#(0.06) F(5)` — cpfg's width module opening a successor's
+            // continuation line — is L-system text, not a directive (issue 26: it was
+            // taken for a null directive and silently dropped).
+            let directive = trimmed
+                .strip_prefix('#')
+                .filter(|rest| rest.trim_start().chars().next().is_none_or(|c| c.is_ascii_alphabetic()));
+            if let Some(rest) = directive {
                 let lead = s.chars().count() - trimmed.chars().count();
                 let at = line.get(lead).map(|&(_, o)| o).unwrap_or(origin(file, 0));
                 self.directive(rest.trim_end(), at, active, overrides, resolve, conds, depth)?;
@@ -94,6 +109,16 @@ impl Source {
                 continue;
             }
             let expanded = self.expand(line, 0)?;
+            if self.text.len() + expanded.len() > MAX_PREPROCESSED {
+                let o = line.first().map_or(0, |c| c.1);
+                return Err(self.error_origin(
+                    ErrorKind::Budget,
+                    o,
+                    1,
+                    &format!("the preprocessed L-system is longer than {MAX_PREPROCESSED} characters (macros expand too much)"),
+                    "here",
+                ));
+            }
             for (c, o) in expanded {
                 self.push_char(c, o);
             }
@@ -208,6 +233,17 @@ impl Source {
             }
             "include" => {
                 let file = arg.trim_matches(|c| c == '"' || c == '<' || c == '>').trim();
+                if file.starts_with("lpfg") {
+                    return Err(err(
+                        self,
+                        ErrorKind::Unsupported,
+                        &format!(
+                            "unsupported: `#include <{file}>` makes this an lpfg model (L-systems in \
+                             C++); sylva reads cpfg L-systems only"
+                        ),
+                        "lpfg header",
+                    ));
+                }
                 if depth >= 16 {
                     return Err(err(self, ErrorKind::Syntax, "`#include` nested more than 16 deep", "here"));
                 }
@@ -354,13 +390,36 @@ impl Source {
                         for a in &args {
                             expanded_args.push(self.expand_except(a, depth + 1, disabled)?);
                         }
-                        substitute(&mac.body, params, &expanded_args, o)
+                        let body = substitute(&mac.body, params, &expanded_args, o);
+                        if body.len() > MAX_EXPANDED_LINE {
+                            return Err(self.error_origin(
+                                ErrorKind::Budget,
+                                o,
+                                ident.len(),
+                                &format!(
+                                    "macro `{ident}` expands this line to more than {MAX_EXPANDED_LINE} characters"
+                                ),
+                                "macro use",
+                            ));
+                        }
+                        body
                     }
                 };
                 let mut dis = disabled.to_vec();
-                dis.push(ident);
+                dis.push(ident.clone());
                 let rescanned = self.expand_except(&body, depth + 1, &dis)?;
                 out.extend(rescanned);
+                if out.len() > MAX_EXPANDED_LINE {
+                    return Err(self.error_origin(
+                        ErrorKind::Budget,
+                        o,
+                        ident.len(),
+                        &format!(
+                            "macro `{ident}` expands this line to more than {MAX_EXPANDED_LINE} characters"
+                        ),
+                        "macro use",
+                    ));
+                }
             } else if c.is_ascii_digit() || c == '.' {
                 // Numbers such as 1e5 must not have their exponent taken as an identifier.
                 while k < line.len()
@@ -491,6 +550,11 @@ fn substitute(body: &str, params: &[String], args: &[Vec<Ch>], o: u64) -> Vec<Ch
             match params.iter().position(|p| *p == ident) {
                 Some(k) => out.extend_from_slice(&args[k]),
                 None => out.extend(ident.chars().map(|c| (c, o))),
+            }
+            if out.len() > MAX_EXPANDED_LINE {
+                // The caller's rescan reports the line as too long.
+                out.truncate(MAX_EXPANDED_LINE + 1);
+                return out;
             }
         } else {
             out.push((b[i], o));

@@ -2,7 +2,9 @@
 //! [`Skeleton`].
 //!
 //! **Conventions** (seed 002 §4 "Decision"). The turtle frame is heading H, left L and
-//! up U with H × L = U, starting at H = +Y, L = +Z, U = +X (right-handed, Y up).
+//! up U with H × L = U, starting at H = +Y, L = +Z, U = +X (right-handed, Y up);
+//! cpfg `.str` strings start in cpfg's frame instead, H = +Y, L = −X, U = +Z (seed 001
+//! property 10; [`TurtleOptions::left`]).
 //! Positive angles rotate right-handed about the named axis, in degrees:
 //!
 //! | module | rotation | effect |
@@ -84,7 +86,18 @@ pub struct TurtleOptions {
     pub tropisms: Vec<Tropism>,
     /// Elasticity change of a bare `_`.
     pub elasticity_increment: f64,
+    /// Most skeleton nodes the turtle may draw (issue 27): checked before the skeleton
+    /// is allocated; default [`crate::skeleton::DEFAULT_MAX_NODES`].
+    pub max_nodes: usize,
+    /// The initial left vector L (the heading starts at +Y, and U = H × L): +Z for
+    /// L-systems (seed 002's convention, the default), [`CPFG_LEFT`] = −X for cpfg's
+    /// `.str` strings (seed 001 property 10: H = +Y, L = −X, U = +Z). Any vector
+    /// perpendicular to +Y; others fall back to +Z.
+    pub left: [f64; 3],
 }
+
+/// cpfg's initial left vector, −X (seed 001 property 10), used for `.str` input.
+pub const CPFG_LEFT: [f64; 3] = [-1.0, 0.0, 0.0];
 
 impl Default for TurtleOptions {
     fn default() -> Self {
@@ -96,6 +109,8 @@ impl Default for TurtleOptions {
             width_increment: None,
             tropisms: Vec::new(),
             elasticity_increment: 0.0,
+            max_nodes: crate::skeleton::DEFAULT_MAX_NODES,
+            left: [0.0, 0.0, 1.0],
         }
     }
 }
@@ -278,11 +293,27 @@ pub fn answer_queries(
     source: &Source,
     env: Option<&Environment>,
 ) -> Result<(), Box<LsystemError>> {
+    answer_queries_within(symbols, string, opts, source, env, u64::MAX).map(|_| ())
+}
+
+/// [`answer_queries`] whose environmental program may do at most `work` units of work
+/// (neighbour tests); returns the work it did. Past the limit the error is a
+/// [`ErrorKind::Budget`] naming the derivation's work budget.
+pub fn answer_queries_within(
+    symbols: &Symbols,
+    string: &mut ModuleString,
+    opts: &TurtleOptions,
+    source: &Source,
+    env: Option<&Environment>,
+    work: u64,
+) -> Result<u64, Box<LsystemError>> {
+    // The query pass draws the whole string: the node budget does not apply to it.
+    let opts = &TurtleOptions { max_nodes: usize::MAX, ..opts.clone() };
     let names = ["?P", "?H", "?U", "?L", "?E"];
     let which: Vec<Option<usize>> =
         (0..symbols.len()).map(|i| names.iter().position(|n| *n == symbols.name(i as u16))).collect();
     if which.iter().all(|w| w.is_none() || (env.is_none() && *w == Some(4))) {
-        return Ok(());
+        return Ok(0);
     }
     let mut found: Vec<(usize, QueryState)> = Vec::new();
     run(symbols, string, opts, source, &mut |_, _| {}, &mut |i, st| found.push((i, st)))?;
@@ -305,8 +336,18 @@ pub fn answer_queries(
             None => {}
         }
     }
+    let mut used = 0;
     if let Some(env) = env {
-        env.respond(&mut sensors);
+        used = env.respond_within(&mut sensors, work).map_err(|limit| {
+            source.error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "the environmental program's work budget is used up: its {} sensors need more than {limit} \
+                     neighbour tests (the derivation's work budget is left for them)",
+                    sensors.len()
+                ),
+            )
+        })?;
         for (&i, s) in at.iter().zip(sensors) {
             let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
             // The module keeps its arity: answers beyond it are dropped.
@@ -315,7 +356,7 @@ pub fn answer_queries(
             }
         }
     }
-    Ok(())
+    Ok(used)
 }
 
 fn run(
@@ -344,17 +385,34 @@ fn run(
     let (dsin, dcos) = opts.angle.to_radians().sin_cos();
     let mut sk = Skeleton::new();
     let draws = string.syms.iter().filter(|&&s| cmds[s as usize] == Cmd::Draw).count();
+    // Each `F` makes a node (and a branch from a new place a root too): at most 2 per draw.
+    if draws > opts.max_nodes {
+        return Err(source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "the string draws {draws} internodes: more than the skeleton node budget of {} nodes \
+                     (`generator.max_nodes`)",
+                    opts.max_nodes
+                ),
+            )
+            .with_help(crate::skeleton::NODE_BUDGET_HELP));
+    }
     sk.position.reserve(draws + 1);
     sk.radius.reserve(draws + 1);
     sk.parent.reserve(draws + 1);
     sk.up.reserve(draws + 1);
     sk.order.reserve(draws + 1);
     sk.material.reserve(draws + 1);
+    let left = DVec3::from(opts.left)
+        .try_normalize()
+        .filter(|l| l.is_finite() && l.dot(DVec3::Y).abs() < 1e-9)
+        .unwrap_or(DVec3::Z);
     let mut st = State {
         pos: DVec3::ZERO,
         h: DVec3::Y,
-        l: DVec3::Z,
-        u: DVec3::X,
+        l: left,
+        u: DVec3::Y.cross(left),
         width: opts.width,
         node: NO_PARENT,
         order: 0,

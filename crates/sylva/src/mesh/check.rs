@@ -845,14 +845,44 @@ pub(crate) fn self_intersections(
 /// group, groups ascending; parallel over groups.
 pub(crate) fn group_crossings(
     positions: &[Vec3],
-    mut tris: Vec<(u32, [u32; 3], u32)>,
+    tris: Vec<(u32, [u32; 3], u32)>,
     per_group: usize,
 ) -> Vec<(u32, u32, u32)> {
+    group_crossings_within(positions, tris, per_group, u64::MAX).map(|(found, _)| found).unwrap_or_default()
+}
+
+/// A crossing pair of [`group_crossings`]: `(group, face, face)`.
+pub(crate) type GroupPair = (u32, u32, u32);
+
+/// Work units of [`group_crossings_within`] spent between two looks at the shared count.
+const GROUP_WORK_CHUNK: u64 = 1 << 16;
+
+/// [`group_crossings`] with a work budget (issue 27): one unit per triangle of a group
+/// and per candidate pair the sweep looks at (the sweep is quadratic where many of a
+/// group's triangles overlap along its axis). Returns the pairs and the work spent, or
+/// `None` when the search needs more than `max_work` units (it stops soon after, so a
+/// pathological group cannot run for minutes). Which it is does not depend on the
+/// thread count: every group's work is fixed, and the search stops only once the sum
+/// is over the budget.
+pub(crate) fn group_crossings_within(
+    positions: &[Vec3],
+    mut tris: Vec<(u32, [u32; 3], u32)>,
+    per_group: usize,
+    max_work: u64,
+) -> Option<(Vec<GroupPair>, u64)> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let spent = AtomicU64::new(0);
+    // Adds `n` units; false once the total is over the budget.
+    let charge = |n: u64| spent.fetch_add(n, Ordering::Relaxed).saturating_add(n) <= max_work;
     tris.sort_unstable_by_key(|t| (t.0, t.2));
     let groups: Vec<&[(u32, [u32; 3], u32)]> = tris.chunk_by(|a, b| a.0 == b.0).collect();
     let mut out: Vec<(u32, u32, u32)> = groups
         .into_par_iter()
         .flat_map_iter(|g| {
+            let mut found = Vec::new();
+            if !charge(g.len() as u64) {
+                return found;
+            }
             let tri: Vec<[DVec3; 3]> =
                 g.iter().map(|t| t.1.map(|v| positions[v as usize].as_dvec3())).collect();
             let bx: Vec<Aabb> =
@@ -863,11 +893,18 @@ pub(crate) fn group_crossings(
             let ax = (all.hi - all.lo).max_position();
             let mut order: Vec<usize> = (0..g.len()).collect();
             order.sort_by(|&a, &b| bx[a].lo[ax].total_cmp(&bx[b].lo[ax]));
-            let mut found = Vec::new();
+            let mut local = 0u64;
             'all: for (i, &a) in order.iter().enumerate() {
                 for &b in &order[i + 1..] {
                     if bx[b].lo[ax] > bx[a].hi[ax] {
                         break;
+                    }
+                    local += 1;
+                    if local == GROUP_WORK_CHUNK {
+                        local = 0;
+                        if !charge(GROUP_WORK_CHUNK) {
+                            break 'all;
+                        }
                     }
                     if bx[a].overlaps(&bx[b])
                         && !g[a].1.iter().any(|v| g[b].1.contains(v))
@@ -880,11 +917,16 @@ pub(crate) fn group_crossings(
                     }
                 }
             }
+            charge(local);
             found
         })
         .collect();
+    let spent = spent.into_inner();
+    if spent > max_work {
+        return None;
+    }
     out.sort_unstable();
-    out
+    Some((out, spent))
 }
 
 /// True when an edge of either triangle passes through the other's interior (the

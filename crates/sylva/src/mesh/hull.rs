@@ -10,8 +10,11 @@
 //! # Pipeline
 //!
 //! 1. **Branch graph.** Every internode (a node with a parent) is a *branch*: a straight
-//!    truncated cone from its parent node to its node, radius `min(r_parent, r_node)` at
-//!    the start and `r_node` at the end (the tube mesher's convention for laterals).
+//!    truncated cone from its parent node to its node, radius `r_node` at the end and at
+//!    the start the internode's explicit start radius ([`Skeleton::start_radius()`]: an
+//!    LST `Cylinder(r0, r1, len)` keeps r0 there, spec 000 §2.1), or where it has none
+//!    `min(r_parent, r_node)` (the tube mesher's convention for laterals). The loops of
+//!    §4.2.2 interpolate the radius linearly between the two (spec 000 §2.5).
 //!    Every node where two or more branches meet is a *joint*. Zero-length internodes
 //!    are collapsed first (zero-length tips are dropped and reported).
 //! 2. **Trimming** (seed 000 §4.1.3; spec 000 §2.3). At a joint O every branch has an
@@ -357,7 +360,8 @@ struct Work {
 impl Work {
     fn new(sk: &Skeleton, opts: &HullOptions) -> Work {
         let n = sk.len();
-        let rmax = sk.radius.iter().fold(0.0f64, |m, &r| m.max(r as f64));
+        let rmax =
+            sk.radius.iter().chain(sk.start_radius.iter().flatten()).fold(0.0f64, |m, &r| m.max(r as f64));
         let extent = sk.position.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element() as f64));
         let scale = (extent + rmax).max(1e-30);
         // Radius floor: thin-to-zero tips keep a tiny loop instead of a point.
@@ -391,7 +395,8 @@ impl Work {
             w.start_joint[i] = p;
             w.start[i] = sk.position[pu].as_dvec3();
             w.end[i] = sk.position[i].as_dvec3();
-            w.r0[i] = (sk.radius[pu].min(sk.radius[i]) as f64).max(rfloor);
+            let r0 = sk.start_radius(i).unwrap_or(sk.radius[pu].min(sk.radius[i]));
+            w.r0[i] = (r0 as f64).max(rfloor);
             w.r1[i] = (sk.radius[i] as f64).max(rfloor);
             w.out[pu].push(i as u32);
         }

@@ -54,6 +54,10 @@ pub struct Cage {
     pub axes: usize,
     /// Problems that did not stop the mesher, one line each.
     pub warnings: Vec<String>,
+    /// Work the mesher's repair spent (the quad mesher's
+    /// [`QuadOptions::max_repair_work`](quad::QuadOptions::max_repair_work) units; 0 for
+    /// the others).
+    pub work: u64,
 }
 
 impl Mesher {
@@ -120,6 +124,7 @@ impl Mesher {
                     fallbacks: h.fallbacks,
                     axes: h.branches.len(),
                     warnings,
+                    work: 0,
                 }
             }
             Mesher::Sweep(o) => {
@@ -136,6 +141,7 @@ impl Mesher {
                     scheme: self.scheme(),
                     fallbacks: sw.fallbacks,
                     warnings,
+                    work: 0,
                 }
             }
             Mesher::Quad(o) => {
@@ -149,6 +155,7 @@ impl Mesher {
                     fallbacks,
                     axes: q.components,
                     warnings,
+                    work: q.repair_work,
                 }
             }
         })

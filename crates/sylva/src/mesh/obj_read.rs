@@ -208,7 +208,7 @@ fn apply_tag(out: &mut ObjMesh, line: usize, args: &[String]) -> Result<(), ObjE
         counts.get(2).copied().unwrap_or(0),
     );
     let rest = &args[2..];
-    if rest.len() != ni + nf + ns {
+    if ni.checked_add(nf).and_then(|x| x.checked_add(ns)) != Some(rest.len()) {
         return Err(err(format!("tag `{name}` announces {ni}/{nf}/{ns} arguments but has {}", rest.len())));
     }
     let ints: Vec<i64> = rest[..ni]

@@ -238,6 +238,29 @@ pub struct QuadOptions {
     /// Catmull–Clark levels at which the repair looks for crossings (default 2, the
     /// level the junction acceptance checks; range 1–3).
     pub check_levels: u32,
+    /// Work budget of the repair (issue 27; default [`DEFAULT_REPAIR_WORK`], range
+    /// 1–10¹⁴): the refined triangles and candidate triangle pairs its searches look at,
+    /// over all its rounds (counted, not timed, so the result stays deterministic). A
+    /// repair that needs more stops the mesher with an error naming
+    /// `mesh.quad.max_repair_work`; the pipeline shares one budget between all the
+    /// meshings of a run (`mesh.clear` meshes once per round). Left out of written
+    /// metadata at its default.
+    #[serde(skip_serializing_if = "is_default_repair_work")]
+    pub max_repair_work: u64,
+}
+
+/// Default [`QuadOptions::max_repair_work`]: 2·10⁹ units. One meshing of the largest
+/// presets the tests mesh (`mig-a`, 14,925 nodes: 1.14·10⁹ units, about 6 s in release
+/// on this project's 2-core machine; `wp-balsam-fir` and `wp-black-tupelo` about as
+/// much) fits; the clearing's repeated meshings of such a tree do not.
+pub const DEFAULT_REPAIR_WORK: u64 = 2_000_000_000;
+
+/// Largest [`QuadOptions::max_repair_work`] accepted.
+pub const MAX_REPAIR_WORK: u64 = 100_000_000_000_000;
+
+/// Whether `w` is the default repair budget (left out of written metadata).
+fn is_default_repair_work(w: &u64) -> bool {
+    *w == DEFAULT_REPAIR_WORK
 }
 
 impl Default for QuadOptions {
@@ -255,6 +278,7 @@ impl Default for QuadOptions {
             support: 1.0,
             repair_rounds: 4,
             check_levels: 2,
+            max_repair_work: DEFAULT_REPAIR_WORK,
         }
     }
 }
@@ -292,6 +316,12 @@ impl QuadOptions {
         }
         if !(1..=3).contains(&self.check_levels) {
             return bad(format!("check_levels = {}; it must be in 1..=3", self.check_levels));
+        }
+        if !(1..=MAX_REPAIR_WORK).contains(&self.max_repair_work) {
+            return bad(format!(
+                "max_repair_work = {}; it must be in 1..={MAX_REPAIR_WORK}",
+                self.max_repair_work
+            ));
         }
         Ok(())
     }
@@ -369,6 +399,8 @@ pub struct QuadMesh {
     /// Repair rounds that changed the cage (0 when the first cage was clean or the repair
     /// is off).
     pub repair_rounds: u32,
+    /// Work the repair spent ([`QuadOptions::max_repair_work`]'s units).
+    pub repair_work: u64,
 }
 
 /// Box length `l + x` of a junction (seed 003, J Eq. 4): `diameters` are the children's
@@ -480,6 +512,7 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
     };
     let mut repairs = Repairs { separated: vec![false; n], unboxed: vec![false; n], dirty: Vec::new() };
     let mut rounds = 0;
+    let mut work = 0u64;
     loop {
         let mut b = Builder {
             sk: skeleton,
@@ -532,8 +565,29 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
             normals: None,
             creases: Vec::new(),
         };
-        let changed = rounds < opts.repair_rounds
-            && repair(skeleton, &mesh, &owner, &lead, opts.check_levels, &mut repairs);
+        let changed = if rounds < opts.repair_rounds {
+            let left = opts.max_repair_work.saturating_sub(work);
+            match repair(skeleton, &mesh, &owner, &lead, opts.check_levels, &mut repairs, left) {
+                Some((changed, spent)) => {
+                    work += spent;
+                    changed
+                }
+                None => {
+                    return Err(Error::Recipe(format!(
+                        "`mesh.quad.max_repair_work`: the quad mesher's repair (round {} of at most {}) on {n} \
+                         skeleton nodes needs more than the {} units of work left of its budget (refined triangles \
+                         and candidate triangle pairs searched; one budget serves all the meshings of a run, \
+                         `mesh.clear` meshes once a round); raise it with --set mesh.quad.max_repair_work=N, or \
+                         lower mesh.quad.repair_rounds (0 turns the repair off)",
+                        rounds + 1,
+                        opts.repair_rounds,
+                        opts.max_repair_work
+                    )))
+                }
+            }
+        } else {
+            false
+        };
         if !changed {
             let mesh = Mesh { uvs: Some(FaceVarying { values: uv_values, indices: uv_indices }), ..mesh };
             return Ok(QuadMesh {
@@ -544,6 +598,7 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
                 components,
                 face_node: owner,
                 repair_rounds: rounds,
+                repair_work: work,
             });
         }
         rounds += 1;
@@ -553,9 +608,11 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
 /// One repair round (see the module docs, "Repair"): refines `mesh` `levels` times with
 /// Catmull–Clark, searches the refined faces of each branching node's neighbourhood —
 /// the faces made for the node, its children and its grandchildren — for crossings, and
-/// records in `repairs` what to change. Returns whether anything changed. After the
-/// first round only the junctions that crossed and those a change can have moved are
-/// searched again (see the end of this function).
+/// records in `repairs` what to change. Returns whether anything changed and the work
+/// spent (the refined triangles grouped plus [`crate::mesh::check`]'s search units), or
+/// `None` when that is more than `max_work`. After the first round only the junctions
+/// that crossed and those a change can have moved are searched again (see the end of
+/// this function).
 fn repair(
     sk: &Skeleton,
     mesh: &Mesh,
@@ -563,14 +620,20 @@ fn repair(
     lead: &[u32],
     levels: u32,
     repairs: &mut Repairs,
-) -> bool {
-    use crate::mesh::check::group_crossings;
+    max_work: u64,
+) -> Option<(bool, u64)> {
+    use crate::mesh::check::group_crossings_within;
     use crate::refine::{subdivide_traced, RefineOptions, Scheme, SubdivideOptions};
     let opts = SubdivideOptions {
         refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
         ..Default::default()
     };
-    let Ok((fine, up)) = subdivide_traced(mesh, &[], &opts) else { return false };
+    // The refinement itself: one unit per refined face, checked before it is made.
+    let refined = (mesh.face_count() as u64).saturating_mul(4u64.pow(levels));
+    if refined > max_work {
+        return None;
+    }
+    let Ok((fine, up)) = subdivide_traced(mesh, &[], &opts) else { return Some((false, refined)) };
     let parent = |o: u32| if o == NONE { NONE } else { sk.parent[o as usize] };
     let branching = |j: u32| j != NONE && lead[j as usize] != NONE;
     // The junctions each control face is searched with: its node's, its parent's and its
@@ -605,7 +668,7 @@ fn repair(
         }
     };
     let mut touched: Vec<u32> = Vec::new();
-    let crossings = group_crossings(&fine.positions, tris, 64);
+    let (crossings, searched) = group_crossings_within(&fine.positions, tris, 64, max_work - refined)?;
     // Next round: the junctions that crossed (they may hold more than the pairs listed)
     // and those whose searched faces a change can have moved.
     let mut dirty = vec![false; sk.len()];
@@ -669,7 +732,7 @@ fn repair(
         dirty[c] |= below[c];
     }
     repairs.dirty = dirty;
-    !touched.is_empty()
+    Some((!touched.is_empty(), refined + searched))
 }
 
 /// Unit `v`, or `fallback` when `v` is (nearly) zero or not finite.

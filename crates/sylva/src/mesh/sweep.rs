@@ -21,10 +21,15 @@
 //!    listed in [`SweepMesh::collapsed`]) and the offsets are recomputed; what is still
 //!    clamped is listed in [`SweepMesh::clamped`]. Never NaN or ∞.
 //! 3. **Hexagonal rings** (§5.5.1): ring vertex `k = C + r(cos(kπ/3) u + sin(kπ/3) w)`,
-//!    `w = d × u`, counter-clockwise about the direction of travel `d`. A child's ring
-//!    radius is `min(r_parent, r_child)` (a child thicker than its parent is narrowed at
-//!    its base, as in the tube mesher). Rings at chain nodes are shared by both
-//!    internodes, with the bisector of the two headings as axis.
+//!    `w = d × u`, counter-clockwise about the direction of travel `d`. A child's start
+//!    ring (at a root, a junction or a fallback) has the internode's explicit start
+//!    radius where the skeleton has one ([`Skeleton::start_radius()`]: an LST
+//!    `Cylinder(r0, r1, len)` keeps r0), so the internode is the truncated cone r0 → r1;
+//!    else `min(r_parent, r_child)` (a child thicker than its parent is narrowed at its
+//!    base, as in the tube mesher). Rings at chain nodes are shared by both internodes,
+//!    with the bisector of the two headings as axis and the node's radius (an explicit
+//!    start radius of the continuing internode is not used there: one ring cannot have
+//!    two radii).
 //! 4. **Twist** (§5.5.2, default mode). Every ring's reference `u` comes from a
 //!    rotation-minimising transport of the previous ring's, except junction rings,
 //!    which are turned to be vertex-forward (step 5). Consecutive rings are connected
@@ -433,6 +438,9 @@ enum Kind {
 struct Plan {
     pos: Vec<DVec3>,
     rad: Vec<f64>,
+    /// Explicit start radius of the internode into each node ([`Skeleton::start_radius()`],
+    /// floored like `rad`), if the skeleton has one.
+    rad0: Vec<Option<f64>>,
     up: Vec<DVec3>,
     live: Vec<bool>,
     par: Vec<u32>,
@@ -541,6 +549,13 @@ fn fit_normal(axes: &[DVec3]) -> DVec3 {
 }
 
 impl Plan {
+    /// Radius of the start ring of child `c` at node `j` (root, junction or fallback
+    /// children; a chain node's ring is shared and has the node's radius): the
+    /// internode's explicit start radius, else `min(r_j, r_c)`.
+    fn start_r(&self, j: usize, c: usize) -> f64 {
+        self.rad0[c].unwrap_or(self.rad[j].min(self.rad[c]))
+    }
+
     /// The `v` distance covered `x` metres into internode `p → i` of length `len`: `x`
     /// itself for path-length `v`, or `∫₀ˣ ds / r(s)` over the radius per unit of `u`
     /// for texel `v` (the radius runs linearly from `rad[p]` to `rad[i]`, as the rings').
@@ -580,6 +595,8 @@ impl Plan {
         let f = opts.min_radius;
         let rmin = if rmax > 0.0 { f * rmax } else { f * scale.max(1e-3) };
         let rad: Vec<f64> = s.radius.iter().map(|&r| (r as f64).max(rmin)).collect();
+        let rad0: Vec<Option<f64>> =
+            (0..n).map(|i| s.start_radius(i).map(|r| (r as f64).max(rmin))).collect();
         let up: Vec<DVec3> = s.up.iter().map(|u| u.as_dvec3()).collect();
         // Collapse zero-length internodes.
         let mut rep: Vec<u32> = (0..n as u32).collect();
@@ -604,6 +621,7 @@ impl Plan {
         let mut plan = Plan {
             pos,
             rad,
+            rad0,
             up,
             live: Vec::new(),
             par: Vec::new(),
@@ -746,7 +764,7 @@ impl Plan {
             let (radius, offset) = if self.collar[c] > 0.0 {
                 (self.collar[c], self.off_collar[c])
             } else {
-                (r.min(self.rad[c]), self.off_start[c])
+                (self.start_r(j, c), self.off_start[c])
             };
             loops.push(CapLoop { axis: d, radius, offset, u: uc, w: d.cross(uc), at_end: false });
         }
@@ -884,7 +902,7 @@ impl Plan {
         let mut maxes = vec![if has_trunk { 0.9 * self.len[j] } else { 0.0 }];
         for &c in &kids {
             axes.push(self.dir[c as usize]);
-            radii.push(rj.min(self.rad[c as usize]));
+            radii.push(self.start_r(j, c as usize));
             maxes.push(0.9 * self.len[c as usize]);
         }
         let k = axes.len();
@@ -1355,7 +1373,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
             Kind::Root => {
                 let c = kids[0] as usize;
                 let d = plan.dir[c];
-                let ring = b.ring(plan.pos[i], d, plan.up[i], r.min(plan.rad[c]), 0.0);
+                let ring = b.ring(plan.pos[i], d, plan.up[i], plan.start_r(i, c), 0.0);
                 b.base(&ring, [NONE, NONE]);
                 start[c] = Some(ring);
             }
@@ -1376,7 +1394,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     let c = c as usize;
                     let (off, d, u) = (plan.off_start[c], plan.dir[c], plan.kid_u[c]);
                     let mut ring =
-                        b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.v_start(c, off));
+                        b.ring(plan.pos[i] + d * off, d, u, plan.start_r(i, c), plan.v_start(c, off));
                     // Every junction ring has vertex 0 on the normal: the child takes
                     // the trunk's `u` parity.
                     ring.parity = trunk.parity;
@@ -1410,7 +1428,7 @@ fn build(plan: &Plan, opts: &SweepOptions, fallback: &[bool]) -> (Mesh, Vec<[u32
                     let off = plan.off_start[c];
                     let d = plan.dir[c];
                     let u = DQuat::from_rotation_arc(unit_or(from, d), d) * seed;
-                    let ring = b.ring(plan.pos[i] + d * off, d, u, r.min(plan.rad[c]), plan.v_start(c, off));
+                    let ring = b.ring(plan.pos[i] + d * off, d, u, plan.start_r(i, c), plan.v_start(c, off));
                     b.flat_cap(&ring, true, own, false);
                     start[c] = Some(ring);
                 }

@@ -13,8 +13,12 @@
 //!    broken by the direction most aligned with the incoming internode, then by the
 //!    lower index (a root has no incoming internode, so there the index decides).
 //!    Every other child starts a *lateral* axis whose first ring sits at the branching
-//!    node's centre with radius `min(parent node radius, child node radius)`, so the
-//!    child tube starts inside its parent and no crack can show. It is not pulled back
+//!    node's centre with the internode's explicit start radius
+//!    ([`Skeleton::start_radius()`], e.g. an LST cylinder's r0), else radius
+//!    `min(parent node radius, child node radius)`, so the child tube starts inside its
+//!    parent and no crack can show. (Rings along an axis are shared by consecutive
+//!    internodes and have their node's radius, so a continuing internode's explicit
+//!    start radius is not used; a root's axis starts with the root node's radius.) It is not pulled back
 //!    along the child direction: at wide branching angles that would push the base out
 //!    through the far side of the parent. Nodes that coincide with the previous ring of
 //!    their axis (zero-length internodes) are merged into it (the earlier ring is kept).
@@ -262,12 +266,13 @@ fn build_axes(s: &Skeleton) -> Axes {
         }
         let begin = stations.len();
         if p != NO_PARENT {
-            // Lateral axis: its first ring is at the branching node, with the smaller of
-            // the two radii so the base stays inside the parent tube.
+            // Lateral axis: its first ring is at the branching node, with the internode's
+            // explicit start radius, else the smaller of the two radii so the base stays
+            // inside the parent tube.
             let pu = p as usize;
             stations.push(Station {
                 pos: s.position[pu],
-                radius: s.radius[pu].min(s.radius[i]),
+                radius: s.start_radius(i).unwrap_or(s.radius[pu].min(s.radius[i])),
                 node: i as u32,
             });
         }
@@ -911,6 +916,11 @@ pub(crate) mod tests {
         assert_eq!(axes.axis(0).len(), 3);
         assert_eq!(axes.axis(1)[0].pos, Vec3::Y);
         assert_eq!(axes.axis(1)[0].radius, 0.05);
+        // An explicit start radius (issue 26, an LST cylinder's r0) starts the lateral.
+        let mut s = s;
+        s.set_start_radius(3, Some(0.08));
+        assert_eq!(build_axes(&s).axis(1)[0].radius, 0.08);
+        assert_closed(&mesh(&s, &TubeOptions::default()).mesh);
     }
 
     #[test]

@@ -512,6 +512,11 @@ pub fn auto_spacing(measure: f64, count: usize, dims: u8) -> f64 {
     }
 }
 
+/// Most cells of [`poisson`]'s background grid (cell size `spacing/√D` over the
+/// volume's bounding box), checked before the grid is allocated (issue 27): 200 M cells
+/// of 16 bytes. The presets need under 10 M (about 15 per node in a box).
+pub const MAX_SAMPLING_CELLS: usize = 200_000_000;
+
 /// Result of [`poisson`].
 #[derive(Debug, Clone)]
 pub struct Samples {
@@ -541,9 +546,12 @@ pub fn poisson(
     let n = |e: f64| ((e / cell).floor() as usize + 1).max(1);
     let (nx, ny, nz) = (n(ext.x), n(ext.y), if dims == 2 { 1 } else { n(ext.z) });
     let cells = nx.checked_mul(ny).and_then(|a| a.checked_mul(nz)).unwrap_or(usize::MAX);
-    if cells > 400_000_000 {
+    // Checked before the grid (16 bytes a cell) is allocated: at most 3.2 GB.
+    if cells > MAX_SAMPLING_CELLS {
         return Err(Error::Recipe(format!(
-            "the graph volume needs {cells} sampling cells at spacing {spacing}: make the volume smaller or the spacing larger"
+            "the graph volume needs {cells} sampling cells at spacing {spacing}, more than the limit of \
+             {MAX_SAMPLING_CELLS} (16 bytes each): make the volume (`generator.volume`) smaller, or the \
+             spacing (`generator.spacing`) larger or the node count (`generator.nodes`) smaller"
         )));
     }
     // The grid is padded by two cells on every side (none along z in 2D), so the
@@ -1149,8 +1157,21 @@ fn yao_node(pos: &[Vec3], grid: &CellGrid, u: usize, k: u32, dims: u8, out: &mut
                     best[j] = best[j].min(key);
                 }
             };
+            // The ring's cells at x = c ± s, where they lie inside the visited box.
+            let x_ends = (c[0] >= s && (x0..=x1).contains(&(c[0] - s))) || (x0..=x1).contains(&(c[0] + s));
             for z in z0..=z1 {
                 let zs = whole || z.abs_diff(c[2]) == s;
+                if !(zs || s == 0 || x_ends) {
+                    // Off the ring's z and x faces only its y faces hold cells: two rows,
+                    // not a walk over every row between them (a thin, tall volume would
+                    // otherwise cost O(s) per ring and O(s²) per node).
+                    for y in [c[1].checked_sub(s), Some(c[1] + s)].into_iter().flatten() {
+                        if (y0..=y1).contains(&y) {
+                            scan((z * n[1] + y) * n[0], x0, x1);
+                        }
+                    }
+                    continue;
+                }
                 for y in y0..=y1 {
                     let row = (z * n[1] + y) * n[0];
                     if zs || y.abs_diff(c[1]) == s || s == 0 {

@@ -121,7 +121,7 @@ fn worker(a: &Args) {
     for i in a.from..a.from + a.runs {
         let (t, _origin, bytes, folder) = input_of(a.seed, i, &corpus);
         // Every reader in turn goes deep: run i uses reader i mod 8.
-        let deep = a.deep_every > 0 && (i / Target::ALL.len() as u64) % a.deep_every == 0;
+        let deep = a.deep_every > 0 && (i / Target::ALL.len() as u64).is_multiple_of(a.deep_every);
         {
             let mut o = out.lock();
             let _ = writeln!(o, "BEGIN {i}");
@@ -287,7 +287,7 @@ fn in_process(a: &Args, corpus: &fuzz_support::Corpus, tally: &mut Tally) {
                             }
                             next = i + 1;
                             current = None;
-                            if tally.runs % 500 == 0 {
+                            if tally.runs.is_multiple_of(500) {
                                 eprintln!("  {} runs: {:?}", tally.runs, short(tally));
                             }
                         }

@@ -895,7 +895,7 @@ pub fn mutate_gltf(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
         bin.extend(tail);
     }
     let mut jb = j.into_bytes();
-    while jb.len() % 4 != 0 {
+    while !jb.len().is_multiple_of(4) {
         jb.push(b' ');
     }
     let total = 12 + 8 + jb.len() + bin.len();
