@@ -27,6 +27,8 @@ struct Cli {
 enum Command {
     /// Grow a tree from a preset, a recipe (.toml) or a model file (.l) and write it.
     Grow(GrowArgs),
+    /// Grow a tree and draw it on the GPU (wgpu): one picture, a wind animation, a forest.
+    Render(RenderArgs),
     /// List every embedded preset with a one-line description.
     Presets,
     /// Render a magnetic-curves composition (seed 004 ch. 7) to SVG or PNG.
@@ -111,6 +113,291 @@ fn lod_overrides(spec: &str) -> Result<Vec<(String, toml::Value)>> {
     ])
 }
 
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    /// Preset name, recipe file (.toml), L-system file (.l) or skeleton file, as for
+    /// `grow`. Default: the default preset.
+    what: Option<String>,
+    /// Output: `.png` (one frame; an animated PNG for several), `.gif`, or a pattern with
+    /// `%d` / `%03d` for a numbered PNG sequence.
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Image size in pixels, `WIDTHxHEIGHT` (each 1..=8192).
+    #[arg(long, default_value = "1024x1024", value_name = "WxH")]
+    size: String,
+    /// View: `orbit:AZ,EL` in degrees (azimuth about +Y from +Z, elevation -89..=89).
+    /// Default: the CPU preview's choice for the model's shape.
+    #[arg(long, value_name = "orbit:AZ,EL")]
+    camera: Option<String>,
+    /// Wind preset (`calm`, `breeze`, `storm`): the tree sways, skinned on the GPU.
+    #[arg(long, value_name = "PRESET")]
+    wind: Option<String>,
+    /// Frames to render (1..=1200) at `--fps`; default 60 with `--wind`, else 1.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Frames per second of an animation (1..=60).
+    #[arg(long, default_value_t = 30)]
+    fps: u32,
+    /// Draw N copies of the tree on a grid (seeded yaw, scale and position jitter),
+    /// instanced, each at the level of detail its projected size asks for.
+    #[arg(long, value_name = "N")]
+    forest: Option<u32>,
+    /// Levels of detail as for `grow --lod` (`30000,8000,impostor`); far trees of a
+    /// forest use the coarser ones.
+    #[arg(long, value_name = "BUDGETS")]
+    lod: Option<String>,
+    /// Turn off 4× multisampling.
+    #[arg(long)]
+    no_msaa: bool,
+    /// Derivation steps (recipe key `generator.iterations`).
+    #[arg(short = 'n', long)]
+    iterations: Option<u32>,
+    /// Random seed (recipe key `seed`; also seeds the forest's jitter).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Set any recipe key, as for `grow`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// Most trees `sylva render --forest` draws.
+const MAX_FOREST: u32 = 10_000;
+
+/// Where `sylva render` writes its frames.
+#[derive(Debug, Clone, PartialEq)]
+enum RenderOutput {
+    /// One PNG (one frame) or an animated PNG.
+    Png(PathBuf),
+    /// An animated GIF.
+    Gif(PathBuf),
+    /// Numbered PNGs: the path's text before and after the `%d` / `%0Nd`, and N.
+    Sequence(String, String, usize),
+}
+
+impl RenderOutput {
+    fn parse(p: &Path) -> Result<RenderOutput> {
+        let text = p.to_string_lossy().into_owned();
+        if let Some(at) = text.find('%') {
+            let rest = &text[at + 1..];
+            let digits: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+            let after = &rest[digits.len()..];
+            let bad = || {
+                miette::miette!(
+                    "-o {text}: a sequence pattern needs exactly one `%d` or `%0Nd` (e.g. `frame_%03d.png`)"
+                )
+            };
+            let Some(tail) = after.strip_prefix('d') else { return Err(bad()) };
+            if tail.contains('%') || (!digits.is_empty() && !digits.starts_with('0')) {
+                return Err(bad());
+            }
+            let width: usize = if digits.is_empty() { 0 } else { digits.parse().map_err(|_| bad())? };
+            if width > 9 {
+                return Err(bad());
+            }
+            if !tail.to_ascii_lowercase().ends_with(".png") {
+                return Err(miette::miette!(
+                    "-o {text}: a frame sequence is written as PNG; end the pattern in `.png`"
+                ));
+            }
+            return Ok(RenderOutput::Sequence(text[..at].to_string(), tail.to_string(), width));
+        }
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "png" | "apng" => Ok(RenderOutput::Png(p.to_path_buf())),
+            "gif" => Ok(RenderOutput::Gif(p.to_path_buf())),
+            _ => Err(miette::miette!(
+                "-o {text}: `.{ext}` is not an image format; use .png (APNG for several frames), .gif, or a `%03d.png` pattern"
+            )),
+        }
+    }
+
+    /// The file of frame `k` of a sequence.
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+    fn frame_path(before: &str, after: &str, width: usize, k: usize) -> PathBuf {
+        PathBuf::from(format!("{before}{k:0width$}{after}"))
+    }
+}
+
+/// `WxH` as (width, height), each in 1..=8192.
+fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || miette::miette!("--size {s}: expected WIDTHxHEIGHT in pixels, e.g. 1920x1080");
+    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    let max = sylva::preview::MAX_SIZE;
+    if !(1..=max).contains(&w) || !(1..=max).contains(&h) {
+        return Err(miette::miette!("--size {s}: width and height must each be in 1..={max}"));
+    }
+    Ok((w, h))
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    // Every argument is checked before any work, so bad input writes nothing.
+    let (width, height) = parse_size(&args.size)?;
+    let output = RenderOutput::parse(&args.output)?;
+    let frames = args.frames.unwrap_or(if args.wind.is_some() { 60 } else { 1 });
+    let max_frames = sylva::animation::MAX_FRAMES as u32;
+    if !(1..=max_frames).contains(&frames) {
+        return Err(miette::miette!("--frames {frames}: render 1..={max_frames} frames"));
+    }
+    if !(1..=60).contains(&args.fps) {
+        return Err(miette::miette!("--fps {}: use 1..=60 frames per second", args.fps));
+    }
+    if let Some(n) = args.forest {
+        if !(1..=MAX_FOREST).contains(&n) {
+            return Err(miette::miette!("--forest {n}: draw 1..={MAX_FOREST} trees"));
+        }
+    }
+    if let RenderOutput::Gif(p) = &output {
+        if width > u16::MAX as u32 || height > u16::MAX as u32 {
+            return Err(miette::miette!("-o {}: too large for GIF", p.display()));
+        }
+    }
+    if let Some(w) = &args.wind {
+        if sylva::wind::WindOptions::preset(w).is_none() && w != "none" {
+            return Err(miette::miette!("--wind {w}: not a wind preset; use calm, breeze or storm"));
+        }
+    }
+    check_camera(args.camera.as_deref())?;
+    let mut sets = overrides(&args.sets, args.iterations, args.seed, None)?;
+    if let Some(w) = &args.wind {
+        sets.push(("wind.preset".into(), toml::Value::String(w.clone())));
+    }
+    if let Some(l) = &args.lod {
+        sets.extend(lod_overrides(l)?);
+    }
+    let what = args.what.clone().unwrap_or_else(|| sylva::presets::DEFAULT_PRESET.to_string());
+    let loaded = recipe::load(&what, &sets)?;
+    render_gpu(&args, &loaded, (width, height), frames, &output)
+}
+
+/// Checks `--camera` (`orbit:AZ,EL`) before any work.
+#[cfg(feature = "gpu")]
+fn check_camera(camera: Option<&str>) -> Result<()> {
+    camera.map(sylva_gpu::render::Orbit::parse).transpose().map_err(|e| miette::miette!("--{e}"))?;
+    Ok(())
+}
+
+/// Without the GPU renderer the camera is not looked at.
+#[cfg(not(feature = "gpu"))]
+fn check_camera(_camera: Option<&str>) -> Result<()> {
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_gpu(
+    _args: &RenderArgs,
+    _loaded: &recipe::Loaded,
+    _size: (u32, u32),
+    _frames: u32,
+    _output: &RenderOutput,
+) -> Result<()> {
+    Err(miette::miette!(
+        "this sylva was built without GPU support (cargo feature `gpu`), so `sylva render` cannot draw; `sylva grow --preview out.png` draws the tree with the CPU preview instead"
+    ))
+}
+
+#[cfg(feature = "gpu")]
+fn render_gpu(
+    args: &RenderArgs,
+    loaded: &recipe::Loaded,
+    (width, height): (u32, u32),
+    frames: u32,
+    output: &RenderOutput,
+) -> Result<()> {
+    use sylva_gpu::render::{forest, Orbit, RenderOptions, Renderer};
+    let orbit = args.camera.as_deref().map(Orbit::parse).transpose().map_err(|e| miette::miette!("--{e}"))?;
+    let gpu = sylva_gpu::Gpu::new().map_err(|e| match e {
+        sylva_gpu::GpuError::NoAdapter(why) => miette::miette!(
+            "no GPU adapter was found ({why}), so `sylva render` cannot draw; install a Vulkan driver (on Debian `apt-get install mesa-vulkan-drivers` gives lavapipe, a software one), or use `sylva grow {} --preview out.png`, which draws the tree with the CPU preview",
+            args.what.as_deref().unwrap_or(sylva::presets::DEFAULT_PRESET)
+        ),
+        e => miette::miette!("{e}"),
+    })?;
+    let start = std::time::Instant::now();
+    let grown = sylva::pipeline::grow(loaded)?;
+    for w in &grown.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    let grow_time = start.elapsed();
+    let renderer = Renderer::new(&gpu, &grown.model).map_err(|e| miette::miette!("{e}"))?;
+    let bounds = renderer.bounds().unwrap_or((glam::Vec3::ZERO, glam::Vec3::ZERO));
+    let instances = match args.forest {
+        Some(n) => forest::grid(n as usize, loaded.recipe.seed, bounds),
+        None => vec![glam::Mat4::IDENTITY],
+    };
+    let animated = frames > 1 && renderer.animated();
+    let mut opts = RenderOptions { width, height, orbit, msaa: !args.no_msaa, ..Default::default() };
+    if animated && args.forest.is_none() {
+        // The CPU wind preview's framing: the rest pose grown by a sixth of its largest
+        // extent on every side, so the swaying crown stays in the picture.
+        let pad = glam::Vec3::splat((bounds.1 - bounds.0).max_element() / 6.0);
+        opts.frame = Some((bounds.0 - pad, bounds.1 + pad));
+    }
+    let draw_start = std::time::Instant::now();
+    let mut images = Vec::with_capacity(frames as usize);
+    let mut stats = None;
+    for f in 0..frames {
+        let t = f as f32 / args.fps as f32;
+        let r = renderer.render(&opts, &instances, t).map_err(|e| miette::miette!("{e}"))?;
+        stats.get_or_insert(r.stats);
+        images.push(r.image);
+    }
+    let draw_time = draw_start.elapsed();
+    let written: Vec<PathBuf> = match output {
+        RenderOutput::Png(p) if images.len() == 1 => {
+            sylva::preview::write_png(&images[0], p)?;
+            vec![p.clone()]
+        }
+        RenderOutput::Png(p) | RenderOutput::Gif(p) => {
+            sylva::animation::write_animation(&images, args.fps, p)?;
+            vec![p.clone()]
+        }
+        RenderOutput::Sequence(before, after, w) => {
+            let mut out = Vec::with_capacity(images.len());
+            for (k, im) in images.iter().enumerate() {
+                let p = RenderOutput::frame_path(before, after, *w, k);
+                sylva::preview::write_png(im, &p)?;
+                out.push(p);
+            }
+            out
+        }
+    };
+    if !args.quiet {
+        let s = stats.unwrap_or_default();
+        println!("{}: {}", loaded.recipe.name, loaded.recipe.description);
+        println!("  on {}", gpu.describe());
+        println!(
+            "  grew {} triangles in {:.1} ms; {} frame(s) of {width}x{height}, {} sample(s) per pixel, in {:.1} ms ({:.1} ms per frame)",
+            grown.model.triangle_count(),
+            grow_time.as_secs_f64() * 1e3,
+            frames,
+            s.samples,
+            draw_time.as_secs_f64() * 1e3,
+            draw_time.as_secs_f64() * 1e3 / frames as f64
+        );
+        let levels: Vec<String> = s.instances_per_level.iter().map(u32::to_string).collect();
+        println!(
+            "  {} tree(s), {} draw call(s) per frame, trees per level of detail [{}], {} triangles per frame",
+            instances.len(),
+            s.draw_calls,
+            levels.join(", "),
+            s.triangles
+        );
+        if frames > 1 && !renderer.animated() {
+            println!("  note: the model has no wind clip, so every frame is the same (add --wind breeze)");
+        }
+        match written.as_slice() {
+            [one] => println!("  wrote {}", one.display()),
+            [first, .., last] => println!("  wrote {} … {}", first.display(), last.display()),
+            [] => {}
+        }
+    }
+    Ok(())
+}
+
 #[derive(Subcommand, Debug)]
 enum LsysCommand {
     /// Print the derived module string of an L-system.
@@ -136,6 +423,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Grow(args) => grow(args),
+        Command::Render(args) => render(args),
         Command::Subdivide(args) => subdivide::run(args),
         Command::Check(args) => check_cmd::run(args),
         Command::Curves(args) => curves_cmd::run(args),

@@ -161,10 +161,7 @@ fn wind_and_preview_wind_from_the_command_line() {
     let png = std::fs::read(d.join("w.png")).unwrap();
     assert!(png.windows(4).any(|w| w == b"acTL"), "an animated PNG");
     // A level chain from the command line: three levels and the impostor.
-    let r = sylva(
-        &["grow", "lsys-honda-a", "--no-preview", "--lod", "3000,300", "-o", "lod.glb"],
-        &d,
-    );
+    let r = sylva(&["grow", "lsys-honda-a", "--no-preview", "--lod", "3000,300", "-o", "lod.glb"], &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("LOD1"), "{}", r.stdout);
     gltf_validator::assert_valid_gltf(&[d.join("lod.glb").as_path()]);

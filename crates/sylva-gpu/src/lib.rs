@@ -8,7 +8,10 @@
 //!       one compute dispatch per branch depth level (no lag), or one over a copy (legacy lag)
 //!  sylva::Mesh (coarse cage) + PnOptions ──► pn::PnPatches ──► pn::GpuPn ──► PN samples
 //!       compute: control nets per patch, then points + normals over an instanced (u, v) grid
-//!  later: deform (WGSL branch deformer over the wind's points), render (instanced trees)
+//!  sylva::deform::BranchRecord ──► deform::GpuDeformer ──► positions + normals (compute, tests)
+//!  model curves + wind points ──► branches::BranchRenderer ──► GPU LOD pass ──► one instanced
+//!       indirect draw per (v, θ) grid level, deformed in the vertex shader (deform.wgsl)
+//!  sylva::Model (meshes, textures, rig + clip, LODs) ──► render ──► offscreen picture / frames
 //! ```
 //!
 //! [`Gpu`] opens a headless adapter (any kind, software included) and carries the buffer
@@ -23,6 +26,7 @@ pub mod branches;
 pub mod deform;
 pub mod gpu;
 pub mod pn;
+pub mod render;
 pub mod wind;
 
 pub use gpu::{Gpu, GpuError};

@@ -1,0 +1,882 @@
+//! The GPU renderer (issue 25 item 4; seed 003 §4, spec 003 §10; seed 002 §4.2 for the
+//! multi-tree slowdown it answers): draws an engine [`Model`] offscreen into an RGBA
+//! image.
+//!
+//! ```text
+//!  Model ──► mesh::mesh_data (per part, per LOD level) ──► vertex/index buffers
+//!        ──► materials (base colour, colour map, alpha cut) ──► bind groups
+//!  per frame: Camera (orbit, fitted like the CPU preview) ──► Frame uniform
+//!             clip.pose(t) × inverse binds ──► joint matrices (storage buffer)
+//!             instances ──► forest::choose_levels ──► one instance buffer, bucketed by level
+//!  one pass: background gradient, then per (level, part, material) one instanced draw
+//!             ──► MSAA 4× colour + depth ──► resolve (sRGB) ──► readback
+//! ```
+//!
+//! - **Target**: `Rgba8UnormSrgb` colour with 4× MSAA where the adapter allows it
+//!   (resolved into a single-sample texture that is read back), `Depth32Float` depth.
+//! - **Shading**: the CPU preview's: Lambert from a key light at the upper left of the
+//!   camera (`light_color` 0.78) plus a hemispherical sky (0.42) / ground (0.20) ambient
+//!   by the normal's height, two-sided, no back-face culling. Colour maps replace the
+//!   base colour where a part has UVs; alpha-cut materials (leaf cards, the impostor)
+//!   are drawn by a second pipeline whose UVs are interpolated per sample, so the
+//!   cut-off is tested per MSAA sample (as the CPU preview tests each supersample) and
+//!   leaf outlines get partial coverage. Colour maps are sampled bilinearly without
+//!   mipmaps.
+//! - **Wind**: where the model has a rig and a clip, the clip is evaluated on the CPU for
+//!   time `t` (the same joint matrices as [`sylva::wind::posed`]) and the vertex shader
+//!   blends them by each vertex's `JOINTS_0` / `WEIGHTS_0`.
+//! - **Instancing**: every tree is an instance transform; per frame each instance takes a
+//!   level of detail by its projected size ([`forest::choose_levels`]); the model's LOD
+//!   chain (its last level may be the impostor's crossed billboards) is drawn with one
+//!   draw per (level, part, material) over all the instances of that level — never one
+//!   draw per tree or per branch.
+//!
+//! [`Frame`] is the camera and light uniform at `@group(0) @binding(0)` shared with the
+//! branch deformer's renderer.
+
+pub mod camera;
+pub mod forest;
+pub mod mesh;
+
+pub use camera::{Camera, Orbit};
+
+use crate::gpu::{Gpu, GpuError};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::sync::Mutex;
+use sylva::model::Model;
+use sylva::preview::Image;
+use wgpu::util::DeviceExt;
+
+/// The camera and light uniform at `@group(0) @binding(0)` of every sylva render
+/// pipeline (WGSL `struct Frame`, 160 bytes).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct Frame {
+    /// World → clip (column-major).
+    pub view_proj: [[f32; 4]; 4],
+    /// Eye position (w = 1).
+    pub eye: [f32; 4],
+    /// Unit direction towards the key light (w = 0).
+    pub light_dir: [f32; 4],
+    /// Linear colour of the key light.
+    pub light_color: [f32; 4],
+    /// Linear ambient colour for a normal pointing up.
+    pub sky: [f32; 4],
+    /// Linear ambient colour for a normal pointing down.
+    pub ground: [f32; 4],
+    /// x: time (s), y: viewport height (px), z: tan(fov / 2), w: 0.
+    pub params: [f32; 4],
+}
+
+impl Frame {
+    /// The frame of `camera` at time `time`, lit as the CPU preview lights: a key light
+    /// from the camera's upper left, in front of the model.
+    pub fn new(camera: &Camera, time: f32) -> Frame {
+        let light = (camera.up * 0.65 - camera.right * 0.45 - camera.fwd * 0.6).normalize();
+        Frame {
+            view_proj: camera.view_proj().to_cols_array_2d(),
+            eye: camera.eye.extend(1.0).to_array(),
+            light_dir: light.extend(0.0).to_array(),
+            light_color: [0.78, 0.78, 0.78, 1.0],
+            sky: [0.42, 0.42, 0.42, 1.0],
+            ground: [0.20, 0.20, 0.20, 1.0],
+            params: [time, camera.height as f32, camera.tan_half_fov(), 0.0],
+        }
+    }
+}
+
+/// Material uniform of `mesh.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct MaterialUniform {
+    base_color: [f32; 4],
+    params: [f32; 4],
+}
+
+/// Background uniform of `mesh.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct BackgroundUniform {
+    top: [f32; 4],
+    bottom: [f32; 4],
+    size: [f32; 4],
+}
+
+/// Largest accepted image width or height (the CPU preview's limit).
+pub const MAX_SIZE: u32 = sylva::preview::MAX_SIZE;
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// What to draw and how: image size, view, anti-aliasing and background.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOptions {
+    /// Image width in pixels, `1..=8192` (and the adapter's texture limit).
+    pub width: u32,
+    /// Image height in pixels, `1..=8192`.
+    pub height: u32,
+    /// View direction; `None` takes the CPU preview's choice ([`Orbit::auto`]).
+    pub orbit: Option<Orbit>,
+    /// Vertical field of view used to place the eye, degrees `1..=120` (default 30).
+    pub fov_deg: f32,
+    /// 4× multisampling where the adapter supports it (default on).
+    pub msaa: bool,
+    /// Background colour (sRGB) at the bottom of the image.
+    pub background: [u8; 3],
+    /// Background colour (sRGB) at the top of the image.
+    pub background_top: [u8; 3],
+    /// Box to frame (fitted by its corners); `None` frames one tree by its vertices as
+    /// the CPU preview does, or a forest by its instances' boxes.
+    pub frame: Option<(Vec3, Vec3)>,
+}
+
+impl Default for RenderOptions {
+    /// 1024², the preview's view and background, MSAA on.
+    fn default() -> Self {
+        let p = sylva::preview::PreviewOptions::default();
+        RenderOptions {
+            width: 1024,
+            height: 1024,
+            orbit: None,
+            fov_deg: p.fov_deg,
+            msaa: true,
+            background: p.background,
+            background_top: p.background_top,
+            frame: None,
+        }
+    }
+}
+
+/// What one render did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Draw calls issued for the trees (the background's excluded).
+    pub draw_calls: u32,
+    /// Instances drawn at each level of detail (LOD0 first).
+    pub instances_per_level: Vec<u32>,
+    /// Triangles submitted over all instances.
+    pub triangles: u64,
+    /// Samples per pixel (4 with MSAA, else 1).
+    pub samples: u32,
+}
+
+/// A rendered picture and what it took.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    /// The picture, RGBA rows top to bottom (alpha 255).
+    pub image: Image,
+    /// Draw statistics.
+    pub stats: Stats,
+    /// The camera used.
+    pub camera: Camera,
+}
+
+/// One part's buffers and its materials' bind groups.
+#[derive(Debug)]
+struct GpuPart {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    groups: Vec<mesh::Group>,
+    materials: Vec<wgpu::BindGroup>,
+    /// Per material: whether it is alpha-cut (drawn by the per-sample pipeline).
+    cut: Vec<bool>,
+}
+
+/// One level of detail.
+#[derive(Debug)]
+struct Level {
+    coverage: f32,
+    parts: Vec<GpuPart>,
+    triangles: u64,
+}
+
+/// Render targets of one size and sample count, kept between frames.
+#[derive(Debug)]
+struct Targets {
+    key: (u32, u32, u32),
+    color: wgpu::TextureView,
+    resolve: Option<(wgpu::Texture, wgpu::TextureView)>,
+    single: Option<wgpu::Texture>,
+    depth: wgpu::TextureView,
+}
+
+/// The render pipelines of one sample count.
+#[derive(Debug, Clone)]
+struct Pipelines {
+    /// Opaque materials, shaded per pixel.
+    mesh: wgpu::RenderPipeline,
+    /// Alpha-cut materials, shaded and cut per sample.
+    cut: wgpu::RenderPipeline,
+    /// The background gradient.
+    background: wgpu::RenderPipeline,
+}
+
+/// A model uploaded to the GPU, ready to draw any number of times (see the
+/// [module docs](self)).
+#[derive(Debug)]
+pub struct Renderer {
+    gpu: Gpu,
+    levels: Vec<Level>,
+    rig: Option<(sylva::model::Rig, sylva::model::Clip)>,
+    bounds: Option<(Vec3, Vec3)>,
+    fit_points: Vec<Vec3>,
+    frame_buffer: wgpu::Buffer,
+    joint_buffer: wgpu::Buffer,
+    background_buffer: wgpu::Buffer,
+    group0: wgpu::BindGroup,
+    layout: wgpu::PipelineLayout,
+    background_layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    pipelines: Mutex<Vec<(u32, Pipelines)>>,
+    targets: Mutex<Option<Targets>>,
+    msaa_ok: bool,
+}
+
+fn invalid(why: impl Into<String>) -> GpuError {
+    GpuError::Invalid(why.into())
+}
+
+impl Renderer {
+    /// Uploads `model` (LOD0 with its instanced organs flattened, then every
+    /// [`Model::lods`] level) with its textures and rig.
+    ///
+    /// Errors: a part whose mesh fails validation, a texture over the adapter's limits,
+    /// or a model with nothing to draw.
+    pub fn new(gpu: &Gpu, model: &Model) -> Result<Renderer, GpuError> {
+        let flat = model.flattened();
+        let device = &gpu.device;
+        let limit = gpu.device.limits().max_texture_dimension_2d;
+
+        // Textures: every model image as sRGB RGBA, plus a white one for plain materials.
+        let mut views = Vec::with_capacity(flat.images.len());
+        for im in &flat.images {
+            let i = &im.image;
+            if i.width == 0 || i.height == 0 || i.width > limit || i.height > limit {
+                return Err(invalid(format!(
+                    "texture `{}` is {}×{}; the adapter takes 1..={limit}",
+                    im.name, i.width, i.height
+                )));
+            }
+            let rgba: Vec<u8> = match i.channels {
+                4 => i.data.clone(),
+                3 => i.data.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect(),
+                c => return Err(invalid(format!("texture `{}` has {c} channels; 3 or 4 expected", im.name))),
+            };
+            if rgba.len() != (i.width * i.height * 4) as usize {
+                return Err(invalid(format!("texture `{}` has the wrong number of bytes", im.name)));
+            }
+            views.push((texture(gpu, &im.name, i.width, i.height, &rgba), im.repeat));
+        }
+        let white = texture(gpu, "white", 1, 1, &[255; 4]);
+        let sampler = |mode| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("sylva-gpu render sampler"),
+                address_mode_u: mode,
+                address_mode_v: mode,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            })
+        };
+        let repeat = sampler(wgpu::AddressMode::Repeat);
+        let clamp = sampler(wgpu::AddressMode::ClampToEdge);
+
+        let visible = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let buffer_entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: visible,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let frame_layout = gpu.bind_group_layout(
+            "sylva-gpu render frame",
+            &[
+                buffer_entry(0, wgpu::BufferBindingType::Uniform),
+                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+                buffer_entry(2, wgpu::BufferBindingType::Uniform),
+            ],
+        );
+        let material_layout = gpu.bind_group_layout(
+            "sylva-gpu render material",
+            &[
+                buffer_entry(0, wgpu::BufferBindingType::Uniform),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        );
+
+        // Levels: LOD0 (the flattened parts), then the model's LOD chain.
+        let mut sources: Vec<(f32, &[sylva::model::Part])> = vec![(0.0, &flat.parts[..])];
+        if !flat.lods.is_empty() {
+            sources[0].0 = flat.lod0_coverage;
+            sources.extend(flat.lods.iter().map(|l| (l.screen_coverage, &l.parts[..])));
+        }
+        let mut levels = Vec::with_capacity(sources.len());
+        for (coverage, parts) in sources {
+            let mut level = Level { coverage, parts: Vec::new(), triangles: 0 };
+            for part in parts {
+                part.mesh.validate().map_err(|why| invalid(format!("part `{}`: {why}", part.name)))?;
+                let data = mesh::mesh_data(part);
+                if data.indices.is_empty() {
+                    continue;
+                }
+                let has_uv =
+                    part.mesh.uvs.as_ref().is_some_and(|u| u.indices.len() == part.mesh.face_indices.len());
+                let cut = mesh::part_materials(part)
+                    .iter()
+                    .map(|m| {
+                        let map = m.maps.base_color.filter(|_| has_uv).and_then(|i| views.get(i as usize));
+                        map.is_some() && m.alpha_cutoff.is_some()
+                    })
+                    .collect();
+                let materials = mesh::part_materials(part)
+                    .into_iter()
+                    .map(|m| {
+                        let map = m.maps.base_color.filter(|_| has_uv).and_then(|i| views.get(i as usize));
+                        let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+                        let c = m.base_color;
+                        let uniform = MaterialUniform {
+                            base_color: [ch(c[0]), ch(c[1]), ch(c[2]), 1.0],
+                            params: [
+                                if map.is_some() { 1.0 } else { 0.0 },
+                                m.alpha_cutoff.filter(|_| map.is_some()).unwrap_or(-1.0),
+                                0.0,
+                                0.0,
+                            ],
+                        };
+                        let buffer = gpu.uniform_buffer("sylva-gpu render material", &[uniform]);
+                        let (view, sampler) = match map {
+                            Some((v, true)) => (v, &repeat),
+                            Some((v, false)) => (v, &clamp),
+                            None => (&white, &clamp),
+                        };
+                        device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("sylva-gpu render material"),
+                            layout: &material_layout,
+                            entries: &[
+                                wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() },
+                                wgpu::BindGroupEntry {
+                                    binding: 1,
+                                    resource: wgpu::BindingResource::TextureView(view),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 2,
+                                    resource: wgpu::BindingResource::Sampler(sampler),
+                                },
+                            ],
+                        })
+                    })
+                    .collect();
+                let max = gpu.device.limits().max_buffer_size;
+                let bytes = (data.vertices.len() * std::mem::size_of::<mesh::Vertex>()) as u64;
+                if bytes > max {
+                    return Err(invalid(format!(
+                        "part `{}` needs {bytes} bytes of vertices; the adapter allows {max}",
+                        part.name
+                    )));
+                }
+                let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("sylva-gpu render vertices"),
+                    contents: bytemuck::cast_slice(&data.vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+                let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("sylva-gpu render indices"),
+                    contents: bytemuck::cast_slice(&data.indices),
+                    usage: wgpu::BufferUsages::INDEX,
+                });
+                level.triangles += data.indices.len() as u64 / 3;
+                level.parts.push(GpuPart { vertices, indices, groups: data.groups, materials, cut });
+            }
+            levels.push(level);
+        }
+        if levels.iter().all(|l| l.parts.is_empty()) {
+            return Err(invalid("the model has no triangles to draw"));
+        }
+
+        let rig = match (&flat.rig, &flat.clip) {
+            (Some(r), Some(c)) if !r.joints.is_empty() => Some((r.clone(), c.clone())),
+            _ => None,
+        };
+        let joints = rig.as_ref().map_or(1, |(r, _)| r.joints.len());
+        let identity = vec![Mat4::IDENTITY.to_cols_array(); joints];
+        let joint_buffer = gpu.storage_buffer("sylva-gpu render joints", &identity);
+        let frame_buffer = gpu.uniform_buffer("sylva-gpu render frame", &[Frame::zeroed()]);
+        let background_buffer =
+            gpu.uniform_buffer("sylva-gpu render background", &[BackgroundUniform::zeroed()]);
+        let group0 = gpu.bind_buffers(
+            "sylva-gpu render frame",
+            &frame_layout,
+            &[&frame_buffer, &joint_buffer, &background_buffer],
+        );
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sylva-gpu render"),
+            bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
+            immediate_size: 0,
+        });
+        let background_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sylva-gpu background"),
+            bind_group_layouts: &[Some(&frame_layout)],
+            immediate_size: 0,
+        });
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("sylva-gpu mesh.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("mesh.wgsl").into()),
+        });
+        let msaa_ok = [COLOR_FORMAT, DEPTH_FORMAT]
+            .iter()
+            .all(|&f| gpu.adapter.get_texture_format_features(f).flags.sample_count_supported(4));
+        let fit_points: Vec<Vec3> =
+            flat.parts.iter().flat_map(|p| p.mesh.positions.iter().copied()).collect();
+        Ok(Renderer {
+            gpu: gpu.clone(),
+            levels,
+            rig,
+            bounds: flat.bounds(),
+            fit_points,
+            frame_buffer,
+            joint_buffer,
+            background_buffer,
+            group0,
+            layout,
+            background_layout,
+            shader,
+            pipelines: Mutex::new(Vec::new()),
+            targets: Mutex::new(None),
+            msaa_ok,
+        })
+    }
+
+    /// Number of levels of detail (1 without a LOD chain).
+    pub fn level_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Smallest screen coverage of each level, finest first (`[0]` without a LOD chain).
+    pub fn level_coverages(&self) -> Vec<f32> {
+        self.levels.iter().map(|l| l.coverage).collect()
+    }
+
+    /// Draw calls one instanced draw of level `level` issues (its parts' material groups).
+    pub fn draws_per_level(&self, level: usize) -> u32 {
+        self.levels.get(level).map_or(0, |l| l.parts.iter().map(|p| p.groups.len() as u32).sum())
+    }
+
+    /// LOD0's bounds (model space).
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.bounds
+    }
+
+    /// Whether the model is skinned and animated (a rig and a clip).
+    pub fn animated(&self) -> bool {
+        self.rig.is_some()
+    }
+
+    /// The clip's length in seconds (0 without one).
+    pub fn clip_duration(&self) -> f32 {
+        self.rig.as_ref().map_or(0.0, |(_, c)| c.duration())
+    }
+
+    /// Whether 4× MSAA is available for the colour and depth formats.
+    pub fn msaa_supported(&self) -> bool {
+        self.msaa_ok
+    }
+
+    /// The skinning matrix of each joint at time `t` (its posed transform times its
+    /// inverse bind matrix, as [`sylva::wind::posed`] uses); one identity without a rig.
+    pub fn joint_matrices(&self, t: f32) -> Vec<Mat4> {
+        match &self.rig {
+            Some((rig, clip)) => clip
+                .pose(rig, t)
+                .iter()
+                .zip(&rig.joints)
+                .map(|(m, j)| *m * Mat4::from_translation(-j.head))
+                .collect(),
+            None => vec![Mat4::IDENTITY],
+        }
+    }
+
+    /// The camera of `opts` for `instances` (see [`RenderOptions::frame`]).
+    pub fn camera(&self, opts: &RenderOptions, instances: &[Mat4]) -> Camera {
+        let model = self.bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
+        let one_tree = instances.len() == 1 && instances[0] == Mat4::IDENTITY;
+        let corners = |(lo, hi): (Vec3, Vec3)| -> Vec<Vec3> {
+            (0..8)
+                .map(|k| Vec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo))
+                .collect()
+        };
+        let (frame, fit) = match opts.frame {
+            Some(b) => (b, corners(b)),
+            None if one_tree => (model, self.fit_points.clone()),
+            None => {
+                let b = forest::bounds(instances, model).unwrap_or(model);
+                (b, corners(b))
+            }
+        };
+        let orbit = opts.orbit.unwrap_or_else(|| Orbit::auto(frame.0, frame.1));
+        // Depth range: everything drawn, with room for swaying crowns.
+        let all = forest::bounds(instances, model).unwrap_or(model);
+        let pad = Vec3::splat((all.1 - all.0).max_element() / 6.0);
+        let depth = (all.0.min(frame.0) - pad, all.1.max(frame.1) + pad);
+        Camera::new(frame, orbit, opts.fov_deg, (opts.width, opts.height), fit, depth)
+    }
+
+    fn pipelines(&self, samples: u32) -> Pipelines {
+        let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = cache.iter().find(|(s, _)| *s == samples) {
+            return p.clone();
+        }
+        let device = &self.gpu.device;
+        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Uint16x4, 4 => Float32x4];
+        let inst = wgpu::vertex_attr_array![5 => Float32x4, 6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
+        let buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attrs,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: 64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &inst,
+            }),
+        ];
+        let target = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let multisample = wgpu::MultisampleState { count: samples, ..Default::default() };
+        let make =
+            |label, layout, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout>], depth_write, compare| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(layout),
+                    vertex: wgpu::VertexState {
+                        module: &self.shader,
+                        entry_point: Some(vs),
+                        compilation_options: Default::default(),
+                        buffers,
+                    },
+                    primitive: wgpu::PrimitiveState {
+                        topology: wgpu::PrimitiveTopology::TriangleList,
+                        front_face: wgpu::FrontFace::Ccw,
+                        cull_mode: None,
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(depth_write),
+                        depth_compare: Some(compare),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample,
+                    fragment: Some(wgpu::FragmentState {
+                        module: &self.shader,
+                        entry_point: Some(fs),
+                        compilation_options: Default::default(),
+                        targets: &target,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+        let less = wgpu::CompareFunction::Less;
+        let p = Pipelines {
+            mesh: make("sylva-gpu mesh", &self.layout, "vs_mesh", "fs_mesh", &buffers, true, less),
+            cut: make(
+                "sylva-gpu mesh (alpha cut)",
+                &self.layout,
+                "vs_mesh_cut",
+                "fs_mesh_cut",
+                &buffers,
+                true,
+                less,
+            ),
+            background: make(
+                "sylva-gpu background",
+                &self.background_layout,
+                "vs_background",
+                "fs_background",
+                &[],
+                false,
+                wgpu::CompareFunction::Always,
+            ),
+        };
+        cache.push((samples, p.clone()));
+        p
+    }
+
+    /// Renders `instances` (tree transforms; `[Mat4::IDENTITY]` for the model alone) at
+    /// time `time` (seconds into the wind clip, ignored without one).
+    ///
+    /// Errors: a size outside `1..=8192` or the adapter's texture limit, a field of view
+    /// outside `1..=120`, no instances or more than [`forest::MAX_TREES`].
+    pub fn render(&self, opts: &RenderOptions, instances: &[Mat4], time: f32) -> Result<Rendered, GpuError> {
+        let limit = self.gpu.device.limits().max_texture_dimension_2d.min(MAX_SIZE);
+        for (name, v) in [("width", opts.width), ("height", opts.height)] {
+            if !(1..=limit).contains(&v) {
+                return Err(invalid(format!("image {name} is {v}; it must be in 1..={limit}")));
+            }
+        }
+        if !(1.0..=120.0).contains(&opts.fov_deg) {
+            return Err(invalid(format!("fov_deg is {}; it must be in 1..=120", opts.fov_deg)));
+        }
+        if instances.is_empty() || instances.len() > forest::MAX_TREES {
+            return Err(invalid(format!(
+                "{} trees; draw 1..={} at once",
+                instances.len(),
+                forest::MAX_TREES
+            )));
+        }
+        if !time.is_finite() {
+            return Err(invalid("the time is not finite"));
+        }
+        let (w, h) = (opts.width, opts.height);
+        let samples = if opts.msaa && self.msaa_ok { 4 } else { 1 };
+        let camera = self.camera(opts, instances);
+        let q = &self.gpu.queue;
+        q.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&Frame::new(&camera, time)));
+        let srgb = |c: [u8; 3]| [c[0] as f32 / 255.0, c[1] as f32 / 255.0, c[2] as f32 / 255.0, 1.0];
+        let bg = BackgroundUniform {
+            top: srgb(opts.background_top),
+            bottom: srgb(opts.background),
+            size: [w as f32, h as f32, 0.0, 0.0],
+        };
+        q.write_buffer(&self.background_buffer, 0, bytemuck::bytes_of(&bg));
+        if self.rig.is_some() {
+            let m: Vec<[f32; 16]> = self.joint_matrices(time).iter().map(Mat4::to_cols_array).collect();
+            q.write_buffer(&self.joint_buffer, 0, bytemuck::cast_slice(&m));
+        }
+
+        // Level of detail per instance, bucketed into one buffer, coarsest trees last.
+        let (lo, hi) = self.bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
+        let sphere = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-6));
+        let levels = forest::choose_levels(&camera, instances, sphere, &self.level_coverages());
+        let mut counts = vec![0u32; self.levels.len()];
+        for &l in &levels {
+            counts[l] += 1;
+        }
+        let mut order: Vec<usize> = (0..instances.len()).collect();
+        order.sort_by_key(|&i| levels[i]);
+        let data: Vec<[f32; 16]> = order.iter().map(|&i| instances[i].to_cols_array()).collect();
+        let instance_buffer = self.gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("sylva-gpu render instances"),
+            contents: bytemuck::cast_slice(&data),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+
+        let pipelines = self.pipelines(samples);
+        let mut guard = self.targets.lock().unwrap_or_else(|e| e.into_inner());
+        if guard.as_ref().is_none_or(|t| t.key != (w, h, samples)) {
+            *guard = Some(self.make_targets(w, h, samples));
+        }
+        let t = guard.as_ref().expect("targets were just made");
+        let mut stats = Stats { instances_per_level: counts.clone(), samples, ..Default::default() };
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sylva-gpu render") });
+        {
+            let resolve = t.resolve.as_ref().map(|(_, v)| v);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("sylva-gpu render"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &t.color,
+                    depth_slice: None,
+                    resolve_target: resolve,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &t.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.group0, &[]);
+            pass.set_pipeline(&pipelines.background);
+            pass.draw(0..3, 0..1);
+            let mut current_cut = None;
+            pass.set_vertex_buffer(1, instance_buffer.slice(..));
+            let mut start = 0u32;
+            for (level, &n) in self.levels.iter().zip(&counts) {
+                let range = start..start + n;
+                start += n;
+                if n == 0 {
+                    continue;
+                }
+                for part in &level.parts {
+                    pass.set_vertex_buffer(0, part.vertices.slice(..));
+                    pass.set_index_buffer(part.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    for g in &part.groups {
+                        let cut = part.cut[g.material];
+                        if current_cut != Some(cut) {
+                            pass.set_pipeline(if cut { &pipelines.cut } else { &pipelines.mesh });
+                            current_cut = Some(cut);
+                        }
+                        pass.set_bind_group(1, &part.materials[g.material], &[]);
+                        pass.draw_indexed(g.first..g.first + g.count, 0, range.clone());
+                        stats.draw_calls += 1;
+                    }
+                }
+                stats.triangles += level.triangles * n as u64;
+            }
+        }
+        let texture = match (&t.resolve, &t.single) {
+            (Some((tex, _)), _) | (None, Some(tex)) => tex,
+            (None, None) => unreachable!("a single-sample target or a resolve target exists"),
+        };
+        let image = self.read_back(encoder, texture, w, h);
+        Ok(Rendered { image, stats, camera })
+    }
+
+    fn make_targets(&self, w: u32, h: u32, samples: u32) -> Targets {
+        let device = &self.gpu.device;
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        let make = |label, samples, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let depth = make("sylva-gpu depth", samples, DEPTH_FORMAT, attach).create_view(&Default::default());
+        let readable = attach | wgpu::TextureUsages::COPY_SRC;
+        if samples > 1 {
+            let color =
+                make("sylva-gpu msaa colour", samples, COLOR_FORMAT, attach).create_view(&Default::default());
+            let resolve = make("sylva-gpu colour", 1, COLOR_FORMAT, readable);
+            let view = resolve.create_view(&Default::default());
+            Targets { key: (w, h, samples), color, resolve: Some((resolve, view)), single: None, depth }
+        } else {
+            let single = make("sylva-gpu colour", 1, COLOR_FORMAT, readable);
+            let color = single.create_view(&Default::default());
+            Targets { key: (w, h, samples), color, resolve: None, single: Some(single), depth }
+        }
+    }
+
+    /// Submits `encoder` with a copy of `texture` into a buffer and reads it back.
+    fn read_back(&self, mut encoder: wgpu::CommandEncoder, texture: &wgpu::Texture, w: u32, h: u32) -> Image {
+        let row = w * 4;
+        let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let staging = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sylva-gpu render readback"),
+            size: padded as u64 * h as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.gpu.queue.submit([encoder.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.gpu.wait();
+        rx.recv().expect("map callback ran").expect("readback buffer maps");
+        let mut rgba = Vec::with_capacity((row * h) as usize);
+        {
+            let view = slice.get_mapped_range().expect("mapped range");
+            for y in 0..h as usize {
+                let at = y * padded as usize;
+                rgba.extend_from_slice(&view[at..at + row as usize]);
+            }
+        }
+        staging.unmap();
+        Image { width: w, height: h, rgba }
+    }
+}
+
+/// An sRGB RGBA texture of `rgba` and its view.
+fn texture(gpu: &Gpu, label: &str, w: u32, h: u32, rgba: &[u8]) -> wgpu::TextureView {
+    let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+    let tex = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: COLOR_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    gpu.queue.write_texture(
+        tex.as_image_copy(),
+        rgba,
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 4), rows_per_image: Some(h) },
+        size,
+    );
+    tex.create_view(&Default::default())
+}
+
+/// Pixels of `image` that differ from the background `opts` paints (any channel by more
+/// than `tolerance`): the silhouette of what was drawn, row-major.
+pub fn silhouette(image: &Image, background: [u8; 3], background_top: [u8; 3], tolerance: u8) -> Vec<bool> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let f = if h > 1 { y as f32 / (h - 1) as f32 } else { 1.0 };
+        let bg: [u8; 3] = std::array::from_fn(|c| {
+            let (a, b) = (background_top[c] as f32, background[c] as f32);
+            (a + (b - a) * f + 0.5).clamp(0.0, 255.0) as u8
+        });
+        for x in 0..w {
+            let p = &image.rgba[(y * w + x) * 4..(y * w + x) * 4 + 3];
+            out.push((0..3).any(|c| p[c].abs_diff(bg[c]) > tolerance));
+        }
+    }
+    out
+}
+
+/// Intersection over union of two silhouettes of the same size (1 where both are empty).
+pub fn iou(a: &[bool], b: &[bool]) -> f64 {
+    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
+    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
+    if union == 0 {
+        1.0
+    } else {
+        inter as f64 / union as f64
+    }
+}
