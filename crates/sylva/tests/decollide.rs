@@ -394,3 +394,84 @@ fn a_limb_whose_joint_touches_a_trunk_is_bent_away() {
         assert_eq!(s.position[i as usize], before.position[i as usize], "node {i} moved");
     }
 }
+
+/// Issue 26: explicit start radii (an LST cylinder's r0, from which the hull and sweep
+/// meshers draw each internode's cone) are thinned with the node they start at: each is
+/// scaled by the factor its parent node's radius was lowered by, and one under the
+/// floor is raised to it like a radius.
+#[test]
+fn start_radii_are_thinned_with_the_node_they_start_at() {
+    let mut before = near_joint();
+    for i in 1..before.len() {
+        let p = before.parent[i] as usize;
+        // As an LST reads it: each cylinder starts at its parent's radius, a lateral
+        // a little thinner.
+        let r0 = if before.order[i] == before.order[p] { before.radius[p] } else { 0.08 };
+        before.set_start_radius(i, Some(r0));
+    }
+    let tip = before.len() - 1;
+    before.set_start_radius(tip, Some(0.0));
+    let mut s = before.clone();
+    let r = run(&mut s);
+    assert_eq!(r.after, 0, "{r:?}");
+    assert!(r.thinned > 0, "{r:?}");
+    assert_eq!(s.start_radius.len(), s.len());
+    // The floor as the pass ends (it only falls as the largest radius is thinned).
+    let floor = 0.005 * s.radius.iter().fold(0.0f32, |m, &x| m.max(x));
+    let mut lowered = 0;
+    for i in 1..s.len() {
+        let p = s.parent[i] as usize;
+        let (r0, r1) = (before.start_radius(i).unwrap(), s.start_radius(i).unwrap());
+        assert!(r1 >= floor * (1.0 - 1e-6), "node {i}: start radius {r1} under the floor");
+        if i == tip {
+            continue;
+        }
+        let want = r0 * s.radius[p] / before.radius[p];
+        assert!((r1 - want).abs() <= 1e-6 * r0, "node {i}: start radius {r0} → {r1}, want {want}");
+        assert!(r1 <= s.radius[p] * (1.0 + 1e-6), "node {i}: the cone starts wider than its parent");
+        lowered += usize::from(r1 < r0);
+    }
+    assert!(lowered > 0, "no start radius was thinned: {:?}", s.start_radius);
+}
+
+/// Issue 26: the mesh clearing thins explicit start radii with the node they start at
+/// (the meshers draw cones from them), and keeps them with the radii of the round it
+/// keeps. The mesher here draws two crossing triangles on internode 1 → 2 while that
+/// internode's cone starts wider than 6 cm, and a clean triangle after.
+#[test]
+fn mesh_clearing_thins_start_radii_too() {
+    use sylva::fit::clear::{clear_crossings, ClearOptions};
+    let mut sk = Skeleton::new();
+    let root = sk.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::Z, 0);
+    let a = sk.push(Vec3::Y, 0.1, root, Vec3::Z, 0);
+    let b = sk.push(Vec3::Y * 2.0, 0.05, a, Vec3::Z, 0);
+    sk.set_start_radius(a as usize, Some(0.1));
+    sk.set_start_radius(b as usize, Some(0.1));
+    let mesher = |s: &Skeleton| {
+        let mut m = sylva::Mesh::new();
+        if s.start_radius(b as usize).is_some_and(|r| r > 0.06) {
+            m.positions = vec![
+                Vec3::new(0.08, 1.4, -0.05),
+                Vec3::new(0.08, 1.6, -0.05),
+                Vec3::new(0.08, 1.5, 0.05),
+                Vec3::new(0.03, 1.5, -0.02),
+                Vec3::new(0.13, 1.5, -0.02),
+                Vec3::new(0.10, 1.5, 0.03),
+            ];
+            m.push_face(&[0, 1, 2]);
+            m.push_face(&[3, 4, 5]);
+        } else {
+            m.positions =
+                vec![Vec3::new(0.08, 1.4, 0.0), Vec3::new(0.08, 1.6, 0.0), Vec3::new(0.1, 1.5, 0.0)];
+            m.push_face(&[0, 1, 2]);
+        }
+        Ok((m, sylva::refine::Scheme::Loop))
+    };
+    let opts = ClearOptions { levels: 0, ..Default::default() };
+    let (_, report) = clear_crossings(&mut sk, &opts, mesher).unwrap();
+    assert_eq!((report.before, report.after), (Some(1), Some(0)), "{report:?}");
+    let r0 = sk.start_radius(b as usize).unwrap();
+    assert!(r0 <= 0.06, "{:?} {:?}", sk.radius, sk.start_radius);
+    assert!((r0 - sk.radius[a as usize]).abs() < 1e-6, "{r0} vs {:?}", sk.radius);
+    sk.validate().unwrap();
+}

@@ -316,6 +316,31 @@ fn json_round_trip_is_exact() {
     }
 }
 
+/// Issue 26: LST → JSON → read keeps every cylinder's start radius exactly (JSON used to
+/// drop them, so the hull and sweep meshers drew other cones from the JSON copy), and a
+/// hand-written `start_radius` is read, `null` meaning none.
+#[test]
+fn lst_to_json_keeps_start_radii() {
+    let text = "LST 0.1\nCylinder(0.5, 0.1, 4) MovRel3f(0, 4, 0)\n\
+                SB() RotRel3f(0.7, 0, 0, 1) Cylinder(0.02, 0.01, 1) MovRel3f(0, 1, 0) EB()\n\
+                Cylinder(0.3, 0.05, 2) MovRel3f(0, 2, 0)\n";
+    let sk = lst::parse("t.lst", text, &LstOptions::default()).unwrap();
+    assert!(sk.start_radius.iter().flatten().any(|&r| r == 0.3), "{:?}", sk.start_radius);
+    let json = to_json(&sk);
+    let back = from_json(&json).unwrap();
+    assert_eq!(back.start_radius, sk.start_radius, "{json}");
+    assert_eq!(back, sk);
+    assert_eq!(to_lst(&back), to_lst(&sk));
+    let hand = r#"{"format": "sylva-skeleton", "version": 1, "nodes": [
+        {"position": [0, 0, 0], "radius": 0.3, "parent": null},
+        {"position": [0, 1, 0], "radius": 0.2, "start_radius": 0.25, "parent": 0},
+        {"position": [0, 2, 0], "radius": 0.1, "start_radius": null, "parent": 1}]}"#;
+    let h = from_json(hand).unwrap();
+    assert_eq!(h.start_radius, vec![None, Some(0.25), None]);
+    let bad = hand.replace("0.25", "-1");
+    assert!(matches!(from_json(&bad), Err(Error::Skeleton(_))), "a negative start radius is refused");
+}
+
 #[test]
 fn hand_written_json_fills_defaults() {
     let sk = skeleton_from(&data("fork.skel.json"));

@@ -314,3 +314,22 @@ fn aspen_chain_keeps_budgets_and_silhouettes() {
         }
     }
 }
+
+/// Issue 26: pruning an LST skeleton keeps each kept internode's cylinder start radius
+/// (it used to rebuild the skeleton without the column, so the meshers fell back to
+/// their default and the cones changed).
+#[test]
+fn pruning_keeps_the_start_radii_of_kept_internodes() {
+    let text = "LST 0.1\nCylinder(0.5, 0.1, 4) MovRel3f(0, 4, 0)\n\
+                SB() RotRel3f(0.7, 0, 0, 1) Cylinder(0.02, 0.01, 1) MovRel3f(0, 1, 0) EB()\n\
+                Cylinder(0.3, 0.05, 2) MovRel3f(0, 2, 0)\n";
+    let opts = sylva::import::lst::LstOptions::default();
+    let sk = sylva::import::lst::parse("t.lst", text, &opts).unwrap();
+    let p = sylva::lod::prune::prune(&sk, 0.03);
+    p.skeleton.validate().unwrap();
+    assert!(p.skeleton.len() < sk.len(), "the thin lateral goes");
+    let kept: Vec<Option<f32>> = (0..p.skeleton.len()).map(|k| p.skeleton.start_radius(k)).collect();
+    let want: Vec<Option<f32>> = p.original.iter().map(|&o| sk.start_radius(o as usize)).collect();
+    assert_eq!(kept, want);
+    assert!(kept.contains(&Some(0.3)) && kept.contains(&Some(0.5)), "{kept:?}");
+}

@@ -7,9 +7,9 @@
 //!   and reads back exactly; where the skeleton has none, r0 is the parent node's
 //!   radius, which reads back as an explicit start radius (the reader records every
 //!   cylinder's r0). A root's radius is read back from its first cylinder's r0.
-//! - [`to_json`] / [`from_json`] are an exact round trip of every field, organs
-//!   included (`docs/formats.md` documents the format), except the start radii, which
-//!   the JSON format does not hold yet.
+//! - [`to_json`] / [`from_json`] are an exact round trip of every field, organs and
+//!   start radii included (`docs/formats.md` documents the format), so LST → JSON →
+//!   read keeps every cylinder's r0.
 //! - [`write()`] chooses the format from the file extension and writes atomically.
 //!
 //! What LST cannot hold: materials, organs and the exact `up` reference (an imported
@@ -239,7 +239,8 @@ fn num32(v: f32) -> (String, f64) {
 // JSON
 
 /// The skeleton as a JSON document (`docs/formats.md`): one node, and one organ, per
-/// line, every field written, numbers in their shortest exact form, so [`from_json`]
+/// line, every field written (`start_radius` on every node when the skeleton has the
+/// column, `null` where a node has none; on none when it has not), numbers in their shortest exact form, so [`from_json`]
 /// gives back an identical skeleton. Deterministic.
 pub fn to_json(skeleton: &Skeleton) -> String {
     let sk = skeleton;
@@ -251,6 +252,7 @@ pub fn to_json(skeleton: &Skeleton) -> String {
         let node = JsonNode {
             position: sk.position[i].to_array(),
             radius: sk.radius.get(i).copied().unwrap_or(0.0),
+            start_radius: (!sk.start_radius.is_empty()).then(|| sk.start_radius.get(i).copied().flatten()),
             parent: sk.parent.get(i).copied().filter(|&p| p != NO_PARENT),
             up: Some(sk.up.get(i).copied().unwrap_or(Vec3::X).to_array()),
             order: sk.order.get(i).copied().unwrap_or(0),
@@ -380,5 +382,27 @@ mod tests {
         assert!(back.position[1].x.is_sign_negative());
         assert_eq!(to_json(&back), text);
         assert_eq!(from_json(&to_json(&Skeleton::new())).unwrap(), Skeleton::new());
+    }
+
+    /// Issue 26: start radii go through JSON exactly: the column, its `None`s (`null`)
+    /// and a skeleton without it (no `start_radius` at all).
+    #[test]
+    fn json_keeps_start_radii() {
+        let mut s = fork();
+        s.set_start_radius(2, Some(0.25));
+        s.set_start_radius(3, Some(1e-30));
+        let text = to_json(&s);
+        assert!(text.contains("\"radius\":0.1,\"start_radius\":0.25,"), "{text}");
+        assert!(text.contains("\"start_radius\":null"), "{text}");
+        let back = from_json(&text).unwrap();
+        assert_eq!(back.start_radius, s.start_radius);
+        assert_eq!(back, s);
+        assert_eq!(to_json(&back), text);
+        // A column of `None`s stays a column.
+        let mut none = fork();
+        none.set_start_radius(1, None);
+        assert_eq!(from_json(&to_json(&none)).unwrap(), none);
+        assert!(!to_json(&fork()).contains("start_radius"));
+        assert!(from_json(&to_json(&fork())).unwrap().start_radius.is_empty());
     }
 }

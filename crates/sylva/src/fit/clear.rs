@@ -32,7 +32,10 @@
 //!
 //! The skeleton and mesh with the fewest crossings seen are kept (thinning one junction
 //! can change a mesher's repair choices elsewhere), so the count never rises. Only radii
-//! change: positions, topology and organs stay as they are.
+//! change: positions, topology and organs stay as they are. Explicit start radii
+//! ([`Skeleton::start_radius()`], which the hull and sweep meshers draw cones from) are
+//! raised to the floor and thinned with the node they start at, as `decollide` does
+//! (issue 26), so a thinned junction's cones thin too.
 //!
 //! Cost per round: one meshing, one refinement and one BVH search over the refined
 //! triangles; refined meshes over [`ClearOptions::max_faces`] faces are not searched
@@ -221,14 +224,15 @@ pub fn clear_crossings_refined<F>(
 where
     F: FnMut(&Skeleton) -> Result<(Mesh, Scheme)>,
 {
-    /// The round with the fewest crossings: (count, radii, cage, refined cage, crossing face centres).
-    type Best = (usize, Vec<f32>, Mesh, Mesh, Vec<DVec3>);
+    /// The round with the fewest crossings: (count, radii, start radii, cage, refined
+    /// cage, crossing face centres).
+    type Best = (usize, Vec<f32>, Vec<Option<f32>>, Mesh, Mesh, Vec<DVec3>);
     let t0 = Instant::now();
     opts.check()?;
     skeleton.validate()?;
     raise_to_floor(skeleton, opts.min_radius);
     let floor = floor_of(skeleton, opts.min_radius);
-    let start_radius = skeleton.radius.clone();
+    let initial_radius = skeleton.radius.clone();
     let mut report = ClearReport::default();
     let (mut mesh, scheme) = mesher(skeleton)?;
     let mut best: Option<Best> = None;
@@ -243,7 +247,8 @@ where
             report.before = Some(count);
         }
         if best.as_ref().is_none_or(|b| count < b.0) {
-            best = Some((count, skeleton.radius.clone(), mesh.clone(), fine, faces.clone()));
+            let starts = skeleton.start_radius.clone();
+            best = Some((count, skeleton.radius.clone(), starts, mesh.clone(), fine, faces.clone()));
             stalled = 0;
         } else {
             stalled += 1;
@@ -259,7 +264,7 @@ where
         let children = skeleton.children();
         let mut cap = vec![f64::INFINITY; skeleton.len()];
         let mut thin = |node: u32| {
-            let (r, r0) = (skeleton.radius[node as usize] as f64, start_radius[node as usize] as f64);
+            let (r, r0) = (skeleton.radius[node as usize] as f64, initial_radius[node as usize] as f64);
             let c = (opts.step * r).max(opts.min_factor * r0);
             cap[node as usize] = cap[node as usize].min(c);
         };
@@ -281,10 +286,11 @@ where
         mesh = mesher(skeleton)?.0;
     }
     let mut refined = None;
-    if let Some((count, radius, best_mesh, fine, faces)) = best {
+    if let Some((count, radius, starts, best_mesh, fine, faces)) = best {
         report.after = Some(count);
         report.truncated = count >= opts.max_pairs;
         skeleton.radius = radius;
+        skeleton.start_radius = starts;
         mesh = best_mesh;
         refined = Some(fine);
         if count > 0 {
@@ -293,7 +299,7 @@ where
             report.unresolved = left;
         }
     }
-    report.thinned = skeleton.radius.iter().zip(&start_radius).filter(|(a, b)| a != b).count();
+    report.thinned = skeleton.radius.iter().zip(&initial_radius).filter(|(a, b)| a != b).count();
     report.elapsed = t0.elapsed();
     Ok(Cleared { control: mesh, refined, report })
 }

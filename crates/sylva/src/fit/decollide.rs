@@ -66,6 +66,11 @@
 //! collision-free is left bit-identical, except that radii under the floor
 //! ([`DecollideOptions::min_radius`], 0.005 of the largest: the joint meshers' own floor)
 //! are first raised to it, since the meshers draw them that thick.
+//! Explicit start radii ([`Skeleton::start_radius()`], an LST cylinder's r0) are raised
+//! to the floor likewise and thinned with the node they start at: the start radius of
+//! the internode into node `i` is scaled by the factor its parent's radius was lowered
+//! by (issue 26; a start radius no larger than its parent's radius stays so, within
+//! the capsule, which uses node radii only).
 //!
 //! Cost per round: a BVH over the internode capsules (median split; its bounds grow to
 //! cover each rotated subtree), the collision search parallel over internodes with
@@ -680,8 +685,15 @@ fn thin(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], o: &DecollideOp
 /// relaxing each cap up its axis by at most `taper` metres of radius per metre of length
 /// and carrying it down to every descendant (radii stay non-increasing towards the tips
 /// and the thinning is a smooth taper, not a notch). Returns whether any radius changed.
+///
+/// Explicit start radii ([`Skeleton::start_radius()`]) are thinned with the node they
+/// start at: the start radius of the internode ending at node `i` lies at its parent
+/// `p`, so it is scaled by the factor `p`'s radius was lowered by (a cone keeps its
+/// proportions to the axis it leaves, and a start radius no larger than `p`'s radius,
+/// the capsule's, stays so), never below the floor unless it already was.
 pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64, floor: f32) -> bool {
     let n = s.len();
+    let before = if s.start_radius.is_empty() { Vec::new() } else { s.radius.clone() };
     // Relax up each axis (a child continuing its parent's order), children first.
     for i in (0..n).rev() {
         let p = s.parent[i];
@@ -706,7 +718,29 @@ pub(crate) fn apply_caps(s: &mut Skeleton, mut cap: Vec<f64>, taper: f64, floor:
             changed = true;
         }
     }
+    if changed && !before.is_empty() {
+        scale_start_radii(s, &before, floor);
+    }
     changed
+}
+
+/// Scales each explicit start radius by the factor its internode's parent node's radius
+/// changed by from `before` (only where that radius was lowered), never below `floor`
+/// unless it already was (see [`apply_caps`]).
+fn scale_start_radii(s: &mut Skeleton, before: &[f32], floor: f32) {
+    let n = s.len().min(s.start_radius.len()).min(before.len());
+    for i in 0..n {
+        let p = s.parent[i];
+        let Some(r0) = s.start_radius[i] else { continue };
+        if p == NO_PARENT || p as usize >= n {
+            continue;
+        }
+        let (old, new) = (before[p as usize], s.radius[p as usize]);
+        if new < old && old > 0.0 {
+            let scaled = (f64::from(r0) * f64::from(new) / f64::from(old)) as f32;
+            s.start_radius[i] = Some(scaled.max(floor.min(r0)));
+        }
+    }
 }
 
 /// The radius floor: `fraction` of the skeleton's largest radius.
@@ -716,13 +750,17 @@ pub(crate) fn floor_of(s: &Skeleton, fraction: f64) -> f32 {
 }
 
 /// Raises every radius under the floor (`fraction` of the largest radius) to it;
-/// returns how many were raised.
+/// returns how many were raised. Explicit start radii under the floor are raised to it
+/// too (the meshers draw them that thick), but not counted.
 pub(crate) fn raise_to_floor(s: &mut Skeleton, fraction: f64) -> usize {
     let floor = floor_of(s, fraction);
     let mut raised = 0;
     for r in s.radius.iter_mut().filter(|r| **r < floor) {
         *r = floor;
         raised += 1;
+    }
+    for r0 in s.start_radius.iter_mut().flatten().filter(|r| **r < floor) {
+        *r0 = floor;
     }
     raised
 }

@@ -31,6 +31,12 @@ pub(crate) struct JsonDoc {
 pub(crate) struct JsonNode {
     pub(crate) position: [f32; 3],
     pub(crate) radius: f32,
+    /// The explicit start radius of the internode ending at the node (issue 26): a
+    /// number, or `null` where the node has none. Absent on every node when the skeleton
+    /// has no start-radius column; present (if only as `null`) on every node when it has
+    /// one, so the column round-trips exactly.
+    #[serde(default, deserialize_with = "present", skip_serializing_if = "Option::is_none")]
+    pub(crate) start_radius: Option<Option<f32>>,
     pub(crate) parent: Option<u32>,
     #[serde(default)]
     pub(crate) up: Option<[f32; 3]>,
@@ -38,6 +44,12 @@ pub(crate) struct JsonNode {
     pub(crate) order: u16,
     #[serde(default)]
     pub(crate) material: u32,
+}
+
+/// A field that may be `null`: `Some(None)` when it is, so that a `null` is told apart
+/// from a field left out (`None`, serde's default).
+fn present<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<Option<f32>>, D::Error> {
+    Option::<f32>::deserialize(d).map(Some)
 }
 
 #[derive(Serialize, Deserialize)]
@@ -57,8 +69,10 @@ pub(crate) struct JsonOrgan {
     pub(crate) material: u32,
 }
 
-/// Reads a JSON skeleton written by [`crate::export::skeleton::to_json`] (or by hand: `up`, `order`, `material`
-/// and `organs` may be left out). Syntax and type errors are located
+/// Reads a JSON skeleton written by [`crate::export::skeleton::to_json`] (or by hand: `up`, `order`, `material`,
+/// `start_radius` and `organs` may be left out). A skeleton has start radii
+/// ([`Skeleton::start_radius()`]) when any node gives `start_radius` (a number or
+/// `null`). Syntax and type errors are located
 /// (`<json>:line:column: what`); a skeleton that breaks an invariant is
 /// [`Error::Skeleton`].
 pub fn from_json(text: &str) -> Result<Skeleton> {
@@ -119,6 +133,11 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
         sk.push(position, node.radius, parent, up, node.order);
         if let Some(m) = sk.material.last_mut() {
             *m = node.material;
+        }
+    }
+    if doc.nodes.iter().any(|n| n.start_radius.is_some()) {
+        for (i, node) in doc.nodes.iter().enumerate() {
+            sk.set_start_radius(i, node.start_radius.flatten());
         }
     }
     for (k, o) in doc.organs.into_iter().enumerate() {

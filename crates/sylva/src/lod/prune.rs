@@ -36,6 +36,7 @@ fn continuations(sk: &Skeleton) -> Vec<u32> {
 /// all its descendants) whose thickest node has a radius below `min_radius`; roots and
 /// axis continuations always stay. Organs on dropped nodes move to the nearest kept
 /// ancestor (their positions do not change); organs on no node keep `NO_PARENT`.
+/// Kept nodes keep their explicit start radii ([`Skeleton::start_radius()`]).
 /// `min_radius ≤ 0` (or NaN) keeps everything. O(nodes + organs).
 pub fn prune(sk: &Skeleton, min_radius: f32) -> Pruned {
     let n = sk.len();
@@ -66,6 +67,10 @@ pub fn prune(sk: &Skeleton, min_radius: f32) -> Pruned {
             let parent = if parent_ok { stand[p as usize] } else { NO_PARENT };
             let k = out.skeleton.push(sk.position[i], sk.radius[i], parent, sk.up[i], sk.order[i]);
             out.skeleton.material[k as usize] = sk.material[i];
+            if !sk.start_radius.is_empty() {
+                // Kept nodes keep their parents, so each internode keeps its start radius.
+                out.skeleton.set_start_radius(k as usize, sk.start_radius.get(i).copied().flatten());
+            }
             out.original.push(i as u32);
             stand[i] = k;
         } else {
@@ -129,5 +134,20 @@ mod tests {
         let all = prune(&tree(), 1.0);
         assert_eq!(all.original, vec![0, 1, 2]);
         assert_eq!(prune(&tree(), 0.0).skeleton, tree());
+    }
+
+    /// Issue 26: the explicit start radii of the kept internodes survive pruning.
+    #[test]
+    fn start_radii_are_carried_over() {
+        let mut s = tree();
+        s.set_start_radius(2, Some(0.12));
+        s.set_start_radius(4, Some(0.008));
+        s.set_start_radius(5, Some(0.07));
+        let p = prune(&s, 0.02);
+        p.skeleton.validate().unwrap();
+        assert_eq!(p.original, vec![0, 1, 2, 5]);
+        assert_eq!(p.skeleton.start_radius, vec![None, None, Some(0.12), Some(0.07)]);
+        assert_eq!(p.skeleton.start_radius(3), Some(0.07));
+        assert_eq!(prune(&s, 0.0).skeleton, s);
     }
 }

@@ -103,6 +103,74 @@ fn bracket_partners(m: &ModuleString, open: Option<u16>, close: Option<u16>) -> 
     out
 }
 
+/// Empties a module string, keeping its allocations.
+fn clear_string(m: &mut ModuleString) {
+    m.syms.clear();
+    m.params.clear();
+    m.pofs.clear();
+    m.pofs.push(0);
+}
+
+/// The modules a decomposition or homomorphism has still to rewrite (the last on top),
+/// each with its depth and its group: the successor it belongs to (a multi-module
+/// predecessor matches modules of one group only).
+struct Pending {
+    /// The modules, last on top.
+    modules: ModuleString,
+    /// Depth of each module.
+    depths: Vec<u32>,
+    /// Group of each module.
+    groups: Vec<u32>,
+    /// The group the next successor gets.
+    next_group: u32,
+}
+
+impl Pending {
+    fn new() -> Self {
+        Self { modules: ModuleString::new(), depths: Vec::new(), groups: Vec::new(), next_group: 1 }
+    }
+
+    fn push(&mut self, sym: u16, params: &[f64], depth: u32, group: u32) {
+        self.modules.push(sym, params);
+        self.depths.push(depth);
+        self.groups.push(group);
+    }
+
+    /// Pushes the modules of a successor as a new group at `depth`, its first on top.
+    fn push_successor(&mut self, succ: &ModuleString, depth: u32) {
+        let group = self.next_group;
+        self.next_group = self.next_group.wrapping_add(1);
+        for j in (0..succ.len()).rev() {
+            let (s, p) = succ.module(j);
+            self.push(s, p, depth, group);
+        }
+    }
+
+    /// Takes the top module: its symbol, depth and group, its parameters into `params`.
+    fn pop(&mut self, params: &mut Vec<f64>) -> Option<(u16, u32, u32)> {
+        let depth = self.depths.pop()?;
+        let group = self.groups.pop().expect("one group per depth");
+        let sym = self.modules.syms.pop().expect("one module per depth");
+        self.modules.pofs.pop();
+        let from = *self.modules.pofs.last().expect("pofs starts with 0") as usize;
+        params.clear();
+        params.extend_from_slice(&self.modules.params[from..]);
+        self.modules.params.truncate(from);
+        Some((sym, depth, group))
+    }
+
+    /// Drops the top module.
+    fn drop_top(&mut self) {
+        if self.depths.pop().is_some() {
+            self.groups.pop();
+            self.modules.syms.pop();
+            self.modules.pofs.pop();
+            let from = *self.modules.pofs.last().expect("pofs starts with 0") as usize;
+            self.modules.params.truncate(from);
+        }
+    }
+}
+
 impl LSystem {
     /// An evaluator for a derivation: globals initialised, the `define:` and `Start:`
     /// blocks run, `functions` available to `func(id, x)`.
@@ -148,13 +216,42 @@ impl LSystem {
         let mut out = ModuleString::new();
         let mut buf = Vec::new();
         let mut scratch = Vec::new();
+        // With multi-module predecessors the axiom is decomposed as a whole string.
+        let whole = self.decomposition.lookahead > 0;
         for m in &self.axiom {
             buf.clear();
             for a in &m.args {
                 let v = ev.eval(a, &[]).map_err(|e| self.eval_error(e, "evaluating the axiom", None))?;
                 buf.push(v);
             }
-            self.expand(&self.decomposition, "decomposition", m.sym, &buf, 0, &mut out, ev, &mut scratch)?;
+            if whole {
+                out.push(m.sym, &buf);
+            } else {
+                self.expand(
+                    &self.decomposition,
+                    "decomposition",
+                    m.sym,
+                    &buf,
+                    0,
+                    &mut out,
+                    ev,
+                    &mut scratch,
+                )?;
+            }
+            self.charge_module(ev, &out)?;
+        }
+        if whole {
+            let raw = std::mem::take(&mut out);
+            out = ModuleString::with_capacity(raw.len(), raw.params.len());
+            self.expand_run(
+                &self.decomposition,
+                "decomposition",
+                &raw,
+                0..raw.len(),
+                &mut out,
+                ev,
+                &mut scratch,
+            )?;
             self.charge_module(ev, &out)?;
         }
         Ok(out)
@@ -347,7 +444,14 @@ impl LSystem {
         let mut tmp = ModuleString::new();
         let mut scratch = Vec::new();
         let mut next = 0;
-        let params_limit = param_budget(opts.budget);
+        // With multi-module predecessors in a decomposition, the step first writes the
+        // rewritten string and then decomposes it as a whole (each run of modules one
+        // L-system rewrites, `raw_owner`), so a predecessor can match modules that
+        // different productions wrote. Otherwise each successor is decomposed as it is
+        // written.
+        let whole = self.decomposition.lookahead > 0
+            || self.subsystems.iter().any(|s| s.lsystem.decomposition.lookahead > 0);
+        let mut raw_owner: Vec<u16> = Vec::new();
         while next < cur.len() {
             let i = next;
             next += 1;
@@ -360,7 +464,7 @@ impl LSystem {
                 Some(&k) if k > 0 => &self.subsystems[k as usize - 1].lsystem,
                 _ => self,
             };
-            let decompose = !sys.decomposition.productions.is_empty();
+            let decompose = !whole && !sys.decomposition.productions.is_empty();
             if Some(sym) == cut && sys.by_symbol[sym as usize].is_empty() {
                 // cpfg's cut: `%` and the rest of its branch are erased (the closing
                 // `]` stays), one step after the `%` appeared.
@@ -419,27 +523,58 @@ impl LSystem {
                     }
                 }
             }
-            if out.syms.len() > opts.budget {
-                return Err(self.budget_error(step, opts, out.syms.len()));
+            if whole && raw_owner.len() < out.len() {
+                raw_owner.resize(out.len(), owner.get(i).copied().unwrap_or(0));
             }
-            if out.params.len() > params_limit {
-                let e = self.source.error_nowhere(
-                    ErrorKind::Budget,
-                    &format!(
-                        "derivation step {step} of {} exceeds the module budget: more than {params_limit} \
-                         parameters ({PARAMS_PER_MODULE} per module of generator.max_modules = {}; reached {})",
-                        opts.steps,
-                        opts.budget,
-                        out.params.len()
-                    ),
-                );
-                return Err(e.with_help(
-                    "derive fewer steps (-n) or raise the limit with --set generator.max_modules=N",
-                ));
+            self.check_step_size(out, opts, step)?;
+        }
+        if whole {
+            let raw = std::mem::take(out);
+            *out = ModuleString::with_capacity(raw.len(), raw.params.len());
+            let mut a = 0;
+            while a < raw.len() {
+                let k = raw_owner.get(a).copied().unwrap_or(0);
+                let mut b = a + 1;
+                while b < raw.len() && raw_owner.get(b).copied().unwrap_or(0) == k {
+                    b += 1;
+                }
+                let sys = if k > 0 { &self.subsystems[k as usize - 1].lsystem } else { self };
+                sys.expand_run(&sys.decomposition, "decomposition", &raw, a..b, out, ev, &mut scratch)?;
+                self.check_step_size(out, opts, step)?;
+                a = b;
             }
         }
         ev.charge(MODULE_WORK.saturating_mul(out.len() as u64), 0)
             .map_err(|e| self.eval_error(e, &format!("writing step {step}"), None))?;
+        Ok(())
+    }
+
+    /// A step's string against the module budget `opts.budget` and its parameter budget.
+    fn check_step_size(
+        &self,
+        out: &ModuleString,
+        opts: &DeriveOptions,
+        step: u32,
+    ) -> Result<(), Box<LsystemError>> {
+        if out.syms.len() > opts.budget {
+            return Err(self.budget_error(step, opts, out.syms.len()));
+        }
+        let params_limit = param_budget(opts.budget);
+        if out.params.len() > params_limit {
+            let e = self.source.error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "derivation step {step} of {} exceeds the module budget: more than {params_limit} \
+                     parameters ({PARAMS_PER_MODULE} per module of generator.max_modules = {}; reached {})",
+                    opts.steps,
+                    opts.budget,
+                    out.params.len()
+                ),
+            );
+            return Err(
+                e.with_help("derive fewer steps (-n) or raise the limit with --set generator.max_modules=N")
+            );
+        }
         Ok(())
     }
 
@@ -810,7 +945,10 @@ impl LSystem {
     }
 
     /// Writes a module rewritten by `rules` recursively (decomposition, homomorphism);
-    /// `depth` is the module's depth (0 for a module of the derived string).
+    /// `depth` is the module's depth (0 for a module of the derived string). The
+    /// modules of each successor are rewritten in turn, and a multi-module predecessor
+    /// matches consecutive modules of one successor; a string of several modules at
+    /// depth 0 goes through [`LSystem::expand_run`] instead.
     #[allow(clippy::too_many_arguments)]
     fn expand(
         &self,
@@ -827,22 +965,89 @@ impl LSystem {
             out.push(sym, params);
             return self.charge_expanded(what, ev, out);
         }
-        // Depth first with an explicit stack (modules still to expand, last on top, and
-        // their depths): `maximum depth: 10000` must not overflow the thread's stack.
-        let mut pending = ModuleString::new();
-        let mut depths: Vec<u32> = Vec::new();
-        pending.push(sym, params);
-        depths.push(depth);
+        let mut pending = Pending::new();
+        pending.push(sym, params, depth, 0);
+        self.drain(rules, what, &mut pending, out, ev, scratch)
+    }
+
+    /// Writes the modules `range` of `src` rewritten by `rules` as one string
+    /// (decomposition, homomorphism): left to right, the production chosen for a module
+    /// (its predecessor may span it and the modules after it, within `range`) replaces
+    /// the modules it matches by its successor, which is rewritten the same way as a
+    /// string of its own (depth first, one level deeper, up to the maximum depth) before
+    /// the scan goes on after the matched modules. A multi-module predecessor therefore
+    /// matches consecutive modules of `range` or of one successor, never across the end
+    /// of either. Modules no production matches are written as they are.
+    #[allow(clippy::too_many_arguments)]
+    fn expand_run(
+        &self,
+        rules: &RuleSet,
+        what: &str,
+        src: &ModuleString,
+        range: std::ops::Range<usize>,
+        out: &mut ModuleString,
+        ev: &mut Evaluator,
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), Box<LsystemError>> {
+        let mut pending = Pending::new();
+        let mut look = ModuleString::new();
+        let mut buf = Vec::new();
+        let mut tmp = ModuleString::new();
+        let end = range.end.min(src.len());
+        let mut i = range.start;
+        while i < end {
+            let (sym, params) = src.module(i);
+            let prods = match rules.by_symbol.get(sym as usize) {
+                Some(p) if !p.is_empty() => p,
+                _ => {
+                    out.push(sym, params);
+                    self.charge_expanded(what, ev, out)?;
+                    i += 1;
+                    continue;
+                }
+            };
+            clear_string(&mut look);
+            for j in i..(i + 1 + rules.lookahead).min(end) {
+                let (s2, p2) = src.module(j);
+                look.push(s2, p2);
+            }
+            let Some((k, uses_buf)) =
+                self.choose(rules, what, prods, sym, params, Some(&look), 0, ev, &mut buf)?
+            else {
+                out.push(sym, params);
+                self.charge_expanded(what, ev, out)?;
+                i += 1;
+                continue;
+            };
+            let p = &rules.productions[k];
+            i += 1 + p.rest.len();
+            let locals: &[f64] = if uses_buf { &buf } else { params };
+            clear_string(&mut tmp);
+            self.emit(p, locals, &mut tmp, ev, scratch)?;
+            pending.push_successor(&tmp, 1);
+            self.check_pending(what, &pending, ev)?;
+            self.drain(rules, what, &mut pending, out, ev, scratch)?;
+        }
+        Ok(())
+    }
+
+    /// Rewrites the modules of `pending` until none is left, writing the results to
+    /// `out` (see [`LSystem::expand`] and [`LSystem::expand_run`]). Depth first with an
+    /// explicit stack: `maximum depth: 10000` must not overflow the thread's stack.
+    fn drain(
+        &self,
+        rules: &RuleSet,
+        what: &str,
+        pending: &mut Pending,
+        out: &mut ModuleString,
+        ev: &mut Evaluator,
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), Box<LsystemError>> {
         let mut cur: Vec<f64> = Vec::new();
         let mut buf = Vec::new();
         let mut tmp = ModuleString::new();
-        while let Some(depth) = depths.pop() {
-            let sym = pending.syms.pop().expect("one module per depth");
-            pending.pofs.pop();
-            let from = *pending.pofs.last().expect("pofs starts with 0") as usize;
-            cur.clear();
-            cur.extend_from_slice(&pending.params[from..]);
-            pending.params.truncate(from);
+        let mut look = ModuleString::new();
+        while let Some((sym, depth, group)) = pending.pop(&mut cur) {
             let prods = match rules.by_symbol.get(sym as usize) {
                 Some(p) if !p.is_empty() => p,
                 _ => {
@@ -851,56 +1056,102 @@ impl LSystem {
                     continue;
                 }
             };
-            ev.charge(MODULE_WORK, 0)
-                .map_err(|e| self.eval_error(e, &format!("applying the {what}"), None))?;
-            let Some((k, uses_buf)) = self.select(&rules.productions, prods, &cur, None, ev, &mut buf)?
+            // For multi-module predecessors: the module and the modules after it in its
+            // successor (those below it on the stack with its group).
+            let site = if rules.lookahead > 0 {
+                clear_string(&mut look);
+                look.push(sym, &cur);
+                let n = pending.depths.len();
+                for j in (n.saturating_sub(rules.lookahead)..n).rev() {
+                    if pending.groups[j] != group {
+                        break;
+                    }
+                    let (s2, p2) = pending.modules.module(j);
+                    look.push(s2, p2);
+                }
+                Some(&look)
+            } else {
+                None
+            };
+            let Some((k, uses_buf)) =
+                self.choose(rules, what, prods, sym, &cur, site, depth, ev, &mut buf)?
             else {
                 out.push(sym, &cur);
                 self.charge_expanded(what, ev, out)?;
                 continue;
             };
-            if depth >= rules.max_depth {
-                if rules.depth_explicit {
-                    let p = &rules.productions[k];
-                    return Err(self.source.error(
-                        ErrorKind::OutOfRange,
-                        p.at as usize,
-                        p.len as usize,
-                        &format!(
-                            "module {} still has a {what} production at the maximum depth {} (line {})",
-                            self.format_module(sym, &cur),
-                            rules.max_depth,
-                            p.line
-                        ),
-                        "applies past the maximum depth",
-                    ));
-                }
-                out.push(sym, &cur);
-                self.charge_expanded(what, ev, out)?;
-                continue;
-            }
             let p = &rules.productions[k];
-            let locals: &[f64] = if uses_buf { &buf } else { &cur };
-            tmp.syms.clear();
-            tmp.params.clear();
-            tmp.pofs.clear();
-            tmp.pofs.push(0);
-            self.emit(p, locals, &mut tmp, ev, scratch)?;
-            // The successor's modules, first on top.
-            for j in (0..tmp.len()).rev() {
-                let (s2, p2) = tmp.module(j);
-                pending.push(s2, p2);
-                depths.push(depth + 1);
+            // The further modules of a multi-module predecessor are consumed too (their
+            // parameters are in `buf`).
+            for _ in 0..p.rest.len() {
+                pending.drop_top();
             }
-            if pending.params.len() > param_budget(ev.module_limit) || pending.len() > ev.module_limit {
-                return Err(self.size_error(
-                    ev,
-                    &format!("the {what}"),
-                    pending.len(),
-                    "pending modules",
-                    ev.module_limit,
+            let locals: &[f64] = if uses_buf { &buf } else { &cur };
+            clear_string(&mut tmp);
+            self.emit(p, locals, &mut tmp, ev, scratch)?;
+            pending.push_successor(&tmp, depth + 1);
+            self.check_pending(what, pending, ev)?;
+        }
+        Ok(())
+    }
+
+    /// The production of `rules` (`prods`: those of `sym`) that rewrites the module
+    /// `sym(params)` at `depth`, as [`LSystem::select`] gives it; `look` is the module
+    /// followed by the modules after it in its string, for multi-module predecessors
+    /// (`None` when `rules` has none). At the maximum depth none applies, and one that
+    /// would is an error when the file gave `maximum depth:`.
+    #[allow(clippy::too_many_arguments)]
+    fn choose(
+        &self,
+        rules: &RuleSet,
+        what: &str,
+        prods: &[u32],
+        sym: u16,
+        params: &[f64],
+        look: Option<&ModuleString>,
+        depth: u32,
+        ev: &mut Evaluator,
+        buf: &mut Vec<f64>,
+    ) -> Result<Option<(usize, bool)>, Box<LsystemError>> {
+        const NO_BRACKETS: &[u32] = &[];
+        ev.charge(MODULE_WORK, 0).map_err(|e| self.eval_error(e, &format!("applying the {what}"), None))?;
+        let site = look.map(|l| (l, 0, NO_BRACKETS));
+        let Some((k, uses_buf)) = self.select(&rules.productions, prods, params, site, ev, buf)? else {
+            return Ok(None);
+        };
+        if depth >= rules.max_depth {
+            if rules.depth_explicit {
+                let p = &rules.productions[k];
+                return Err(self.source.error(
+                    ErrorKind::OutOfRange,
+                    p.at as usize,
+                    p.len as usize,
+                    &format!(
+                        "module {} still has a {what} production at the maximum depth {} (line {})",
+                        self.format_module(sym, params),
+                        rules.max_depth,
+                        p.line
+                    ),
+                    "applies past the maximum depth",
                 ));
             }
+            return Ok(None);
+        }
+        Ok(Some((k, uses_buf)))
+    }
+
+    /// The pending modules of a decomposition or homomorphism against the module and
+    /// parameter budgets.
+    fn check_pending(&self, what: &str, pending: &Pending, ev: &Evaluator) -> Result<(), Box<LsystemError>> {
+        let m = &pending.modules;
+        if m.params.len() > param_budget(ev.module_limit) || m.len() > ev.module_limit {
+            return Err(self.size_error(
+                ev,
+                &format!("the {what}"),
+                m.len(),
+                "pending modules",
+                ev.module_limit,
+            ));
         }
         Ok(())
     }
@@ -1018,14 +1269,29 @@ impl LSystem {
         out: &mut ModuleString,
         scratch: &mut Vec<f64>,
     ) -> Result<(), Box<LsystemError>> {
-        for i in 0..m.len() {
-            let (sym, params) = m.module(i);
-            let sys = match owner.get(i) {
-                Some(&k) if k > 0 => &self.subsystems[k as usize - 1].lsystem,
-                _ => self,
+        let sys_of = |k: u16| if k > 0 { &self.subsystems[k as usize - 1].lsystem } else { self };
+        // With multi-module predecessors each run of modules one L-system interprets is
+        // rewritten as a whole string.
+        let whole = self.homomorphism.lookahead > 0
+            || self.subsystems.iter().any(|s| s.lsystem.homomorphism.lookahead > 0);
+        let mut i = 0;
+        while i < m.len() {
+            let k = owner.get(i).copied().unwrap_or(0);
+            let sys = sys_of(k);
+            let r = if whole {
+                let mut b = i + 1;
+                while b < m.len() && owner.get(b).copied().unwrap_or(0) == k {
+                    b += 1;
+                }
+                let r = sys.expand_run(&sys.homomorphism, "homomorphism", m, i..b, out, ev, scratch);
+                i = b;
+                r
+            } else {
+                let (sym, params) = m.module(i);
+                i += 1;
+                sys.expand(&sys.homomorphism, "homomorphism", sym, params, 0, out, ev, scratch)
             };
-            sys.expand(&sys.homomorphism, "homomorphism", sym, params, 0, out, ev, scratch)
-                .map_err(|e| self.work_note(e, &DeriveOptions { steps: 0, budget, seed: 0 }))?;
+            r.map_err(|e| self.work_note(e, &DeriveOptions { steps: 0, budget, seed: 0 }))?;
             if out.len() > budget {
                 let e = self.source.error_nowhere(
                     ErrorKind::Budget,

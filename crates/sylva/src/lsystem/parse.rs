@@ -152,6 +152,9 @@ pub struct RuleSet {
     pub max_depth: u32,
     /// True when the file gave `maximum depth:`; then exceeding it is an error.
     pub depth_explicit: bool,
+    /// Most further modules of any predecessor ([`Production::rest`]): 0 when every
+    /// predecessor is one module. Set when the L-system is built.
+    pub lookahead: usize,
 }
 
 /// A parsed and compiled L-system.
@@ -444,6 +447,9 @@ impl LSystem {
         self.by_symbol = index(&self.productions);
         self.decomposition.by_symbol = index(&self.decomposition.productions);
         self.homomorphism.by_symbol = index(&self.homomorphism.productions);
+        for rules in [&mut self.decomposition, &mut self.homomorphism] {
+            rules.lookahead = rules.productions.iter().map(|p| p.rest.len()).max().unwrap_or(0);
+        }
         self.context_skip = vec![false; n];
         if let Some((names, is_ignore, _)) = b.ignore {
             for i in 0..n {
@@ -983,16 +989,10 @@ impl LSystem {
                 "context",
             ));
         }
+        // A predecessor of several modules matches consecutive modules, in decomposition
+        // and homomorphism productions too (of the string being rewritten: `expand_run`
+        // in derive.rs).
         let (pred, rest, mut params, arity) = self.predecessor(strict.0, strict.1)?;
-        if section != Section::Productions && !rest.is_empty() {
-            return Err(self.source.error(
-                ErrorKind::Unsupported,
-                start,
-                pred_end - start,
-                "unsupported: a predecessor of several modules in decomposition or homomorphism productions",
-                "several modules",
-            ));
-        }
         let mut left = Vec::new();
         if let Some((a, b)) = lc {
             for (sym, names, at) in self.context_modules(a, b, false)? {
