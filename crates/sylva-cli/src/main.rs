@@ -27,7 +27,8 @@ struct Cli {
 enum Command {
     /// Grow a tree from a preset, a recipe (.toml) or a model file (.l) and write it.
     Grow(GrowArgs),
-    /// Grow a tree and draw it on the GPU (wgpu): one picture, a wind animation, a forest.
+    /// Grow a tree and draw it on the GPU (wgpu): one picture, a wind animation, a forest,
+    /// or (`--window`) a window to orbit it in.
     Render(RenderArgs),
     /// List every embedded preset with a one-line description.
     Presets,
@@ -120,9 +121,16 @@ struct RenderArgs {
     what: Option<String>,
     /// Output: `.png` (one frame; an animated PNG for several), `.gif`, or a pattern with
     /// `%d` / `%03d` for a numbered PNG sequence.
-    #[arg(short, long, default_value = "render.png")]
+    #[arg(short, long, default_value = "render.png", conflicts_with = "window")]
     output: PathBuf,
-    /// Image size in pixels, `WIDTHxHEIGHT` (each 1..=8192).
+    /// Show the tree in a window instead of writing a file: drag with the left mouse
+    /// button to orbit, scroll to zoom, Esc or closing the window quits; the wind plays
+    /// in real time. `--frames N` closes it after N frames. Needs a display and a sylva
+    /// built with the cargo feature `window`.
+    #[arg(long)]
+    window: bool,
+    /// Image size in pixels, `WIDTHxHEIGHT` (each 1..=8192); with `--window`, the
+    /// window's initial size.
     #[arg(long, default_value = "1024x1024", value_name = "WxH")]
     size: String,
     /// View: `orbit:AZ,EL` in degrees (azimuth about +Y from +Z, elevation -89..=89).
@@ -132,7 +140,8 @@ struct RenderArgs {
     /// Wind preset (`calm`, `breeze`, `storm`): the tree sways, skinned on the GPU.
     #[arg(long, value_name = "PRESET")]
     wind: Option<String>,
-    /// Frames to render (1..=1200) at `--fps`; default 60 with `--wind`, else 1.
+    /// Frames to render (1..=1200) at `--fps`; default 60 with `--wind`, else 1. With
+    /// `--window`: close the window after N frames (default: stay open).
     #[arg(long)]
     frames: Option<u32>,
     /// Frames per second of an animation (1..=60).
@@ -236,7 +245,7 @@ fn parse_size(s: &str) -> Result<(u32, u32)> {
 fn render(args: RenderArgs) -> Result<()> {
     // Every argument is checked before any work, so bad input writes nothing.
     let (width, height) = parse_size(&args.size)?;
-    let output = RenderOutput::parse(&args.output)?;
+    let output = if args.window { None } else { Some(RenderOutput::parse(&args.output)?) };
     let frames = args.frames.unwrap_or(if args.wind.is_some() { 60 } else { 1 });
     let max_frames = sylva::animation::MAX_FRAMES as u32;
     if !(1..=max_frames).contains(&frames) {
@@ -250,7 +259,7 @@ fn render(args: RenderArgs) -> Result<()> {
             return Err(miette::miette!("--forest {n}: draw 1..={MAX_FOREST} trees"));
         }
     }
-    if let RenderOutput::Gif(p) = &output {
+    if let Some(RenderOutput::Gif(p)) = &output {
         if width > u16::MAX as u32 || height > u16::MAX as u32 {
             return Err(miette::miette!("-o {}: too large for GIF", p.display()));
         }
@@ -261,6 +270,9 @@ fn render(args: RenderArgs) -> Result<()> {
         }
     }
     check_camera(args.camera.as_deref())?;
+    if args.window {
+        check_window()?;
+    }
     let mut sets = overrides(&args.sets, args.iterations, args.seed, None)?;
     if let Some(w) = &args.wind {
         sets.push(("wind.preset".into(), toml::Value::String(w.clone())));
@@ -270,7 +282,95 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let what = args.what.clone().unwrap_or_else(|| sylva::presets::DEFAULT_PRESET.to_string());
     let loaded = recipe::load(&what, &sets)?;
-    render_gpu(&args, &loaded, (width, height), frames, &output)
+    match &output {
+        Some(output) => render_gpu(&args, &loaded, (width, height), frames, output),
+        None => render_window(&args, &loaded, (width, height)),
+    }
+}
+
+/// Checks that `--window` can open one before any work: the feature is built in and a
+/// display is named.
+#[cfg(feature = "window")]
+fn check_window() -> Result<()> {
+    if sylva_gpu::render::window::display().is_none() {
+        return Err(miette::miette!(
+            "--window: no display to open a window on (neither DISPLAY nor WAYLAND_DISPLAY is set); run it in a desktop session or under `xvfb-run`, or drop --window to write a picture"
+        ));
+    }
+    Ok(())
+}
+
+/// Without the windowed target `--window` is refused.
+#[cfg(not(feature = "window"))]
+fn check_window() -> Result<()> {
+    Err(miette::miette!(
+        "--window: this sylva was built without the windowed target (cargo feature `window`: `cargo build -p sylva-cli --features window`); drop --window to write a picture"
+    ))
+}
+
+#[cfg(not(feature = "window"))]
+fn render_window(_args: &RenderArgs, _loaded: &recipe::Loaded, _size: (u32, u32)) -> Result<()> {
+    check_window()
+}
+
+/// `sylva render --window`: grows the tree and shows it until the window is closed (or
+/// `--frames` frames are shown).
+#[cfg(feature = "window")]
+fn render_window(args: &RenderArgs, loaded: &recipe::Loaded, (width, height): (u32, u32)) -> Result<()> {
+    use sylva_gpu::render::{forest, window, Orbit, RenderOptions};
+    let orbit = args.camera.as_deref().map(Orbit::parse).transpose().map_err(|e| miette::miette!("--{e}"))?;
+    let grown = sylva::pipeline::grow(loaded)?;
+    for w in &grown.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    let bounds = grown.model.flattened().bounds().unwrap_or((glam::Vec3::ZERO, glam::Vec3::ZERO));
+    let instances = match args.forest {
+        Some(n) => forest::grid(n as usize, loaded.recipe.seed, bounds),
+        None => vec![glam::Mat4::IDENTITY],
+    };
+    let mut render = RenderOptions { width, height, orbit, msaa: !args.no_msaa, ..Default::default() };
+    let animated = grown.model.rig.is_some() && grown.model.clip.is_some();
+    if animated && args.forest.is_none() {
+        // As `render_gpu` frames a wind animation: room for the swaying crown.
+        let pad = glam::Vec3::splat((bounds.1 - bounds.0).max_element() / 6.0);
+        render.frame = Some((bounds.0 - pad, bounds.1 + pad));
+    }
+    let opts = window::WindowOptions {
+        title: format!("sylva — {}", loaded.recipe.name),
+        render,
+        close_after: args.frames,
+    };
+    let report = window::run(&grown.model, &instances, &opts).map_err(|e| gpu_error(args, e))?;
+    if !args.quiet {
+        let s = &report.stats;
+        println!("{}: {}", loaded.recipe.name, loaded.recipe.description);
+        println!("  on {}", report.adapter);
+        println!(
+            "  showed {} frame(s) of {}x{} ({:?}, {} sample(s) per pixel) in {:.1} s",
+            report.frames, report.size.0, report.size.1, report.format, s.samples, report.seconds
+        );
+        let levels: Vec<String> = s.instances_per_level.iter().map(u32::to_string).collect();
+        println!(
+            "  {} tree(s), {} draw call(s) per frame, trees per level of detail [{}], {} triangles per frame",
+            instances.len(),
+            s.draw_calls,
+            levels.join(", "),
+            s.triangles
+        );
+    }
+    Ok(())
+}
+
+/// A GPU error as `sylva render` reports it: a missing adapter names the CPU preview.
+#[cfg(feature = "gpu")]
+fn gpu_error(args: &RenderArgs, e: sylva_gpu::GpuError) -> miette::Report {
+    match e {
+        sylva_gpu::GpuError::NoAdapter(why) => miette::miette!(
+            "no GPU adapter was found ({why}), so `sylva render` cannot draw; install a Vulkan driver (on Debian `apt-get install mesa-vulkan-drivers` gives lavapipe, a software one), or use `sylva grow {} --preview out.png`, which draws the tree with the CPU preview",
+            args.what.as_deref().unwrap_or(sylva::presets::DEFAULT_PRESET)
+        ),
+        e => miette::miette!("{e}"),
+    }
 }
 
 /// Checks `--camera` (`orbit:AZ,EL`) before any work.
@@ -309,13 +409,7 @@ fn render_gpu(
 ) -> Result<()> {
     use sylva_gpu::render::{forest, Orbit, RenderOptions, Renderer};
     let orbit = args.camera.as_deref().map(Orbit::parse).transpose().map_err(|e| miette::miette!("--{e}"))?;
-    let gpu = sylva_gpu::Gpu::new().map_err(|e| match e {
-        sylva_gpu::GpuError::NoAdapter(why) => miette::miette!(
-            "no GPU adapter was found ({why}), so `sylva render` cannot draw; install a Vulkan driver (on Debian `apt-get install mesa-vulkan-drivers` gives lavapipe, a software one), or use `sylva grow {} --preview out.png`, which draws the tree with the CPU preview",
-            args.what.as_deref().unwrap_or(sylva::presets::DEFAULT_PRESET)
-        ),
-        e => miette::miette!("{e}"),
-    })?;
+    let gpu = sylva_gpu::Gpu::new().map_err(|e| gpu_error(args, e))?;
     let start = std::time::Instant::now();
     let grown = sylva::pipeline::grow(loaded)?;
     for w in &grown.report.warnings {

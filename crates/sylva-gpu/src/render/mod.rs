@@ -31,12 +31,18 @@
 //!   draw per (level, part, material) over all the instances of that level — never one
 //!   draw per tree or per branch.
 //!
+//! - **Window** (cargo feature `window`): `render::window` draws the same pass into a
+//!   winit window's surface through [`Renderer::render_to_view`], resolving the MSAA
+//!   colour into the surface texture (docs/render.md, "Window").
+//!
 //! [`Frame`] is the camera and light uniform at `@group(0) @binding(0)` shared with the
 //! branch deformer's renderer.
 
 pub mod camera;
 pub mod forest;
 pub mod mesh;
+#[cfg(feature = "window")]
+pub mod window;
 
 pub use camera::{Camera, Orbit};
 
@@ -201,7 +207,17 @@ struct Targets {
     depth: wgpu::TextureView,
 }
 
-/// The render pipelines of one sample count.
+/// Where one pass draws: the colour attachment (multisampled when `resolve` is set),
+/// the resolve target, the depth attachment, their format and sample count.
+struct Target<'a> {
+    format: wgpu::TextureFormat,
+    samples: u32,
+    color: &'a wgpu::TextureView,
+    resolve: Option<&'a wgpu::TextureView>,
+    depth: &'a wgpu::TextureView,
+}
+
+/// The render pipelines of one sample count and colour format.
 #[derive(Debug, Clone)]
 struct Pipelines {
     /// Opaque materials, shaded per pixel.
@@ -212,11 +228,90 @@ struct Pipelines {
     background: wgpu::RenderPipeline,
 }
 
+/// Attachments for drawing into a caller's texture view ([`Renderer::render_to_view`]):
+/// the MSAA colour texture (none at one sample) and the depth buffer.
+#[derive(Debug)]
+struct ViewTargets {
+    key: (u32, u32, u32, wgpu::TextureFormat),
+    msaa: Option<wgpu::TextureView>,
+    depth: wgpu::TextureView,
+}
+
+/// The adapter, device and queue a [`Renderer`] draws with: a [`Gpu`]'s, or those of a
+/// device opened for a window's surface ([`Renderer::with_device`]).
+#[derive(Debug, Clone)]
+struct Ctx {
+    adapter: wgpu::Adapter,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+}
+
+impl Ctx {
+    /// A buffer holding `bytes`, padded to at least 16 bytes.
+    fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let size = (bytes.len() as u64).max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT) as usize;
+        let mut contents = bytes.to_vec();
+        contents.resize(size, 0);
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &contents,
+            usage,
+        })
+    }
+
+    fn uniform_buffer<T: Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        self.buffer(label, bytemuck::cast_slice(data), usage)
+    }
+
+    fn storage_buffer<T: Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        self.buffer(label, bytemuck::cast_slice(data), usage)
+    }
+
+    fn bind_group_layout(
+        &self,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> wgpu::BindGroupLayout {
+        self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+    }
+
+    fn bind_buffers(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    fn wait(&self) {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("device poll");
+    }
+
+    /// Whether `format` (and the depth format) take 4× multisampling.
+    fn msaa_ok(&self, format: wgpu::TextureFormat) -> bool {
+        [format, DEPTH_FORMAT]
+            .iter()
+            .all(|&f| self.adapter.get_texture_format_features(f).flags.sample_count_supported(4))
+    }
+}
+
 /// A model uploaded to the GPU, ready to draw any number of times (see the
 /// [module docs](self)).
 #[derive(Debug)]
 pub struct Renderer {
-    gpu: Gpu,
+    gpu: Ctx,
     levels: Vec<Level>,
     rig: Option<(sylva::model::Rig, sylva::model::Clip)>,
     bounds: Option<(Vec3, Vec3)>,
@@ -228,8 +323,9 @@ pub struct Renderer {
     layout: wgpu::PipelineLayout,
     background_layout: wgpu::PipelineLayout,
     shader: wgpu::ShaderModule,
-    pipelines: Mutex<Vec<(u32, Pipelines)>>,
+    pipelines: Mutex<Vec<((u32, wgpu::TextureFormat), Pipelines)>>,
     targets: Mutex<Option<Targets>>,
+    view_targets: Mutex<Option<ViewTargets>>,
     msaa_ok: bool,
 }
 
@@ -244,6 +340,18 @@ impl Renderer {
     /// Errors: a part whose mesh fails validation, a texture over the adapter's limits,
     /// or a model with nothing to draw.
     pub fn new(gpu: &Gpu, model: &Model) -> Result<Renderer, GpuError> {
+        Renderer::with_device(&gpu.adapter, &gpu.device, &gpu.queue, model)
+    }
+
+    /// [`Renderer::new`] on a device the caller opened (e.g. one compatible with a
+    /// window's surface, as `render::window` opens); `device` must come from `adapter`.
+    pub fn with_device(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+    ) -> Result<Renderer, GpuError> {
+        let gpu = &Ctx { adapter: adapter.clone(), device: device.clone(), queue: queue.clone() };
         let flat = model.flattened();
         let device = &gpu.device;
         let limit = gpu.device.limits().max_texture_dimension_2d;
@@ -438,9 +546,7 @@ impl Renderer {
             label: Some("sylva-gpu mesh.wgsl"),
             source: wgpu::ShaderSource::Wgsl(include_str!("mesh.wgsl").into()),
         });
-        let msaa_ok = [COLOR_FORMAT, DEPTH_FORMAT]
-            .iter()
-            .all(|&f| gpu.adapter.get_texture_format_features(f).flags.sample_count_supported(4));
+        let msaa_ok = gpu.msaa_ok(COLOR_FORMAT);
         let fit_points: Vec<Vec3> =
             flat.parts.iter().flat_map(|p| p.mesh.positions.iter().copied()).collect();
         Ok(Renderer {
@@ -458,6 +564,7 @@ impl Renderer {
             shader,
             pipelines: Mutex::new(Vec::new()),
             targets: Mutex::new(None),
+            view_targets: Mutex::new(None),
             msaa_ok,
         })
     }
@@ -536,9 +643,9 @@ impl Renderer {
         Camera::new(frame, orbit, opts.fov_deg, (opts.width, opts.height), fit, depth)
     }
 
-    fn pipelines(&self, samples: u32) -> Pipelines {
+    fn pipelines(&self, samples: u32, format: wgpu::TextureFormat) -> Pipelines {
         let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, p)) = cache.iter().find(|(s, _)| *s == samples) {
+        if let Some((_, p)) = cache.iter().find(|(k, _)| *k == (samples, format)) {
             return p.clone();
         }
         let device = &self.gpu.device;
@@ -556,11 +663,8 @@ impl Renderer {
                 attributes: &inst,
             }),
         ];
-        let target = [Some(wgpu::ColorTargetState {
-            format: COLOR_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
+        let target =
+            [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
         let multisample = wgpu::MultisampleState { count: samples, ..Default::default() };
         let make =
             |label, layout, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout>], depth_write, compare| {
@@ -619,7 +723,7 @@ impl Renderer {
                 wgpu::CompareFunction::Always,
             ),
         };
-        cache.push((samples, p.clone()));
+        cache.push(((samples, format), p.clone()));
         p
     }
 
@@ -629,14 +733,97 @@ impl Renderer {
     /// Errors: a size outside `1..=8192` or the adapter's texture limit, a field of view
     /// outside `1..=120`, no instances or more than [`forest::MAX_TREES`].
     pub fn render(&self, opts: &RenderOptions, instances: &[Mat4], time: f32) -> Result<Rendered, GpuError> {
+        self.check((opts.width, opts.height), opts.fov_deg, instances, time)?;
+        let (w, h) = (opts.width, opts.height);
+        let samples = if opts.msaa && self.msaa_ok { 4 } else { 1 };
+        let camera = self.camera(opts, instances);
+        let mut guard = self.targets.lock().unwrap_or_else(|e| e.into_inner());
+        if guard.as_ref().is_none_or(|t| t.key != (w, h, samples)) {
+            *guard = Some(self.make_targets(w, h, samples));
+        }
+        let t = guard.as_ref().expect("targets were just made");
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sylva-gpu render") });
+        let resolve = t.resolve.as_ref().map(|(_, v)| v);
+        let target = Target { format: COLOR_FORMAT, samples, color: &t.color, resolve, depth: &t.depth };
+        let stats = self.encode(&mut encoder, &camera, opts, instances, time, &target);
+        let texture = match (&t.resolve, &t.single) {
+            (Some((tex, _)), _) | (None, Some(tex)) => tex,
+            (None, None) => unreachable!("a single-sample target or a resolve target exists"),
+        };
+        let image = self.read_back(encoder, texture, w, h);
+        Ok(Rendered { image, stats, camera })
+    }
+
+    /// Draws `instances` at time `time`, seen by `camera`, into `view`: a single-sample
+    /// colour view of `format` (any `…Srgb` format, e.g. a window surface's
+    /// `Bgra8UnormSrgb`) of `camera.width × camera.height` pixels, as a window's frame is
+    /// drawn (`render::window`, cargo feature `window`). With `opts.msaa` (and an
+    /// adapter that takes 4× samples of `format`) the pass draws into a multisampled
+    /// texture and resolves into `view`. Of `opts` only `msaa`, `fov_deg` (checked) and
+    /// the background colours are used: the camera carries the size and the view. The
+    /// work is submitted; the caller presents.
+    ///
+    /// Errors: as [`Renderer::render`] for the camera's size and the instances.
+    pub fn render_to_view(
+        &self,
+        camera: &Camera,
+        opts: &RenderOptions,
+        instances: &[Mat4],
+        time: f32,
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) -> Result<Stats, GpuError> {
+        let (w, h) = (camera.width, camera.height);
+        self.check((w, h), opts.fov_deg, instances, time)?;
+        let samples = if opts.msaa && self.gpu.msaa_ok(format) { 4 } else { 1 };
+        let mut guard = self.view_targets.lock().unwrap_or_else(|e| e.into_inner());
+        if guard.as_ref().is_none_or(|t| t.key != (w, h, samples, format)) {
+            let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+            let make = |label, format| {
+                self.gpu
+                    .device
+                    .create_texture(&wgpu::TextureDescriptor {
+                        label: Some(label),
+                        size,
+                        mip_level_count: 1,
+                        sample_count: samples,
+                        dimension: wgpu::TextureDimension::D2,
+                        format,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                        view_formats: &[],
+                    })
+                    .create_view(&Default::default())
+            };
+            let msaa = (samples > 1).then(|| make("sylva-gpu view msaa colour", format));
+            let depth = make("sylva-gpu view depth", DEPTH_FORMAT);
+            *guard = Some(ViewTargets { key: (w, h, samples, format), msaa, depth });
+        }
+        let t = guard.as_ref().expect("view targets were just made");
+        let target = match &t.msaa {
+            Some(msaa) => Target { format, samples, color: msaa, resolve: Some(view), depth: &t.depth },
+            None => Target { format, samples, color: view, resolve: None, depth: &t.depth },
+        };
+        let mut encoder = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("sylva-gpu render to view"),
+        });
+        let stats = self.encode(&mut encoder, camera, opts, instances, time, &target);
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(stats)
+    }
+
+    /// Checks a frame's size, field of view, instances and time.
+    fn check(&self, (w, h): (u32, u32), fov_deg: f32, instances: &[Mat4], time: f32) -> Result<(), GpuError> {
         let limit = self.gpu.device.limits().max_texture_dimension_2d.min(MAX_SIZE);
-        for (name, v) in [("width", opts.width), ("height", opts.height)] {
+        for (name, v) in [("width", w), ("height", h)] {
             if !(1..=limit).contains(&v) {
                 return Err(invalid(format!("image {name} is {v}; it must be in 1..={limit}")));
             }
         }
-        if !(1.0..=120.0).contains(&opts.fov_deg) {
-            return Err(invalid(format!("fov_deg is {}; it must be in 1..=120", opts.fov_deg)));
+        if !(1.0..=120.0).contains(&fov_deg) {
+            return Err(invalid(format!("fov_deg is {fov_deg}; it must be in 1..=120")));
         }
         if instances.is_empty() || instances.len() > forest::MAX_TREES {
             return Err(invalid(format!(
@@ -648,11 +835,25 @@ impl Renderer {
         if !time.is_finite() {
             return Err(invalid("the time is not finite"));
         }
-        let (w, h) = (opts.width, opts.height);
-        let samples = if opts.msaa && self.msaa_ok { 4 } else { 1 };
-        let camera = self.camera(opts, instances);
+        Ok(())
+    }
+
+    /// Writes the frame's uniforms, joints and instances and encodes its one render pass
+    /// into `target`: the background, then one instanced draw per (level, part,
+    /// material).
+    fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        camera: &Camera,
+        opts: &RenderOptions,
+        instances: &[Mat4],
+        time: f32,
+        target: &Target,
+    ) -> Stats {
+        let (w, h) = (camera.width, camera.height);
+        let samples = target.samples;
         let q = &self.gpu.queue;
-        q.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&Frame::new(&camera, time)));
+        q.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&Frame::new(camera, time)));
         let srgb = |c: [u8; 3]| [c[0] as f32 / 255.0, c[1] as f32 / 255.0, c[2] as f32 / 255.0, 1.0];
         let bg = BackgroundUniform {
             top: srgb(opts.background_top),
@@ -668,7 +869,7 @@ impl Renderer {
         // Level of detail per instance, bucketed into one buffer, coarsest trees last.
         let (lo, hi) = self.bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
         let sphere = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-6));
-        let levels = forest::choose_levels(&camera, instances, sphere, &self.level_coverages());
+        let levels = forest::choose_levels(camera, instances, sphere, &self.level_coverages());
         let mut counts = vec![0u32; self.levels.len()];
         for &l in &levels {
             counts[l] += 1;
@@ -682,77 +883,61 @@ impl Renderer {
             usage: wgpu::BufferUsages::VERTEX,
         });
 
-        let pipelines = self.pipelines(samples);
-        let mut guard = self.targets.lock().unwrap_or_else(|e| e.into_inner());
-        if guard.as_ref().is_none_or(|t| t.key != (w, h, samples)) {
-            *guard = Some(self.make_targets(w, h, samples));
-        }
-        let t = guard.as_ref().expect("targets were just made");
+        let pipelines = self.pipelines(samples, target.format);
         let mut stats = Stats { instances_per_level: counts.clone(), samples, ..Default::default() };
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sylva-gpu render") });
-        {
-            let resolve = t.resolve.as_ref().map(|(_, v)| v);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("sylva-gpu render"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &t.color,
-                    depth_slice: None,
-                    resolve_target: resolve,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &t.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
+        let resolve = target.resolve;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("sylva-gpu render"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target.color,
+                depth_slice: None,
+                resolve_target: resolve,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: target.depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
                 }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, &self.group0, &[]);
-            pass.set_pipeline(&pipelines.background);
-            pass.draw(0..3, 0..1);
-            let mut current_cut = None;
-            pass.set_vertex_buffer(1, instance_buffer.slice(..));
-            let mut start = 0u32;
-            for (level, &n) in self.levels.iter().zip(&counts) {
-                let range = start..start + n;
-                start += n;
-                if n == 0 {
-                    continue;
-                }
-                for part in &level.parts {
-                    pass.set_vertex_buffer(0, part.vertices.slice(..));
-                    pass.set_index_buffer(part.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    for g in &part.groups {
-                        let cut = part.cut[g.material];
-                        if current_cut != Some(cut) {
-                            pass.set_pipeline(if cut { &pipelines.cut } else { &pipelines.mesh });
-                            current_cut = Some(cut);
-                        }
-                        pass.set_bind_group(1, &part.materials[g.material], &[]);
-                        pass.draw_indexed(g.first..g.first + g.count, 0, range.clone());
-                        stats.draw_calls += 1;
-                    }
-                }
-                stats.triangles += level.triangles * n as u64;
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.group0, &[]);
+        pass.set_pipeline(&pipelines.background);
+        pass.draw(0..3, 0..1);
+        let mut current_cut = None;
+        pass.set_vertex_buffer(1, instance_buffer.slice(..));
+        let mut start = 0u32;
+        for (level, &n) in self.levels.iter().zip(&counts) {
+            let range = start..start + n;
+            start += n;
+            if n == 0 {
+                continue;
             }
+            for part in &level.parts {
+                pass.set_vertex_buffer(0, part.vertices.slice(..));
+                pass.set_index_buffer(part.indices.slice(..), wgpu::IndexFormat::Uint32);
+                for g in &part.groups {
+                    let cut = part.cut[g.material];
+                    if current_cut != Some(cut) {
+                        pass.set_pipeline(if cut { &pipelines.cut } else { &pipelines.mesh });
+                        current_cut = Some(cut);
+                    }
+                    pass.set_bind_group(1, &part.materials[g.material], &[]);
+                    pass.draw_indexed(g.first..g.first + g.count, 0, range.clone());
+                    stats.draw_calls += 1;
+                }
+            }
+            stats.triangles += level.triangles * n as u64;
         }
-        let texture = match (&t.resolve, &t.single) {
-            (Some((tex, _)), _) | (None, Some(tex)) => tex,
-            (None, None) => unreachable!("a single-sample target or a resolve target exists"),
-        };
-        let image = self.read_back(encoder, texture, w, h);
-        Ok(Rendered { image, stats, camera })
+        stats
     }
 
     fn make_targets(&self, w: u32, h: u32, samples: u32) -> Targets {
@@ -830,7 +1015,7 @@ impl Renderer {
 }
 
 /// An sRGB RGBA texture of `rgba` and its view.
-fn texture(gpu: &Gpu, label: &str, w: u32, h: u32, rgba: &[u8]) -> wgpu::TextureView {
+fn texture(gpu: &Ctx, label: &str, w: u32, h: u32, rgba: &[u8]) -> wgpu::TextureView {
     let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
     let tex = gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
