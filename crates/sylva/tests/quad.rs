@@ -195,6 +195,58 @@ fn support_rings_hold_bends_under_refinement() {
     }
 }
 
+/// Issue 26 (seed 003): a support ring keeps its end ring's corner orientation. Seen
+/// along the internode, each support-ring corner points where the end ring's corner of
+/// the same index does, also where the bend turns out of the plane of the previous one
+/// (projecting the end ring's up vector instead left them 4.7°–9.6° off at 46°–67°).
+#[test]
+fn support_rings_keep_the_end_rings_corners_on_bends_out_of_a_plane() {
+    // A chain of 2 m internodes whose bends (46°–67°) each turn in another plane.
+    let turns = [(46f32, 0f32), (52.0, 70.0), (58.0, 150.0), (63.0, 235.0), (67.0, 300.0), (55.0, 20.0)];
+    let (mut dir, mut at) = (Vec3::Y, Vec3::ZERO);
+    let mut pts = vec![at];
+    for (bend, azimuth) in turns {
+        at += dir * 2.0;
+        pts.push(at);
+        let (u, v) = dir.any_orthonormal_pair();
+        let (b, a) = (bend.to_radians(), azimuth.to_radians());
+        let side = u * a.cos() + v * a.sin();
+        dir = (dir * b.cos() + side * b.sin()).normalize();
+    }
+    pts.push(at + dir * 2.0);
+    let sk = chain(&pts, 0.1);
+    let q = full_check("out-of-plane bends", &sk, &QuadOptions::default());
+    assert!(q.merged.is_empty() && q.fallbacks.is_empty(), "{:?} {:?}", q.merged, q.fallbacks);
+    let p = &q.mesh.positions;
+    // Rings are four consecutive vertices: the end ring of each internode (at its node),
+    // then its support ring (on its axis, short of the node).
+    let rings: Vec<[Vec3; 4]> = p.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    let centre = |r: &[Vec3; 4]| (r[0] + r[1] + r[2] + r[3]) / 4.0;
+    let mut worst = 0.0f32;
+    let mut supports = 0;
+    for w in pts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let d = (b - a).normalize();
+        let on_axis = |c: Vec3| {
+            let t = (c - a).dot(d);
+            (c - a - d * t).length() < 1e-4 && t > 0.05 && t < (b - a).length() - 0.05
+        };
+        let Some(m) = rings.iter().find(|r| on_axis(centre(r))) else { continue };
+        let e = rings.iter().find(|r| centre(r).distance(b) < 1e-4).expect("an end ring at the node");
+        supports += 1;
+        let (mc, ec) = (centre(m), centre(e));
+        for k in 0..4 {
+            let s = (m[k] - mc).normalize();
+            let o = e[k] - ec;
+            let t = (o - d * o.dot(d)).normalize();
+            assert!(s.dot(d).abs() < 1e-4, "the support ring is perpendicular to its internode");
+            worst = worst.max(s.dot(t).clamp(-1.0, 1.0).acos().to_degrees());
+        }
+    }
+    assert_eq!(supports, pts.len() - 1, "one support ring per internode");
+    assert!(worst < 0.5, "a support ring's corners are {worst}° off its end ring's");
+}
+
 #[test]
 fn fork_and_backward_counts() {
     // One fork with two leaf children (case d): V = 20, F = 18, E = 36 — the seed's

@@ -57,7 +57,9 @@
 //!   section's tilt). One face per internode lets Catmull–Clark round a bend or a box over
 //!   the whole next face, cutting the corner by a fraction of the internode's length
 //!   (`mig-m`: 8.8 ρ off the axis, into a neighbouring branch); with the ring, by about
-//!   ρ. `support = 0` gives the seed's cage exactly.
+//!   ρ. The ring's corners point where the end section's do, seen along the tube (a
+//!   best fit of all four; exact for a mitre section), also on bends out of the plane
+//!   of the corners. `support = 0` gives the seed's cage exactly.
 //! * **Elbows**: a side child leaving its face more than [`QuadOptions::elbow_angle`]
 //!   (default 0°: every side child) off the face normal starts from an extra ring of its
 //!   own size, a short neck out of the face along the half direction of the normal and
@@ -893,7 +895,7 @@ impl Builder<'_> {
 
     /// The tube of an internode from ring `r` to ring `e`: one band, or with
     /// [`QuadOptions::support`] two, through a support ring of the end ring's size and
-    /// corner orientation `g·ρ` before the end section's reach along the tube (a tilted
+    /// corner orientation ([`Self::corner_up`]) `g·ρ` before the end section's reach along the tube (a tilted
     /// section's corners reach `ρ·tan α` along it), where the tube has room for it with
     /// `g·ρ` to spare; the tube's taper and twist stay on the long first band. There is
     /// no support ring at the start: one there (after a box's side face or a section)
@@ -921,9 +923,34 @@ impl Builder<'_> {
             return;
         }
         let t = 1.0 - a / len;
-        let m = self.ring_perp(r.center + d * (len - a), d, e.up, e.rho, r.tex_v + (e.tex_v - r.tex_v) * t);
+        let up = self.corner_up(e, d);
+        let m = self.ring_perp(r.center + d * (len - a), d, up, e.rho, r.tex_v + (e.tex_v - r.tex_v) * t);
         self.band(r, &m);
         self.band(&m, e);
+    }
+
+    /// Corner 0's direction for a ring perpendicular to `d` whose corners follow ring
+    /// `e`'s corners seen along `d`: the unit `a` maximising `Σ_k ĉ_k · R^k a`, with `ĉ_k`
+    /// corner `k`'s direction from `e`'s centre projected off `d` and `R` the quarter
+    /// turn about `d` (corner `k + 1` of [`Self::ring_perp`] is corner `k` turned by `R`),
+    /// i.e. `normalize(ĉ₀ − d × ĉ₁ − ĉ₂ + d × ĉ₃)`. For a mitre section (the end of a
+    /// bend, [`Self::ring_miter`]) that is exactly its perpendicular square's corner 0.
+    /// Projecting `e.up` instead — the up corner projected into the tilted plane, then
+    /// back off `d` — turns the ring by up to ~10° on a bend out of the corner's plane
+    /// (4.7°–9.6° at 46°–67° bends), twisting the last band. `perp(e.up, d)` when the
+    /// corners are degenerate.
+    fn corner_up(&self, e: &Ring, d: Vec3) -> Vec3 {
+        let c = e.v.map(|i| {
+            let o = self.positions[i as usize] - e.center;
+            (o - d * o.dot(d)).normalize_or_zero()
+        });
+        let a = c[0] - d.cross(c[1]) - c[2] + d.cross(c[3]);
+        let a = a - d * a.dot(d);
+        if a.length_squared() > 1e-12 {
+            a.normalize()
+        } else {
+            perp(e.up, d)
+        }
     }
 
     /// The four band quads from ring `a` to ring `b`.

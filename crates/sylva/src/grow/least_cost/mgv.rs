@@ -49,7 +49,14 @@
 //! - `none`.
 //!
 //! `direction = "lower"` / `"higher"` keeps only candidates below / above their source
-//! (hanging branches, Fig. 5.12; upward ones, Table 6.1 f).
+//! (hanging branches, Fig. 5.12; upward ones, Table 6.1 f). The filter bites where
+//! sources differ in height: in iteration 1 the only source is the root at the bottom,
+//! so every crown node is already higher than it; from iteration 2 on the sources are
+//! tree nodes at every height.
+//!
+//! An iteration that gets fewer endpoints than it asks for (`point`: 1, `volume` /
+//! `surface`: `count`) records why in [`MgvState::shortfall`], and [`grow`] reports it
+//! as a warning naming the counts, the cause and the key to change.
 
 use super::graph::{Graph, Primitive, Volume, NONE};
 use super::paths::{dijkstra_until, mgv_weight, Costs, Search, Until};
@@ -465,6 +472,9 @@ pub struct MgvState {
     pub last: Option<Search>,
     /// Nodes reachable from the root through out-edges.
     pub reachable: Vec<bool>,
+    /// Per iteration: why it got fewer endpoints than it asked for ([`asked`]), with the
+    /// key to change; `None` when it got them all.
+    pub shortfall: Vec<Option<String>>,
 }
 
 impl MgvState {
@@ -486,6 +496,7 @@ impl MgvState {
             endpoints: Vec::new(),
             last: None,
             reachable: g.reachable(roots),
+            shortfall: Vec::new(),
         };
         for &r in roots {
             if !s.in_tree[r as usize] {
@@ -558,7 +569,8 @@ impl MgvState {
         let guide = costs.guide;
         let mut rng =
             Pcg64::seed_from_u64(seed ^ 0x656e_6470_6f69_6e74 ^ (index as u64).wrapping_mul(0x9e37_79b9));
-        let ends = self.choose_in(g, it, &search, seed, index, &mut rng, inside.as_deref());
+        let (ends, why) = self.choose_in(g, it, &search, seed, index, &mut rng, inside.as_deref());
+        self.shortfall.push((ends.len() < asked(it)).then_some(why));
         for &e in &ends {
             let path = search.path(e);
             // path: e … source; add from the source side.
@@ -599,11 +611,12 @@ impl MgvState {
         index: usize,
         rng: &mut Pcg64,
     ) -> Vec<u32> {
-        self.choose_in(g, it, s, seed, index, rng, None)
+        self.choose_in(g, it, s, seed, index, rng, None).0
     }
 
     /// [`MgvState::choose`], given which nodes the `volume` crown contains when known
-    /// (`inside[v] == crown.contains(position v)`, saving that test per node).
+    /// (`inside[v] == crown.contains(position v)`, saving that test per node), with the
+    /// reason to report should there be fewer endpoints than [`asked`].
     #[allow(clippy::too_many_arguments)]
     fn choose_in(
         &self,
@@ -614,7 +627,12 @@ impl MgvState {
         index: usize,
         rng: &mut Pcg64,
         inside: Option<&[bool]>,
-    ) -> Vec<u32> {
+    ) -> (Vec<u32>, String) {
+        let name = |k: &str| format!("generator.iterations[{index}].{k}");
+        let dir = match it.direction.as_str() {
+            "any" => String::new(),
+            d => format!(" and {d} than their source"),
+        };
         let fresh = |v: u32| s.reached(v) && !self.in_tree[v as usize] && Self::direction_ok(g, it, s, v);
         match it.endpoints.as_str() {
             "point" => {
@@ -625,7 +643,12 @@ impl MgvState {
                         .total_cmp(&g.position[b as usize].distance_squared(t))
                         .then(a.cmp(&b))
                 });
-                best.into_iter().collect()
+                let why = if it.direction == "any" {
+                    "no reachable graph node lies outside the tree; raise `generator.nodes`".to_string()
+                } else {
+                    format!("no reachable graph node outside the tree{dir}; change `{}`", name("direction"))
+                };
+                (best.into_iter().collect(), why)
             }
             "volume" => {
                 let crown = Volume::new(it.crown.clone());
@@ -634,6 +657,7 @@ impl MgvState {
                     None => crown.contains(g.position[v as usize].as_dvec3()),
                 };
                 let mut cand: Vec<u32> = (0..g.len() as u32).filter(|&v| fresh(v) && contains(v)).collect();
+                let candidates = cand.len();
                 shuffle(&mut cand, rng);
                 let dmin = if it.min_distance > 0.0 {
                     it.min_distance
@@ -674,7 +698,24 @@ impl MgvState {
                         out.push(v);
                     }
                 }
-                out
+                let why = if candidates < it.count {
+                    format!(
+                        "only {candidates} reachable graph nodes outside the tree lie in the crown{dir}; \
+                         enlarge `{}` or raise `generator.nodes`, or lower `{}`",
+                        name("crown"),
+                        name("count")
+                    )
+                } else {
+                    let set = if it.min_distance > 0.0 { "" } else { ", from the crown's volume" };
+                    format!(
+                        "endpoints at least {dmin:.4} apart{set} fit only {} of the {candidates} candidates in \
+                         the crown; lower `{}` or `{}`",
+                        out.len(),
+                        name("min_distance"),
+                        name("count")
+                    )
+                };
+                (out, why)
             }
             "surface" => {
                 let k = it.hops;
@@ -692,12 +733,32 @@ impl MgvState {
                 let keep = ((it.outer_fraction * ring.len() as f64).ceil() as usize).min(ring.len());
                 let mut cand: Vec<u32> =
                     ring[..keep].iter().map(|r| r.2).filter(|&v| Self::direction_ok(g, it, s, v)).collect();
+                let why = if ring.is_empty() {
+                    format!(
+                        "no reachable graph node lies exactly {k} hops from the tree; lower `{}`",
+                        name("hops")
+                    )
+                } else {
+                    let filtered = if it.direction == "any" {
+                        String::new()
+                    } else {
+                        format!(", {} of them {} than their source", cand.len(), it.direction)
+                    };
+                    format!(
+                        "{} graph nodes lie exactly {k} hops from the tree and `outer_fraction` {} keeps the \
+                         outermost {keep}{filtered}; raise `{}` (at most 1) or `generator.nodes`, or lower `{}`",
+                        ring.len(),
+                        it.outer_fraction,
+                        name("outer_fraction"),
+                        name("count")
+                    )
+                };
                 cand.sort_unstable();
                 shuffle(&mut cand, rng);
                 cand.truncate(it.count);
-                cand
+                (cand, why)
             }
-            _ => Vec::new(),
+            _ => (Vec::new(), String::new()),
         }
     }
 }
@@ -733,11 +794,34 @@ pub fn grow(
     report.unreachable = st.reachable.iter().filter(|r| !**r).count();
     for (i, it) in iters.iter().enumerate() {
         st.iterate(&g, it, p, seed, i);
+        if let Some(why) = &st.shortfall[i] {
+            let at = if p.iterations.is_empty() {
+                "of the defaults; set `generator.iterations` to change them".to_string()
+            } else {
+                format!("`generator.iterations[{i}]`")
+            };
+            report.warnings.push(format!(
+                "MGV iteration {} ({at}) asked for {} endpoints and got {}: {why}",
+                i + 1,
+                asked(it),
+                st.endpoints[i].len()
+            ));
+        }
     }
     report.endpoints = st.endpoints.iter().map(Vec::len).sum();
     report.path_time = t.elapsed();
     let tree = tree_of(&g, &st);
     Ok(if p.roots.is_empty() { tree } else { super::forest::drop_lone_roots(&tree, report) })
+}
+
+/// The endpoints an iteration asks for: 1 for `point`, `count` for `volume` and
+/// `surface`, 0 for `none`.
+pub fn asked(it: &MgvIteration) -> usize {
+    match it.endpoints.as_str() {
+        "point" => 1,
+        "volume" | "surface" => it.count,
+        _ => 0,
+    }
 }
 
 /// The path union of an MGV state as a [`PathTree`] (graph ids compacted in tree order).
