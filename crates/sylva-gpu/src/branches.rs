@@ -38,27 +38,9 @@ pub const BRANCHES_WGSL: &str = include_str!("branches.wgsl");
 const LOD_MARKER: &str = "// ---- lod ----";
 const DRAW_MARKER: &str = "// ---- draw ----";
 
-/// The camera and light of one frame, group(0) binding(0) in every sylva render shader
-/// (160 bytes, WGSL `struct Frame { view_proj: mat4x4<f32>, eye, light_dir, light_color,
-/// sky, ground, params: vec4<f32> }`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct Frame {
-    /// Projection × view, column-major, depth in \[0, 1\].
-    pub view_proj: [[f32; 4]; 4],
-    /// Eye position (xyz, w = 1).
-    pub eye: [f32; 4],
-    /// Unit direction from the surface toward the light (xyz, w = 0).
-    pub light_dir: [f32; 4],
-    /// Light colour times intensity (linear rgb, w = 1).
-    pub light_color: [f32; 4],
-    /// Ambient from straight up (linear rgb).
-    pub sky: [f32; 4],
-    /// Ambient from straight down (linear rgb).
-    pub ground: [f32; 4],
-    /// x: time (s), y: viewport height (px), z: tan(fov_y / 2), w: 0.
-    pub params: [f32; 4],
-}
+/// The camera and light of one frame, group(0) binding(0): the same uniform as the mesh
+/// renderer's, so both can draw into one pass.
+pub use crate::render::Frame;
 
 impl Frame {
     /// A perspective camera at `eye` looking at `target` (+Y up) with vertical field of
