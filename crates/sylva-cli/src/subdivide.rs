@@ -34,6 +34,13 @@ pub struct SubdivideArgs {
     /// Semi-sharp crease decay: uniform (OpenSubdiv's default) or Chaikin.
     #[arg(long, value_enum)]
     pub creasing: Option<CreasingArg>,
+    /// Where boundary vertices go: `bspline` (the rim refines as a cubic B-spline, its
+    /// single-face corners pinned; OpenSubdiv's `interpolateboundary 1`), `edge-only`
+    /// (`interpolateboundary 2`) or `fixed` (seed 000's rule: every boundary vertex stays
+    /// put, so the rim stays the control polygon). Default: the OBJ's `interpolateboundary`
+    /// tag, else `bspline`.
+    #[arg(long, value_enum)]
+    pub boundary: Option<BoundaryArg>,
     /// Refuse to write more faces than this.
     #[arg(long, value_name = "FACES", default_value_t = refine::DEFAULT_MAX_FACES)]
     pub max_faces: usize,
@@ -93,6 +100,17 @@ pub struct NoiseArg {
     pub top: f32,
     /// Random seed.
     pub seed: u64,
+}
+
+/// `--boundary`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoundaryArg {
+    /// Cubic B-spline rim, single-face corners pinned.
+    Bspline,
+    /// Cubic B-spline rim, nothing pinned.
+    EdgeOnly,
+    /// Every boundary vertex stays put (seed 000 `Fixed`).
+    Fixed,
 }
 
 /// `--pn`.
@@ -273,7 +291,12 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
         refine: RefineOptions {
             scheme,
             levels: args.levels,
-            boundary: obj.boundary.unwrap_or_default(),
+            boundary: match args.boundary {
+                Some(BoundaryArg::Bspline) => refine::BoundaryInterpolation::EdgeAndCorner,
+                Some(BoundaryArg::EdgeOnly) => refine::BoundaryInterpolation::EdgeOnly,
+                Some(BoundaryArg::Fixed) => refine::BoundaryInterpolation::Fixed,
+                None => obj.boundary.unwrap_or_default(),
+            },
             creasing,
             max_faces: args.max_faces,
             parallel: args.threads != Some(1),
@@ -403,6 +426,7 @@ mod tests {
             limit: false,
             uv: UvArg::Linear,
             creasing: None,
+            boundary: None,
             max_faces: refine::DEFAULT_MAX_FACES,
             threads: None,
             adaptive: None,

@@ -509,6 +509,56 @@ fn subdivide_outputs_are_golden() {
     assert!(wrong.is_empty(), "subdivide outputs changed:\n{}", wrong.join("\n"));
 }
 
+/// `sylva subdivide --boundary fixed` (seed 000 property 17): the open grid's rim stays
+/// its control square under Loop; the default B-spline rim pulls the edge midpoints in.
+#[test]
+fn subdivide_boundary_fixed_keeps_the_rim() {
+    let d = tempdir("subdivide-boundary");
+    // A 2×2 square of triangles in the z = 0 plane, rim on x, y ∈ {0, 2}.
+    let mut obj = String::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            obj.push_str(&format!("v {i} {j} {}\n", if (i, j) == (1, 1) { 0.5 } else { 0.0 }));
+        }
+    }
+    for j in 0..2 {
+        for i in 0..2 {
+            let v = |a: usize, b: usize| (b + j) * 3 + (a + i) + 1;
+            obj.push_str(&format!(
+                "f {} {} {}\nf {} {} {}\n",
+                v(0, 0),
+                v(1, 0),
+                v(1, 1),
+                v(0, 0),
+                v(1, 1),
+                v(0, 1)
+            ));
+        }
+    }
+    std::fs::write(d.join("square.obj"), obj).unwrap();
+    let rim_off = |args: &[&str]| -> f32 {
+        let r = sylva(args, &d);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+        // Every vertex with x or y near the rim lies on it exactly (distance to the rim).
+        std::fs::read_to_string(d.join("out.obj"))
+            .unwrap()
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| l.split_whitespace().map(|x| x.parse::<f32>().unwrap()).collect::<Vec<_>>())
+            .filter(|p| p[2].abs() < 1e-6 && (p[0].min(p[1]) < 0.3 || p[0].max(p[1]) > 1.7))
+            .map(|p| p[0].min(2.0 - p[0]).min(p[1]).min(2.0 - p[1]).abs())
+            .fold(0.0, f32::max)
+    };
+    let fixed = rim_off(&["subdivide", "square.obj", "-n", "3", "--boundary", "fixed", "-o", "out.obj"]);
+    assert!(fixed < 1e-6, "--boundary fixed: a rim vertex is {fixed} inside the square");
+    // Corners (0,0) and (2,2) have two faces: the B-spline rim cuts them.
+    let bspline = rim_off(&["subdivide", "square.obj", "-n", "3", "-o", "out.obj"]);
+    assert!(bspline > 0.01, "the default B-spline rim should cut the two-face corners, max {bspline}");
+    let r = sylva(&["subdivide", "square.obj", "-n", "3", "--boundary", "nonsense", "-o", "out.obj"], &d);
+    assert_ne!(r.code, 0);
+    assert!(r.stderr.contains("fixed"), "the error lists the rules: {}", r.stderr);
+}
+
 const CUBE_SHA: &str = "3308acf33f579435a29a35cb7d84dcdec2f51743da3ab445dc0b513dedf44c9c";
 const OCTAHEDRON_SHA: &str = "b099ecf8c56af11ff9b2a149257f83f7dfdb6f402394695ca9423c190fceae30";
 const GRID_SHA: &str = "64d6a8237ed5543e174b96520c4209b68150e51b21a4daefaf6702103e0ff257";

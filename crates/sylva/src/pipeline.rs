@@ -599,6 +599,7 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
             scheme,
             levels: recipe.refine.levels,
             max_faces: recipe.refine.max_faces,
+            boundary: recipe.refine_boundary()?,
             ..Default::default()
         },
         limit: recipe.refine.limit,
@@ -665,7 +666,8 @@ pub fn clear_skeleton(
     };
     // The refinement searched stays within `[refine]`'s face budget too.
     let max_faces = recipe.fit.clear.max_faces.min(recipe.refine.max_faces);
-    let opts = ClearOptions { levels, max_faces, ..recipe.fit.clear.clone() };
+    let opts =
+        ClearOptions { levels, max_faces, boundary: recipe.refine_boundary()?, ..recipe.fit.clear.clone() };
     // The clearing's refinement is the output's when it has the same scheme and levels
     // and no limit step (the same `subdivide` call, so the same bytes).
     let reusable = recipe.refine_scheme()?.is_some()

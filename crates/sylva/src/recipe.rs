@@ -621,6 +621,13 @@ pub struct RefineSection {
     /// Push the result to the limit surface with exact limit normals.
     #[serde(default)]
     pub limit: bool,
+    /// Where the mesh's boundary vertices go (open bases and tips): `auto` (the mesher's
+    /// own rule: `fixed` for `hull`, seed 000's default; `bspline` for the others), `fixed`
+    /// (every boundary vertex stays put, so the rim stays the control polygon; spec 000
+    /// §2.8), `bspline` (the rim refines as a cubic B-spline, `1/8, 3/4, 1/8`, with
+    /// single-face corners pinned) or `edge-only` (B-spline, nothing pinned).
+    #[serde(default = "default_boundary", skip_serializing_if = "is_default_boundary")]
+    pub boundary: String,
     /// Face budget of the subdivision (issue 27): a refinement that would make more
     /// faces is an error naming this key, checked before anything is allocated. Left
     /// out of written metadata at its default ([`DEFAULT_REFINE_MAX_FACES`]).
@@ -649,6 +656,16 @@ fn default_scheme() -> String {
     "auto".into()
 }
 
+fn default_boundary() -> String {
+    "auto".into()
+}
+
+/// Whether `b` is the default `refine.boundary` (left out of written metadata, so the
+/// recipes written before the key existed read back the same).
+fn is_default_boundary(b: &str) -> bool {
+    b == "auto"
+}
+
 impl Default for RefineSection {
     fn default() -> Self {
         RefineSection {
@@ -656,6 +673,7 @@ impl Default for RefineSection {
             levels: 0,
             limit: false,
             max_faces: DEFAULT_REFINE_MAX_FACES,
+            boundary: default_boundary(),
         }
     }
 }
@@ -895,8 +913,9 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
 /// Keys the recipe leaves out when it is written at their defaults (so files' metadata
 /// keeps its old form): missing from the round trip, they are still known. The `[wind]`
 /// and `[lod]` tables check their own keys (`deny_unknown_fields`).
-const SKIPPED_AT_DEFAULT: [&str; 12] = [
+const SKIPPED_AT_DEFAULT: [&str; 13] = [
     "fit.decollide.max_work",
+    "refine.boundary",
     "generator.max_nodes",
     "refine.max_faces",
     "mesh.quad.max_repair_work",
@@ -1016,6 +1035,25 @@ impl Recipe {
         })
     }
 
+    /// The boundary rule `[refine] boundary` names (`auto`: [`BoundaryInterpolation::Fixed`]
+    /// for the hull mesher, seed 000's default, else the B-spline rim).
+    ///
+    /// [`BoundaryInterpolation::Fixed`]: crate::refine::BoundaryInterpolation::Fixed
+    pub fn refine_boundary(&self) -> Result<crate::refine::BoundaryInterpolation> {
+        use crate::refine::BoundaryInterpolation as B;
+        Ok(match self.refine.boundary.as_str() {
+            "auto" if self.mesh.method == "hull" => B::Fixed,
+            "auto" | "bspline" => B::EdgeAndCorner,
+            "fixed" => B::Fixed,
+            "edge-only" => B::EdgeOnly,
+            b => {
+                return Err(Error::Recipe(format!(
+                    "`refine.boundary` is `{b}`; use auto, fixed, bspline or edge-only"
+                )))
+            }
+        })
+    }
+
     /// Checks value ranges that serde cannot express.
     pub fn check(&self) -> Result<()> {
         let bad = |k: &str, why: String| Err(Error::Recipe(format!("`{k}` {why}")));
@@ -1084,6 +1122,7 @@ impl Recipe {
         self.fit.decollide.check()?;
         self.fit.clear.check()?;
         self.refine_scheme()?;
+        self.refine_boundary()?;
         if self.refine.levels > 6 {
             return bad(
                 "refine.levels",

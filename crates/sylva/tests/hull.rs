@@ -893,3 +893,55 @@ fn bad_start_radii_are_errors() {
     assert_eq!((sk.start_radius.len(), sk.start_radius(n), sk.start_radius(0)), (n + 1, None, None));
     sk.validate().unwrap();
 }
+
+/// Spec 000 property 17 through the pipeline: a hull mesh left open at its base and tips
+/// (`mesh.tips = "open"`) and Loop-refined keeps its rims on the control mesh's rims
+/// (`refine.boundary = "auto"` is `Fixed` for hull); with `bspline` the rims move off.
+#[test]
+fn open_hull_rims_stay_fixed_under_refinement() {
+    let lst = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/yggdrasil-sample.lst");
+    let grow = |levels: i64, boundary: &str| {
+        let sets = [
+            ("mesh.method".to_string(), toml::Value::String("hull".into())),
+            ("mesh.tips".to_string(), toml::Value::String("open".into())),
+            ("mesh.clear".to_string(), toml::Value::Boolean(false)),
+            ("mesh.decollide".to_string(), toml::Value::Boolean(false)),
+            ("refine.levels".to_string(), toml::Value::Integer(levels)),
+            ("refine.boundary".to_string(), toml::Value::String(boundary.into())),
+        ];
+        let loaded = sylva::recipe::load(lst, &sets).unwrap();
+        sylva::pipeline::grow(&loaded).unwrap().model.parts.remove(0).mesh
+    };
+    let rim_edges = |m: &sylva::Mesh| -> Vec<[u32; 2]> {
+        let t =
+            sylva::refine::Topology::from_faces(m.vertex_count(), &m.face_offsets, &m.face_indices).unwrap();
+        (0..t.edge_count()).filter(|&e| t.is_boundary_edge(e)).map(|e| t.edge(e)).collect()
+    };
+    let control = grow(0, "auto");
+    let segments: Vec<(glam::Vec3, glam::Vec3)> = rim_edges(&control)
+        .iter()
+        .map(|&[a, b]| (control.positions[a as usize], control.positions[b as usize]))
+        .collect();
+    assert!(!segments.is_empty(), "the open hull mesh has rims");
+    let off_rim = |m: &sylva::Mesh| -> f32 {
+        rim_edges(m)
+            .iter()
+            .flatten()
+            .map(|&v| {
+                let p = m.positions[v as usize];
+                segments
+                    .iter()
+                    .map(|&(a, b)| {
+                        let t = ((p - a).dot(b - a) / (b - a).length_squared().max(1e-30)).clamp(0.0, 1.0);
+                        p.distance(a + t * (b - a))
+                    })
+                    .fold(f32::INFINITY, f32::min)
+            })
+            .fold(0.0, f32::max)
+    };
+    let scale = control.bounds().map_or(1.0, |(lo, hi)| (hi - lo).length());
+    let fixed = off_rim(&grow(2, "auto"));
+    assert!(fixed < 1e-5 * scale, "auto (Fixed) rims moved {fixed} off the control rims (size {scale})");
+    let bspline = off_rim(&grow(2, "bspline"));
+    assert!(bspline > 1e-3 * scale, "bspline rims should shrink off the control polygon, moved {bspline}");
+}

@@ -351,6 +351,78 @@ fn boundary_refines_as_cubic_bspline_curve() {
     }
 }
 
+/// Spec 000 property 17: with the `Fixed` rule every level-0 boundary vertex keeps its
+/// exact position and every new boundary vertex lies on the control rim (the polyline of
+/// the control boundary), at every level and at the limit; the B-spline rule moves them.
+#[test]
+fn fixed_boundary_keeps_the_control_rim() {
+    use sylva::refine::BoundaryInterpolation;
+    // An open square tube (s = 4, seed 000's loop) of 3 segments, Loop triangles.
+    let (s, rings) = (4u32, 4u32);
+    let pos: Vec<Vec3> = (0..rings)
+        .flat_map(|j| (0..s).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let a = std::f32::consts::TAU * i as f32 / s as f32;
+            Vec3::new(a.cos(), j as f32, a.sin())
+        })
+        .collect();
+    let mut faces = Vec::new();
+    for j in 0..rings - 1 {
+        for i in 0..s {
+            let (a, b) = (j * s + i, j * s + (i + 1) % s);
+            faces.push(vec![a, b + s, b]);
+            faces.push(vec![a, a + s, b + s]);
+        }
+    }
+    let m = mesh_from(pos.clone(), &faces);
+    let on_rim = |p: Vec3| {
+        // Distance from p to the nearest control boundary edge (base ring or top ring).
+        [0, rings - 1]
+            .iter()
+            .flat_map(|&j| (0..s).map(move |i| (j * s + i, j * s + (i + 1) % s)))
+            .map(|(a, b)| {
+                let (a, b) = (pos[a as usize], pos[b as usize]);
+                let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+                p.distance(a + t * (b - a))
+            })
+            .fold(f32::INFINITY, f32::min)
+    };
+    let boundary_of = |r: &Mesh| -> Vec<u32> {
+        let t = Topology::from_faces(r.vertex_count(), &r.face_offsets, &r.face_indices).unwrap();
+        (0..t.edge_count()).filter(|&e| t.is_boundary_edge(e)).flat_map(|e| t.edge(e)).collect()
+    };
+    for limit in [false, true] {
+        for levels in 1..4 {
+            let o = |boundary| SubdivideOptions {
+                refine: RefineOptions {
+                    scheme: Scheme::Loop,
+                    levels,
+                    boundary,
+                    full_last_level: limit,
+                    ..Default::default()
+                },
+                limit,
+                ..Default::default()
+            };
+            let fixed = subdivide(&m, &[], &o(BoundaryInterpolation::Fixed)).unwrap();
+            // Level-0 vertices keep their index (even vertices first) and exact position.
+            for v in 0..s as usize {
+                assert_eq!(fixed.positions[v], pos[v], "base vertex {v} moved (levels {levels})");
+                let top = ((rings - 1) * s) as usize + v;
+                assert_eq!(fixed.positions[top], pos[top], "tip vertex {top} moved (levels {levels})");
+            }
+            let rim = boundary_of(&fixed);
+            assert_eq!(rim.len() / 2, (2 * s * (1 << levels)) as usize, "rim edge count");
+            let worst = rim.iter().map(|&v| on_rim(fixed.positions[v as usize])).fold(0.0, f32::max);
+            assert!(worst < 1e-6, "Fixed: a rim vertex is {worst} off the control rim (levels {levels})");
+            // The B-spline rim shrinks off the control square.
+            let bs = subdivide(&m, &[], &o(BoundaryInterpolation::EdgeAndCorner)).unwrap();
+            let off = boundary_of(&bs).iter().map(|&v| on_rim(bs.positions[v as usize])).fold(0.0, f32::max);
+            assert!(off > 0.05, "BSpline: the rim should leave the control square, max {off}");
+        }
+    }
+}
+
 /// Marks the ring of torus edges at big-circle index 0 (j = 0..m) as creases.
 fn torus_crease_ring(m: &mut Mesh, mm: u32, sharpness: f32) {
     for j in 0..mm {

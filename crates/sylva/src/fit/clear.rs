@@ -60,6 +60,10 @@ pub struct ClearOptions {
     /// checked is the one written.
     #[serde(skip)]
     pub levels: u32,
+    /// Boundary rule of that refinement. Not a recipe key: the pipeline sets it from
+    /// `refine.boundary`, so the surface checked is the one written.
+    #[serde(skip)]
+    pub boundary: crate::refine::BoundaryInterpolation,
     /// Radius factor applied per round to the end nodes of an internode a crossing lies on.
     pub step: f64,
     /// No radius is thinned below this fraction of its radius when the pass started.
@@ -106,6 +110,7 @@ impl Default for ClearOptions {
     fn default() -> Self {
         Self {
             levels: 2,
+            boundary: crate::refine::BoundaryInterpolation::default(),
             step: 0.8,
             min_factor: 0.3,
             taper: 0.1,
@@ -333,7 +338,12 @@ fn crossing_faces(
         mesh.clone()
     } else {
         let so = SubdivideOptions {
-            refine: RefineOptions { scheme, levels: opts.levels, ..Default::default() },
+            refine: RefineOptions {
+                scheme,
+                levels: opts.levels,
+                boundary: opts.boundary,
+                ..Default::default()
+            },
             ..Default::default()
         };
         subdivide(mesh, &[], &so).map_err(|e| Error::InvalidGeometry {

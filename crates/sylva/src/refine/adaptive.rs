@@ -259,9 +259,16 @@ impl Hierarchy<'_> {
         // A corner (tagged, or a single-face boundary vertex with the EdgeAndCorner rule)
         // is expected to be pointed.
         let single_face = t.vertex_corners(v as usize).len() == 1;
-        if feat.corners.binary_search_by_key(&v, |x| x.0).is_ok()
-            || (single_face && self.options.boundary == BoundaryInterpolation::EdgeAndCorner)
-        {
+        let boundary_corner = match self.options.boundary {
+            BoundaryInterpolation::EdgeAndCorner => single_face,
+            // Every boundary vertex is a corner.
+            BoundaryInterpolation::Fixed => t.vertex_corners(v as usize).iter().any(|&c| {
+                t.is_boundary_edge(t.face_edges[c as usize] as usize)
+                    || t.is_boundary_edge(t.face_edges[t.prev(c) as usize] as usize)
+            }),
+            BoundaryInterpolation::EdgeOnly => false,
+        };
+        if feat.corners.binary_search_by_key(&v, |x| x.0).is_ok() || boundary_corner {
             return 0.0;
         }
         let mut other = None;

@@ -9,7 +9,8 @@
 //! fractional part in the last sharp level. Boundaries follow the crease rule (seed 000
 //! §2.8 `BSpline`, seed 001 "boundary and crease masks"): boundary edges are infinitely
 //! sharp, and with [`BoundaryInterpolation::EdgeAndCorner`] a boundary vertex with a
-//! single face is an infinitely sharp corner.
+//! single face is an infinitely sharp corner; with [`BoundaryInterpolation::Fixed`] (seed
+//! 000 §2.8 `Fixed`) every boundary vertex is one.
 //!
 //! Sharpness is an `f32`; values ≥ [`INFINITE`] (10, OpenSubdiv's convention) never decay.
 //! The features of a level ([`Features`]: sharp edges, sharp vertices, boundary edges) are
@@ -179,7 +180,8 @@ pub(crate) struct VertexFeatures {
 }
 
 /// Groups a level's features by vertex (boundary vertices with one face become
-/// infinitely sharp under [`BoundaryInterpolation::EdgeAndCorner`]).
+/// infinitely sharp under [`BoundaryInterpolation::EdgeAndCorner`], every boundary vertex
+/// under [`BoundaryInterpolation::Fixed`]).
 pub(crate) fn group_by_vertex(
     topo: &Topology,
     features: &Features,
@@ -214,11 +216,15 @@ pub(crate) fn group_by_vertex(
             edges.push((inc[i].edge, inc[i].sharpness));
             i += 1;
         }
-        if boundary == BoundaryInterpolation::EdgeAndCorner
-            && topo.vertex_corners(v as usize).len() == 1
-            && edges.iter().any(|&(e, _)| topo.is_boundary_edge(e as usize))
-        {
-            vs = INFINITE;
+        let on_boundary = || edges.iter().any(|&(e, _)| topo.is_boundary_edge(e as usize));
+        match boundary {
+            BoundaryInterpolation::EdgeAndCorner
+                if topo.vertex_corners(v as usize).len() == 1 && on_boundary() =>
+            {
+                vs = INFINITE
+            }
+            BoundaryInterpolation::Fixed if on_boundary() => vs = INFINITE,
+            _ => {}
         }
         out.push(VertexFeatures { vertex: v, vertex_sharpness: vs, edges });
     }

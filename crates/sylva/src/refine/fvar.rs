@@ -277,11 +277,13 @@ fn initial_features(
                 }
                 FvarInterpolation::CornersOnly => false,
                 // The mesh's own corners keep the mesh's (corner) rule.
-                FvarInterpolation::Smooth => {
-                    mesh_boundary_rule == BoundaryInterpolation::EdgeAndCorner
-                        && mesh_on_boundary[vi]
-                        && mesh.vertex_corners(vi).len() == 1
-                }
+                FvarInterpolation::Smooth => match mesh_boundary_rule {
+                    BoundaryInterpolation::EdgeAndCorner => {
+                        mesh_on_boundary[vi] && mesh.vertex_corners(vi).len() == 1
+                    }
+                    BoundaryInterpolation::Fixed => mesh_on_boundary[vi],
+                    BoundaryInterpolation::EdgeOnly => false,
+                },
             };
         let s = if pinned { INFINITE } else { inherited };
         if s > 0.0 {

@@ -178,15 +178,24 @@ pub enum Scheme {
     CatmullClark,
 }
 
-/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`). Boundary
-/// edges are always infinitely sharp, so the boundary refines as a cubic B-spline curve.
+/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`, plus seed
+/// 000's `Fixed` rule). Boundary edges are always infinitely sharp, so a new boundary
+/// vertex is the midpoint of its edge; the rules differ in where an existing boundary
+/// vertex goes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BoundaryInterpolation {
     /// Boundary edges sharp; a vertex with a single face follows the crease rule too.
     EdgeOnly,
-    /// Boundary edges sharp, and vertices with a single face are corners (they stay put).
+    /// Boundary edges sharp, and vertices with a single face are corners (they stay put);
+    /// the rest of the rim follows the cubic B-spline curve rule `1/8, 3/4, 1/8` (spec 000
+    /// §2.8 `BSpline`: a smooth rim that shrinks slightly).
     #[default]
     EdgeAndCorner,
+    /// Every boundary vertex is a corner and keeps its position (spec 000 §2.8 `Fixed`,
+    /// property 17: "base and tips remain fixed", seed 000 §4.4.1). With boundary edges
+    /// split at their midpoints, the refined rim is exactly the control polygon (a square
+    /// for a 4-sided loop), at every level and at the limit.
+    Fixed,
 }
 
 /// How semi-sharp edge sharpness decays (OpenSubdiv's `CreasingMethod`).
