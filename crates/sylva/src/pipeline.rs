@@ -744,10 +744,34 @@ pub fn wind_stage(recipe: &Recipe, model: &mut Model, report: &mut Report) {
     report.wind_time = t.elapsed();
 }
 
+/// The optional skeleton passes of seed 002 §4.2 before fitting: overlap pruning
+/// (`mesh.prune_overlaps`, [`crate::fit::overlap`]) and then leaves by level
+/// (`[leaves] place`, [`crate::fit::leaves`]), so pruned branches get no leaves.
+pub fn shape_stage(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {
+    if recipe.mesh.prune_overlaps == Some(true) {
+        let (pruned, r) = crate::fit::overlap::prune_overlaps(skeleton, 0.0);
+        if r.pairs > 0 {
+            report.warnings.push(format!(
+                "prune_overlaps: {} overlapping internode pair(s); {} subtree(s) with {} node(s) and {} organ(s) pruned",
+                r.pairs,
+                r.pruned.len(),
+                r.removed,
+                r.organs_removed
+            ));
+        }
+        *skeleton = pruned;
+    }
+    if let Some(p) = recipe.leaves.placement(recipe.seed)? {
+        crate::fit::leaves::place_leaves(skeleton, &p);
+    }
+    Ok(())
+}
+
 /// Runs the whole pipeline of a loaded recipe.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let mut report = Report::default();
     let Generated { mut skeleton, surfaces, curves } = skeleton(loaded, &mut report)?;
+    shape_stage(&loaded.recipe, &mut skeleton, &mut report)?;
     report.skeleton = skeleton.stats();
     if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
         decollide_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;

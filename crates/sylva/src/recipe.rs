@@ -248,6 +248,46 @@ pub struct LeavesSection {
     /// Leaf normals: `flat` (each leaf's own) or `crown` (bent toward the crown's outward
     /// direction for soft canopy shading, [`crate::mesh::cards::bend_toward_crown`]).
     pub normals: String,
+    /// Add leaves to the skeleton ([`crate::fit::leaves`], seed 002 §4.2): `level` (on
+    /// every internode of level ≥ `start_level`) or `terminal` (Bloomenthal's
+    /// configurations on terminal apices). Unset: only the generator's own leaves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub place: Option<String>,
+    /// Lowest branch level that gets leaves with `place = "level"` (unset: the two
+    /// highest levels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start_level: Option<u16>,
+    /// Leaves per internode (`level`) or per configuration (`terminal`), 1..=64 (unset: 2
+    /// and 5).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_node: Option<u32>,
+    /// Leaf length in metres (unset: 0.8 × the mean length of the leafy internodes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub size: Option<f32>,
+}
+
+impl LeavesSection {
+    /// The leaf placement `place` asks for (`None`: none). Errors name the key.
+    pub fn placement(&self, seed: u64) -> Result<Option<crate::fit::leaves::LeafPlacement>> {
+        use crate::fit::leaves::{LeafPlacement, Placement};
+        if let Some(n) = self.per_node.filter(|n| !(1..=64).contains(n)) {
+            return Err(Error::Recipe(format!("`leaves.per_node` must be in 1..=64, got {n}")));
+        }
+        if let Some(size) = self.size.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+            return Err(Error::Recipe(format!("`leaves.size` must be a finite length ≥ 0, got {size}")));
+        }
+        let placement = match self.place.as_deref() {
+            None | Some("none") => return Ok(None),
+            Some("level") => Placement::Level,
+            Some("terminal") => Placement::Terminal,
+            Some(p) => {
+                return Err(Error::Recipe(format!("`leaves.place` is `{p}`; use none, level or terminal")))
+            }
+        };
+        let per_node = self.per_node.unwrap_or(if placement == Placement::Level { 2 } else { 5 });
+        let size = self.size.unwrap_or(0.0);
+        Ok(Some(LeafPlacement { placement, start_level: self.start_level, per_node, size, seed }))
+    }
 }
 
 /// Above this many card leaves `leaves.per_card = 0` groups leaves onto twig cards.
@@ -261,6 +301,10 @@ impl Default for LeavesSection {
             alpha_cutoff: 0.5,
             per_card: 0,
             normals: "flat".into(),
+            place: None,
+            start_level: None,
+            per_node: None,
+            size: None,
         }
     }
 }
@@ -293,6 +337,7 @@ impl LeavesSection {
         if self.per_card > 64 {
             return Err(Error::Recipe(format!("`leaves.per_card` must be in 0..=64, got {}", self.per_card)));
         }
+        self.placement(0)?;
         Ok(())
     }
 
@@ -485,6 +530,11 @@ pub struct MeshSection {
     /// the skeleton is de-collided (see [`MeshSection::clears_nodes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear: Option<bool>,
+    /// Cut off every branch that passes through another, with its whole subtree, before
+    /// meshing ([`crate::fit::overlap`], seed 002 §4.2: the higher level goes). Unset:
+    /// off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prune_overlaps: Option<bool>,
     /// `[mesh.tube]`: the tube mesher's options (`sides` and `tips` are `mesh.sides`
     /// and `mesh.tips`).
     #[serde(default)]
@@ -586,6 +636,7 @@ impl Default for MeshSection {
             base: default_base(),
             decollide: None,
             clear: None,
+            prune_overlaps: None,
             tube: TubeOptions::default(),
             hull: HullOptions::default(),
             sweep: SweepOptions::default(),
@@ -1241,7 +1292,12 @@ mod tests {
                     defaults.as_table_mut().unwrap().insert(field.into(), v);
                 }
             }
-            let fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();
+            let mut fields: Vec<String> = defaults.as_table().unwrap().keys().cloned().collect();
+            // Optional keys (unset by default, so never written) are documented too.
+            let optional = ["leaves.place", "leaves.start_level", "leaves.per_node", "leaves.size"];
+            fields.extend(
+                optional.iter().filter_map(|k| k.strip_prefix(table)?.strip_prefix('.')).map(str::to_string),
+            );
             let mut documented = documented_keys(heading);
             documented.sort();
             let mut sorted = fields.clone();
@@ -1272,6 +1328,9 @@ mod tests {
             ("leaves.mode=\"sprites\"", "leaves.mode"),
             ("leaves.shape=\"round\"", "leaves.shape"),
             ("leaves.alpha_cutoff=1", "leaves.alpha_cutoff"),
+            ("leaves.place=\"all\"", "leaves.place"),
+            ("leaves.per_node=0", "leaves.per_node"),
+            ("leaves.size=-1", "leaves.size"),
             ("output.textures=\"inline\"", "output.textures"),
         ] {
             let e = load("lsys-honda-a", &sets(&[kv])).unwrap_err();

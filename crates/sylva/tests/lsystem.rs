@@ -206,3 +206,115 @@ fn stochastic_preset_depends_on_seed_only() {
     assert_eq!(a, derived_text("lsys-abop-stochastic", &["seed=1"]));
     assert_ne!(a, derived_text("lsys-abop-stochastic", &["seed=2"]));
 }
+
+/// Seed 002 property 17 on the Honda trees a–i: after `prune_overlaps` no two
+/// non-adjacent internodes overlap, every pruned branch's whole subtree is gone (the
+/// node count drops by exactly the sizes of the pruned subtrees) and the pipeline's
+/// `mesh.prune_overlaps` gives the same skeleton.
+#[test]
+fn honda_trees_prune_overlapping_branches_with_their_subtrees() {
+    use sylva::fit::overlap::prune_overlaps;
+    use sylva::mesh::check::skeleton_collisions;
+    let mut pruned_trees = 0;
+    for t in 'a'..='i' {
+        let name = format!("lsys-honda-{t}");
+        let loaded = sylva::recipe::load(&name, &[]).unwrap();
+        let sk =
+            sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap().skeleton;
+        let (out, r) = prune_overlaps(&sk, 0.0);
+        out.validate().unwrap();
+        assert_eq!(r.pairs, skeleton_collisions(&sk, 0.0).len());
+        assert!(skeleton_collisions(&out, 0.0).is_empty(), "{name}: overlaps left after pruning");
+        assert_eq!(r.after, 0);
+        // The nodes in the pruned roots' subtrees (a node is in one when it or an
+        // ancestor is a pruned root; parents come first).
+        let mut gone = vec![false; sk.len()];
+        for &v in &r.pruned {
+            gone[v as usize] = true;
+        }
+        for i in 0..sk.len() {
+            let p = sk.parent[i];
+            if p != sylva::skeleton::NO_PARENT && gone[p as usize] {
+                gone[i] = true;
+            }
+        }
+        let expected = gone.iter().filter(|&&g| g).count();
+        assert_eq!(sk.len() - out.len(), expected, "{name}: node count drops by the subtrees' sizes");
+        // Exactly the other nodes survive, in order.
+        let kept: Vec<glam::Vec3> = (0..sk.len()).filter(|&i| !gone[i]).map(|i| sk.position[i]).collect();
+        assert_eq!(kept, out.position, "{name}: the survivors are the nodes outside the pruned subtrees");
+        assert_eq!(r.removed, expected);
+        // The higher level goes: no pruned root is of a lower order than every partner.
+        assert!(r.pruned.iter().all(|&v| sk.order[v as usize] > 0), "{name}: the trunk's base was pruned");
+        pruned_trees += (!r.pruned.is_empty()) as usize;
+        if !r.pruned.is_empty() {
+            let sets = [("mesh.prune_overlaps".to_string(), toml::Value::Boolean(true))];
+            let loaded = sylva::recipe::load(&name, &sets).unwrap();
+            let mut report = sylva::pipeline::Report::default();
+            let mut piped = sylva::pipeline::skeleton(&loaded, &mut report).unwrap().skeleton;
+            sylva::pipeline::shape_stage(&loaded.recipe, &mut piped, &mut report).unwrap();
+            assert_eq!(piped, out, "{name}: the pipeline prunes the same way");
+            assert!(
+                report.warnings.iter().any(|w| w.contains("prune_overlaps")),
+                "{name}: the pruning is reported"
+            );
+        }
+    }
+    assert!(pruned_trees > 0, "some Honda tree must have overlapping branches to test this");
+}
+
+/// Seed 002 property 18: with `leaves.place = "level"` leaves appear only on internodes
+/// of level ≥ `leaves.start_level`; with `terminal` (Bloomenthal) only on terminal
+/// apices; the grown tree has a leaf part.
+#[test]
+fn honda_leaves_by_level_and_on_terminal_apices() {
+    use toml::Value;
+    let grow_skeleton = |sets: &[(String, Value)]| {
+        let loaded = sylva::recipe::load("lsys-honda-d", sets).unwrap();
+        let mut report = sylva::pipeline::Report::default();
+        let mut sk = sylva::pipeline::skeleton(&loaded, &mut report).unwrap().skeleton;
+        assert!(sk.organs.is_empty(), "Honda trees draw no leaves of their own");
+        sylva::pipeline::shape_stage(&loaded.recipe, &mut sk, &mut report).unwrap();
+        sk
+    };
+    let s = |k: &str, v: Value| (k.to_string(), v);
+    let by_level = grow_skeleton(&[
+        s("leaves.place", Value::String("level".into())),
+        s("leaves.start_level", Value::Integer(7)),
+    ]);
+    let max_order = *by_level.order.iter().max().unwrap();
+    assert!(max_order > 7);
+    let leafy =
+        (0..by_level.len()).filter(|&i| by_level.order[i] >= 7 && by_level.parent[i] != u32::MAX).count();
+    assert_eq!(by_level.organs.len(), 2 * leafy, "two leaves per internode of level ≥ 7");
+    assert!(by_level.organs.iter().all(|o| by_level.order[o.node as usize] >= 7));
+    let denser = grow_skeleton(&[
+        s("leaves.place", Value::String("level".into())),
+        s("leaves.start_level", Value::Integer(5)),
+    ]);
+    assert!(denser.organs.len() > by_level.organs.len(), "a lower start level gives more leaves");
+    let terminal = grow_skeleton(&[
+        s("leaves.place", Value::String("terminal".into())),
+        s("leaves.per_node", Value::Integer(3)),
+    ]);
+    let mut has_child = vec![false; terminal.len()];
+    for &p in &terminal.parent {
+        if p != u32::MAX {
+            has_child[p as usize] = true;
+        }
+    }
+    assert_eq!(terminal.organs.len(), 3 * has_child.iter().filter(|&&c| !c).count());
+    assert!(terminal.organs.iter().all(|o| !has_child[o.node as usize]));
+    // End to end: the leaves become a leaf part; a bad value is an error naming the key.
+    let loaded = sylva::recipe::load(
+        "lsys-honda-d",
+        &[s("leaves.place", Value::String("level".into())), s("leaves.start_level", Value::Integer(7))],
+    )
+    .unwrap();
+    let grown = sylva::pipeline::grow(&loaded).unwrap();
+    assert!(grown.model.parts.len() >= 2, "bark and leaves");
+    let e = sylva::recipe::load("lsys-honda-d", &[s("leaves.place", Value::String("everywhere".into()))])
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("leaves.place"), "{e}");
+}

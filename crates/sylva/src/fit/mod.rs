@@ -8,10 +8,18 @@
 //!   the surface, thins the internodes its crossing faces lie on and meshes again; hands
 //!   the last control mesh and its refinement on so the pipeline does not repeat them.
 //!
-//! Both only change radii and positions of the skeleton: the stage order stays
+//! - [`overlap`]: Skeleton → Skeleton. Optional (`mesh.prune_overlaps`): cuts off every
+//!   branch that passes through another with its subtree (seed 002 §4.2, property 17).
+//! - [`leaves`]: adds leaf organs by branch level or on terminal apices (`[leaves]
+//!   place`, seed 002 §4.2, property 18).
+//!
+//! Decollide and clear only change radii and positions of the skeleton; overlap pruning
+//! removes subtrees and leaf placement adds organs, before either. The stage order stays
 //! generate → fit → mesh → refine → export. Their options are the recipe tables
 //! `[fit.decollide]` and `[fit.clear]` (`docs/recipe.md`); whether they run is
 //! `mesh.decollide` / `mesh.clear`.
 
 pub mod clear;
 pub mod decollide;
+pub mod leaves;
+pub mod overlap;
