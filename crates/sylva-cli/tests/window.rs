@@ -10,35 +10,13 @@
 //! adapter skips likewise, unless `SYLVA_REQUIRE_GPU=1`. Without the feature, `--window`
 //! is refused with the way to build it.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
-struct Run {
-    code: i32,
-    #[cfg_attr(not(feature = "window"), allow(dead_code))]
-    stdout: String,
-    stderr: String,
-}
-
-fn sylva(args: &[&str], cwd: &Path) -> Run {
-    let out = Command::new(env!("CARGO_BIN_EXE_sylva"))
-        .args(args)
-        .current_dir(cwd)
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("the sylva binary runs");
-    Run {
-        code: out.status.code().unwrap_or(-1),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
+mod common;
+use common::sylva;
 
 fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sylva-window-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tempdir("window", name)
 }
 
 #[cfg(not(feature = "window"))]
@@ -55,6 +33,8 @@ fn without_the_feature_window_names_it() {
 #[cfg(feature = "window")]
 mod window {
     use super::*;
+    use common::Run;
+    use std::process::Command;
 
     fn flag(name: &str) -> bool {
         std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "0")
