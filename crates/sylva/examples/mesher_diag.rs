@@ -149,7 +149,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Mesher::Hull(o) => hull_opts = o,
         Mesher::Sweep(o) => sweep_opts = o,
         Mesher::Quad(o) => quad_opts = o,
-        Mesher::Tube(_) => unreachable!("the mesher was checked above"),
+        Mesher::Tube(_) | Mesher::Leaf(_) => unreachable!("the mesher was checked above"),
     }
     // One meshing: the control mesh, its scheme and (quad and sweep) the node each face is for.
     let run = |sk: &Skeleton, verbose: bool| -> sylva::Result<(Mesh, Scheme, Vec<u32>)> {

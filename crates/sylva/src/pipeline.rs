@@ -134,7 +134,13 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
     let curves =
         folder.iter().flat_map(|f| f.curves.iter()).map(|(_, c)| std::sync::Arc::new(c.clone())).collect();
-    let env = environment(g, folder.as_ref(), &ls)?;
+    // The environment's data files (images, obstacles) are relative to the model's folder.
+    let env_dir = match (&folder, &loaded.origin) {
+        (Some(f), _) => f.lsystem.parent().map(|p| p.to_path_buf()).unwrap_or_default(),
+        (None, Origin::Folder(d)) => d.join(&dir),
+        (None, _) => dir.clone(),
+    };
+    let env = environment(g, folder.as_ref(), &ls, &env_dir, &mut warnings)?;
     if ls.writes_files {
         warnings.push(
             "the model writes files (fopen/fprintf): sylva discards file output, as it discards printf"
@@ -152,17 +158,23 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
 }
 
 /// The environmental program for the model's `?E` modules: the recipe's
-/// `[generator.environment]`, else the program the model folder's `.e` file names.
-/// `None` when neither gives one (the derivation then reports `?E` as unsupported).
+/// `[generator.environment]`, else the program the model folder's `.e` file names,
+/// configured from the spec file that `.e` file names (when the program is the file's)
+/// with the recipe's values overriding it. `None` when neither names a program (the
+/// derivation then reports `?E` as unsupported). Notes (a missing light image, unknown
+/// spec keys) go to `warnings`.
 fn environment(
     g: &LsystemGenerator,
     folder: Option<&ModelFolder>,
     ls: &LSystem,
+    dir: &std::path::Path,
+    warnings: &mut Vec<String>,
 ) -> Result<Option<lsystem::environment::Environment>> {
-    use lsystem::environment::{Environment, PROGRAMS};
-    let (program, radius) = match (&g.environment, folder.and_then(|f| f.environment_program.as_deref())) {
-        (Some(c), _) => (c.program.as_str(), c.radius),
-        (None, Some(p)) => (p, None),
+    use lsystem::environment::{Environment, Overrides, Spec, PROGRAMS};
+    let file_program = folder.and_then(|f| f.environment_program.as_deref());
+    let recipe_program = g.environment.as_ref().and_then(|c| c.program.as_deref());
+    let program = match (recipe_program, file_program) {
+        (Some(p), _) | (None, Some(p)) => p,
         (None, None) => {
             // Name the model's environment file when it is the missing piece.
             let missing = folder.and_then(|f| f.environment_file.as_ref()).filter(|p| !p.is_file());
@@ -194,9 +206,33 @@ fn environment(
             None => Error::Recipe(format!("generator.environment: {m}")),
         });
     }
-    Environment::by_name(program, radius)
-        .map(Some)
-        .map_err(|m| Error::Recipe(format!("generator.environment: {m}")))
+    let recipe_error = |m: String| Error::Recipe(format!("generator.environment: {m}"));
+    // The spec file belongs to the `.e` file's program: it is read only for that one.
+    let spec_path =
+        folder.and_then(|f| f.environment_spec.as_ref()).filter(|_| file_program == Some(program));
+    let spec = match spec_path {
+        Some(path) => {
+            let e = folder.and_then(|f| f.environment_file.as_ref()).map(|p| p.display().to_string());
+            let spec = Spec::read(path).map_err(|m| {
+                recipe_error(format!("{m} (the spec file of {program}, named by {})", e.unwrap_or_default()))
+            })?;
+            warnings.extend(spec.unknown(program));
+            Some(spec)
+        }
+        None => None,
+    };
+    let over = g
+        .environment
+        .as_ref()
+        .map(|c| Overrides {
+            radius: c.radius,
+            transmittance: c.transmittance,
+            image: c.image.clone(),
+            directions: c.directions,
+            obstacles: c.obstacles.clone(),
+        })
+        .unwrap_or_default();
+    Environment::configure(program, spec.as_ref(), &over, dir, warnings).map(Some).map_err(recipe_error)
 }
 
 /// Turtle options from the recipe, with the model folder's view file filling in every
@@ -211,6 +247,15 @@ pub fn turtle_options(g: &LsystemGenerator, folder: Option<&ModelFolder>) -> Tur
         ..Default::default()
     };
     let Some(view) = folder.and_then(|f| f.view.as_ref()) else { return opts };
+    // Generalized-cylinder contours (`@#`, issue 26), sampled into `contour sides` pieces.
+    opts.contour_sides = view.contour_sides as usize;
+    opts.twist_of_cylinders = view.twist_of_cylinders;
+    for (id, c) in folder.map(|f| f.contours.as_slice()).unwrap_or_default() {
+        opts.contours.push(lsystem::turtle::TurtleContour::from_contour(*id, c, opts.contour_sides));
+    }
+    for (id, why) in folder.map(|f| f.contour_errors.as_slice()).unwrap_or_default() {
+        opts.contours.push(lsystem::turtle::TurtleContour::unusable(*id, why));
+    }
     let set = |k: &str| g.explicit.iter().any(|e| e == k);
     if !set("angle") {
         opts.angle = view.angle_increment;
@@ -398,7 +443,8 @@ pub fn mesh(
 /// Sinks the skeleton's upright roots for a flat base (`mesh.base = "flat"`), see
 /// [`crate::mesh::ground`].
 fn sink(recipe: &Recipe, skeleton: &mut Skeleton) -> Vec<SunkRoot> {
-    if recipe.mesh.base == "flat" {
+    // A leaf (`mesh.method = "leaf"`) has no trunk to stand on: its base stays open.
+    if recipe.mesh.base == "flat" && recipe.mesh.method != "leaf" {
         crate::mesh::ground::sink_roots(skeleton)
     } else {
         Vec::new()
@@ -451,8 +497,10 @@ fn finish(
     }
     // The skeleton node of each leaf card, for instancing.
     let mut card_nodes = Vec::new();
-    let mut parts =
-        vec![Part { name: "bark".into(), mesh: bark, material: Material::bark(), ..Default::default() }];
+    // Leaf mode (`mesh.method = "leaf"`) makes a leaf surface, not bark.
+    let (name, material) =
+        if recipe.mesh.method == "leaf" { ("leaf", Material::leaf()) } else { ("bark", Material::bark()) };
+    let mut parts = vec![Part { name: name.into(), mesh: bark, material, ..Default::default() }];
     if !skeleton.organs.is_empty() {
         use crate::mesh::cards::{is_card_leaf, leaf_cards};
         let cards =

@@ -475,11 +475,27 @@ pub struct LsystemGenerator {
 /// modules), built into sylva (`crate::lsystem::environment`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EnvironmentConfig {
-    /// The program's name, as a cpfg `.e` file's `executable:` gives it: `honda81`.
-    pub program: String,
-    /// Collision radius of `honda81` in model units (default 0.5).
+    /// The program's name, as a cpfg `.e` file's `executable:` gives it (`honda81`,
+    /// `clover`, `ecosystem`, `chiba`, `obcheck`); without it, the model folder's `.e`
+    /// file names it and the keys below override its spec file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program: Option<String>,
+    /// Collision radius of `honda81` (default 0.5), default leaf radius of `chiba`
+    /// (default 0.5), model units.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
+    /// Leaf transmittance of `clover` (default 0.1) and `chiba` (default 0), in [0, 1].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmittance: Option<f64>,
+    /// `clover`'s light image (SGI `.rgb` or PNG), relative to the model folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
+    /// `chiba`'s number of sky directions (default 32).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub directions: Option<f64>,
+    /// `obcheck`'s obstacle file, relative to the model folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obstacles: Option<String>,
 }
 
 fn default_view() -> String {
@@ -549,6 +565,11 @@ pub struct MeshSection {
     /// `[mesh.quad]`: the quad mesher's options.
     #[serde(default)]
     pub quad: QuadOptions,
+    /// `[mesh.leaf]`: the leaf mesher's options (seed 001's leaf mode, `/L`). Left out
+    /// of written metadata at its defaults (so the files of other meshers keep their
+    /// bytes).
+    #[serde(default, skip_serializing_if = "is_default_leaf")]
+    pub leaf: crate::mesh::leaf::LeafOptions,
 }
 
 impl MeshSection {
@@ -574,6 +595,7 @@ impl MeshSection {
                 ..self.sweep.clone()
             }),
             "quad" => Mesher::Quad(self.quad.clone()),
+            "leaf" => Mesher::Leaf(self.leaf.clone()),
             m => {
                 return Err(Error::Recipe(format!(
                     "`mesh.method` is `{m}`; known methods: {}",
@@ -588,7 +610,8 @@ impl MeshSection {
     /// only free of self-intersections on a collision-free skeleton, and false for
     /// `tube`, whose child tubes start inside their parents by design anyway.
     pub fn decollides(&self) -> bool {
-        self.decollide.unwrap_or(self.method != "tube")
+        // A leaf is one open sheet: nothing to pull apart.
+        self.decollide.unwrap_or(!matches!(self.method.as_str(), "tube" | "leaf"))
     }
 
     /// Whether the pipeline de-collides a skeleton of `nodes` nodes: as
@@ -606,7 +629,8 @@ impl MeshSection {
     /// nodes: `clear` when set (never for `tube`, whose child tubes start inside their
     /// parents by design), else whenever it de-collides the skeleton.
     pub fn clears_nodes(&self, nodes: usize) -> bool {
-        self.method != "tube" && self.clear.unwrap_or_else(|| self.decollides_nodes(nodes))
+        !matches!(self.method.as_str(), "tube" | "leaf")
+            && self.clear.unwrap_or_else(|| self.decollides_nodes(nodes))
     }
 }
 
@@ -641,6 +665,7 @@ impl Default for MeshSection {
             hull: HullOptions::default(),
             sweep: SweepOptions::default(),
             quad: QuadOptions::default(),
+            leaf: Default::default(),
         }
     }
 }
@@ -705,6 +730,11 @@ fn is_default_refine_max_faces(n: &usize) -> bool {
 
 fn default_scheme() -> String {
     "auto".into()
+}
+
+/// Whether `o` is the default `[mesh.leaf]` table (left out of written metadata).
+fn is_default_leaf(o: &crate::mesh::leaf::LeafOptions) -> bool {
+    *o == crate::mesh::leaf::LeafOptions::default()
 }
 
 fn default_boundary() -> String {
@@ -964,8 +994,9 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
 /// Keys the recipe leaves out when it is written at their defaults (so files' metadata
 /// keeps its old form): missing from the round trip, they are still known. The `[wind]`
 /// and `[lod]` tables check their own keys (`deny_unknown_fields`).
-const SKIPPED_AT_DEFAULT: [&str; 13] = [
+const SKIPPED_AT_DEFAULT: [&str; 14] = [
     "fit.decollide.max_work",
+    "mesh.leaf",
     "refine.boundary",
     "generator.max_nodes",
     "refine.max_faces",

@@ -56,6 +56,20 @@ pub enum OrganKind {
     Sphere,
     /// A disc of radius `size` facing along the heading (cpfg `@o`, `@c`).
     Disc,
+    /// A swept surface: a cpfg generalized cylinder (`@Gs` … `@Ge`) drawn with a contour
+    /// selected by `@#(n)`, as world-space cross-section rings.
+    Swept(SweptSurface),
+}
+
+/// The cross-sections of a swept surface ([`OrganKind::Swept`]), in world space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweptSurface {
+    /// The rings from the start of the sweep to its end, each the same number of points
+    /// in the same order around (along) the contour.
+    pub rings: Vec<Vec<Vec3>>,
+    /// Whether each ring is a closed loop (its last point joins its first); an open
+    /// ring (a leaf's cross-section) is a strip with two free edges.
+    pub closed: bool,
 }
 
 /// A forest of branching axes, stored parent-first as struct-of-arrays.
@@ -314,18 +328,27 @@ impl Skeleton {
                 OrganKind::Polygon(v) => v.as_slice(),
                 _ => &[],
             };
+            let rings = match &o.kind {
+                OrganKind::Swept(s) => s.rings.as_slice(),
+                _ => &[],
+            };
             let ok = o.position.is_finite()
                 && o.heading.is_finite()
                 && o.up.is_finite()
                 && o.size.is_finite()
-                && vertices.iter().all(|v| v.is_finite());
+                && vertices.iter().all(|v| v.is_finite())
+                && rings.iter().flatten().all(|v| v.is_finite());
             if !ok {
                 return Err(SkeletonError::NonFinite { node: k, field: "organ" });
             }
             if o.node != NO_PARENT && o.node as usize >= n {
                 return Err(SkeletonError::OrganNode { organ: k, node: o.node, nodes: n });
             }
-            for (field, value) in [("position", o.position.abs().max_element()), ("size", o.size.abs())] {
+            let far = rings
+                .iter()
+                .flatten()
+                .fold(o.position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
+            for (field, value) in [("position", far), ("size", o.size.abs())] {
                 if value > MAX_COORDINATE {
                     return Err(SkeletonError::OutOfRange { what: "organ", index: k, field, value });
                 }

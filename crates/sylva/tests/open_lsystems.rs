@@ -113,11 +113,11 @@ fn the_model_folders_environment_file_names_the_program() {
     assert_eq!(d.folder.as_ref().unwrap().environment_program.as_deref(), Some("honda81"));
     assert_eq!(d.lsystem.format(&d.string).matches('F').count(), 2 * (1 + 2 + 2 + 4));
     // A program sylva does not have is unsupported, named, at the model's `?E`.
-    std::fs::write(dir.join("fractal.e"), "executable: clover light.rgb\n").unwrap();
+    std::fs::write(dir.join("fractal.e"), "executable: lightning light.spec\n").unwrap();
     let e = derive_err(&dir.join("fractal.l"), &[]);
     let msg = e.to_string();
     assert!(matches!(&e, sylva::Error::Lsystem(l) if l.kind == ErrorKind::Unsupported), "{msg}");
-    assert!(msg.contains("fractal.l:3:") && msg.contains("`clover`") && msg.contains("honda81"), "{msg}");
+    assert!(msg.contains("fractal.l:3:") && msg.contains("`lightning`") && msg.contains("honda81"), "{msg}");
     // Without any environment, `?E` is unsupported at its line.
     std::fs::remove_file(dir.join("fractal.e")).unwrap();
     let e = derive_err(&dir.join("fractal.l"), &[]);

@@ -278,11 +278,20 @@ fn organ_to_json(o: &Organ) -> JsonOrgan {
         OrganKind::Surface(s) => ("surface", Some(s.clone()), None),
         OrganKind::Sphere => ("sphere", None, None),
         OrganKind::Disc => ("disc", None, None),
+        OrganKind::Swept(_) => ("swept", None, None),
+    };
+    let (rings, closed) = match &o.kind {
+        OrganKind::Swept(s) => {
+            (Some(s.rings.iter().map(|r| r.iter().map(|p| p.to_array()).collect()).collect()), Some(s.closed))
+        }
+        _ => (None, None),
     };
     JsonOrgan {
         kind: kind.to_string(),
         name,
         vertices,
+        rings,
+        closed,
         node: (o.node != NO_PARENT).then_some(o.node),
         position: o.position.to_array(),
         heading: o.heading.to_array(),

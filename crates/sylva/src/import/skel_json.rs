@@ -60,6 +60,12 @@ pub(crate) struct JsonOrgan {
     pub(crate) name: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) vertices: Option<Vec<[f32; 3]>>,
+    /// A swept surface's rings (kind `swept`, issue 26).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) rings: Option<Vec<Vec<[f32; 3]>>>,
+    /// Whether a swept surface's rings are closed loops.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) closed: Option<bool>,
     pub(crate) node: Option<u32>,
     pub(crate) position: [f32; 3],
     pub(crate) heading: [f32; 3],
@@ -141,7 +147,27 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
         }
     }
     for (k, o) in doc.organs.into_iter().enumerate() {
+        let swept = o.kind == "swept";
+        if swept != o.rings.is_some() || o.rings.is_some() != o.closed.is_some() {
+            return Err(bad(format!(
+                "organs[{k}]: `rings` and `closed` belong to (and are needed by) a swept organ only"
+            )));
+        }
         let kind = match (o.kind.as_str(), o.name, o.vertices) {
+            ("swept", None, None) => {
+                let rings: Vec<Vec<Vec3>> = o
+                    .rings
+                    .unwrap_or_default()
+                    .into_iter()
+                    .map(|r| r.into_iter().map(Vec3::from_array).collect())
+                    .collect();
+                let n = rings.first().map_or(0, Vec::len);
+                if rings.iter().any(|r| r.len() != n) {
+                    return Err(bad(format!("organs[{k}].rings: every ring needs the same number of points")));
+                }
+                OrganKind::Swept(crate::skeleton::SweptSurface { rings, closed: o.closed.unwrap_or(false) })
+            }
+            ("swept", ..) => return Err(bad(format!("organs[{k}]: a swept organ has no `name` or `vertices`"))),
             ("leaf", None, None) => OrganKind::Leaf,
             ("sphere", None, None) => OrganKind::Sphere,
             ("disc", None, None) => OrganKind::Disc,
@@ -158,7 +184,7 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
             }
             (other, ..) => {
                 return Err(bad(format!(
-                    "organs[{k}].kind: unknown organ kind {other:?} (leaf, polygon, surface, sphere, disc)"
+                    "organs[{k}].kind: unknown organ kind {other:?} (leaf, polygon, surface, sphere, disc, swept)"
                 )))
             }
         };

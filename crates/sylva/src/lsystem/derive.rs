@@ -302,6 +302,10 @@ impl LSystem {
                 )));
         }
         let env = if self.environment_at.is_some() { env } else { None };
+        if let Some(e) = env {
+            // A derivation starts from the program's initial state (clover's leaves).
+            e.reset();
+        }
         let queries = |m: &mut ModuleString, ev: &mut Evaluator| match turtle {
             Some(t) if self.has_queries || env.is_some() => {
                 // A query pass runs the turtle over the whole string.

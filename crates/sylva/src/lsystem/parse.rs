@@ -1318,13 +1318,15 @@ const AT_TWO_LETTER: &[&str] = &[
     "Pt", "Pm", "Ms", "Mb",
 ];
 
-/// Reads one module name starting at byte `i`: a single character, `@X`/`@Xy`, `?X`
+/// Reads one module name starting at byte `i`: a single character, `@X`/`@Xy`/`@#`, `?X`
 /// (cpfg query and communication modules) or `~x` (named surface).
 pub fn symbol_at(text: &str, i: usize, end: usize) -> (String, usize) {
     let s = text.as_bytes();
     let c = text[i..].chars().next().unwrap_or(' ');
     let mut j = i + c.len_utf8();
     match c {
+        // `@#` selects a generalized cylinder's contour (issue 26).
+        '@' if j < end && s[j] == b'#' => j += 1,
         '@' if j < end && s[j].is_ascii_alphabetic() => {
             j += 1;
             if j < end && j < s.len() && s[j].is_ascii_alphabetic() {

@@ -47,13 +47,35 @@
 //! tube; the generalized-cylinder markers also trace one: `@Gs` starts a generalized cylinder at the turtle's
 //! position, `@Gc` adds a node there and `@Ge` adds the last one, so models that move
 //! with `f` between control points (cpfg's contour-swept stems) still get an axis.
+//!
+//! **Contours** (cpfg generalized cylinders, issue 26). `@#(n)` selects contour n of
+//! the view file (`contour: n file.con`, [`TurtleOptions::contours`]); `@#(0)` (the
+//! default) is the circle, and a generalized cylinder drawn with the circle traces
+//! skeleton nodes as above. One whose `@Gs` comes while a contour is selected becomes a
+//! [`OrganKind::Swept`] organ instead (no skeleton nodes): at every control point
+//! (`@Gs`, `@Gc`, `@Ge`) the contour's sampled points (x, y) are placed at
+//! `position + r·(x·U − y·L)` with r the turtle's width / 2 (the same radius as a tube)
+//! — contour x along the turtle's up, y along its right, as cpfg's `make_contour` does,
+//! so a leaf contour (wide in x) lies in the plane of H and U and bends out of its
+//! plane with `+`/`-`. `@Gc(k)` / `@Ge(k)` ask for k rings from the previous control
+//! point (default 1, at most 256): the k − 1 between are on the cubic Hermite curve
+//! through the two points whose tangents are the turtle's headings times their
+//! distance (cpfg's default tangent parameters), with the radius and the contour
+//! interpolated linearly and the frame carried by the smallest rotation plus the share
+//! of the twist between the two control points' frames. With `twist of cylinders: off`
+//! ([`TurtleOptions::twist_of_cylinders`]) a control point's frame is the previous one
+//! carried to its heading, ignoring the turtle's rolls, as in cpfg. A `[` branch that
+//! adds control points forks the surface from its last point; an `@Gc` with no open
+//! cylinder starts one, as cpfg's does. Errors: `@#(n)` for an undeclared or unreadable
+//! contour; an open contour and a closed one (the circle included) in one cylinder, or
+//! a contour selected inside a cylinder started with the circle, are `unsupported:`.
 
 use super::environment::{Environment, Sensor};
 use super::parse::Symbols;
 use super::source::{ErrorKind, LsystemError, Source};
 use super::string::ModuleString;
 use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 /// A tropism: a direction the branches bend toward (ABOP §2.2).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,6 +116,50 @@ pub struct TurtleOptions {
     /// `.str` strings (seed 001 property 10: H = +Y, L = −X, U = +Z). Any vector
     /// perpendicular to +Y; others fall back to +Z.
     pub left: [f64; 3],
+    /// The contours `@#(id)` selects for generalized cylinders (cpfg view file
+    /// `contour: id file.con`), already sampled; id 0 is always the circle.
+    pub contours: Vec<TurtleContour>,
+    /// Points around the circle (and around every contour, which is sampled into as
+    /// many pieces): the view file's `contour sides`, default 8.
+    pub contour_sides: usize,
+    /// cpfg's `twist of cylinders`: when on (the default here), each control point of a
+    /// contour-swept generalized cylinder keeps its own turtle orientation (rolls between
+    /// control points twist the surface); when off, the frame is carried from the
+    /// previous control point by the smallest rotation, as cpfg does.
+    pub twist_of_cylinders: bool,
+}
+
+/// A contour for `@#(id)`: its cross-section points (in the contour's x–y plane, before
+/// scaling by the radius) and whether it is closed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TurtleContour {
+    /// The id `@#(id)` selects (not 0, which is the circle).
+    pub id: i32,
+    /// The sampled cross-section: `contour_sides + 1` points when open, `contour_sides`
+    /// when closed (the first not repeated).
+    pub points: Vec<[f64; 2]>,
+    /// Whether the cross-section is a closed loop.
+    pub closed: bool,
+    /// Why the contour cannot be used (its file is missing or malformed: file, line and
+    /// why), if so; `@#(id)` selecting it is then that error.
+    pub error: Option<String>,
+}
+
+impl TurtleContour {
+    /// Samples a contour read from a `.con` file into `sides` pieces of equal arc length.
+    pub fn from_contour(id: i32, contour: &super::files::contour::Contour, sides: usize) -> Self {
+        TurtleContour {
+            id,
+            points: contour.sample(sides).into_iter().map(|p| p.to_array()).collect(),
+            closed: contour.closed,
+            error: None,
+        }
+    }
+
+    /// A declared contour whose file could not be read, with why.
+    pub fn unusable(id: i32, why: &str) -> Self {
+        TurtleContour { id, points: Vec::new(), closed: false, error: Some(why.to_string()) }
+    }
 }
 
 /// cpfg's initial left vector, −X (seed 001 property 10), used for `.str` input.
@@ -111,6 +177,9 @@ impl Default for TurtleOptions {
             elasticity_increment: 0.0,
             max_nodes: crate::skeleton::DEFAULT_MAX_NODES,
             left: [0.0, 0.0, 1.0],
+            contours: Vec::new(),
+            contour_sides: 8,
+            twist_of_cylinders: true,
         }
     }
 }
@@ -147,6 +216,8 @@ enum Cmd {
     CylinderStart,
     CylinderPoint,
     CylinderEnd,
+    /// `@#(n)`: selects contour n for generalized cylinders.
+    Contour,
     Query,
 }
 
@@ -165,7 +236,43 @@ struct State {
     gc: u32,
     /// Length scale of the open sub-L-systems (`?(n, scale)`), 1 outside them.
     scale: f64,
+    /// The selected contour (`@#`): an index into the run's shapes, 0 the circle.
+    contour: u32,
+    /// The open contour-swept generalized cylinder (an index into the run's sweeps), or
+    /// [`NO_PARENT`].
+    sweep: u32,
+    /// How many control points of that sweep this state has seen.
+    sweep_seen: u32,
+    /// Set in a branch (`[`) opened inside a sweep: its first control point forks the
+    /// sweep from the last point seen, as cpfg's spline stack does.
+    sweep_branch: bool,
 }
+
+/// A control point of a contour-swept generalized cylinder.
+#[derive(Debug, Clone, Copy)]
+struct SweepPoint {
+    pos: DVec3,
+    h: DVec3,
+    u: DVec3,
+    radius: f64,
+    /// Index of the contour (shape) at this point.
+    shape: u32,
+    /// Rings drawn from the previous control point to this one (`@Gc(n)`).
+    rings: u32,
+}
+
+/// A contour-swept generalized cylinder being traced.
+#[derive(Debug, Clone)]
+struct Sweep {
+    points: Vec<SweepPoint>,
+    node: u32,
+    material: u32,
+    /// The module that started it, for messages.
+    module: usize,
+}
+
+/// Most rings one `@Gc(n)` / `@Ge(n)` segment may ask for.
+const MAX_RINGS: u32 = 256;
 
 /// True for the moves that record a polygon vertex (`F`, `f`; not `G`, `g`).
 fn sym_is_recording(name: &str) -> bool {
@@ -248,6 +355,7 @@ fn command(name: &str) -> Cmd {
         "@Gs" => Cmd::CylinderStart,
         "@Gc" => Cmd::CylinderPoint,
         "@Ge" => Cmd::CylinderEnd,
+        "@#" => Cmd::Contour,
         n if n.starts_with('~') => Cmd::Surface,
         _ => Cmd::None,
     }
@@ -420,7 +528,28 @@ fn run(
         elasticity: [0.0; MAX_TROPISMS],
         gc: NO_PARENT,
         scale: 1.0,
+        contour: 0,
+        sweep: NO_PARENT,
+        sweep_seen: 0,
+        sweep_branch: false,
     };
+    // Shape 0 is the circle (cpfg's default contour: cos, sin from angle 0), then the
+    // view file's contours in order.
+    let sides = opts.contour_sides.clamp(3, super::files::contour::MAX_SIDES);
+    let mut shapes: Vec<(Vec<DVec2>, bool, i32)> = vec![(
+        (0..sides)
+            .map(|k| {
+                let (s, c) = (std::f64::consts::TAU * k as f64 / sides as f64).sin_cos();
+                DVec2::new(c, s)
+            })
+            .collect(),
+        true,
+        0,
+    )];
+    for c in &opts.contours {
+        shapes.push((c.points.iter().map(|p| DVec2::from_array(*p)).collect(), c.closed, c.id));
+    }
+    let mut sweeps: Vec<Sweep> = Vec::new();
     for (k, t) in opts.tropisms.iter().enumerate() {
         st.elasticity[k] = t.elasticity;
     }
@@ -538,6 +667,7 @@ fn run(
             Cmd::Push => {
                 stack.push(st);
                 st.order = st.order.saturating_add(1);
+                st.sweep_branch = st.sweep != NO_PARENT;
             }
             Cmd::Pop => match stack.pop() {
                 Some(s) => st = s,
@@ -616,6 +746,96 @@ fn run(
                 }
             }
             Cmd::Query => on_query(i, [st.pos, st.h, st.u, st.l]),
+            Cmd::Contour => {
+                let n = arg.unwrap_or(0.0);
+                if !n.is_finite() {
+                    return Err(fail(format!(
+                        "module {i} (`@#({n})`) selects a contour that is not a number"
+                    )));
+                }
+                let id = n.round() as i64;
+                st.contour = if id == 0 {
+                    0
+                } else {
+                    match opts.contours.iter().position(|c| i64::from(c.id) == id) {
+                        Some(k) if opts.contours[k].error.is_some() => {
+                            return Err(source.error_nowhere(
+                                ErrorKind::Syntax,
+                                &format!(
+                                    "module {i} of the derived string (`@#({id})`) selects contour {id}, which cannot \
+                                     be used: {}",
+                                    opts.contours[k].error.as_deref().unwrap_or("")
+                                ),
+                            ));
+                        }
+                        Some(k) => k as u32 + 1,
+                        None => {
+                            let declared: Vec<String> =
+                                opts.contours.iter().map(|c| c.id.to_string()).collect();
+                            return Err(source.error_nowhere(
+                                ErrorKind::OutOfRange,
+                                &format!(
+                                    "module {i} of the derived string (`@#({id})`) selects contour {id}, but the view \
+                                     file declares no `contour: {id} file.con` line (declared: {})",
+                                    if declared.is_empty() { "none".to_string() } else { declared.join(", ") }
+                                ),
+                            ));
+                        }
+                    }
+                };
+            }
+            Cmd::CylinderStart | Cmd::CylinderPoint | Cmd::CylinderEnd
+                if st.contour != 0 || st.sweep != NO_PARENT =>
+            {
+                if st.gc != NO_PARENT {
+                    let e = source.error_nowhere(
+                        ErrorKind::Unsupported,
+                        &format!(
+                            "unsupported: module {i} of the derived string (`{}`) switches a generalized cylinder \
+                             started with the circle to a contour (`@#` before its `@Gs`)",
+                            symbols.name(sym)
+                        ),
+                    );
+                    return Err(e);
+                }
+                let rings = match arg {
+                    Some(r) if r.is_finite() => (r.round().max(1.0) as u32).min(MAX_RINGS),
+                    _ => 1,
+                };
+                let point = SweepPoint {
+                    pos: st.pos,
+                    h: st.h,
+                    u: st.u,
+                    radius: st.width * 0.5,
+                    shape: st.contour,
+                    rings,
+                };
+                let kind = cmds[sym as usize];
+                let open = st.sweep != NO_PARENT && kind != Cmd::CylinderStart;
+                if open
+                    && !st.sweep_branch
+                    && sweeps[st.sweep as usize].points.len() == st.sweep_seen as usize
+                {
+                    sweeps[st.sweep as usize].points.push(point);
+                    st.sweep_seen += 1;
+                } else {
+                    // A new sweep (`@Gs`, or `@Gc` with none open, as cpfg starts one), or a
+                    // branch continuing its parent's: it starts from the last point it saw.
+                    let mut points = Vec::new();
+                    if open {
+                        points.push(sweeps[st.sweep as usize].points[st.sweep_seen as usize - 1]);
+                    }
+                    points.push(point);
+                    st.sweep_seen = points.len() as u32;
+                    st.sweep_branch = false;
+                    st.sweep = sweeps.len() as u32;
+                    sweeps.push(Sweep { points, node: st.node, material: st.material, module: i });
+                }
+                if kind == Cmd::CylinderEnd {
+                    st.sweep = NO_PARENT;
+                    st.sweep_seen = 0;
+                }
+            }
             Cmd::CylinderStart => {
                 st.gc =
                     sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, NO_PARENT, st.u.as_vec3(), st.order);
@@ -685,8 +905,142 @@ fn run(
         }
         i += 1;
     }
+    let budget = opts.max_nodes.saturating_mul(16);
+    let mut used = 0usize;
+    for sw in &sweeps {
+        if let Some(organ) = sweep_organ(sw, &shapes, opts.twist_of_cylinders, source, &mut used, budget)? {
+            sk.organs.push(organ);
+        }
+    }
     sk.validate().map_err(|e| fail(format!("the turtle produced an invalid skeleton: {e}")))?;
     Ok(sk)
+}
+
+/// The rotation-minimizing transport of `up` from heading `from` to heading `to`
+/// (the smallest rotation taking `from` to `to`, applied to `up`), made perpendicular
+/// to `to`.
+fn transport(up: DVec3, from: DVec3, to: DVec3) -> DVec3 {
+    let q = glam::DQuat::from_rotation_arc(from.normalize_or_zero(), to.normalize_or_zero());
+    let u = q * up;
+    (u - to * u.dot(to)).try_normalize().unwrap_or_else(|| to.any_orthonormal_vector())
+}
+
+/// Turns a traced contour-swept generalized cylinder into a [`OrganKind::Swept`] organ
+/// (see the module docs and `docs/lsystem.md` for the placement and interpolation);
+/// `None` when it has fewer than two control points or no length. `used` counts the
+/// ring points made so far, which may not pass `budget`.
+fn sweep_organ(
+    sw: &Sweep,
+    shapes: &[(Vec<DVec2>, bool, i32)],
+    twist: bool,
+    source: &Source,
+    used: &mut usize,
+    budget: usize,
+) -> Result<Option<Organ>, Box<LsystemError>> {
+    let closed = shapes[sw.points[0].shape as usize].1;
+    if let Some(p) = sw.points.iter().find(|p| shapes[p.shape as usize].1 != closed) {
+        let (a, b) = if closed { ("closed", "open") } else { ("open", "closed") };
+        let e = source.error_nowhere(
+            ErrorKind::Unsupported,
+            &format!(
+                "unsupported: the generalized cylinder started at module {} mixes {a} and {b} contours (contour {} \
+                 is {b}); cpfg blends contours of the same kind only",
+                sw.module,
+                shapes[p.shape as usize].2
+            ),
+        );
+        return Err(e);
+    }
+    if sw.points.len() < 2 {
+        return Ok(None);
+    }
+    // Frames per control point: the turtle's own, or transported when twist is off.
+    let mut pts = sw.points.clone();
+    for k in 0..pts.len() {
+        pts[k].h = pts[k].h.try_normalize().unwrap_or(DVec3::Y);
+        pts[k].u = if twist || k == 0 {
+            (pts[k].u - pts[k].h * pts[k].u.dot(pts[k].h))
+                .try_normalize()
+                .unwrap_or_else(|| pts[k].h.any_orthonormal_vector())
+        } else {
+            transport(pts[k - 1].u, pts[k - 1].h, pts[k].h)
+        };
+    }
+    let ring =
+        |pos: DVec3, h: DVec3, u: DVec3, r: f64, a: &[DVec2], b: &[DVec2], t: f64| -> Vec<glam::Vec3> {
+            // Contour x along up, y along −left (cpfg's make_contour).
+            let l = u.cross(h);
+            a.iter()
+                .zip(b)
+                .map(|(p, q)| (pos + (u * p.lerp(*q, t).x - l * p.lerp(*q, t).y) * r).as_vec3())
+                .collect()
+        };
+    let shape = |p: &SweepPoint| shapes[p.shape as usize].0.as_slice();
+    let first = &pts[0];
+    let mut rings = vec![ring(first.pos, first.h, first.u, first.radius, shape(first), shape(first), 0.0)];
+    let mut centres = vec![first.pos];
+    for w in pts.windows(2) {
+        let (p0, p1) = (&w[0], &w[1]);
+        let chord = p0.pos.distance(p1.pos);
+        if chord < 1e-12 {
+            continue; // coincident control points draw nothing (as in cpfg)
+        }
+        let (a, b) = (shape(p0), shape(p1));
+        let b = if a.len() == b.len() { b } else { a };
+        // The twist from p0's transported frame to p1's, shared out along the segment.
+        let carried = transport(p0.u, p0.h, p1.h);
+        let twist_angle = carried.cross(p1.u).dot(p1.h).atan2(carried.dot(p1.u));
+        let (m0, m1) = (p0.h * chord, p1.h * chord);
+        for k in 1..=p1.rings {
+            let t = k as f64 / p1.rings as f64;
+            let (pos, h, u) = if k == p1.rings {
+                (p1.pos, p1.h, p1.u)
+            } else {
+                // Cubic Hermite through the two points with the turtle's headings as
+                // tangents (scaled by the chord), as cpfg's `@Gc(n)` rings are.
+                let (t2, t3) = (t * t, t * t * t);
+                let pos = p0.pos * (2.0 * t3 - 3.0 * t2 + 1.0)
+                    + m0 * (t3 - 2.0 * t2 + t)
+                    + p1.pos * (-2.0 * t3 + 3.0 * t2)
+                    + m1 * (t3 - t2);
+                let d = (p0.pos - p1.pos) * (6.0 * t2 - 6.0 * t)
+                    + m0 * (3.0 * t2 - 4.0 * t + 1.0)
+                    + m1 * (3.0 * t2 - 2.0 * t);
+                let h = d.try_normalize().unwrap_or(p0.h.lerp(p1.h, t).normalize_or(p1.h));
+                let u = transport(p0.u, p0.h, h);
+                let u = glam::DQuat::from_axis_angle(h, twist_angle * t) * u;
+                (pos, h, u)
+            };
+            *used += a.len();
+            if *used > budget {
+                return Err(source
+                    .error_nowhere(
+                        ErrorKind::Budget,
+                        &format!(
+                            "the generalized cylinders draw more than {budget} contour points (16 per node of the \
+                             skeleton node budget)"
+                        ),
+                    )
+                    .with_help(crate::skeleton::NODE_BUDGET_HELP));
+            }
+            let r = p0.radius + (p1.radius - p0.radius) * t;
+            rings.push(ring(pos, h, u, r, a, b, t));
+            centres.push(pos);
+        }
+    }
+    if rings.len() < 2 {
+        return Ok(None);
+    }
+    let size: f64 = centres.windows(2).map(|w| w[0].distance(w[1])).sum();
+    Ok(Some(Organ {
+        kind: OrganKind::Swept(crate::skeleton::SweptSurface { rings, closed }),
+        node: sw.node,
+        position: first.pos.as_vec3(),
+        heading: first.h.as_vec3(),
+        up: first.u.as_vec3(),
+        size: size as f32,
+        material: sw.material,
+    }))
 }
 
 #[cfg(test)]
@@ -846,6 +1200,78 @@ mod tests {
         let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
         let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
         assert!(e.message.contains("without a matching"));
+    }
+
+    #[test]
+    fn contour_module_is_one_symbol_and_needs_a_declared_contour() {
+        // `@#(0)` selects the circle; read as `@` `#(0)` it would set the width to 0.
+        let s = run("@#(0)F");
+        assert!((s.radius[1] - 0.05).abs() < 1e-9, "{}", s.radius[1]);
+        let text = "Lsystem: 1\nAxiom: @#(3)F\nendlsystem\n";
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
+        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        assert!(
+            e.message.contains("selects contour 3") && e.message.contains("declared: none"),
+            "{}",
+            e.message
+        );
+        let opts = TurtleOptions {
+            contours: vec![TurtleContour::unusable(3, "x.con:2:1: bad")],
+            ..Default::default()
+        };
+        let e = interpret(&ls.symbols, &m, &opts, &ls.source).unwrap_err();
+        assert!(e.message.contains("cannot be used: x.con:2:1: bad"), "{}", e.message);
+    }
+
+    fn flat() -> TurtleContour {
+        TurtleContour { id: 1, points: vec![[-1.0, 0.0], [0.0, 0.0], [1.0, 0.0]], closed: false, error: None }
+    }
+
+    fn swept(s: &Skeleton) -> Vec<&crate::skeleton::SweptSurface> {
+        s.organs
+            .iter()
+            .filter_map(|o| match &o.kind {
+                OrganKind::Swept(w) => Some(w),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn contour_cylinders_are_swept_organs_and_branches_fork_them() {
+        let opts = TurtleOptions { contours: vec![flat()], ..Default::default() };
+        let s = run_with("@#(1)!(1)@Gs f @Gc [+(90) f @Ge] f @Ge", &opts);
+        assert_eq!(s.len(), 0, "no skeleton nodes");
+        let w = swept(&s);
+        assert_eq!(w.len(), 2);
+        assert_eq!(w[0].rings.len(), 3, "main: @Gs, @Gc, @Ge");
+        assert_eq!(w[1].rings.len(), 2, "branch: from the @Gc, then its @Ge");
+        // Contour x along U (+X), scaled by the radius 0.5.
+        assert!(close(w[0].rings[0][0], [-0.5, 0.0, 0.0]) && close(w[0].rings[0][2], [0.5, 0.0, 0.0]));
+        assert!(close(w[0].rings[2][1], [0.0, 2.0, 0.0]));
+        // The branch (a fork from the @Gc) turned toward L (+Z): its end ring is centred
+        // at (0, 1, 1); the main surface went on to (0, 2, 0).
+        assert!(close(w[1].rings[1][1], [0.0, 1.0, 1.0]), "{:?}", w[1].rings[1]);
+        // Hermite rings between control points: @Gc(4) makes four rings per span, on
+        // the curve and at equal parameter steps of a straight segment.
+        let s = run_with("@#(1)@Gs f(2) @Ge(4)", &opts);
+        let w = swept(&s);
+        assert_eq!(w[0].rings.len(), 5);
+        for (k, r) in w[0].rings.iter().enumerate() {
+            assert!(close(r[1], [0.0, 0.5 * k as f32, 0.0]), "{k}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn twist_of_cylinders_decides_whether_rolls_turn_the_contour() {
+        for (twist, want) in [(true, [0.0, 1.0, 0.5]), (false, [-0.5, 1.0, 0.0])] {
+            let opts =
+                TurtleOptions { contours: vec![flat()], twist_of_cylinders: twist, ..Default::default() };
+            let s = run_with("@#(1)!(1)@Gs f /(90) @Ge", &opts);
+            let w = swept(&s);
+            assert!(close(w[0].rings[1][0], want), "twist {twist}: {:?}", w[0].rings[1]);
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@ pub mod cards;
 pub mod check;
 pub mod ground;
 pub mod hull;
+pub mod leaf;
 pub mod obj_read;
 pub mod organs;
 pub mod quad;
@@ -36,6 +37,8 @@ pub enum Mesher {
     Sweep(sweep::SweepOptions),
     /// Seed 003's SMART quad junction boxes (`mesh/quad.rs`).
     Quad(quad::QuadOptions),
+    /// Seed 001's leaf mode (`/L`): open, midrib-creased leaf surfaces (`mesh/leaf.rs`).
+    Leaf(leaf::LeafOptions),
 }
 
 /// What every mesher returns: the control cage and what the stages after it need.
@@ -62,7 +65,7 @@ pub struct Cage {
 
 impl Mesher {
     /// The `mesh.method` names, in the order of the variants.
-    pub const NAMES: [&'static str; 4] = ["tube", "hull", "sweep", "quad"];
+    pub const NAMES: [&'static str; 5] = ["tube", "hull", "sweep", "quad", "leaf"];
 
     /// The mesher's `mesh.method` name.
     pub fn name(&self) -> &'static str {
@@ -71,13 +74,14 @@ impl Mesher {
             Mesher::Hull(_) => "hull",
             Mesher::Sweep(_) => "sweep",
             Mesher::Quad(_) => "quad",
+            Mesher::Leaf(_) => "leaf",
         }
     }
 
     /// Whether the mesher joins branches into one watertight surface (hull, sweep,
     /// quad), which the fitting stage (de-collision, clearing) is for.
     pub fn joins(&self) -> bool {
-        !matches!(self, Mesher::Tube(_))
+        !matches!(self, Mesher::Tube(_) | Mesher::Leaf(_))
     }
 
     /// The subdivision scheme the mesher's cage is made for: Catmull–Clark for the
@@ -104,6 +108,7 @@ impl Mesher {
             Mesher::Hull(o) => named(o.check()),
             Mesher::Sweep(o) => named(o.check()),
             Mesher::Quad(o) => named(o.check()),
+            Mesher::Leaf(o) => named(o.check()),
         }
     }
 
@@ -158,6 +163,16 @@ impl Mesher {
                     work: q.repair_work,
                 }
             }
+            Mesher::Leaf(o) => {
+                let l = leaf::leaf_mesh(skeleton, o)?;
+                Cage {
+                    axes: l.midribs.len(),
+                    face_node: l.face_node,
+                    mesh: l.mesh,
+                    scheme: self.scheme(),
+                    ..Default::default()
+                }
+            }
         })
     }
 
@@ -173,7 +188,7 @@ impl Mesher {
             Mesher::Quad(_) => {
                 ("node(s) fell back", "detached or separated capped cages, unboxed or shortened junctions; ")
             }
-            Mesher::Tube(_) => ("node(s) fell back", ""),
+            Mesher::Tube(_) | Mesher::Leaf(_) => ("node(s) fell back", ""),
         };
         let first = &fallbacks[..fallbacks.len().min(8)];
         vec![format!("{} mesher: {} {what} ({detail}first nodes {first:?})", self.name(), fallbacks.len())]

@@ -1,6 +1,7 @@
 //! Meshes for the organs placed on a skeleton: polygons traced by the turtle (`{ . }`,
 //! ABOP §1.6 leaves), named surfaces (cpfg `~x` with `.s` files), spheres (`@O`),
-//! discs (`@o`, `@c`) and simple leaf quads. All organs go into one mesh with
+//! discs (`@o`, `@c`), swept surfaces (cpfg generalized cylinders with a contour,
+//! `@#` … `@Gs` … `@Ge`, issue 26) and simple leaf quads. All organs go into one mesh with
 //! face-varying UVs and normals; the exporter puts it in the `leaves` part with a
 //! double-sided material.
 //!
@@ -51,6 +52,7 @@ pub fn organ_mesh_where(
             }
             OrganKind::Disc => disc(&mut out, o, h, u),
             OrganKind::Sphere => sphere(&mut out, o.position, o.size),
+            OrganKind::Swept(sw) => swept(&mut out, &sw.rings, sw.closed, u),
             OrganKind::Surface(name) => match surfaces.get(name) {
                 Some(m) => place(&mut out, m, o, x, h, u),
                 None => {
@@ -137,6 +139,88 @@ fn polygon(out: &mut Mesh, v: &[Vec3], base: Vec3, heading: Vec3) {
         let b = ch.values.len() as u32;
         ch.values.push(n);
         ch.indices.extend(corners.iter().map(|_| b));
+    }
+}
+
+/// A swept surface: a strip of triangles between consecutive rings (two per quad,
+/// welded: each ring point is one vertex), with u along the contour (0 at its first
+/// point, 1 at its last, or back at the first when closed) and v along the sweep (0 at
+/// the first ring, 1 at the last, by the rings' centres' distance). Normals are smooth
+/// (contour tangent × sweep direction at each point) and face the same way as the
+/// triangles; a closed contour's point outward whichever way the contour winds. Rings
+/// of different lengths, non-finite points and zero-area triangles (a ring shrunk to a
+/// point) are skipped; `fallback` is the normal where the surface has no direction.
+fn swept(out: &mut Mesh, rings: &[Vec<Vec3>], closed: bool, fallback: Vec3) {
+    let k = rings.first().map_or(0, Vec::len);
+    if rings.len() < 2 || k < 2 || rings.iter().any(|r| r.len() != k || r.iter().any(|p| !p.is_finite())) {
+        return;
+    }
+    let segs = if closed { k } else { k - 1 };
+    let centre = |r: &[Vec3]| r.iter().copied().sum::<Vec3>() / k as f32;
+    let centres: Vec<Vec3> = rings.iter().map(|r| centre(r)).collect();
+    let mut along = vec![0.0f32];
+    for w in centres.windows(2) {
+        along.push(along.last().copied().unwrap_or(0.0) + w[0].distance(w[1]));
+    }
+    let total = along.last().copied().unwrap_or(0.0).max(1e-12);
+    // A closed contour winding clockwise about the sweep direction is flipped, so its
+    // normals point outward.
+    let mut flip = false;
+    if closed {
+        let dir = centres[centres.len() - 1] - centres[0];
+        let r = &rings[0];
+        let c = centres[0];
+        let area: Vec3 = (0..k).map(|i| (r[i] - c).cross(r[(i + 1) % k] - c)).sum();
+        flip = area.dot(dir) < 0.0;
+    }
+    let sign = if flip { -1.0 } else { 1.0 };
+    let at = |j: usize, i: usize| rings[j][i % k];
+    let normal = |j: usize, i: usize| {
+        let (ia, ib) =
+            if closed { ((i + k - 1) % k, (i + 1) % k) } else { (i.saturating_sub(1), (i + 1).min(k - 1)) };
+        let (ja, jb) = (j.saturating_sub(1), (j + 1).min(rings.len() - 1));
+        let du = at(j, ib) - at(j, ia);
+        let dv = at(jb, i) - at(ja, i);
+        (du.cross(dv) * sign).try_normalize().unwrap_or(fallback)
+    };
+    let base = out.positions.len() as u32;
+    for r in rings {
+        out.positions.extend_from_slice(r);
+    }
+    let (uv0, n0) = (
+        out.uvs.as_ref().map_or(0, |c| c.values.len()) as u32,
+        out.normals.as_ref().map_or(0, |c| c.values.len()) as u32,
+    );
+    if let Some(ch) = out.uvs.as_mut() {
+        for v in &along {
+            ch.values.extend((0..=segs).map(|i| Vec2::new(i as f32 / segs as f32, v / total)));
+        }
+    }
+    if let Some(ch) = out.normals.as_mut() {
+        for j in 0..rings.len() {
+            ch.values.extend((0..k).map(|i| normal(j, i)));
+        }
+    }
+    for j in 0..rings.len() - 1 {
+        for i in 0..segs {
+            // Corners (ring, index along the contour): a, b along the contour, then up the sweep.
+            let quad = [(j, i), (j, i + 1), (j + 1, i + 1), (j + 1, i)];
+            let tris: [[usize; 3]; 2] = if flip { [[0, 2, 1], [0, 3, 2]] } else { [[0, 1, 2], [0, 2, 3]] };
+            for t in tris {
+                let c = t.map(|q| quad[q]);
+                let p = c.map(|(j, i)| at(j, i));
+                if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() <= 1e-30 {
+                    continue;
+                }
+                out.push_face(&c.map(|(j, i)| base + (j * k + i % k) as u32));
+                if let Some(ch) = out.uvs.as_mut() {
+                    ch.indices.extend(c.map(|(j, i)| uv0 + (j * (segs + 1) + i) as u32));
+                }
+                if let Some(ch) = out.normals.as_mut() {
+                    ch.indices.extend(c.map(|(j, i)| n0 + (j * k + i % k) as u32));
+                }
+            }
+        }
     }
 }
 

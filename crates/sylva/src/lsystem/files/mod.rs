@@ -11,6 +11,7 @@
 //! | `*.func` function, `*.fset` function set | [`func`] | the B-spline curve, evaluated as y(x) on \[0, 1\] |
 //! | `*.s` surface | [`surface`] | the bicubic Bézier patches, tessellated to a [`crate::Mesh`] |
 //! | `*.con` curve (`curve:` lines) | [`curve`] | the B-spline, tabulated by arc length for `curveX/Y/Z` and `curveGAL` |
+//! | `*.con` contour (`contour:` lines) | [`contour`] | the B-spline cross-section of generalized cylinders (`@#(n)`) |
 //! | `*.map` colour map, `*.mat` materials | [`colormap`] | one RGB colour per colour or material index |
 //!
 //! The formats follow cpfg's own readers (vlab 5, `interpret.c`, `movements.c`,
@@ -44,7 +45,8 @@
 //!    surface file is skipped, as cpfg skips it.
 //!
 //! The environment file (`-e file.e`) is read for the program its `executable:` line
-//! starts, which answers the model's `?E` modules when sylva has it built in
+//! starts and for the spec file it names (its unknown keys are listed as ignored); the
+//! program answers the model's `?E` modules when sylva has it built in
 //! ([`crate::lsystem::environment`]).
 //!
 //! Everything found but not used (the animation file, contour files, viewing keys,
@@ -52,6 +54,7 @@
 //! the view file and in `specifications` are relative to the folder.
 
 pub mod colormap;
+pub mod contour;
 pub mod curve;
 pub mod func;
 pub mod surface;
@@ -84,6 +87,14 @@ pub struct ModelFolder {
     /// The curves of the view file's `curve:` lines, in order: `curveX(id, t)` reads
     /// `curves[id - 1]`. Named by file stem.
     pub curves: Vec<(String, curve::Curve)>,
+    /// The contours of the view file's `contour: id file` lines, by id, in file order
+    /// (`@#(id)` selects one for generalized cylinders); a repeated id keeps the first,
+    /// as cpfg's lookup does.
+    pub contours: Vec<(i32, contour::Contour)>,
+    /// The `contour:` lines whose file is missing or malformed, by id, with the error
+    /// (file, line and why). They do not stop the folder from loading (a model may list
+    /// contours it never uses), but `@#(id)` selecting one is that error.
+    pub contour_errors: Vec<(i32, String)>,
     /// The colour map (`-m`) or material colours (`-M`), when one was found.
     pub colormap: Option<ColorMap>,
     /// The colour map or material files that were read, in load order.
@@ -93,6 +104,10 @@ pub struct ModelFolder {
     /// The environmental program that file starts (its `executable:` line's command,
     /// without path or arguments), when the file exists and names one.
     pub environment_program: Option<String>,
+    /// The program's spec file, the last plain argument of the `executable:` line
+    /// (`executable: honda81 density.spec`), when it names one; read by the pipeline
+    /// (`crate::lsystem::environment::Spec`).
+    pub environment_spec: Option<PathBuf>,
     /// What was found but not used, one human-readable note each.
     pub ignored: Vec<String>,
 }
@@ -117,10 +132,13 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         functions: Vec::new(),
         surfaces: Vec::new(),
         curves: Vec::new(),
+        contours: Vec::new(),
+        contour_errors: Vec::new(),
         colormap: None,
         colormap_files: Vec::new(),
         environment_file: None,
         environment_program: None,
+        environment_spec: None,
         ignored: Vec::new(),
     };
     let listing = list_dir(&dir);
@@ -150,7 +168,10 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         if let Some(e) = &cmd.environment {
             let path = dir.join(e);
             if path.is_file() {
-                folder.environment_program = environment_program(&read_text(&path)?);
+                let text = read_text(&path)?;
+                folder.environment_program = environment_program(&text);
+                folder.environment_spec =
+                    crate::lsystem::environment::spec_file(&dir, e, &text, &mut folder.ignored);
                 if folder.environment_program.is_none() {
                     folder.ignored.push(format!("{e}: no `executable:` line, so no environmental program"));
                 }
@@ -245,6 +266,40 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
             folder.curves.push((file_stem(&r.file), c));
         } else {
             folder.ignored.push(format!("missing curve file {} (curve {})", r.file, folder.curves.len() + 1));
+        }
+    }
+
+    // 3c. Contours (`contour:` lines), for `@#(id)`: a missing or bad file is recorded
+    // as an error that selecting the contour raises.
+    let contour_refs = folder.view.as_ref().map(|v| v.contours.clone()).unwrap_or_default();
+    let view_name = folder.view_file.as_deref().map(display_name).unwrap_or_default();
+    for r in contour_refs {
+        let seen = |id: i32| {
+            folder.contours.iter().any(|(i, _)| *i == id)
+                || folder.contour_errors.iter().any(|(i, _)| *i == id)
+        };
+        if seen(r.id) {
+            folder.ignored.push(format!("contour id {} used twice: {} ignored", r.id, r.file));
+            continue;
+        }
+        let path = dir.join(&r.file);
+        let read = if path.is_file() {
+            let text = read_text(&path)?;
+            contour::parse(&display_name(&path), &text).map_err(|e| e.message)
+        } else {
+            Err(format!(
+                "{view_name}: `contour: {} {}`: the contour file {} does not exist",
+                r.id,
+                r.file,
+                path.display()
+            ))
+        };
+        match read {
+            Ok(c) => folder.contours.push((r.id, c)),
+            Err(why) => {
+                folder.ignored.push(format!("contour {} not usable: {why}", r.id));
+                folder.contour_errors.push((r.id, why));
+            }
         }
     }
 

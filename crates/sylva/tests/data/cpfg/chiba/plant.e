@@ -1,0 +1,2 @@
+executable: chiba light.spec
+communication type: pipes

@@ -1,0 +1,2 @@
+executable: ecosystem eco.spec
+communication type: pipes

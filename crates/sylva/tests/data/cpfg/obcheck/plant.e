@@ -1,0 +1,2 @@
+executable: obcheck obstacles.spec
+communication type: pipes
