@@ -9,15 +9,9 @@ use std::path::{Path, PathBuf};
 use sylva::lsystem::files::{self, contour};
 use sylva::skeleton::{OrganKind, Skeleton, SweptSurface};
 
-fn corpus() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/corpus/cpfg");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: the cpfg corpus is not at {}", dir.display());
-        None
-    }
-}
+#[path = "common/cpfg_corpus.rs"]
+mod cpfg_corpus;
+use cpfg_corpus::corpus;
 
 fn data() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cpfg/contour")

@@ -5,15 +5,9 @@
 use std::path::{Path, PathBuf};
 use sylva::lsystem::files::{self, colormap, func, surface, view};
 
-fn corpus() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/corpus/cpfg");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: the cpfg corpus is not at {}", dir.display());
-        None
-    }
-}
+#[path = "common/cpfg_corpus.rs"]
+mod cpfg_corpus;
+use cpfg_corpus::corpus;
 
 /// Every file of the corpus with extension `ext`, sorted.
 fn corpus_files(dir: &Path, ext: &str) -> Vec<PathBuf> {

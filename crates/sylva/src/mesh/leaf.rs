@@ -69,7 +69,7 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::{Crease, FaceVarying, Mesh};
-use crate::mesh::sweep::guarded_offsets;
+use crate::mesh::sweep::{guarded_offsets, perpendicular, unit_or};
 use crate::refine::Corner;
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DVec3, Vec2, Vec3};
@@ -211,24 +211,6 @@ struct Graph {
     len: Vec<f64>,
     order: Vec<u16>,
     collapsed: Vec<u32>,
-}
-
-fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
-    let l = v.length();
-    if l > 1e-12 && l.is_finite() {
-        v / l
-    } else {
-        fallback
-    }
-}
-
-fn perpendicular(seed: DVec3, d: DVec3) -> DVec3 {
-    let u = seed - d * seed.dot(d);
-    if u.length_squared() > 1e-18 {
-        u.normalize()
-    } else {
-        d.any_orthonormal_vector()
-    }
 }
 
 fn graph(s: &Skeleton, opts: &LeafOptions) -> Graph {

@@ -491,7 +491,8 @@ struct Plan {
 /// internodes): bend rings go where that exceeds this many radii.
 const BEND_CUT: f64 = 0.5;
 
-fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
+/// `v` normalised, or `fallback` when `v` is (near) zero or not finite.
+pub(crate) fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
     let l = v.length();
     if l > 1e-12 && l.is_finite() {
         v / l
@@ -500,7 +501,9 @@ fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
     }
 }
 
-fn perpendicular(seed: DVec3, d: DVec3) -> DVec3 {
+/// The unit part of `seed` perpendicular to the unit `d` (any perpendicular when `seed`
+/// is parallel to `d`).
+pub(crate) fn perpendicular(seed: DVec3, d: DVec3) -> DVec3 {
     let u = seed - d * seed.dot(d);
     if u.length_squared() > 1e-12 {
         u.normalize()

@@ -109,19 +109,7 @@ impl Chiba {
             }
             leaf_radius = r;
         }
-        let mut transmittance = 0.0;
-        if let Some(e) = spec.get("transmittance") {
-            transmittance = spec.number(e)?;
-            if !(0.0..=1.0).contains(&transmittance) {
-                return Err(spec.error(e, "the transmittance must be in [0, 1]"));
-            }
-        }
-        if let Some(t) = over.transmittance {
-            if !(0.0..=1.0).contains(&t) {
-                return Err(format!("chiba: transmittance must be in [0, 1], got {t}"));
-            }
-            transmittance = t;
-        }
+        let transmittance = super::transmittance(spec, over, 0.0, "chiba")?;
         let up = super::axis(spec, "up axis", 1)?;
         Ok(Chiba { directions: sky(n as usize, up), leaf_radius, transmittance, up })
     }

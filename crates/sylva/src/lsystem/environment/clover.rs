@@ -129,19 +129,7 @@ impl Clover {
             return Err(e.unwrap_or_else(|| format!("clover: {why}")));
         }
         let size = [size[0] as usize, size[1] as usize];
-        let mut transmittance = DEFAULT_TRANSMITTANCE;
-        if let Some(e) = spec.get("transmittance") {
-            transmittance = spec.number(e)?;
-            if !(0.0..=1.0).contains(&transmittance) {
-                return Err(spec.error(e, "the transmittance must be in [0, 1]"));
-            }
-        }
-        if let Some(t) = over.transmittance {
-            if !(0.0..=1.0).contains(&t) {
-                return Err(format!("clover: transmittance must be in [0, 1], got {t}"));
-            }
-            transmittance = t;
-        }
+        let transmittance = super::transmittance(spec, over, DEFAULT_TRANSMITTANCE, "clover")?;
         let image = over.image.clone().or_else(|| spec.get("input image").map(|e| e.value.clone()));
         let light = match image {
             None => None,

@@ -308,6 +308,32 @@ pub fn spec_file(dir: &Path, e_name: &str, e_text: &str, ignored: &mut Vec<Strin
     Some(path)
 }
 
+/// A leaf transmittance in [0, 1]: the recipe's override, else the spec's
+/// `transmittance:`, else `default`; `program` names the key's owner in errors.
+pub(crate) fn transmittance(
+    spec: &Spec,
+    over: &Overrides,
+    default: f64,
+    program: &str,
+) -> Result<f64, String> {
+    if let Some(t) = over.transmittance {
+        if !(0.0..=1.0).contains(&t) {
+            return Err(format!("{program}: transmittance must be in [0, 1], got {t}"));
+        }
+        return Ok(t);
+    }
+    match spec.get("transmittance") {
+        None => Ok(default),
+        Some(e) => {
+            let t = spec.number(e)?;
+            if !(0.0..=1.0).contains(&t) {
+                return Err(spec.error(e, "the transmittance must be in [0, 1]"));
+            }
+            Ok(t)
+        }
+    }
+}
+
 /// A coordinate axis, for the programs that need "up".
 pub(crate) fn axis(spec: &Spec, key: &str, default: usize) -> Result<usize, String> {
     match spec.get(key) {
