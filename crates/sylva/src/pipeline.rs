@@ -191,7 +191,16 @@ fn environment(
                         .error(lsystem::ErrorKind::Unsupported, at, 2, &m, "communication module")
                         .into())
                 }
-                _ => Ok(None),
+                _ => {
+                    // Settings for a program nobody names are a mistake worth telling.
+                    if g.environment.is_some() {
+                        warnings.push(format!(
+                            "[generator.environment] is set but no program is (neither generator.environment.program                              nor a model .e file names one), so its settings are not used (sylva has: {})",
+                            PROGRAMS.join(", ")
+                        ));
+                    }
+                    Ok(None)
+                }
             };
         }
     };

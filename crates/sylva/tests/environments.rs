@@ -319,3 +319,23 @@ fn the_corpus_clover_grows_and_its_leaves_shade() {
     let g = grow(&file, &["generator.iterations=25"]).unwrap();
     assert!(g.report.skeleton.segments > 0);
 }
+
+/// Environment settings with no program to use them (no `program` key and no `.e` file)
+/// are not silently dropped: the run warns that they are unused.
+#[test]
+fn environment_settings_without_a_program_warn() {
+    let dir = std::env::temp_dir().join(format!("sylva-env-noprogram-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("plain.l");
+    std::fs::write(&file, "Lsystem: 1\nderivation length: 2\nAxiom: F(1)A\nA --> F(1)A\nendlsystem\n")
+        .unwrap();
+    let d = derive(&file, &["generator.environment.transmittance=0.5"]).unwrap();
+    assert!(
+        d.warnings.iter().any(|w| w.contains("[generator.environment]") && w.contains("not used")),
+        "{:?}",
+        d.warnings
+    );
+    let quiet = derive(&file, &[]).unwrap();
+    assert!(!quiet.warnings.iter().any(|w| w.contains("generator.environment")), "{:?}", quiet.warnings);
+    let _ = std::fs::remove_dir_all(&dir);
+}
