@@ -33,12 +33,17 @@ done
 corpus=../shared/corpus/cpfg
 if [ -d "$corpus" ]; then
     mkdir -p docs/cpfg
-    env=(--set generator.environment.program=honda81)
-    "$bin" grow "$corpus/11-CPFG__07-Open__04-sierpinski-random/fractal.l" "${env[@]}" -o "$tmp/s.glb" \
+    # The environmental programs come from the models' own .e and spec files.
+    "$bin" grow "$corpus/11-CPFG__07-Open__04-sierpinski-random/fractal.l" -o "$tmp/s.glb" \
         --preview docs/cpfg/sierpinski-random.png --preview-size 320 >/dev/null
-    "$bin" grow "$corpus/11-CPFG__07-Open__06-canalization/plant.l" "${env[@]}" \
-        --set generator.environment.radius=0.91 -o "$tmp/c.glb" --preview docs/cpfg/canalization.png \
-        --preview-size 320 >/dev/null
+    "$bin" grow "$corpus/11-CPFG__07-Open__06-canalization/plant.l" -o "$tmp/c.glb" \
+        --preview docs/cpfg/canalization.png --preview-size 320 >/dev/null
     "$bin" grow "$corpus/10-manuals__11-CPFG__Sedge/sedge.l" -o "$tmp/e.glb" --preview docs/cpfg/sedge.png \
         --preview-size 320 >/dev/null
+    # A generalized cylinder with an @# contour (the lily leaf).
+    "$bin" grow "$corpus/11-CPFG__03-inverse-modeling__01-herb-lily/plant.l" -o "$tmp/l.glb" \
+        --preview docs/cpfg/herb-lily.png --preview-size 320 >/dev/null
 fi
+# Seed 001's leaf mode on a compound leaf string (docs/meshers.md).
+"$bin" grow crates/sylva/tests/data/compound-leaf.str --set mesh.method=leaf --set refine.levels=2 \
+    -o "$tmp/leaf.glb" --preview docs/meshers/compound-leaf-leaf.png --preview-size 320 >/dev/null
