@@ -591,29 +591,36 @@ fn texture_model(recipe: &Recipe, model: &mut Model) {
         _ => bark::BarkStyle::Furrowed,
     });
     let cards = model.parts.iter().position(|p| p.name == "leaf_cards");
+    // A model without bark (a leaf-mode leaf, a cpfg model of organs only) gets no bark
+    // maps: nothing would use them.
+    let has_bark = model.parts.iter().any(|p| p.name == "bark");
     let colour = {
         let c = crate::model::Material::leaf().base_color;
         [c[0], c[1], c[2]]
     };
     let (maps, atlas) = rayon::join(
-        || bark::bark_maps(style, recipe.textures.bark_size, recipe.seed),
+        || has_bark.then(|| bark::bark_maps(style, recipe.textures.bark_size, recipe.seed)),
         || cards.map(|_| leaf::leaf_atlas(recipe.textures.atlas_size, colour, recipe.seed)),
     );
-    let first = model.images.len() as u32;
-    for (name, image) in [("bark_albedo", maps.albedo), ("bark_normal", maps.normal), ("bark_orm", maps.orm)]
-    {
-        model.images.push(ModelImage { name: name.into(), image, repeat: true });
-    }
-    for part in model.parts.iter_mut().filter(|p| p.name == "bark") {
-        part.material.maps = crate::model::MaterialMaps {
-            base_color: Some(first),
-            normal: Some(first + 1),
-            occlusion_roughness_metallic: Some(first + 2),
-        };
+    if let Some(maps) = maps {
+        let first = model.images.len() as u32;
+        for (name, image) in
+            [("bark_albedo", maps.albedo), ("bark_normal", maps.normal), ("bark_orm", maps.orm)]
+        {
+            model.images.push(ModelImage { name: name.into(), image, repeat: true });
+        }
+        for part in model.parts.iter_mut().filter(|p| p.name == "bark") {
+            part.material.maps = crate::model::MaterialMaps {
+                base_color: Some(first),
+                normal: Some(first + 1),
+                occlusion_roughness_metallic: Some(first + 2),
+            };
+        }
     }
     if let (Some(i), Some(atlas)) = (cards, atlas) {
+        let index = model.images.len() as u32;
         model.images.push(ModelImage { name: "leaf_atlas".into(), image: atlas.image, repeat: false });
-        model.parts[i].material.maps.base_color = Some(first + 3);
+        model.parts[i].material.maps.base_color = Some(index);
     }
 }
 

@@ -390,5 +390,8 @@ fn a_str_leaf_grows_end_to_end_to_obj() {
     let faces = text.lines().filter(|l| l.starts_with("f ")).count();
     assert_eq!(faces, part.mesh.face_count());
     assert!(text.lines().any(|l| l.starts_with("vt ")), "cut-out UVs are written");
+    // No bark part, so no bark maps (no bark PNGs beside the file).
+    assert!(!grown.model.parts.iter().any(|p| p.name == "bark"));
+    assert!(grown.model.images.iter().all(|i| !i.name.starts_with("bark")), "bark maps without bark");
     let _ = std::fs::remove_dir_all(&dir);
 }
