@@ -69,9 +69,9 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::{Crease, FaceVarying, Mesh};
-use crate::mesh::sweep::{guarded_offsets, perpendicular, unit_or};
+use crate::mesh::sweep::{collapse_short, guarded_offsets, perpendicular, unit_or, Collapsed};
 use crate::refine::Corner;
-use crate::skeleton::{Skeleton, NO_PARENT};
+use crate::skeleton::Skeleton;
 use glam::{DVec3, Vec2, Vec3};
 
 const NONE: u32 = u32::MAX;
@@ -220,25 +220,7 @@ fn graph(s: &Skeleton, opts: &LeafOptions) -> Graph {
     let scale = pos.iter().fold(0.0f64, |a, p| a.max(p.abs().max_element()));
     let rmin = if rmax > 0.0 { opts.min_width * rmax } else { opts.min_width * scale.max(1e-3) };
     let rad: Vec<f64> = s.radius.iter().map(|&r| (r as f64).max(rmin)).collect();
-    let mut rep: Vec<u32> = (0..n as u32).collect();
-    let mut collapsed = Vec::new();
-    for i in 0..n {
-        let p = s.parent[i];
-        if p == NO_PARENT {
-            continue;
-        }
-        let rp = rep[p as usize] as usize;
-        let d = (pos[i] - pos[rp]).length();
-        let tiny = 1e-6 * pos[i].abs().max_element().max(pos[rp].abs().max_element()) + 1e-12;
-        if d <= tiny.max(1e-3 * rad[i].min(rad[rp])) {
-            rep[i] = rp as u32;
-            collapsed.push(i as u32);
-        }
-    }
-    let live: Vec<bool> = (0..n).map(|i| rep[i] == i as u32).collect();
-    let par: Vec<u32> = (0..n)
-        .map(|i| if live[i] && s.parent[i] != NO_PARENT { rep[s.parent[i] as usize] } else { NONE })
-        .collect();
+    let Collapsed { live, parent: par, collapsed } = collapse_short(&s.parent, &pos, &rad);
     let mut kids = vec![Vec::new(); n];
     let mut len = vec![0.0; n];
     for i in 0..n {
@@ -722,6 +704,7 @@ pub fn cutout_uvs(proxy: &Mesh) -> FaceVarying<Vec2> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::skeleton::NO_PARENT;
     use glam::Vec3;
 
     /// A chain of internodes from the origin through `pts`, radius `r`, up `up`.

@@ -491,6 +491,43 @@ struct Plan {
 /// internodes): bend rings go where that exceeds this many radii.
 const BEND_CUT: f64 = 0.5;
 
+/// The skeleton graph with internodes shorter than float noise (or than 1e-3 of the
+/// thinner radius) collapsed into their parent node.
+pub(crate) struct Collapsed {
+    /// Whether each node stands for itself (not collapsed).
+    pub live: Vec<bool>,
+    /// The live parent of each live node, `NONE` for roots and collapsed nodes.
+    pub parent: Vec<u32>,
+    /// The collapsed nodes, in order.
+    pub collapsed: Vec<u32>,
+}
+
+/// Collapses zero-length internodes (step 1 of the module docs; shared with the leaf
+/// mesher). `parent` is the skeleton's parent column, parents first.
+pub(crate) fn collapse_short(parent: &[u32], pos: &[DVec3], rad: &[f64]) -> Collapsed {
+    let n = parent.len();
+    let mut rep: Vec<u32> = (0..n as u32).collect();
+    let mut collapsed = Vec::new();
+    for i in 0..n {
+        let p = parent[i];
+        if p == NO_PARENT {
+            continue;
+        }
+        let rp = rep[p as usize] as usize;
+        let d = (pos[i] - pos[rp]).length();
+        let tiny = 1e-6 * (pos[i].abs().max_element().max(pos[rp].abs().max_element())) + 1e-12;
+        if d <= tiny.max(1e-3 * rad[i].min(rad[rp])) {
+            rep[i] = rp as u32;
+            collapsed.push(i as u32);
+        }
+    }
+    let live: Vec<bool> = (0..n).map(|i| rep[i] == i as u32).collect();
+    let parent = (0..n)
+        .map(|i| if live[i] && parent[i] != NO_PARENT { rep[parent[i] as usize] } else { NONE })
+        .collect();
+    Collapsed { live, parent, collapsed }
+}
+
 /// `v` normalised, or `fallback` when `v` is (near) zero or not finite.
 pub(crate) fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
     let l = v.length();
@@ -601,26 +638,7 @@ impl Plan {
         let rad0: Vec<Option<f64>> =
             (0..n).map(|i| s.start_radius(i).map(|r| (r as f64).max(rmin))).collect();
         let up: Vec<DVec3> = s.up.iter().map(|u| u.as_dvec3()).collect();
-        // Collapse zero-length internodes.
-        let mut rep: Vec<u32> = (0..n as u32).collect();
-        let mut collapsed = Vec::new();
-        for i in 0..n {
-            let p = s.parent[i];
-            if p == NO_PARENT {
-                continue;
-            }
-            let rp = rep[p as usize] as usize;
-            let d = (pos[i] - pos[rp]).length();
-            let tiny = 1e-6 * (pos[i].abs().max_element().max(pos[rp].abs().max_element())) + 1e-12;
-            if d <= tiny.max(1e-3 * rad[i].min(rad[rp])) {
-                rep[i] = rp as u32;
-                collapsed.push(i as u32);
-            }
-        }
-        let mut live: Vec<bool> = (0..n).map(|i| rep[i] == i as u32).collect();
-        let mut par: Vec<u32> = (0..n)
-            .map(|i| if live[i] && s.parent[i] != NO_PARENT { rep[s.parent[i] as usize] } else { NONE })
-            .collect();
+        let Collapsed { mut live, parent: mut par, collapsed } = collapse_short(&s.parent, &pos, &rad);
         let mut plan = Plan {
             pos,
             rad,
