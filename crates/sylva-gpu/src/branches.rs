@@ -808,18 +808,7 @@ impl BranchRenderer {
         let row_bytes = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let readback = |tex: &wgpu::Texture, encoder: &mut wgpu::CommandEncoder| {
             let buffer = self.gpu.storage_buffer_zeroed("capture readback", row_bytes as u64 * height as u64);
-            encoder.copy_texture_to_buffer(
-                tex.as_image_copy(),
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(row_bytes),
-                        rows_per_image: Some(height),
-                    },
-                },
-                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            );
+            crate::gpu::copy_texture_rows(encoder, tex, &buffer, (width, height), 16);
             buffer
         };
         let pos_buf = readback(&pos_tex, &mut encoder);
@@ -936,18 +925,7 @@ impl Offscreen {
         let row = (self.width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let buffer = gpu.storage_buffer_zeroed("offscreen readback", row as u64 * self.height as u64);
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        encoder.copy_texture_to_buffer(
-            self.resolved.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(self.height),
-                },
-            },
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
-        );
+        crate::gpu::copy_texture_rows(&mut encoder, &self.resolved, &buffer, (self.width, self.height), 4);
         gpu.queue.submit([encoder.finish()]);
         let raw = gpu.read_buffer::<u8>(&buffer, (row * self.height) as usize);
         raw.chunks_exact(row as usize).flat_map(|r| r[..(self.width * 4) as usize].to_vec()).collect()

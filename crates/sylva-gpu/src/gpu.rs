@@ -225,19 +225,8 @@ impl Gpu {
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
         self.queue.submit([encoder.finish()]);
-        let slice = staging.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait();
-        rx.recv().expect("map callback ran").expect("readback buffer maps");
-        let out = {
-            let view = slice.get_mapped_range().expect("mapped range");
-            bytemuck::cast_slice::<u8, T>(&view[..bytes as usize]).to_vec()
-        };
-        staging.unmap();
-        out
+        let raw = map_read(&self.device, &staging);
+        bytemuck::cast_slice::<u8, T>(&raw[..bytes as usize]).to_vec()
     }
 
     /// Blocks until every submitted command buffer has finished.
@@ -285,17 +274,64 @@ impl Gpu {
         layout: &wgpu::BindGroupLayout,
         buffers: &[&wgpu::Buffer],
     ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
-            .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout,
-            entries: &entries,
-        })
+        bind_whole_buffers(&self.device, label, layout, buffers)
     }
+}
+
+/// A bind group of `buffers` bound whole at bindings 0, 1, … of `layout` (for
+/// [`Gpu::bind_buffers`] and the renderer, which keeps its own device).
+pub(crate) fn bind_whole_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries: &entries })
+}
+
+/// Maps `staging` (a `MAP_READ` buffer whose copies are submitted) for reading, waits
+/// for the GPU and returns its bytes.
+pub(crate) fn map_read(device: &wgpu::Device, staging: &wgpu::Buffer) -> Vec<u8> {
+    let slice = staging.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).expect("device poll");
+    rx.recv().expect("map callback ran").expect("readback buffer maps");
+    let out = slice.get_mapped_range().expect("mapped range").to_vec();
+    staging.unmap();
+    out
+}
+
+/// Records a copy of `texture` (`width` × `height` texels of `texel_bytes` bytes) into
+/// `buffer`, rows padded to wgpu's copy alignment; returns the padded row length in bytes.
+pub(crate) fn copy_texture_rows(
+    encoder: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    buffer: &wgpu::Buffer,
+    (width, height): (u32, u32),
+    texel_bytes: u32,
+) -> u32 {
+    let row = (width * texel_bytes).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+    row
 }
 
 /// A compute-stage storage buffer binding (`read_only`: `var<storage, read>`).

@@ -283,20 +283,7 @@ impl Ctx {
         layout: &wgpu::BindGroupLayout,
         buffers: &[&wgpu::Buffer],
     ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
-            .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout,
-            entries: &entries,
-        })
-    }
-
-    fn wait(&self) {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("device poll");
+        crate::gpu::bind_whole_buffers(&self.device, label, layout, buffers)
     }
 
     /// Whether `format` (and the depth format) take 4× multisampling.
@@ -981,35 +968,10 @@ impl Renderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        encoder.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        );
+        crate::gpu::copy_texture_rows(&mut encoder, texture, &staging, (w, h), 4);
         self.gpu.queue.submit([encoder.finish()]);
-        let slice = staging.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.gpu.wait();
-        rx.recv().expect("map callback ran").expect("readback buffer maps");
-        let mut rgba = Vec::with_capacity((row * h) as usize);
-        {
-            let view = slice.get_mapped_range().expect("mapped range");
-            for y in 0..h as usize {
-                let at = y * padded as usize;
-                rgba.extend_from_slice(&view[at..at + row as usize]);
-            }
-        }
-        staging.unmap();
+        let raw = crate::gpu::map_read(&self.gpu.device, &staging);
+        let rgba = raw.chunks_exact(padded as usize).flat_map(|r| &r[..row as usize]).copied().collect();
         Image { width: w, height: h, rgba }
     }
 }
