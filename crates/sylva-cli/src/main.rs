@@ -313,6 +313,18 @@ fn render_window(_args: &RenderArgs, _loaded: &recipe::Loaded, _size: (u32, u32)
     check_window()
 }
 
+/// The renderer's per-frame counts, as `sylva render` and the window print them.
+#[cfg(feature = "gpu")]
+fn print_draw_stats(trees: usize, s: &sylva_gpu::render::Stats) {
+    let levels: Vec<String> = s.instances_per_level.iter().map(u32::to_string).collect();
+    println!(
+        "  {trees} tree(s), {} draw call(s) per frame, trees per level of detail [{}], {} triangles per frame",
+        s.draw_calls,
+        levels.join(", "),
+        s.triangles
+    );
+}
+
 /// `sylva render --window`: grows the tree and shows it until the window is closed (or
 /// `--frames` frames are shown).
 #[cfg(feature = "window")]
@@ -349,14 +361,7 @@ fn render_window(args: &RenderArgs, loaded: &recipe::Loaded, (width, height): (u
             "  showed {} frame(s) of {}x{} ({:?}, {} sample(s) per pixel) in {:.1} s",
             report.frames, report.size.0, report.size.1, report.format, s.samples, report.seconds
         );
-        let levels: Vec<String> = s.instances_per_level.iter().map(u32::to_string).collect();
-        println!(
-            "  {} tree(s), {} draw call(s) per frame, trees per level of detail [{}], {} triangles per frame",
-            instances.len(),
-            s.draw_calls,
-            levels.join(", "),
-            s.triangles
-        );
+        print_draw_stats(instances.len(), s);
     }
     Ok(())
 }
@@ -472,14 +477,7 @@ fn render_gpu(
             draw_time.as_secs_f64() * 1e3,
             draw_time.as_secs_f64() * 1e3 / frames as f64
         );
-        let levels: Vec<String> = s.instances_per_level.iter().map(u32::to_string).collect();
-        println!(
-            "  {} tree(s), {} draw call(s) per frame, trees per level of detail [{}], {} triangles per frame",
-            instances.len(),
-            s.draw_calls,
-            levels.join(", "),
-            s.triangles
-        );
+        print_draw_stats(instances.len(), &s);
         if frames > 1 && !renderer.animated() {
             println!("  note: the model has no wind clip, so every frame is the same (add --wind breeze)");
         }
