@@ -4,8 +4,14 @@
 //! watchdog, so a hang is a failure and not a stuck test.
 //!
 //! Everything is seeded: the same seed gives the same inputs on every machine.
+//!
+//! [`classes`] holds the generators of issue 39's failure classes (long lines, deep
+//! nesting, degenerate and many-root skeletons, absurd numbers, raised budgets,
+//! duplicated glTF primitives, hostile model folders) and their in-process runner.
 
 #![allow(dead_code)]
+
+pub mod classes;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -1561,4 +1567,13 @@ pub fn campaign(t: Target, seed: u64, cases: usize, timeout: Duration, budget: D
     }
     let _ = std::fs::remove_dir_all(&work);
     failures
+}
+
+/// Case `j` of the new-class lane of seed `seed`: class `j mod 8`
+/// ([`classes::Class::ALL`]), drawn from its own random stream so any case can be
+/// replayed alone.
+pub fn case_of(seed: u64, j: u64) -> classes::Case {
+    let c = classes::Class::ALL[(j % classes::Class::ALL.len() as u64) as usize];
+    let mut rng = Rng::new(seed.wrapping_mul(1_000_003).wrapping_add(j) ^ 0x3939_0000_0000_0039);
+    classes::generate(&mut rng, c)
 }
