@@ -9,7 +9,6 @@
 //! clip length; the file loops forever.
 
 use crate::error::{Error, Result};
-use crate::fsutil::write_atomic;
 use crate::model::Model;
 use crate::preview::{render, Image, PreviewOptions};
 
@@ -58,6 +57,19 @@ pub fn wind_frames(model: &Model, opts: &PreviewOptions, fps: u32) -> Result<Vec
 ///
 /// Errors: no frames, frames of different sizes, an unknown extension, or a failed write.
 pub fn write_animation(frames: &[Image], fps: u32, path: &std::path::Path) -> Result<()> {
+    let mut set = crate::fsutil::OutputSet::new(path);
+    stage_animation(frames, fps, path, &mut set)?;
+    set.commit()
+}
+
+/// [`write_animation`], staged into `set` (written to a temporary that reaches `path`
+/// when the set is committed with the run's other outputs, [`crate::fsutil::OutputSet`]).
+pub fn stage_animation(
+    frames: &[Image],
+    fps: u32,
+    path: &std::path::Path,
+    set: &mut crate::fsutil::OutputSet,
+) -> Result<()> {
     let bad = |why: String| Error::InvalidGeometry { what: format!("animation {}", path.display()), why };
     let Some(first) = frames.first() else { return Err(bad("no frames".into())) };
     let (w, h) = (first.width, first.height);
@@ -73,7 +85,7 @@ pub fn write_animation(frames: &[Image], fps: u32, path: &std::path::Path) -> Re
                 u16::try_from(w).map_err(|_| bad(format!("{w} pixels is too wide for GIF")))?,
                 u16::try_from(h).map_err(|_| bad(format!("{h} pixels is too tall for GIF")))?,
             );
-            write_atomic(path, |out| {
+            set.stage(path, |out| {
                 let mut enc = gif::Encoder::new(out, gw, gh, &[]).map_err(|e| io(&e))?;
                 enc.set_repeat(gif::Repeat::Infinite).map_err(|e| io(&e))?;
                 for f in frames {
@@ -85,7 +97,7 @@ pub fn write_animation(frames: &[Image], fps: u32, path: &std::path::Path) -> Re
                 Ok(())
             })
         }
-        "png" | "apng" => write_atomic(path, |out| {
+        "png" | "apng" => set.stage(path, |out| {
             let mut enc = png::Encoder::new(out, w, h);
             enc.set_color(png::ColorType::Rgba);
             enc.set_depth(png::BitDepth::Eight);

@@ -172,6 +172,19 @@ pub fn render(model: &Model, opts: &PreviewOptions) -> Result<Image> {
 /// Errors: [`Error::InvalidGeometry`] when the pixel buffer does not match the size;
 /// [`Error::Write`] when the file cannot be written.
 pub fn write_png(image: &Image, path: &Path) -> Result<()> {
+    check_image(image)?;
+    write_atomic(path, |w| encode_png(image, w))
+}
+
+/// [`write_png`], staged into `set` (written to a temporary that reaches `path` when the
+/// set is committed with the run's other outputs, [`crate::fsutil::OutputSet`]).
+pub fn stage_png(image: &Image, path: &Path, set: &mut crate::fsutil::OutputSet) -> Result<()> {
+    check_image(image)?;
+    set.stage(path, |w| encode_png(image, w))
+}
+
+/// Checks that `image`'s pixel buffer matches its size.
+fn check_image(image: &Image) -> Result<()> {
     let expected = image.width as u64 * image.height as u64 * 4;
     if image.width == 0 || image.height == 0 || image.rgba.len() as u64 != expected {
         return Err(Error::InvalidGeometry {
@@ -184,15 +197,18 @@ pub fn write_png(image: &Image, path: &Path) -> Result<()> {
             ),
         });
     }
-    write_atomic(path, |w| {
-        let mut enc = png::Encoder::new(w, image.width, image.height);
-        enc.set_color(png::ColorType::Rgba);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.set_compression(png::Compression::Fast);
-        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-        writer.write_image_data(&image.rgba).map_err(std::io::Error::other)?;
-        writer.finish().map_err(std::io::Error::other)
-    })
+    Ok(())
+}
+
+/// Encodes `image` as an 8-bit RGBA PNG into `w`.
+fn encode_png(image: &Image, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let mut enc = png::Encoder::new(w, image.width, image.height);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::Fast);
+    let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+    writer.write_image_data(&image.rgba).map_err(std::io::Error::other)?;
+    writer.finish().map_err(std::io::Error::other)
 }
 
 /// The view for a model with bounds `lo..hi`: straight along an axis the model is flat

@@ -4,8 +4,9 @@
 //!
 //! [`write()`] picks the format from the file extension ([`Format::from_path`]), checks
 //! every part's mesh ([`crate::Mesh::validate`]) so that no NaN or bad index reaches a
-//! file, and writes through [`crate::fsutil::write_atomic`], so a failure never leaves a
-//! half-written file. Each format also has a pure in-memory writer for tests and
+//! file, and writes every file of the model (the model, its `.mtl`, textures or
+//! includes) as one [`crate::fsutil::OutputSet`], so a failure never leaves a
+//! half-written file and never touches the files of an earlier export. Each format also has a pure in-memory writer for tests and
 //! benchmarks: [`gltf::to_glb`], [`gltf::to_gltf_json`], [`obj::write_obj`],
 //! [`obj::write_mtl`] and [`ply::write_ply`].
 //!
@@ -37,7 +38,7 @@ pub mod pov;
 pub mod skeleton;
 
 use crate::error::{Error, Result};
-use crate::fsutil::write_atomic;
+use crate::fsutil::OutputSet;
 use crate::geometry::Mesh;
 use crate::model::Model;
 use glam::{Mat3, Vec2, Vec3};
@@ -232,15 +233,36 @@ pub fn write_with(model: &Model, path: &Path, textures: &TextureMode) -> Result<
 /// Every part's mesh is validated first (indices in range, finite numbers); a problem is
 /// [`Error::InvalidGeometry`] naming the part, and nothing is written; so is a model
 /// without a single triangle. `.obj` also writes the material library next to it
-/// (`name.mtl`). Files are written atomically: on any error no partial file is left.
+/// (`name.mtl`), `.pov` one include file per part.
 ///
 /// With [`TextureMode::Files`] (and for `.obj` and `.pov`, which cannot embed, unless `None`; `.ply`
-/// never refers to images) the images are written first as `<prefix><name>.png` beside the model; if the model
-/// cannot be written they are removed again.
+/// never refers to images) the images are written as `<prefix><name>.png` beside the model.
+///
+/// All the files are written as one [`OutputSet`]: each goes to a temporary first, and
+/// they replace the files of an earlier export only when every one of them was written,
+/// so on any error the earlier files are left exactly as they were and no temporary is
+/// left (see [`stage_with_options`] to add more files, such as a preview, to the set).
 ///
 /// Instances are written as `EXT_mesh_gpu_instancing` to glTF (unless
 /// [`InstancingFallback::Merged`]) and merged for OBJ and PLY.
 pub fn write_with_options(model: &Model, path: &Path, options: &ExportOptions) -> Result<()> {
+    let mut set = OutputSet::new(path);
+    stage_with_options(model, path, options, &mut set)?;
+    set.commit()
+}
+
+/// [`write_with_options`], staged into `set` instead of written: the model and its side
+/// files (`.mtl`, texture PNGs, POV-Ray includes) go to temporaries, and reach their
+/// names when the caller commits the set ([`OutputSet::commit`]), together with whatever
+/// else the run staged there. `set`'s primary output should be `path`, so that the model
+/// is renamed last. On error the files staged so far stay in `set` (dropping it removes
+/// them).
+pub fn stage_with_options(
+    model: &Model,
+    path: &Path,
+    options: &ExportOptions,
+    set: &mut OutputSet,
+) -> Result<()> {
     let textures = &options.textures;
     let format = Format::from_path(path)?;
     validate_model(model)?;
@@ -250,44 +272,36 @@ pub fn write_with_options(model: &Model, path: &Path, options: &ExportOptions) -
         (Format::Obj | Format::Pov, TextureMode::Embed) => TextureMode::for_output("files", path)?,
         (_, t) => t.clone(),
     };
-    let mut images_written = Vec::new();
-    let remove = |written: &[std::path::PathBuf]| {
-        for p in written {
-            let _ = std::fs::remove_file(p);
-        }
-    };
     if let TextureMode::Files { prefix } = &textures {
         use rayon::prelude::*;
         let pngs: Vec<Vec<u8>> = model.images.par_iter().map(|i| i.image.to_png()).collect::<Result<_>>()?;
         let dir = path.parent().unwrap_or(Path::new(""));
         for (im, png) in model.images.iter().zip(&pngs) {
-            let p = dir.join(format!("{prefix}{}.png", im.name));
-            if let Err(e) = write_atomic(&p, |w| w.write_all(png)) {
-                remove(&images_written);
-                return Err(e);
-            }
-            images_written.push(p);
+            set.stage(&dir.join(format!("{prefix}{}.png", im.name)), |w| w.write_all(png))?;
         }
     }
     let options = ExportOptions { textures, ..options.clone() };
-    let written = write_model(model, path, format, &options);
-    if written.is_err() {
-        remove(&images_written);
-    }
-    written
+    stage_model(model, path, format, &options, set)
 }
 
-/// [`write_with_options`] after validation and the image files.
-fn write_model(model: &Model, path: &Path, format: Format, options: &ExportOptions) -> Result<()> {
+/// [`stage_with_options`] after validation and the image files: the model file and its
+/// `.mtl` or includes.
+fn stage_model(
+    model: &Model,
+    path: &Path,
+    format: Format,
+    options: &ExportOptions,
+    set: &mut OutputSet,
+) -> Result<()> {
     let textures = &options.textures;
     match format {
         Format::Glb => {
             let bytes = gltf::glb_unchecked(model, options)?;
-            write_atomic(path, |w| w.write_all(&bytes))
+            set.stage(path, |w| w.write_all(&bytes))
         }
         Format::Gltf => {
             let json = gltf::gltf_json_unchecked(model, options)?;
-            write_atomic(path, |w| w.write_all(json.as_bytes()))
+            set.stage(path, |w| w.write_all(json.as_bytes()))
         }
         Format::Obj => {
             let mtl_path = path.with_extension("mtl");
@@ -299,44 +313,25 @@ fn write_model(model: &Model, path: &Path, format: Format, options: &ExportOptio
                 TextureMode::Files { prefix } if !model.images.is_empty() => Some(prefix.as_str()),
                 _ => None,
             };
-            write_atomic(&mtl_path, |w| obj::write_mtl_unchecked(model, w, prefix))?;
-            let written = write_atomic(path, |w| obj::write_obj_unchecked(model, w, &mtl_name));
-            if written.is_err() {
-                // Leave neither file: the library is useless without its OBJ.
-                let _ = std::fs::remove_file(&mtl_path);
-            }
-            written
+            set.stage(&mtl_path, |w| obj::write_mtl_unchecked(model, w, prefix))?;
+            set.stage(path, |w| obj::write_obj_unchecked(model, w, &mtl_name))
         }
-        Format::Ply => write_atomic(path, |w| ply::write_ply_unchecked(model, w)),
+        Format::Ply => set.stage(path, |w| ply::write_ply_unchecked(model, w)),
         Format::Pov => {
             let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             let dir = path.parent().unwrap_or(Path::new(""));
             let incs = pov::includes(model, &stem);
             let flat = model.flattened();
-            let mut written = Vec::new();
-            let mut result = Ok(());
             for inc in &incs {
-                let p = dir.join(&inc.file);
-                result = write_atomic(&p, |w| pov::write_inc(&flat.parts[inc.part].mesh, &inc.ident, w));
-                if result.is_err() {
-                    break;
-                }
-                written.push(p);
+                set.stage(&dir.join(&inc.file), |w| {
+                    pov::write_inc(&flat.parts[inc.part].mesh, &inc.ident, w)
+                })?;
             }
             let prefix = match textures {
                 TextureMode::Files { prefix } if !model.images.is_empty() => Some(prefix.as_str()),
                 _ => None,
             };
-            if result.is_ok() {
-                result = write_atomic(path, |w| pov::write_scene(model, &incs, prefix, w));
-            }
-            if result.is_err() {
-                // Leave no include without its scene.
-                for p in written {
-                    let _ = std::fs::remove_file(p);
-                }
-            }
-            result
+            set.stage(path, |w| pov::write_scene(model, &incs, prefix, w))
         }
     }
 }

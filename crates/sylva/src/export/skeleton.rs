@@ -40,19 +40,31 @@ pub const EXTENSIONS: &str = ".lst, .json (.skel.json)";
 /// `.skel.json`), atomically. The skeleton is validated first ([`Error::Skeleton`]);
 /// any other extension is [`Error::UnknownFormat`].
 pub fn write(skeleton: &Skeleton, path: &Path) -> Result<()> {
+    let text = to_text(skeleton, path)?;
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// [`write()`], staged into `set` (written to a temporary that reaches `path` when the
+/// set is committed with the run's other outputs, [`crate::fsutil::OutputSet`]).
+pub fn stage(skeleton: &Skeleton, path: &Path, set: &mut crate::fsutil::OutputSet) -> Result<()> {
+    let text = to_text(skeleton, path)?;
+    set.stage(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// The validated skeleton as the text of the format `path`'s extension names.
+fn to_text(skeleton: &Skeleton, path: &Path) -> Result<String> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let text = match ext.as_str() {
+    match ext.as_str() {
         "lst" => {
             skeleton.validate()?;
-            to_lst(skeleton)
+            Ok(to_lst(skeleton))
         }
         "json" => {
             skeleton.validate()?;
-            to_json(skeleton)
+            Ok(to_json(skeleton))
         }
-        _ => return Err(Error::UnknownFormat { path: path.to_path_buf(), expected: EXTENSIONS }),
-    };
-    write_atomic(path, |w| w.write_all(text.as_bytes()))
+        _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: EXTENSIONS }),
+    }
 }
 
 // ---------------------------------------------------------------------------------
