@@ -224,7 +224,6 @@ impl RenderOutput {
     }
 
     /// The file of frame `k` of a sequence.
-    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
     fn frame_path(before: &str, after: &str, width: usize, k: usize) -> PathBuf {
         PathBuf::from(format!("{before}{k:0width$}{after}"))
     }
@@ -246,6 +245,13 @@ fn render(args: RenderArgs) -> Result<()> {
     // Every argument is checked before any work, so bad input writes nothing.
     let (width, height) = parse_size(&args.size)?;
     let output = if args.window { None } else { Some(RenderOutput::parse(&args.output)?) };
+    if let Some(o) = &output {
+        let first = match o {
+            RenderOutput::Png(p) | RenderOutput::Gif(p) => p.clone(),
+            RenderOutput::Sequence(before, after, w) => RenderOutput::frame_path(before, after, *w, 0),
+        };
+        check_outputs(&[("-o", &first)])?;
+    }
     let frames = args.frames.unwrap_or(if args.wind.is_some() { 60 } else { 1 });
     let max_frames = sylva::animation::MAX_FRAMES as u32;
     if !(1..=max_frames).contains(&frames) {
@@ -455,12 +461,15 @@ fn render_gpu(
             vec![p.clone()]
         }
         RenderOutput::Sequence(before, after, w) => {
+            // The frames are one result: all of them replace an earlier sequence, or none.
+            let mut set = sylva::fsutil::OutputSet::new(RenderOutput::frame_path(before, after, *w, 0));
             let mut out = Vec::with_capacity(images.len());
             for (k, im) in images.iter().enumerate() {
                 let p = RenderOutput::frame_path(before, after, *w, k);
-                sylva::preview::write_png(im, &p)?;
+                sylva::preview::stage_png(im, &p, &mut set)?;
                 out.push(p);
             }
+            set.commit()?;
             out
         }
     };
@@ -509,6 +518,8 @@ enum LsysCommand {
 }
 
 fn main() -> ExitCode {
+    // SIGINT / SIGTERM / SIGHUP remove the temporaries of the outputs being written.
+    sylva::fsutil::install_signal_cleanup();
     // Long messages stay on one line so they can be searched and copied whole.
     let _ =
         miette::set_hook(Box::new(|_| Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())));
@@ -597,15 +608,32 @@ fn grow(args: GrowArgs) -> Result<()> {
         // Fail on a bad extension before doing any work.
         sylva::export::Format::from_path(&out)?;
     }
-    let preview = if args.no_preview {
-        None
+    let (preview, preview_flag) = if args.no_preview {
+        (None, "")
     } else if let Some(p) = args.preview {
-        Some(p)
+        (Some(p), "--preview")
     } else if let Some(p) = &loaded.recipe.output.preview {
-        Some(PathBuf::from(p))
+        (Some(PathBuf::from(p)), "output.preview")
     } else {
-        Some(out.with_extension("png"))
+        (Some(out.with_extension("png")), "the preview (next to the output)")
     };
+    // Every output path is checked before any work, so a bad one writes nothing.
+    let out_flag = if args.output.is_some() { "-o" } else { "output.file" };
+    let mut outputs = vec![(out_flag, out.as_path())];
+    if let Some(p) = &preview {
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if ext != "png" {
+            return Err(miette::miette!(
+                "{preview_flag} {}: the preview is written as PNG; end its name in .png",
+                p.display()
+            ));
+        }
+        outputs.push((preview_flag, p.as_path()));
+    }
+    if let Some(p) = &args.preview_wind {
+        outputs.push(("--preview-wind", p.as_path()));
+    }
+    check_outputs(&outputs)?;
     let grown = sylva::pipeline::grow(&loaded)?;
     for w in &grown.report.warnings {
         eprintln!("warning: {w}");
@@ -613,25 +641,30 @@ fn grow(args: GrowArgs) -> Result<()> {
     if !grown.report.missing_surfaces.is_empty() {
         eprintln!("warning: no surface file for {}", grown.report.missing_surfaces.join(", "));
     }
+    // The model, its side files and the previews are one result: each is staged to a
+    // temporary, and they replace the files of an earlier run together when all of them
+    // were written (the model last), or not at all.
+    let mut set = sylva::fsutil::OutputSet::new(&out);
     if skeleton_out {
-        sylva::export::skeleton::write(&grown.skeleton, &out)?;
+        sylva::export::skeleton::stage(&grown.skeleton, &out, &mut set)?;
     } else {
         let opts = loaded.recipe.output.export_options(&out)?;
-        sylva::export::write_with_options(&grown.model, &out, &opts)?;
+        sylva::export::stage_with_options(&grown.model, &out, &opts, &mut set)?;
     }
     if let Some(p) = &preview {
         let size = loaded.recipe.output.preview_size;
         let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
         let img = sylva::preview::render(&grown.model, &opts)?;
-        sylva::preview::write_png(&img, p)?;
+        sylva::preview::stage_png(&img, p, &mut set)?;
     }
     if let Some(p) = &args.preview_wind {
         let size = loaded.recipe.output.preview_size.min(512);
         let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
         let fps = 15;
         let frames = sylva::animation::wind_frames(&grown.model, &opts, fps)?;
-        sylva::animation::write_animation(&frames, fps, p)?;
+        sylva::animation::stage_animation(&frames, fps, p, &mut set)?;
     }
+    set.commit()?;
     if !args.quiet {
         let r = &grown.report;
         let s = &r.skeleton;
@@ -710,6 +743,27 @@ fn grow(args: GrowArgs) -> Result<()> {
         }
         if let Some(p) = &args.preview_wind {
             println!("  wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// Checks the output paths of a run before any work: each can be written
+/// ([`sylva::fsutil::check_output`]: its folder exists and is writable, it is not a
+/// folder) and no two name the same file. Each pair is the flag or key that named the
+/// path, for the message, and the path.
+fn check_outputs(outputs: &[(&str, &Path)]) -> Result<()> {
+    let key = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        std::fs::canonicalize(dir).ok().map(|d| d.join(p.file_name().unwrap_or_default()))
+    };
+    for (i, (flag, p)) in outputs.iter().enumerate() {
+        sylva::fsutil::check_output(p).map_err(|e| miette::miette!("{flag}: {e}"))?;
+        if let Some((other, _)) = outputs[..i].iter().find(|(_, q)| key(q).is_some() && key(q) == key(p)) {
+            return Err(miette::miette!(
+                "{flag} {}: the same file as {other}; every output needs a name of its own",
+                p.display()
+            ));
         }
     }
     Ok(())
