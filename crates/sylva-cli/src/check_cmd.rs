@@ -24,20 +24,28 @@ pub struct CheckArgs {
     /// Also fail when a mesh has boundary edges (require closed meshes).
     #[arg(long)]
     pub closed: bool,
+    /// Work budget of the self-intersection search: it stops after looking at this many
+    /// candidate triangle pairs (pairs whose boxes overlap) and the check fails saying
+    /// so. Raise it for huge or heavily overlapping meshes.
+    #[arg(long, value_name = "N", default_value_t = sylva::mesh::check::DEFAULT_MAX_PAIRS)]
+    pub max_pairs: u64,
 }
 
 /// Runs `sylva check`; an error when a mesh is invalid.
 pub fn run(args: CheckArgs) -> Result<()> {
     let ext = args.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let meshes: Vec<(String, sylva::Mesh)> = match ext.as_str() {
-        "obj" => vec![("obj".into(), sylva::mesh::obj_read::read_obj(&args.input).into_diagnostic()?.mesh)],
+    // (name, mesh, the index of an earlier mesh with the same triangles).
+    let meshes: Vec<(String, sylva::Mesh, Option<usize>)> = match ext.as_str() {
+        "obj" => {
+            vec![("obj".into(), sylva::mesh::obj_read::read_obj(&args.input).into_diagnostic()?.mesh, None)]
+        }
         "glb" | "gltf" => sylva::import::gltf_read::read_gltf(&args.input)?
             .into_iter()
             .map(|mut g| {
                 if !args.no_weld {
                     sylva::import::gltf_read::weld(&mut g.mesh);
                 }
-                (g.name, g.mesh)
+                (g.name, g.mesh, g.same_as)
             })
             .collect(),
         _ => {
@@ -51,16 +59,38 @@ pub fn run(args: CheckArgs) -> Result<()> {
     if meshes.is_empty() {
         return Err(miette::miette!("{}: no triangle meshes to check", args.input.display()));
     }
-    let opts = CheckOptions { self_intersections: !args.no_intersections, ..Default::default() };
+    let opts = CheckOptions {
+        self_intersections: !args.no_intersections,
+        max_pairs: args.max_pairs,
+        ..Default::default()
+    };
     let mut ok = true;
-    for (name, mesh) in &meshes {
+    let mut stopped = false;
+    for (name, mesh, same_as) in &meshes {
+        if let Some(first) = same_as {
+            // A primitive drawn again: its triangles were checked once, above.
+            let first = meshes.get(*first).map_or("an earlier primitive", |m| m.0.as_str());
+            println!(
+                "{}: {name}\nthe same triangles as {first} (checked once, above)\n",
+                args.input.display()
+            );
+            continue;
+        }
         let report = check_mesh(mesh, &opts);
         let valid = if args.closed { report.is_closed_manifold() } else { report.is_valid() };
         ok &= valid;
+        stopped |= report.search_stopped;
         println!("{}: {name}\n{report}\n", args.input.display());
     }
     if ok {
         Ok(())
+    } else if stopped {
+        Err(miette::miette!(
+            "{}: the mesh is not shown valid: the self-intersection search stopped at its budget of {} candidate \
+             triangle pairs (raise it with --max-pairs N, or skip the search with --no-intersections)",
+            args.input.display(),
+            args.max_pairs
+        ))
     } else {
         Err(miette::miette!("{}: the mesh is not valid (see the problems above)", args.input.display()))
     }

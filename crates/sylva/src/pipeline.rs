@@ -663,6 +663,7 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
             scheme,
             levels: recipe.refine.levels,
             max_faces: recipe.refine.max_faces,
+            max_memory: recipe.refine.max_memory,
             boundary: recipe.refine_boundary()?,
             ..Default::default()
         },
@@ -670,17 +671,29 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
         ..Default::default()
     };
     // Without `limit` the result has no normals; the exporters compute smooth ones.
-    subdivide(&mesh, &[], &opts).map_err(refine_budget)
+    subdivide(&mesh, &[], &opts).map_err(|e| refine_budget(recipe, e))
 }
 
-/// A `[refine]` face-budget error as a message naming `refine.max_faces`; other
-/// refinement errors unchanged.
-fn refine_budget(e: crate::refine::RefineError) -> Error {
+/// A `[refine]` face- or memory-budget error as a message naming `refine.max_faces` or
+/// `refine.max_memory` and `refine.levels`; other refinement errors unchanged.
+fn refine_budget(recipe: &Recipe, e: crate::refine::RefineError) -> Error {
     match e {
         crate::refine::RefineError::Budget { levels, faces, limit } => Error::Recipe(format!(
             "`refine.max_faces`: {levels} levels of subdivision would make {faces} faces, more than the face \
              budget of {limit} (use fewer `refine.levels`, or raise the budget with --set refine.max_faces=N; \
              a refined face costs about 200 bytes at the refinement's peak)"
+        )),
+        crate::refine::RefineError::Memory { levels, faces, bytes, limit } => Error::Recipe(format!(
+            "`refine.max_memory`: {levels} levels of subdivision (`refine.levels`) would make {faces} faces and \
+             need about {bytes} bytes at the refinement's peak, more than the memory budget of {limit} bytes \
+             (use fewer `refine.levels`, or raise the budget with --set refine.max_memory=N if the machine \
+             has the memory)"
+        )),
+        crate::refine::RefineError::OutOfMemory { what, bytes } => Error::Recipe(format!(
+            "`refine.max_memory`: the subdivision (`refine.levels` = {}) ran out of memory: its {what} need {bytes} \
+             bytes, which the system could not allocate (use fewer `refine.levels`, or lower \
+             refine.max_memory to what the machine has so the budget stops it first)",
+            recipe.refine.levels
         )),
         e => e.into(),
     }

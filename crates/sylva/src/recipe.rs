@@ -709,6 +709,24 @@ pub struct RefineSection {
     /// out of written metadata at its default ([`DEFAULT_REFINE_MAX_FACES`]).
     #[serde(default = "default_refine_max_faces", skip_serializing_if = "is_default_refine_max_faces")]
     pub max_faces: usize,
+    /// Memory budget of the subdivision in bytes (issue 39): a refinement whose
+    /// estimated peak ([`crate::refine::peak_memory`]) is larger is an error naming this
+    /// key, checked before the refined levels are allocated. Left out of written
+    /// metadata at its default ([`crate::refine::DEFAULT_MAX_MEMORY`], 4 GiB).
+    #[serde(default = "default_refine_max_memory", skip_serializing_if = "is_default_refine_max_memory")]
+    pub max_memory: u64,
+}
+
+/// Largest `refine.max_memory` accepted (1 TiB).
+pub const REFINE_MAX_MEMORY_LIMIT: u64 = 1 << 40;
+
+fn default_refine_max_memory() -> u64 {
+    crate::refine::DEFAULT_MAX_MEMORY
+}
+
+/// Whether `n` is the default `refine.max_memory` (left out of written metadata).
+fn is_default_refine_max_memory(n: &u64) -> bool {
+    *n == crate::refine::DEFAULT_MAX_MEMORY
 }
 
 /// Default of `refine.max_faces`: 20 M refined faces, about 3–4 GiB at the peak of the
@@ -754,6 +772,7 @@ impl Default for RefineSection {
             levels: 0,
             limit: false,
             max_faces: DEFAULT_REFINE_MAX_FACES,
+            max_memory: default_refine_max_memory(),
             boundary: default_boundary(),
         }
     }
@@ -994,12 +1013,13 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
 /// Keys the recipe leaves out when it is written at their defaults (so files' metadata
 /// keeps its old form): missing from the round trip, they are still known. The `[wind]`
 /// and `[lod]` tables check their own keys (`deny_unknown_fields`).
-const SKIPPED_AT_DEFAULT: [&str; 14] = [
+const SKIPPED_AT_DEFAULT: [&str; 15] = [
     "fit.decollide.max_work",
     "mesh.leaf",
     "refine.boundary",
     "generator.max_nodes",
     "refine.max_faces",
+    "refine.max_memory",
     "mesh.quad.max_repair_work",
     "fit.clear.max_work",
     "wind",
@@ -1217,6 +1237,12 @@ impl Recipe {
                 format!("must be in 1..={REFINE_MAX_FACES_LIMIT}, got {}", self.refine.max_faces),
             );
         }
+        if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&self.refine.max_memory) {
+            return bad(
+                "refine.max_memory",
+                format!("must be in 1..={REFINE_MAX_MEMORY_LIMIT} bytes, got {}", self.refine.max_memory),
+            );
+        }
         self.textures.check()?;
         self.leaves.check()?;
         self.wind.check()?;
@@ -1352,6 +1378,7 @@ mod tests {
             ("fit.decollide.max_work=0", "fit.decollide.max_work"),
             ("mesh.quad.max_repair_work=0", "max_repair_work"),
             ("refine.max_faces=0", "refine.max_faces"),
+            ("refine.max_memory=0", "refine.max_memory"),
             ("generator.max_nodes=0", "generator.max_nodes"),
             ("mesh.quad.support=-1", "mesh.quad.support"),
             ("textures.bark_size=8", "textures.bark_size"),

@@ -21,8 +21,13 @@ use std::path::Path;
 pub struct GltfMesh {
     /// `mesh-name` or `mesh-name/primitive-index` when a mesh has several primitives.
     pub name: String,
-    /// Positions and triangles.
+    /// Positions and triangles (empty when [`GltfMesh::same_as`] is set).
     pub mesh: Mesh,
+    /// `Some(i)` when this primitive has the same triangles as the `i`-th primitive
+    /// returned (the same POSITION and index accessors, or accessors with equal
+    /// contents): its `mesh` is then left empty, so a file that draws one primitive
+    /// hundreds of times is read, and checked, once.
+    pub same_as: Option<usize>,
 }
 
 fn bad(path: &Path, why: impl Into<String>) -> Error {
@@ -83,7 +88,11 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
         }
         buffers.push(data);
     }
-    let mut out = Vec::new();
+    let mut out: Vec<GltfMesh> = Vec::new();
+    // Primitives already read, by their (POSITION, indices) accessors and by a hash of
+    // their contents: a repeated primitive is read once.
+    let mut by_accessors: HashMap<(usize, Option<usize>), usize> = HashMap::new();
+    let mut by_contents: HashMap<u64, Vec<usize>> = HashMap::new();
     for (mi, m) in root.meshes.iter().enumerate() {
         let mesh_name = m.name.clone().unwrap_or_else(|| format!("mesh {mi}"));
         for (pi, p) in m.primitives.iter().enumerate() {
@@ -95,6 +104,11 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
                 .attributes
                 .get(&Valid(json::mesh::Semantic::Positions))
                 .ok_or_else(|| bad(path, format!("{name}: no POSITION attribute")))?;
+            let accessors = (pos.value(), p.indices.as_ref().map(|ix| ix.value()));
+            if let Some(&first) = by_accessors.get(&accessors) {
+                out.push(GltfMesh { name, mesh: Mesh::new(), same_as: Some(first) });
+                continue;
+            }
             let ctx = |why: String| bad(path, format!("{name}: {why}"));
             let floats = read_accessor(&root, &buffers, pos.value()).map_err(ctx)?;
             if floats.1 != 3 {
@@ -124,15 +138,40 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
             if !indices.len().is_multiple_of(3) {
                 return Err(bad(path, format!("{name}: {} indices is not a multiple of 3", indices.len())));
             }
+            let hash = contents_hash(&positions, &indices);
+            let earlier = by_contents.entry(hash).or_default();
+            let same = earlier.iter().copied().find(|&i| {
+                let m = &out[i].mesh;
+                m.positions == positions && m.face_indices == indices
+            });
+            if let Some(first) = same {
+                by_accessors.insert(accessors, first);
+                out.push(GltfMesh { name, mesh: Mesh::new(), same_as: Some(first) });
+                continue;
+            }
+            earlier.push(out.len());
+            by_accessors.insert(accessors, out.len());
             let mut mesh = Mesh::new();
             mesh.positions = positions;
             for t in indices.chunks_exact(3) {
                 mesh.push_face(t);
             }
-            out.push(GltfMesh { name, mesh });
+            out.push(GltfMesh { name, mesh, same_as: None });
         }
     }
     Ok(out)
+}
+
+/// A hash of a primitive's positions (their bits) and indices, to find repeated ones.
+fn contents_hash(positions: &[Vec3], indices: &[u32]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    positions.len().hash(&mut h);
+    for p in positions {
+        p.to_array().map(f32::to_bits).hash(&mut h);
+    }
+    indices.hash(&mut h);
+    h.finish()
 }
 
 /// Splits a GLB container into its JSON chunk and optional BIN chunk.

@@ -54,7 +54,17 @@ pub struct CheckOptions {
     /// tree whose branches pass through each other can have millions); the count is then
     /// a lower bound and [`MeshReport::intersections_truncated`] is set.
     pub max_intersections: usize,
+    /// The self-intersection search's work budget: it stops after looking at about this
+    /// many candidate triangle pairs (pairs whose boxes overlap), so coincident or
+    /// overlapping geometry, where nearly every pair is a candidate, cannot make it run
+    /// for minutes; [`MeshReport::search_stopped`] is then set and the mesh is not
+    /// judged valid. Default [`DEFAULT_MAX_PAIRS`] (`sylva check --max-pairs`).
+    pub max_pairs: u64,
 }
+
+/// Default [`CheckOptions::max_pairs`]: 10⁸ candidate pairs, a few seconds of search in
+/// release on a 2-core machine and over 20 times what a 10⁶-triangle tree needs.
+pub const DEFAULT_MAX_PAIRS: u64 = 100_000_000;
 
 impl Default for CheckOptions {
     fn default() -> Self {
@@ -64,6 +74,7 @@ impl Default for CheckOptions {
             tiny_edge: crate::tolerance::TINY_EDGE_RATIO,
             max_listed: 8,
             max_intersections: 100_000,
+            max_pairs: DEFAULT_MAX_PAIRS,
         }
     }
 }
@@ -120,6 +131,22 @@ pub struct MeshReport {
     pub intersection_count: Option<usize>,
     /// The search stopped at [`CheckOptions::max_intersections`]: the count is a lower bound.
     pub intersections_truncated: bool,
+    /// Faces that repeat an earlier face: the same corner positions in the same order
+    /// (one primitive drawn twice, a copied triangle). They are reported here and left
+    /// out of the self-intersection search (a copy would pair with everything its
+    /// original does, and coincident copies make the search quadratic). A back face (the
+    /// same corners in reverse order, a leaf card's) is not a duplicate.
+    pub duplicate_faces: Vec<usize>,
+    /// Number of duplicate faces.
+    pub duplicate_face_count: usize,
+    /// Candidate triangle pairs the self-intersection search looked at (its work).
+    pub pairs_searched: u64,
+    /// The self-intersection search used up [`CheckOptions::max_pairs`] and stopped
+    /// before every triangle was searched: the intersection count is a lower bound and
+    /// the mesh is not judged valid.
+    pub search_stopped: bool,
+    /// The [`CheckOptions::max_pairs`] the search ran with (named in the report).
+    pub max_pairs: u64,
 }
 
 impl MeshReport {
@@ -134,7 +161,9 @@ impl MeshReport {
             && self.flipped_edge_count == 0
             && self.degenerate_face_count == 0
             && self.unused_vertices == 0
+            && self.duplicate_face_count == 0
             && self.intersection_count.unwrap_or(0) == 0
+            && !self.search_stopped
     }
 
     /// Sum of the genera of the components, `(2C − B − χ) / 2`, meaningful when
@@ -163,11 +192,25 @@ impl MeshReport {
         let mut out = self.structural_problems();
         if let Some(n) = self.intersection_count.filter(|&n| n > 0) {
             out.push(format!(
-                "{n} self-intersecting triangle pair(s){}",
+                "{}{n} self-intersecting triangle pair(s){}",
+                if self.search_stopped || self.intersections_truncated { "at least " } else { "" },
                 listed(&self.intersections, "faces")
             ));
         }
+        if self.search_stopped {
+            out.push(self.search_stopped_message());
+        }
         out
+    }
+
+    /// The line that says the self-intersection search stopped at its work budget.
+    pub fn search_stopped_message(&self) -> String {
+        format!(
+            "self-intersection search stopped after {} candidate triangle pairs, over its budget of {} \
+             (`sylva check --max-pairs N` raises it; CheckOptions::max_pairs): not every triangle was \
+             searched, so the mesh is not shown to be free of self-intersections",
+            self.pairs_searched, self.max_pairs
+        )
     }
 
     /// [`MeshReport::problems`] without self-intersections: what is wrong with the
@@ -198,6 +241,11 @@ impl MeshReport {
             listed(&self.flipped_edges, "edges"),
         );
         add(self.degenerate_face_count, "degenerate face(s)", listed(&self.degenerate_faces, "faces"));
+        add(
+            self.duplicate_face_count,
+            "duplicate face(s) (the same corners in the same order as an earlier face; not searched for intersections)",
+            listed(&self.duplicate_faces, "faces"),
+        );
         add(self.unused_vertices, "vertex(es) used by no face", String::new());
         out
     }
@@ -223,7 +271,7 @@ impl fmt::Display for MeshReport {
             Some(n) => writeln!(
                 f,
                 "{}{n} self-intersecting triangle pair(s) among {} triangles",
-                if self.intersections_truncated { "at least " } else { "" },
+                if self.intersections_truncated || self.search_stopped { "at least " } else { "" },
                 self.triangles
             )?,
             None => writeln!(f, "self-intersections not tested")?,
@@ -390,7 +438,9 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     let used_count = (nv - r.unused_vertices) as i64;
     r.euler = used_count - r.edges as i64 + (nf - r.bad_face_count) as i64;
 
-    // Degenerate faces: repeated vertex or tiny area (Newell's normal).
+    // Degenerate faces: repeated vertex or tiny area (Newell's normal). They and the
+    // duplicates below are reported here and left out of the self-intersection search.
+    let mut searched = good.clone();
     let diag = crate::tolerance::Tolerance::of_points(&mesh.positions).scale;
     for f in (0..nf).filter(|&f| good[f]) {
         let face = mesh.face(f);
@@ -406,23 +456,74 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         let sliver = crate::tolerance::is_sliver_at(opts.sliver, area, longest * longest);
         let tiny = longest.is_nan() || longest <= opts.tiny_edge * diag;
         if repeated || sliver || tiny {
+            searched[f] = false;
             r.degenerate_face_count += 1;
             if r.degenerate_faces.len() < max {
                 r.degenerate_faces.push(f);
             }
         }
     }
+    for f in duplicate_faces(mesh, &searched) {
+        searched[f] = false;
+        r.duplicate_face_count += 1;
+        if r.duplicate_faces.len() < max {
+            r.duplicate_faces.push(f);
+        }
+    }
 
     // Self-intersections, only on meshes whose positions and references are sound.
-    let tris = fan_triangles(mesh, |f| good[f]);
-    r.triangles = tris.len();
+    r.triangles = (0..nf).filter(|&f| good[f]).map(|f| mesh.face(f).len().saturating_sub(2)).sum();
+    r.max_pairs = opts.max_pairs;
     if opts.self_intersections && r.non_finite_count == 0 {
-        let pairs = self_intersections(&mesh.positions, &tris, opts.max_intersections);
-        r.intersections_truncated = pairs.len() >= opts.max_intersections;
-        r.intersection_count = Some(pairs.len());
-        r.intersections = pairs.into_iter().take(max).collect();
+        let tris = fan_triangles(mesh, |f| searched[f]);
+        let found = self_intersections_within(&mesh.positions, &tris, opts.max_intersections, opts.max_pairs);
+        r.intersections_truncated = found.pairs.len() >= opts.max_intersections;
+        r.intersection_count = Some(found.pairs.len());
+        r.intersections = found.pairs.into_iter().take(max).collect();
+        r.pairs_searched = found.work;
+        r.search_stopped = found.stopped;
     }
     r
+}
+
+/// The faces among `keep` that repeat an earlier kept face: the same corner positions
+/// (bit-identical, −0 = 0) in the same cyclic order, ascending. O(corners) with hashing.
+fn duplicate_faces(mesh: &Mesh, keep: &[bool]) -> Vec<usize> {
+    // Vertices at one position share an id, so copies with vertices of their own match.
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+    let weld: Vec<u32> = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+            *ids.entry(key).or_insert(i as u32)
+        })
+        .collect();
+    // A face's key: its welded corners rotated to start at the smallest (which keeps the
+    // orientation, so a back face is a different key). Faces of up to 4 corners take a
+    // fixed-size key; longer ones a vector.
+    let mut small: HashMap<[u32; 4], ()> = HashMap::with_capacity(mesh.face_count());
+    let mut long: HashMap<Vec<u32>, ()> = HashMap::new();
+    let mut out = Vec::new();
+    for f in (0..mesh.face_count()).filter(|&f| keep[f]) {
+        let face = mesh.face(f);
+        let at = (0..face.len()).min_by_key(|&k| weld[face[k] as usize]).unwrap_or(0);
+        let rotated = (0..face.len()).map(|k| weld[face[(at + k) % face.len()] as usize]);
+        let first_time = if face.len() <= 4 {
+            let mut key = [u32::MAX; 4];
+            for (slot, v) in key.iter_mut().zip(rotated) {
+                *slot = v;
+            }
+            small.insert(key, ()).is_none()
+        } else {
+            long.insert(rotated.collect(), ()).is_none()
+        };
+        if !first_time {
+            out.push(f);
+        }
+    }
+    out
 }
 
 /// The faces `keep` accepts, split into fans from their first corner: `(corners, face)`
@@ -782,14 +883,52 @@ pub(crate) fn segment_closest(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> (f6
     (x.distance(y), x, y)
 }
 
-/// Pairs of faces whose triangles cross (each pair once, smaller triangle index first).
+/// Pairs of faces whose triangles cross (each pair once, smaller triangle index first),
+/// with no work budget (the callers bound the mesh's size).
 pub(crate) fn self_intersections(
     positions: &[Vec3],
     tris: &[([u32; 3], u32)],
     limit: usize,
 ) -> Vec<[usize; 2]> {
+    self_intersections_within(positions, tris, limit, u64::MAX).pairs
+}
+
+/// What [`self_intersections_within`] found.
+pub(crate) struct Search {
+    /// Crossing face pairs, ascending, at most the limit.
+    pub(crate) pairs: Vec<[usize; 2]>,
+    /// Candidate pairs looked at: every triangle its box query returned.
+    pub(crate) work: u64,
+    /// The search stopped over `max_work` before every triangle was searched.
+    pub(crate) stopped: bool,
+}
+
+/// Most triangles in one part of the search.
+const SEARCH_PART_MAX: usize = 1 << 14;
+
+/// Fewest triangles in one part of the search (and the first part's size): the search
+/// stops at most this many triangles' candidates past its budget.
+const SEARCH_PART_MIN: usize = 64;
+
+/// About this many candidate pairs per part of the search (parts are sized from the work
+/// per triangle so far, so a part costs about the same on any input).
+const SEARCH_PART_WORK: u64 = 1 << 21;
+
+/// [`self_intersections`] with a work budget: one unit per candidate pair a triangle's
+/// box query returns (where many triangles overlap, as on coincident or tangled
+/// geometry, nearly every pair is a candidate and the search is quadratic). The search
+/// runs through the triangles in order, in parts sized from the work per triangle so far,
+/// each part in parallel, and stops after the part that takes the total over `max_work`
+/// — so where it stops, and what it found, depends on the input alone, not on the
+/// thread count or the machine.
+pub(crate) fn self_intersections_within(
+    positions: &[Vec3],
+    tris: &[([u32; 3], u32)],
+    limit: usize,
+    max_work: u64,
+) -> Search {
     if tris.is_empty() {
-        return Vec::new();
+        return Search { pairs: Vec::new(), work: 0, stopped: false };
     }
     let corners = |t: usize| tris[t].0.map(|v| positions[v as usize].as_dvec3());
     let boxes: Vec<Aabb> = (0..tris.len())
@@ -802,19 +941,31 @@ pub(crate) fn self_intersections(
         .collect();
     let mut order: Vec<u32> = (0..tris.len() as u32).collect();
     let nodes = build_bvh(&boxes, &mut order);
-    // Triangles are searched in chunks, in order, each chunk in parallel; the search
-    // stops after the chunk that reaches the limit. Which triangles were searched is
-    // then the same on every run and for any number of threads (a flag checked inside
-    // the workers made a truncated result depend on thread timing).
-    const CHUNK: usize = 1 << 14;
+    // Triangles are searched in order, in parts, each part in parallel; the search
+    // stops after the part that reaches the limit or uses up the work budget. Which
+    // triangles were searched is then the same on every run and for any number of
+    // threads (a flag checked inside the workers made a truncated result depend on
+    // thread timing). Parts end between faces, and every pair found in a later part has
+    // a larger first face, so stopping at the limit after any part keeps the same
+    // (sorted, truncated) pairs as searching on would.
+    let n = tris.len();
     let mut pairs: Vec<[usize; 2]> = Vec::new();
-    for start in (0..tris.len()).step_by(CHUNK) {
-        let found: Vec<[usize; 2]> = (start..(start + CHUNK).min(tris.len()))
+    let (mut work, mut stopped) = (0u64, false);
+    // The first part is small: on coincident geometry one triangle's query returns
+    // nearly all of them.
+    let (mut start, mut part) = (0usize, SEARCH_PART_MIN);
+    while start < n {
+        let mut end = (start + part).min(n);
+        while end < n && tris[end].1 == tris[end - 1].1 {
+            end += 1;
+        }
+        let found: Vec<(u64, Vec<[usize; 2]>)> = (start..end)
             .into_par_iter()
-            .flat_map_iter(|t| {
+            .map(|t| {
                 let mut found = Vec::new();
                 let (tv, tb, tp) = (tris[t].0, boxes[t], corners(t));
-                for o in query(&nodes, &order, &tb) {
+                let candidates = query(&nodes, &order, &tb);
+                for &o in &candidates {
                     if o <= t || !boxes[o].overlaps(&tb) || tris[o].0.iter().any(|v| tv.contains(v)) {
                         continue;
                     }
@@ -822,18 +973,30 @@ pub(crate) fn self_intersections(
                         found.push([tris[t].1 as usize, tris[o].1 as usize]);
                     }
                 }
-                found
+                (candidates.len() as u64, found)
             })
             .collect();
-        pairs.extend(found);
+        let part_work: u64 = found.iter().map(|f| f.0).sum();
+        work = work.saturating_add(part_work);
+        pairs.extend(found.into_iter().flat_map(|f| f.1));
+        let searched = end - start;
+        start = end;
         if pairs.len() >= limit {
             break;
         }
+        if work > max_work && start < n {
+            stopped = true;
+            break;
+        }
+        let per_triangle = (part_work / searched as u64).max(1);
+        part = usize::try_from(SEARCH_PART_WORK / per_triangle)
+            .unwrap_or(usize::MAX)
+            .clamp(SEARCH_PART_MIN, SEARCH_PART_MAX);
     }
     pairs.sort_unstable();
     // A truncated count is a lower bound; below the limit the result is exact.
     pairs.truncate(limit);
-    pairs
+    Search { pairs, work, stopped }
 }
 
 /// Crossing triangle pairs *within* groups, for the meshers' repair loops: `tris` holds

@@ -154,6 +154,7 @@ pub fn adaptive_loop_levels(
         full_last_level: true,
         parallel: true,
         max_faces: options.max_faces,
+        max_memory: super::DEFAULT_MAX_MEMORY,
     };
     let refiner = Refiner::new(mesh, corners, &ro)?;
     let mut pos: Vec<Vec<Vec3>> = Vec::with_capacity(n);

@@ -17,11 +17,15 @@
 
 use super::crease::Rules;
 use super::topology::{Detail, Topology, NONE};
-use super::{assume_init, assume_init_mut, fill, fill_chunks, Primvar};
+use super::{
+    assume_init, assume_init_mut, fill, fill_chunks, try_with_capacity, try_zeroed, Primvar, RefineError,
+};
 use std::mem::MaybeUninit;
 
 /// Splits `p` into its Catmull–Clark child topology, building adjacency up to `detail`.
-pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
+///
+/// Errors: [`RefineError::OutOfMemory`] when an array cannot be allocated.
+pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology, RefineError> {
     let nv = p.num_verts;
     let nf = p.num_faces;
     let ne = p.edge_count() as u32;
@@ -32,7 +36,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         num_verts: nv + nf + ne,
         num_faces: nc as u32,
         face_size: 4,
-        face_verts: vec![0; 4 * nc],
+        face_verts: try_zeroed(4 * nc, "face vertices")?,
         ..Default::default()
     };
     fill_chunks(par, &mut t.face_verts, 4, |c, out| {
@@ -43,9 +47,9 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         out[3] = ev_base + p.face_edges[p.prev(c) as usize];
     });
     if detail == Detail::Faces {
-        return t;
+        return Ok(t);
     }
-    t.face_edges = vec![0; 4 * nc];
+    t.face_edges = try_zeroed(4 * nc, "face edges")?;
     fill_chunks(par, &mut t.face_edges, 4, |c, out| {
         let c = c as u32;
         let v = p.face_verts[c as usize];
@@ -55,7 +59,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         out[2] = 2 * ne + pc;
         out[3] = p.half_at(p.face_edges[pc as usize], v);
     });
-    t.edge_verts = vec![[0; 2]; 2 * ne as usize + nc];
+    t.edge_verts = try_zeroed(2 * ne as usize + nc, "edge vertices")?;
     {
         let (halves, interior) = t.edge_verts.split_at_mut(2 * ne as usize);
         fill_chunks(par, halves, 2, |e, out| {
@@ -68,9 +72,9 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         });
     }
     if detail == Detail::Edges {
-        return t;
+        return Ok(t);
     }
-    t.edge_corners = vec![[0; 2]; 2 * ne as usize + nc];
+    t.edge_corners = try_zeroed(2 * ne as usize + nc, "edge corners")?;
     {
         let (halves, interior) = t.edge_corners.split_at_mut(2 * ne as usize);
         fill_chunks(par, halves, 2, |e, out| {
@@ -97,7 +101,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         });
     }
     // Vertex → corners: vertex points, face points, edge points.
-    let mut off = Vec::with_capacity(t.num_verts as usize + 1);
+    let mut off = try_with_capacity(t.num_verts as usize + 1, "vertex corner offsets")?;
     off.push(0u32);
     let mut acc = 0u32;
     for v in 0..nv as usize {
@@ -112,7 +116,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         acc += 2 * (1 + (p.edge_corners[e][1] != NONE) as u32);
         off.push(acc);
     }
-    let mut vc = vec![0u32; acc as usize];
+    let mut vc: Vec<u32> = try_zeroed(acc as usize, "vertex corners")?;
     {
         let (vvs, rest) = vc.split_at_mut(off[nv as usize] as usize);
         let (fvs, evs) = rest.split_at_mut((off[(nv + nf) as usize] - off[nv as usize]) as usize);
@@ -139,7 +143,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
     }
     t.vert_corner_offsets = off;
     t.vert_corners = vc;
-    t
+    Ok(t)
 }
 
 /// Interpolates per-vertex values of level `p` into `dst` (the child level's values).

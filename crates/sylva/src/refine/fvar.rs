@@ -18,8 +18,8 @@
 use super::crease::{self, Features, Rules, INFINITE};
 use super::topology::{Detail, Topology, NONE};
 use super::{
-    interpolate_into, into_init, uninit_vec, BoundaryInterpolation, FvarInterpolation, Primvar, RefineError,
-    Refiner, Scheme,
+    interpolate_into, into_init, try_to_vec, try_uninit_vec, try_with_capacity, BoundaryInterpolation,
+    FvarInterpolation, Primvar, RefineError, Refiner, Scheme,
 };
 use crate::geometry::FaceVarying;
 
@@ -48,60 +48,7 @@ impl FaceVaryingRefiner {
     ) -> Result<FaceVaryingRefiner, RefineError> {
         let mesh = &refiner.levels[0].topo;
         let mesh_features = &refiner.levels[0].features;
-        let nc = mesh.corner_count();
-        if indices.len() != nc {
-            return Err(RefineError::WrongLength {
-                what: "face-varying indices",
-                expected: nc,
-                got: indices.len(),
-            });
-        }
-        // Union–find over corners of the same vertex, across non-seam interior edges.
-        let mut parent: Vec<u32> = (0..nc as u32).collect();
-        fn root(parent: &mut [u32], mut x: u32) -> u32 {
-            while parent[x as usize] != x {
-                let g = parent[parent[x as usize] as usize];
-                parent[x as usize] = g;
-                x = g;
-            }
-            x
-        }
-        for c in 0..nc as u32 {
-            let e = mesh.face_edges[c as usize] as usize;
-            let [c0, c1] = mesh.edge_corners[e];
-            if c1 == NONE || c0 != c {
-                continue;
-            }
-            let seam = indices[c0 as usize] != indices[mesh.next(c1) as usize]
-                || indices[mesh.next(c0) as usize] != indices[c1 as usize];
-            if !seam {
-                // c0 (at a) pairs with the corner at a in c1's face, and likewise at b.
-                for (x, y) in [(c0, mesh.next(c1)), (mesh.next(c0), c1)] {
-                    let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
-                    if rx != ry {
-                        let (lo, hi) = (rx.min(ry), rx.max(ry));
-                        parent[hi as usize] = lo;
-                    }
-                }
-            }
-        }
-        let mut id_of_root = vec![NONE; nc];
-        let mut ids = vec![0u32; nc];
-        let mut value_of = Vec::new();
-        let mut mesh_vertex = Vec::new();
-        for c in 0..nc as u32 {
-            let r = root(&mut parent, c) as usize;
-            if id_of_root[r] == NONE {
-                id_of_root[r] = value_of.len() as u32;
-                value_of.push(indices[c as usize]);
-                mesh_vertex.push(mesh.face_verts[c as usize]);
-            }
-            ids[c as usize] = id_of_root[r];
-        }
-        let offsets: Vec<u32> = (0..=mesh.face_count())
-            .map(|f| if f == mesh.face_count() { nc as u32 } else { mesh.corners(f).start as u32 })
-            .collect();
-        let top = Topology::from_faces(value_of.len(), &offsets, &ids)?;
+        let (top, value_of, mesh_vertex) = control(mesh, indices)?;
         let linear = interpolation == FvarInterpolation::Linear;
         let opts = refiner.options();
         let features = if linear {
@@ -133,7 +80,7 @@ impl FaceVaryingRefiner {
                 rules.push(r);
                 feats = child;
             }
-            let child = super::split(opts.scheme, p, detail, opts.parallel);
+            let child = super::split(opts.scheme, p, detail, opts.parallel)?;
             levels.push(child);
         }
         let values_needed = indices.iter().map(|&i| i as usize + 1).max().unwrap_or(0);
@@ -174,9 +121,10 @@ impl FaceVaryingRefiner {
             });
         }
         let none = Rules::default();
-        let mut cur: Vec<T> = self.value_of.iter().map(|&i| values[i as usize]).collect();
+        let mut cur: Vec<T> = try_with_capacity(self.value_of.len(), "face-varying values")?;
+        cur.extend(self.value_of.iter().map(|&i| values[i as usize]));
         for l in 0..self.levels.len() - 1 {
-            let mut next = uninit_vec(self.levels[l + 1].vertex_count());
+            let mut next = try_uninit_vec(self.levels[l + 1].vertex_count(), "face-varying values")?;
             let rules = self.rules.get(l).unwrap_or(&none);
             interpolate_into(
                 self.scheme,
@@ -197,8 +145,80 @@ impl FaceVaryingRefiner {
     /// finest level, with the finest indices.
     pub fn interpolate<T: Primvar>(&self, values: &[T]) -> Result<FaceVarying<T>, RefineError> {
         let values = self.interpolate_values(values)?;
-        Ok(FaceVarying { values, indices: self.indices().to_vec() })
+        Ok(FaceVarying { values, indices: try_to_vec(self.indices(), "face-varying indices")? })
     }
+}
+
+/// The control level of a face-varying channel with per-corner `indices` on the mesh's
+/// control level `mesh`: its topology (one vertex per (vertex, value, fan)), the value
+/// index of each of its vertices, and the mesh vertex of each.
+fn control(mesh: &Topology, indices: &[u32]) -> Result<(Topology, Vec<u32>, Vec<u32>), RefineError> {
+    let nc = mesh.corner_count();
+    if indices.len() != nc {
+        return Err(RefineError::WrongLength {
+            what: "face-varying indices",
+            expected: nc,
+            got: indices.len(),
+        });
+    }
+    // Union–find over corners of the same vertex, across non-seam interior edges.
+    let mut parent: Vec<u32> = (0..nc as u32).collect();
+    fn root(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            let g = parent[parent[x as usize] as usize];
+            parent[x as usize] = g;
+            x = g;
+        }
+        x
+    }
+    for c in 0..nc as u32 {
+        let e = mesh.face_edges[c as usize] as usize;
+        let [c0, c1] = mesh.edge_corners[e];
+        if c1 == NONE || c0 != c {
+            continue;
+        }
+        let seam = indices[c0 as usize] != indices[mesh.next(c1) as usize]
+            || indices[mesh.next(c0) as usize] != indices[c1 as usize];
+        if !seam {
+            // c0 (at a) pairs with the corner at a in c1's face, and likewise at b.
+            for (x, y) in [(c0, mesh.next(c1)), (mesh.next(c0), c1)] {
+                let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
+                if rx != ry {
+                    let (lo, hi) = (rx.min(ry), rx.max(ry));
+                    parent[hi as usize] = lo;
+                }
+            }
+        }
+    }
+    let mut id_of_root = vec![NONE; nc];
+    let mut ids = vec![0u32; nc];
+    let mut value_of = Vec::new();
+    let mut mesh_vertex = Vec::new();
+    for c in 0..nc as u32 {
+        let r = root(&mut parent, c) as usize;
+        if id_of_root[r] == NONE {
+            id_of_root[r] = value_of.len() as u32;
+            value_of.push(indices[c as usize]);
+            mesh_vertex.push(mesh.face_verts[c as usize]);
+        }
+        ids[c as usize] = id_of_root[r];
+    }
+    let offsets: Vec<u32> = (0..=mesh.face_count())
+        .map(|f| if f == mesh.face_count() { nc as u32 } else { mesh.corners(f).start as u32 })
+        .collect();
+    let top = Topology::from_faces(value_of.len(), &offsets, &ids)?;
+    Ok((top, value_of, mesh_vertex))
+}
+
+/// The element counts of the control level of a channel with `indices` on `control`
+/// (for the memory estimate, [`super::peak_memory`]).
+pub(super) fn control_counts(
+    mesh: &super::Control,
+    indices: &[u32],
+) -> Result<super::memory::Counts, RefineError> {
+    let (top, _, _) = control(&mesh.topo, indices)?;
+    let sharp = top.boundary_edges().len() + mesh.features.creases.len();
+    Ok(super::memory::Counts::of(&top, sharp))
 }
 
 /// Sharp features of the control level of a smooth face-varying channel: the mesh's

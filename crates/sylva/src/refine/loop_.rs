@@ -18,7 +18,7 @@
 
 use super::crease::Rules;
 use super::topology::{Detail, Topology, NONE};
-use super::{assume_init_mut, fill, fill_chunks, Primvar};
+use super::{assume_init_mut, fill, fill_chunks, try_with_capacity, try_zeroed, Primvar, RefineError};
 use std::mem::MaybeUninit;
 
 /// Loop's vertex weight β(n) for valence `n` (spec 000 §2.8 with the cos erratum):
@@ -47,7 +47,9 @@ fn beta_table() -> [f32; 64] {
 
 /// Splits triangle level `p` into its Loop child topology, building adjacency up to
 /// `detail`.
-pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
+///
+/// Errors: [`RefineError::OutOfMemory`] when an array cannot be allocated.
+pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology, RefineError> {
     debug_assert!(p.face_size == 3 || p.num_faces == 0, "Loop needs triangles");
     let nv = p.num_verts;
     let nf = p.num_faces as usize;
@@ -57,7 +59,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         num_verts: nv + ne,
         num_faces: 4 * nf as u32,
         face_size: 3,
-        face_verts: vec![0; 12 * nf],
+        face_verts: try_zeroed(12 * nf, "face vertices")?,
         ..Default::default()
     };
     fill_chunks(par, &mut t.face_verts, 12, |f, out| {
@@ -67,9 +69,9 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         out.copy_from_slice(&[v[0], m0, m2, m0, v[1], m1, m2, m1, v[2], m0, m1, m2]);
     });
     if detail == Detail::Faces {
-        return t;
+        return Ok(t);
     }
-    t.face_edges = vec![0; 12 * nf];
+    t.face_edges = try_zeroed(12 * nf, "face edges")?;
     fill_chunks(par, &mut t.face_edges, 12, |f, out| {
         let v = &p.face_verts[3 * f..3 * f + 3];
         let e = &p.face_edges[3 * f..3 * f + 3];
@@ -90,7 +92,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
             i + 2,
         ]);
     });
-    t.edge_verts = vec![[0; 2]; 2 * ne as usize + 3 * nf];
+    t.edge_verts = try_zeroed(2 * ne as usize + 3 * nf, "edge vertices")?;
     {
         let (halves, interior) = t.edge_verts.split_at_mut(2 * ne as usize);
         fill_chunks(par, halves, 2, |e, out| {
@@ -105,9 +107,9 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         });
     }
     if detail == Detail::Edges {
-        return t;
+        return Ok(t);
     }
-    t.edge_corners = vec![[0; 2]; 2 * ne as usize + 3 * nf];
+    t.edge_corners = try_zeroed(2 * ne as usize + 3 * nf, "edge corners")?;
     {
         let (halves, interior) = t.edge_corners.split_at_mut(2 * ne as usize);
         fill_chunks(par, halves, 2, |e, out| {
@@ -138,7 +140,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
             }
         });
     }
-    let mut off = Vec::with_capacity(t.num_verts as usize + 1);
+    let mut off = try_with_capacity(t.num_verts as usize + 1, "vertex corner offsets")?;
     off.push(0u32);
     let mut acc = 0u32;
     for v in 0..nv as usize {
@@ -149,7 +151,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
         acc += 3 * (1 + (p.edge_corners[e][1] != NONE) as u32);
         off.push(acc);
     }
-    let mut vc = vec![0u32; acc as usize];
+    let mut vc: Vec<u32> = try_zeroed(acc as usize, "vertex corners")?;
     {
         let (vvs, evs) = vc.split_at_mut(off[nv as usize] as usize);
         fill(par, vvs, |i, slot| {
@@ -183,7 +185,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Topology {
     }
     t.vert_corner_offsets = off;
     t.vert_corners = vc;
-    t
+    Ok(t)
 }
 
 /// Interpolates per-vertex values of triangle level `p` into `dst` (the child level).

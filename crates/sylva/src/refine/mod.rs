@@ -33,6 +33,7 @@ pub mod crease;
 pub mod fvar;
 pub mod limit;
 pub mod loop_;
+mod memory;
 pub mod noise;
 pub mod pn;
 pub mod topology;
@@ -50,6 +51,10 @@ use topology::Detail;
 
 /// The largest output a refinement may produce unless told otherwise (100 M faces).
 pub const DEFAULT_MAX_FACES: usize = 100_000_000;
+
+/// The most memory a refinement may need at its peak unless told otherwise
+/// ([`RefineOptions::max_memory`]): 4 GiB.
+pub const DEFAULT_MAX_MEMORY: u64 = 4 << 30;
 
 /// Why a mesh cannot be refined.
 #[derive(Debug, Clone, PartialEq, thiserror::Error, miette::Diagnostic)]
@@ -138,6 +143,35 @@ pub enum RefineError {
         faces: u128,
         /// The limit.
         limit: usize,
+    },
+    /// The refinement would need more memory at its peak than its limit
+    /// ([`RefineOptions::max_memory`]); checked before the levels are allocated.
+    #[error(
+        "{levels} levels of subdivision would make {faces} faces and need about {bytes} bytes at the \
+         refinement's peak, more than the memory limit of {limit} bytes"
+    )]
+    #[diagnostic(help("use fewer levels, or raise the limit (RefineOptions::max_memory)"))]
+    Memory {
+        /// Requested levels.
+        levels: u32,
+        /// Faces that would be produced.
+        faces: u128,
+        /// The estimated peak ([`peak_memory`]).
+        bytes: u128,
+        /// The limit.
+        limit: u64,
+    },
+    /// An allocation of the refinement failed (the system has less memory than the
+    /// estimate allowed for).
+    #[error("out of memory: the refinement's {what} need {bytes} bytes, which could not be allocated")]
+    #[diagnostic(help(
+        "use fewer levels, or lower the memory limit (RefineOptions::max_memory) to what the system has"
+    ))]
+    OutOfMemory {
+        /// The array that could not be allocated.
+        what: &'static str,
+        /// Its size.
+        bytes: u128,
     },
     /// Indices would overflow `u32`.
     #[error("{what} is too large ({count} elements) for 32-bit indices")]
@@ -293,6 +327,9 @@ pub struct RefineOptions {
     pub parallel: bool,
     /// Refuse to produce more faces than this.
     pub max_faces: usize,
+    /// Refuse a refinement whose estimated peak memory ([`peak_memory`]) is over this
+    /// many bytes, before its levels are allocated.
+    pub max_memory: u64,
 }
 
 impl Default for RefineOptions {
@@ -305,6 +342,7 @@ impl Default for RefineOptions {
             full_last_level: false,
             parallel: true,
             max_faces: DEFAULT_MAX_FACES,
+            max_memory: DEFAULT_MAX_MEMORY,
         }
     }
 }
@@ -404,13 +442,61 @@ pub(crate) fn fill_chunks<T: Send>(par: bool, dst: &mut [T], n: usize, f: impl F
     }
 }
 
+/// The error of a failed allocation of `n` values of `T` for `what`.
+fn out_of_memory<T>(n: usize, what: &'static str) -> RefineError {
+    RefineError::OutOfMemory { what, bytes: n as u128 * std::mem::size_of::<T>() as u128 }
+}
+
 /// `n` uninitialised slots, for outputs that a kernel writes completely (saves zeroing
-/// large arrays and lets the first touch of each page happen in the parallel writers).
-pub(crate) fn uninit_vec<T>(n: usize) -> Vec<MaybeUninit<T>> {
-    let mut v = Vec::with_capacity(n);
-    // SAFETY: `MaybeUninit` needs no initialisation, and the capacity is `n`.
+/// large arrays and lets the first touch of each page happen in the parallel writers),
+/// or [`RefineError::OutOfMemory`] naming `what` when the allocation fails.
+pub(crate) fn try_uninit_vec<T>(n: usize, what: &'static str) -> Result<Vec<MaybeUninit<T>>, RefineError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| out_of_memory::<T>(n, what))?;
+    // SAFETY: `MaybeUninit` needs no initialisation, and the capacity is at least `n`.
     unsafe { v.set_len(n) };
-    v
+    Ok(v)
+}
+
+/// An empty vector with room for `n` values, or [`RefineError::OutOfMemory`].
+pub(crate) fn try_with_capacity<T>(n: usize, what: &'static str) -> Result<Vec<T>, RefineError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| out_of_memory::<T>(n, what))?;
+    Ok(v)
+}
+
+/// Types whose all-zero bit pattern is a valid value (index arrays).
+///
+/// # Safety
+/// Implement only for types valid when zeroed.
+pub(crate) unsafe trait Zeroable: Copy {}
+// SAFETY: integers and arrays of them are valid when zeroed.
+unsafe impl Zeroable for u32 {}
+// SAFETY: as above.
+unsafe impl Zeroable for [u32; 2] {}
+
+/// `n` zeros (as `vec![0; n]`, whose pages the system zeroes lazily), or
+/// [`RefineError::OutOfMemory`] naming `what` when the allocation fails.
+pub(crate) fn try_zeroed<T: Zeroable>(n: usize, what: &'static str) -> Result<Vec<T>, RefineError> {
+    let layout = std::alloc::Layout::array::<T>(n).map_err(|_| out_of_memory::<T>(n, what))?;
+    if layout.size() == 0 {
+        return Ok(Vec::new());
+    }
+    // SAFETY: the layout has a non-zero size.
+    let ptr = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<T>();
+    if ptr.is_null() {
+        return Err(out_of_memory::<T>(n, what));
+    }
+    // SAFETY: allocated by the global allocator with `T`'s layout for `n` values, all
+    // valid because `T: Zeroable`.
+    Ok(unsafe { Vec::from_raw_parts(ptr, n, n) })
+}
+
+/// A copy of `src`, or [`RefineError::OutOfMemory`] naming `what`.
+pub(crate) fn try_to_vec<T: Copy>(src: &[T], what: &'static str) -> Result<Vec<T>, RefineError> {
+    let mut v = try_with_capacity(src.len(), what)?;
+    v.extend_from_slice(src);
+    Ok(v)
 }
 
 /// Views fully written slots as values.
@@ -484,8 +570,14 @@ pub(crate) struct Level {
     pub features: Features,
 }
 
-/// Splits `p` with `scheme`.
-pub(crate) fn split(scheme: Scheme, p: &Topology, detail: Detail, par: bool) -> Topology {
+/// Splits `p` with `scheme` ([`RefineError::OutOfMemory`] when an array cannot be
+/// allocated).
+pub(crate) fn split(
+    scheme: Scheme,
+    p: &Topology,
+    detail: Detail,
+    par: bool,
+) -> Result<Topology, RefineError> {
     match scheme {
         Scheme::Loop => loop_::split(p, detail, par),
         Scheme::CatmullClark => catmull_clark::split(p, detail, par),
@@ -526,24 +618,22 @@ impl Refiner {
     /// Validates `mesh` (manifold, consistently oriented; triangles for Loop), reads its
     /// creases (`mesh.creases`) and the vertex sharpness in `corners`, checks the face
     /// budget and refines the topology `options.levels` times. Positions are not read.
+    ///
+    /// Its estimated peak memory — the levels' topology and one `Vec3` value set
+    /// interpolated through them ([`peak_memory`] counts what [`subdivide`] adds) — is
+    /// checked against [`RefineOptions::max_memory`] after the control level is built and
+    /// before any refined level is allocated ([`RefineError::Memory`]); the levels' arrays
+    /// are then reserved fallibly, so a system with less memory than the limit gives
+    /// [`RefineError::OutOfMemory`] instead of an abort.
     pub fn new(mesh: &Mesh, corners: &[Corner], options: &RefineOptions) -> Result<Refiner, RefineError> {
-        let n_faces = mesh.face_count();
-        if options.scheme == Scheme::Loop {
-            if let Some(f) = (0..n_faces).find(|&f| mesh.face(f).len() != 3) {
-                return Err(RefineError::NotTriangles { face: f, corners: mesh.face(f).len() });
-            }
-        }
-        let out = output_face_count(options.scheme, n_faces, mesh.face_indices.len(), options.levels);
-        if out > options.max_faces as u128 {
-            return Err(RefineError::Budget { levels: options.levels, faces: out, limit: options.max_faces });
-        }
-        // Indices must fit in u32 at the finest level (vertices ≈ faces + corners).
-        if out.saturating_mul(2) + mesh.positions.len() as u128 >= NONE as u128 {
-            return Err(RefineError::TooLarge { what: "refined mesh", count: out as usize });
-        }
-        let topo = Topology::from_faces(mesh.positions.len(), &mesh.face_offsets, &mesh.face_indices)?;
-        let features = control_features(&topo, &mesh.creases, corners)?;
-        let mut levels = vec![Level { topo, features }];
+        let control = Control::new(mesh, corners, options)?;
+        control.check_memory(options, control.peak(options, &PeakParts::default()))?;
+        Refiner::refine(control, options)
+    }
+
+    /// Refines the checked control level `options.levels` times.
+    fn refine(control: Control, options: &RefineOptions) -> Result<Refiner, RefineError> {
+        let mut levels = vec![Level { topo: control.topo, features: control.features }];
         let mut rules = Vec::new();
         for l in 0..options.levels {
             let last = l + 1 == options.levels;
@@ -551,7 +641,7 @@ impl Refiner {
             let (r, child_features) =
                 crease::refine_features(&parent.topo, &parent.features, options.creasing, options.boundary);
             let detail = if last && !options.full_last_level { Detail::Faces } else { Detail::Full };
-            let topo = split(options.scheme, &parent.topo, detail, options.parallel);
+            let topo = split(options.scheme, &parent.topo, detail, options.parallel)?;
             rules.push(r);
             levels.push(Level { topo, features: child_features });
         }
@@ -584,10 +674,10 @@ impl Refiner {
         if control.len() != expected {
             return Err(RefineError::WrongLength { what: "control values", expected, got: control.len() });
         }
-        let mut cur = control.to_vec();
+        let mut cur = try_to_vec(control, "interpolated values")?;
         for l in 0..self.levels() {
             let p = &self.levels[l].topo;
-            let mut next = uninit_vec(self.level(l + 1).vertex_count());
+            let mut next = try_uninit_vec(self.level(l + 1).vertex_count(), "interpolated values")?;
             interpolate_into(
                 self.options.scheme,
                 false,
@@ -712,12 +802,26 @@ impl Refiner {
     /// mesher maps refined faces back to its skeleton nodes without refining twice).
     pub fn control_faces(&self) -> Vec<u32> {
         let mut up: Vec<u32> = (0..self.finest().face_count() as u32).collect();
+        self.control_faces_into(&mut up);
+        up
+    }
+
+    /// [`Refiner::control_faces`] with a fallible allocation.
+    fn try_control_faces(&self) -> Result<Vec<u32>, RefineError> {
+        let n = self.finest().face_count();
+        let mut up = try_with_capacity(n, "control faces")?;
+        up.extend(0..n as u32);
+        self.control_faces_into(&mut up);
+        Ok(up)
+    }
+
+    /// Maps finest faces `up` to their control faces, in place.
+    fn control_faces_into(&self, up: &mut [u32]) {
         for l in (0..self.levels()).rev() {
-            for f in &mut up {
+            for f in up.iter_mut() {
                 *f = self.parent_face(l, *f);
             }
         }
-        up
     }
 
     /// The finest level's faces as a [`Mesh`] with `positions` (no face-varying data).
@@ -734,6 +838,126 @@ impl Refiner {
         m.creases = self.finest_creases();
         m
     }
+
+    /// [`Refiner::finest_mesh`] with fallible allocations of the big arrays.
+    fn try_finest_mesh(&self, positions: Vec<Vec3>) -> Result<Mesh, RefineError> {
+        let t = self.finest();
+        let mut m = Mesh::new();
+        m.positions = positions;
+        m.face_indices = try_to_vec(&t.face_verts, "refined face indices")?;
+        m.face_offsets = if t.face_size > 0 {
+            let mut o = try_with_capacity(t.num_faces as usize + 1, "refined face offsets")?;
+            o.extend((0..=t.num_faces).map(|f| f * t.face_size));
+            o
+        } else {
+            try_to_vec(&t.face_offsets, "refined face offsets")?
+        };
+        m.creases = self.finest_creases();
+        Ok(m)
+    }
+}
+
+/// A checked control level: its adjacency and sharp features, before refinement.
+struct Control {
+    topo: Topology,
+    features: Features,
+}
+
+impl Control {
+    /// Validates `mesh`, checks the face budget and builds level 0.
+    fn new(mesh: &Mesh, corners: &[Corner], options: &RefineOptions) -> Result<Control, RefineError> {
+        let n_faces = mesh.face_count();
+        if options.scheme == Scheme::Loop {
+            if let Some(f) = (0..n_faces).find(|&f| mesh.face(f).len() != 3) {
+                return Err(RefineError::NotTriangles { face: f, corners: mesh.face(f).len() });
+            }
+        }
+        let out = output_face_count(options.scheme, n_faces, mesh.face_indices.len(), options.levels);
+        if out > options.max_faces as u128 {
+            return Err(RefineError::Budget { levels: options.levels, faces: out, limit: options.max_faces });
+        }
+        // Indices must fit in u32 at the finest level (vertices ≈ faces + corners).
+        if out.saturating_mul(2) + mesh.positions.len() as u128 >= NONE as u128 {
+            return Err(RefineError::TooLarge { what: "refined mesh", count: out as usize });
+        }
+        let topo = Topology::from_faces(mesh.positions.len(), &mesh.face_offsets, &mesh.face_indices)?;
+        let features = control_features(&topo, &mesh.creases, corners)?;
+        Ok(Control { topo, features })
+    }
+
+    /// The element counts of level 0.
+    fn counts(&self) -> memory::Counts {
+        memory::Counts::of(&self.topo, self.features.creases.len() + self.features.boundary.len())
+    }
+
+    /// The estimated peak of refining it with `options` and `parts`.
+    fn peak(&self, options: &RefineOptions, parts: &PeakParts) -> u128 {
+        memory::peak(options, self.counts(), self.topo.face_size == 0, parts)
+    }
+
+    /// [`RefineError::Memory`] when `bytes` is over the options' limit.
+    fn check_memory(&self, options: &RefineOptions, bytes: u128) -> Result<(), RefineError> {
+        if bytes > options.max_memory as u128 {
+            let faces = output_face_count(
+                options.scheme,
+                self.topo.face_count(),
+                self.topo.corner_count(),
+                options.levels,
+            );
+            return Err(RefineError::Memory {
+                levels: options.levels,
+                faces,
+                bytes,
+                limit: options.max_memory,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What a refinement holds at its peak besides its levels' topology and one `Vec3`
+/// value set (the input of [`peak_memory`]'s estimate).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct PeakParts {
+    /// Face-varying UVs: their control level's counts and interpolation.
+    uvs: Option<(memory::Counts, FvarInterpolation)>,
+    /// Limit positions and normals.
+    limit: bool,
+    /// The refined [`Mesh`] and the control face of every refined face, as
+    /// [`subdivide_traced`] returns them.
+    output: bool,
+}
+
+/// The estimated peak memory, in bytes, of [`subdivide`] (and [`subdivide_traced`]) on
+/// `mesh` with `options`: every level's adjacency and sharp features, the positions
+/// interpolated level by level, the limit positions and normals, the face-varying UV
+/// channel's own levels and values, and the refined [`Mesh`] with its control faces, at
+/// the point where most of them are alive at once. It is an upper bound, within about
+/// a third, of what the allocations measure (`tests/robustness_memory.rs`); about 85
+/// bytes per refined Catmull–Clark face without UVs or limit, 160 with UVs, 270 with
+/// both (Loop: about 60, 110 and 190 per refined triangle). Builds the control level
+/// (and its UV channel's) to count its edges and seams, so it errs as [`subdivide`]
+/// does on an invalid mesh or a face budget exceeded.
+pub fn peak_memory(mesh: &Mesh, corners: &[Corner], options: &SubdivideOptions) -> Result<u128, RefineError> {
+    mesh.validate().map_err(RefineError::InvalidMesh)?;
+    let mut ro = options.refine.clone();
+    ro.full_last_level |= options.limit;
+    let control = Control::new(mesh, corners, &ro)?;
+    let parts = subdivide_parts(mesh, &control, options)?;
+    Ok(control.peak(&ro, &parts))
+}
+
+/// What [`subdivide_traced`] adds to the refiner's peak for `mesh`.
+fn subdivide_parts(
+    mesh: &Mesh,
+    control: &Control,
+    options: &SubdivideOptions,
+) -> Result<PeakParts, RefineError> {
+    let uvs = match &mesh.uvs {
+        Some(uvs) => Some((fvar::control_counts(control, &uvs.indices)?, options.uv)),
+        None => None,
+    };
+    Ok(PeakParts { uvs, limit: options.limit, output: true })
 }
 
 /// Reads the control mesh's tagged creases and vertex sharpness into sparse feature lists
@@ -817,7 +1041,11 @@ pub fn subdivide_traced(
     mesh.validate().map_err(RefineError::InvalidMesh)?;
     let mut ro = options.refine.clone();
     ro.full_last_level |= options.limit;
-    let refiner = Refiner::new(mesh, corners, &ro)?;
+    // The whole run's peak is checked before any refined level is allocated.
+    let control = Control::new(mesh, corners, &ro)?;
+    let parts = subdivide_parts(mesh, &control, options)?;
+    control.check_memory(&ro, control.peak(&ro, &parts))?;
+    let refiner = Refiner::refine(control, &ro)?;
     let mut positions = refiner.interpolate(&mesh.positions)?;
     let mut normals = None;
     if options.limit {
@@ -825,13 +1053,14 @@ pub fn subdivide_traced(
         normals = Some(refiner.limit_normals(&positions)?);
         positions = refiner.limit(&positions)?;
     }
-    let mut out = refiner.finest_mesh(positions);
+    let mut out = refiner.try_finest_mesh(positions)?;
     out.normals = normals;
     if let Some(uvs) = &mesh.uvs {
         let fvr = refiner.face_varying(&uvs.indices, options.uv)?;
         out.uvs = Some(fvr.interpolate(&uvs.values)?);
     }
-    Ok((out, refiner.control_faces()))
+    let control_faces = refiner.try_control_faces()?;
+    Ok((out, control_faces))
 }
 
 /// Runs `f` on a dedicated rayon pool of `threads` workers (refinement inside it uses that
