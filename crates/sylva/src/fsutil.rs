@@ -187,21 +187,26 @@ impl OutputSet {
     ///    error names the file that failed. On success the backups are removed and the
     ///    folders are synced.
     ///
-    /// SIGINT / SIGTERM / SIGHUP arriving during step 2–3 wait until it is done (with
-    /// [`install_signal_cleanup`]). Every temporary is gone when this returns.
+    /// SIGINT / SIGTERM / SIGHUP arriving during these steps (waiting for the lock
+    /// included) are held until they are done (with [`install_signal_cleanup`]), then end
+    /// the process. Every temporary is gone when this returns.
     pub fn commit(mut self) -> Result<()> {
         if self.staged.is_empty() {
             return Ok(());
         }
-        let lock = Lock::acquire(&self.primary)?;
+        // Signals wait from before the lock file is made until it is removed again, so
+        // that a signal never leaves the lock file or half a set behind.
         commit_begin();
-        let result = self.rename_all();
-        drop(lock);
+        let result = Lock::acquire(&self.primary).and_then(|lock| {
+            let renamed = self.rename_all();
+            drop(lock);
+            renamed
+        });
         commit_end();
         result
     }
 
-    /// Step 2–3 of [`commit`](OutputSet::commit), under the lock.
+    /// Steps 2–3 of [`commit`](OutputSet::commit), under the lock.
     fn rename_all(&mut self) -> Result<()> {
         let primary = canonical_key(&self.primary).ok();
         let mut staged = std::mem::take(&mut self.staged);
