@@ -22,7 +22,7 @@
 //!   primitives, hostile model folders), always through the whole pipeline and the
 //!   export (`.glb`, `.obj` + `.mtl`, `.gltf`, `.pov` + `.inc`, `.ply`).
 //! - **cli** (`--cli`): every `--cli-every`-th readers run and every
-//!   `--class-cli-every`-th classes run also spawns the CLI (`sylva grow` with a random
+//!   `--class-cli-every`-th round of eight classes runs also spawns the CLI (`sylva grow` with a random
 //!   output format and sometimes a preview, `check`, `subdivide`) in a fresh folder
 //!   under the same limits; its stdout and stderr are kept outside that folder.
 //! - **kill** (`--kill-runs`, needs `--cli`): `sylva grow --kill-what` (a mid-size tree,
@@ -132,7 +132,7 @@ fn args() -> Args {
         }
         i += 2;
     }
-    if let Some(l) = &a.lane {
+    if let (Some(l), false) = (&a.lane, a.worker) {
         // Replaying one lane: the other gets no runs.
         match l.as_str() {
             "readers" => a.class_runs = 0,
@@ -830,7 +830,8 @@ fn cli_lane(a: &Args, cli: &Path, corpus: &fuzz_support::Corpus) -> Tally {
         while i < ei && !(a.cli_every > 0 && i % a.cli_every == 0) {
             i += 1;
         }
-        while j < ej && !(a.class_cli_every > 0 && j % a.class_cli_every == 0) {
+        // Whole rounds of the eight classes, so every class reaches the CLI.
+        while j < ej && !(a.class_cli_every > 0 && (j / 8).is_multiple_of(a.class_cli_every)) {
             j += 1;
         }
         if i >= ei && j >= ej {
@@ -1016,7 +1017,7 @@ fn save_slowest(a: &Args, t: &Tally, corpus: &fuzz_support::Corpus) {
 }
 
 fn print_table(name: &str, t: &Tally, timeout: u64) {
-    if t.per_key.is_empty() {
+    if t.per_key.is_empty() && t.findings.is_empty() {
         return;
     }
     println!();
