@@ -850,6 +850,7 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     let Generated { mut skeleton, surfaces, curves } = skeleton(loaded, &mut report)?;
     shape_stage(&loaded.recipe, &mut skeleton, &mut report)?;
     report.skeleton = skeleton.stats();
+    check_degenerate(&loaded.recipe, &skeleton)?;
     if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
         decollide_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;
     } else if loaded.recipe.mesh.decollides() {
@@ -883,6 +884,85 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     wind_stage(&loaded.recipe, &mut model, &mut report);
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
+}
+
+/// Rejects degenerate geometry before the expensive stages (issue 39): a radius over
+/// [`crate::skeleton::ABSURD_RADIUS_RATIO`] times the skeleton's size (every capsule would
+/// hold the whole tree: `generator.width = 1e30`), and, when a stage that searches for
+/// collisions will run (`mesh.decollide`, `mesh.clear`, the `sweep`, `hull` and `quad`
+/// meshers' repairs), a skeleton whose internode capsules overlap in more candidate
+/// pairs than [`crate::skeleton::Degeneracy::crowded_limit`] (coincident nodes,
+/// zero-length or reversing internodes piled up, radii too large for the lengths):
+/// those searches are quadratic in such a pile. The message names the first offending
+/// node and the key to change. Counting stops at the limit, so the check costs a BVH
+/// over the internodes at most.
+pub fn check_degenerate(recipe: &Recipe, skeleton: &Skeleton) -> Result<()> {
+    use crate::skeleton::Degeneracy;
+    let n = skeleton.len();
+    let method = recipe.mesh.method.as_str();
+    let searching = recipe.mesh.decollides_nodes(n)
+        || recipe.mesh.clears_nodes(n)
+        || matches!(method, "sweep" | "hull" | "quad");
+    let internodes = skeleton.parent.iter().filter(|&&p| p != crate::skeleton::NO_PARENT).count();
+    let d = skeleton.degeneracy(if searching { Degeneracy::crowded_limit(internodes) } else { 0 });
+    let what = format!("the skeleton of recipe `{}`", recipe.name);
+    let radius_key = match &recipe.generator {
+        Generator::Lsystem(_) => "`generator.width` (or the model's own width changes)",
+        Generator::Import(_) => "the file's radii",
+        _ => "the generator's radius settings",
+    };
+    if let Some((node, r)) = d.absurd_radius() {
+        return Err(Error::InvalidGeometry {
+            what,
+            why: format!(
+                "node {node} has radius {r:.3e}, over {} times the size of the whole skeleton ({:.3e}, the \
+                 diagonal of its nodes' bounds): every internode would be a ball holding the tree; lower \
+                 {radius_key}",
+                crate::skeleton::ABSURD_RADIUS_RATIO,
+                d.size
+            ),
+        });
+    }
+    if searching && d.crowded() {
+        let mut causes = Vec::new();
+        if let Some(i) = d.first_zero_length {
+            causes.push(format!("{} zero-length internode(s), the first ending at node {i}", d.zero_length));
+        }
+        if let Some(i) = d.first_reversing {
+            causes.push(format!(
+                "{} internode(s) turning straight back along their parent, the first ending at node {i}",
+                d.reversing
+            ));
+        }
+        if causes.is_empty() {
+            causes.push("nodes (near-)coincident or radii large for the lengths".into());
+        }
+        let limit = Degeneracy::crowded_limit(internodes);
+        let pile = if d.pairs > limit {
+            let busiest = d
+                .busiest
+                .map(|(i, m)| format!("; the internode ending at node {i} overlaps {m} others"))
+                .unwrap_or_default();
+            format!(
+                "the capsules of its {internodes} internodes overlap in more than {limit} pairs (over {} per \
+                 internode{busiest})",
+                crate::skeleton::CROWDED_PAIRS_PER_INTERNODE
+            )
+        } else {
+            format!("{} of its {internodes} internodes have zero length", d.zero_length)
+        };
+        return Err(Error::InvalidGeometry {
+            what,
+            why: format!(
+                "degenerate geometry: {pile}: {}. The collision searches of `mesh.method = \"{method}\"` (and of \
+                 mesh.decollide and mesh.clear) are quadratic in such a pile; merge the coincident nodes, lower \
+                 {radius_key}, or mesh it with mesh.method = \"tube\", mesh.decollide = false and \
+                 mesh.clear = false",
+                causes.join(", ")
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// The LOD stage (issue 24, `[lod]`): builds the chain of [`crate::lod::build_chain`]

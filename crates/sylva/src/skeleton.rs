@@ -425,6 +425,150 @@ impl Skeleton {
     }
 }
 
+/// A radius more than this many times the skeleton's size (the diagonal of its nodes'
+/// bounding box) is absurd: every internode's capsule would hold the whole tree
+/// ([`Degeneracy::absurd_radius`]).
+pub const ABSURD_RADIUS_RATIO: f64 = 1000.0;
+
+/// Candidate pairs per internode over which a skeleton is crowded
+/// ([`Degeneracy::crowded`]): a tree's internode capsules overlap a few neighbours each.
+pub const CROWDED_PAIRS_PER_INTERNODE: u64 = 64;
+
+/// Candidate pairs under which a skeleton is never crowded, whatever its size (a search
+/// of this many pairs takes well under a second).
+pub const CROWDED_MIN_PAIRS: u64 = 1_000_000;
+
+/// Zero-length internodes a skeleton may have however many it has in all
+/// ([`Degeneracy::crowded`]; none of the presets has any).
+pub const PILED_ZERO_LENGTH: usize = 64;
+
+/// Degenerate geometry of a skeleton (issue 39), found by [`Skeleton::degeneracy`]
+/// before the stages whose collision searches it would make quadratic (the joint
+/// meshers' repairs, `mesh.decollide`, `mesh.clear`): zero-length and reversing
+/// internodes, coincident nodes, and radii absurd for the lengths. Internodes are named
+/// by their child node.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Degeneracy {
+    /// Internodes (nodes with a parent).
+    pub internodes: usize,
+    /// Internodes of zero length (within float noise of their coordinates), and the first.
+    pub zero_length: usize,
+    /// The first zero-length internode.
+    pub first_zero_length: Option<u32>,
+    /// Internodes that turn straight back along their parent's (within 2.5°), and the
+    /// first.
+    pub reversing: usize,
+    /// The first reversing internode.
+    pub first_reversing: Option<u32>,
+    /// The node of the largest radius, and that radius.
+    pub max_radius: Option<(u32, f32)>,
+    /// The diagonal of the nodes' bounding box.
+    pub size: f64,
+    /// Pairs of internodes whose capsules' boxes overlap (the candidate pairs of every
+    /// collision search), counted up to the limit [`Skeleton::degeneracy`] was given.
+    pub pairs: u64,
+    /// The internode whose box overlaps the most others among those counted, and how many.
+    pub busiest: Option<(u32, u64)>,
+}
+
+impl Degeneracy {
+    /// The node and radius when the largest radius is over [`ABSURD_RADIUS_RATIO`] times
+    /// the skeleton's size (a skeleton whose nodes all lie at one point has no size: its
+    /// internodes are zero-length, not its radii absurd).
+    pub fn absurd_radius(&self) -> Option<(u32, f32)> {
+        let (node, r) = self.max_radius?;
+        (self.internodes > 0 && self.size > 0.0 && (r as f64) > ABSURD_RADIUS_RATIO * self.size)
+            .then_some((node, r))
+    }
+
+    /// The pair limit over which a skeleton of `internodes` internodes is crowded.
+    pub fn crowded_limit(internodes: usize) -> u64 {
+        (internodes as u64).saturating_mul(CROWDED_PAIRS_PER_INTERNODE).max(CROWDED_MIN_PAIRS)
+    }
+
+    /// Whether the candidate pairs are over [`Degeneracy::crowded_limit`], or more than
+    /// [`PILED_ZERO_LENGTH`] internodes, and over a quarter of them, have zero length
+    /// (a pile of coincident nodes: every pair of it is measured through the whole
+    /// pile).
+    pub fn crowded(&self) -> bool {
+        self.pairs > Self::crowded_limit(self.internodes)
+            || (self.zero_length > PILED_ZERO_LENGTH && self.zero_length * 4 > self.internodes)
+    }
+}
+
+impl Skeleton {
+    /// Finds the skeleton's degenerate geometry ([`Degeneracy`]): one linear pass, plus,
+    /// when `pair_limit` > 0, a count of the internode pairs whose capsule boxes (padded
+    /// by the larger end radius) overlap, which stops once it is over `pair_limit` (so
+    /// its cost is bounded by the limit and the node count, not by the pairs).
+    pub fn degeneracy(&self, pair_limit: u64) -> Degeneracy {
+        use crate::mesh::check::{build_bvh, query, Aabb};
+        let n = self.len();
+        let mut d = Degeneracy::default();
+        if n == 0 {
+            return d;
+        }
+        let (mut lo, mut hi) = (self.position[0], self.position[0]);
+        for i in 0..n {
+            lo = lo.min(self.position[i]);
+            hi = hi.max(self.position[i]);
+            if d.max_radius.is_none_or(|(_, r)| self.radius[i] > r) {
+                d.max_radius = Some((i as u32, self.radius[i]));
+            }
+            let p = self.parent[i];
+            if p == NO_PARENT {
+                continue;
+            }
+            d.internodes += 1;
+            let (a, b) = (self.position[p as usize].as_dvec3(), self.position[i].as_dvec3());
+            let v = b - a;
+            let tiny = 1e-6 * a.abs().max_element().max(b.abs().max_element()) + 1e-12;
+            if v.length() <= tiny {
+                d.zero_length += 1;
+                d.first_zero_length.get_or_insert(i as u32);
+                continue;
+            }
+            let g = self.parent[p as usize];
+            if g != NO_PARENT {
+                let u = a - self.position[g as usize].as_dvec3();
+                let (lu, lv) = (u.length(), v.length());
+                if lu > tiny && u.dot(v) < -0.999 * lu * lv {
+                    d.reversing += 1;
+                    d.first_reversing.get_or_insert(i as u32);
+                }
+            }
+        }
+        d.size = hi.as_dvec3().distance(lo.as_dvec3());
+        if pair_limit == 0 || d.internodes < 2 {
+            return d;
+        }
+        let seg: Vec<usize> = (0..n).filter(|&i| self.parent[i] != NO_PARENT).collect();
+        let boxes: Vec<Aabb> = seg
+            .iter()
+            .map(|&i| {
+                let p = self.parent[i] as usize;
+                let r = self.radius[i].max(self.radius[p]) as f64;
+                let (a, b) = (self.position[p].as_dvec3(), self.position[i].as_dvec3());
+                Aabb { lo: a.min(b) - r, hi: a.max(b) + r }
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..seg.len() as u32).collect();
+        let nodes = build_bvh(&boxes, &mut order);
+        for (k, b) in boxes.iter().enumerate() {
+            let mine = query(&nodes, &order, b).into_iter().filter(|&o| o > k && boxes[o].overlaps(b)).count()
+                as u64;
+            d.pairs += mine;
+            if d.busiest.is_none_or(|(_, m)| mine > m) {
+                d.busiest = Some((seg[k] as u32, mine));
+            }
+            if d.pairs > pair_limit {
+                break;
+            }
+        }
+        d
+    }
+}
+
 /// Child lists of a [`Skeleton`] in compressed sparse rows (see [`Skeleton::children`]).
 #[derive(Debug, Clone)]
 pub struct Children {

@@ -84,6 +84,7 @@ use crate::mesh::check::{
 use crate::skeleton::{OrganKind, Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Settings of [`decollide`]: the recipe table `[fit.decollide]` (every key optional;
@@ -134,17 +135,20 @@ pub struct DecollideOptions {
     /// 0, were "clear").
     pub min_radius: f64,
     /// Work budget of the whole pass (issue 27): one unit per skeleton node of every
-    /// collision search and per capsule query of the rotation trials, over all rounds
-    /// and last resorts (counted, not timed, so the result stays deterministic). A pass
+    /// collision search and per capsule query of the rotation trials, and (issue 39) one
+    /// per candidate internode pair a search or query examines and per colliding pair
+    /// measured again, over all rounds and last resorts (counted, not timed, so the
+    /// result stays deterministic). A pass
     /// that needs more stops with an error naming `fit.decollide.max_work`. Left out of
     /// written metadata at its default ([`DEFAULT_DECOLLIDE_WORK`]).
     #[serde(skip_serializing_if = "is_default_decollide_work")]
     pub max_work: u64,
 }
 
-/// Default [`DecollideOptions::max_work`]: 5·10⁷ units, over the 30 k-node presets'
-/// worst case (8 rounds at `work_per_node` = 200) and about 15 s of work on this
-/// project's 2-core machine.
+/// Default [`DecollideOptions::max_work`]: 5·10⁷ units, about 4 times the presets' worst
+/// case counting candidate pairs (1.3·10⁷, `wp-european-larch` with `hull`; `mig-a`
+/// 6.6·10⁶) and 4–15 s of work on this project's 2-core machine (80–290 ns a unit:
+/// 400 near-coincident nodes reach it in 4 s).
 pub const DEFAULT_DECOLLIDE_WORK: u64 = 50_000_000;
 
 /// Largest [`DecollideOptions::max_work`] accepted.
@@ -156,20 +160,44 @@ fn is_default_decollide_work(w: &u64) -> bool {
 }
 
 /// The work a pass has spent, against [`DecollideOptions::max_work`].
+///
+/// Issue 39: a unit is one skeleton node of a collision search, one capsule query of a
+/// trial, or one **candidate pair** a search or query examines (two internode boxes
+/// that overlap). The pairs are what varies: a few per internode on a tree, every other
+/// internode on a skeleton whose nodes coincide or whose radii dwarf its lengths, so
+/// counting nodes alone let such a skeleton run for minutes within its budget. Only
+/// what a search must examine is charged, whatever the threads do, so the outcome stays
+/// the same for every thread count; a search stops early only once the pass is over
+/// its budget, and the pass then fails.
 struct Work {
-    spent: std::cell::Cell<u64>,
+    spent: AtomicU64,
     max: u64,
 }
 
 impl Work {
     /// Adds `n` units.
     fn charge(&self, n: usize) {
-        self.spent.set(self.spent.get().saturating_add(n as u64));
+        self.charge_u64(n as u64);
+    }
+
+    /// Adds `n` units.
+    fn charge_u64(&self, n: u64) {
+        let _ = self.spent.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |v| Some(v.saturating_add(n)));
     }
 
     /// Whether the spent work is over the budget.
     fn over(&self) -> bool {
-        self.spent.get() > self.max
+        self.spent.load(Ordering::Relaxed) > self.max
+    }
+
+    /// Units left before the budget is over (0 once it is).
+    fn left(&self) -> u64 {
+        self.max.saturating_sub(self.spent.load(Ordering::Relaxed))
+    }
+
+    /// Marks the budget as used up.
+    fn exhaust(&self) {
+        self.charge_u64(self.max.saturating_add(1));
     }
 }
 
@@ -224,6 +252,8 @@ pub struct DecollideReport {
     pub raised: usize,
     /// The collisions left (internodes named by their child node, smaller first).
     pub unresolved: Vec<[usize; 2]>,
+    /// Work spent, in [`DecollideOptions::max_work`]'s units.
+    pub work: u64,
     /// Wall time.
     pub elapsed: Duration,
 }
@@ -247,11 +277,29 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     skeleton.validate()?;
     opts.check()?;
     let raised = raise_to_floor(skeleton, opts.min_radius);
-    let work = Work { spent: std::cell::Cell::new(skeleton.len() as u64), max: opts.max_work };
+    let work = Work { spent: AtomicU64::new(skeleton.len() as u64), max: opts.max_work };
+    let over = |s: &Skeleton| {
+        Error::Recipe(format!(
+            "`fit.decollide.max_work`: the skeleton de-collision of {} nodes needs more than its work budget \
+             of {} units (skeleton nodes per collision search, capsule queries of the rotation trials and the \
+             candidate internode pairs both examine: a skeleton whose nodes coincide or whose radii dwarf its \
+             lengths has millions); raise it with --set fit.decollide.max_work=N, lower \
+             fit.decollide.max_rounds or fit.decollide.work_per_node, or turn the pass off with \
+             mesh.decollide = false",
+            s.len(),
+            opts.max_work
+        ))
+    };
+    // The checker's search examines the same candidate pairs (its boxes are no larger):
+    // charged, and stopped, before it runs.
+    if !charge_search(skeleton, opts.clearance, &work) {
+        return Err(over(skeleton));
+    }
     let first = skeleton_collisions(skeleton, CHECK_TOLERANCE);
     let mut report = DecollideReport { before: first.len(), raised, ..Default::default() };
     if first.is_empty() {
         report.elapsed = t0.elapsed();
+        report.work = work.spent.load(Ordering::Relaxed);
         return Ok(report);
     }
     let topo = Topology::new(skeleton);
@@ -259,43 +307,37 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     let original_radius = skeleton.radius.clone();
     (report.rounds, report.rotations) = rounds(skeleton, &topo, opts, opts.max_rounds, &work);
     work.charge(skeleton.len());
-    let mut left = collisions(skeleton, &topo, opts.clearance);
-    if !left.is_empty() {
+    let mut left = collisions(skeleton, &topo, opts.clearance, &work);
+    if !left.is_empty() && !work.over() {
         // What rotation could not clear is thinned like a near-joint pair (down to
         // `min_thinning`), then tips are pulled back.
         let deep = DecollideOptions { far_thinning: opts.min_thinning, ..opts.clone() };
         if thin(skeleton, &topo, &left, &deep) {
             work.charge(skeleton.len());
-            left = collisions(skeleton, &topo, opts.clearance);
+            left = collisions(skeleton, &topo, opts.clearance, &work);
         }
-        report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance);
+        report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance, &work);
         if report.retracted > 0 {
             work.charge(skeleton.len());
-            left = collisions(skeleton, &topo, opts.clearance);
+            left = collisions(skeleton, &topo, opts.clearance, &work);
         }
-        report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance);
+        report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance, &work);
         if report.extended > 0 {
             work.charge(skeleton.len());
-            left = collisions(skeleton, &topo, opts.clearance);
+            left = collisions(skeleton, &topo, opts.clearance, &work);
         }
         if !left.is_empty() && !work.over() {
             report.traded = trade(skeleton, &topo, &left, opts, &mut report.rotations, &work);
         }
     }
-    if work.over() {
-        return Err(Error::Recipe(format!(
-            "`fit.decollide.max_work`: the skeleton de-collision of {} nodes needs more than its work budget \
-             of {} units (skeleton nodes per collision search plus capsule queries of the rotation trials); \
-             raise it with --set fit.decollide.max_work=N, lower fit.decollide.max_rounds or \
-             fit.decollide.work_per_node, or turn the pass off with mesh.decollide = false",
-            skeleton.len(),
-            opts.max_work
-        )));
+    if work.over() || !charge_search(skeleton, opts.clearance, &work) {
+        return Err(over(skeleton));
     }
     report.thinned = skeleton.radius.iter().zip(&original_radius).filter(|(a, b)| a != b).count();
     report.unresolved = skeleton_collisions(skeleton, CHECK_TOLERANCE);
     report.after = report.unresolved.len();
     report.elapsed = t0.elapsed();
+    report.work = work.spent.load(Ordering::Relaxed);
     Ok(report)
 }
 
@@ -359,6 +401,11 @@ struct Topology {
     /// The organs hanging on each node, as a CSR (offsets, organ indices).
     organ_offsets: Vec<u32>,
     organ_list: Vec<u32>,
+    /// The nearest joint at or above each node ([`joints_above`]), `NO_PARENT` for none:
+    /// so finding joints costs one step per joint, not a walk down a long unbranched
+    /// chain (issue 39: a chain of 1,000 zero-length internodes walked 1,000 nodes per
+    /// colliding pair).
+    joint_up: Vec<u32>,
 }
 
 impl Topology {
@@ -406,7 +453,19 @@ impl Topology {
                 fill[o.node as usize] += 1;
             }
         }
-        Topology { depth, tin, tout, pre, child_count, organ_offsets, organ_list }
+        let mut joint_up = vec![NO_PARENT; n];
+        for i in 0..n {
+            let p = s.parent[i];
+            if p == NO_PARENT {
+                continue;
+            }
+            joint_up[i] = if child_count[p as usize] > 1 || s.order[i] != s.order[p as usize] {
+                i as u32
+            } else {
+                joint_up[p as usize]
+            };
+        }
+        Topology { depth, tin, tout, pre, child_count, organ_offsets, organ_list, joint_up }
     }
 
     /// True when `x` is in the subtree of `c` (including `c`).
@@ -591,9 +650,14 @@ impl Bvh {
     }
 }
 
+/// Pairs examined between two checks of the budget inside one internode's search.
+const PAIR_CHECK: u64 = 4096;
+
 /// Colliding internode pairs at `clearance` (axes closer than `(r_a + r_b)(1 + clearance)`),
-/// sorted, each `[smaller, larger]` child node.
-fn collisions(s: &Skeleton, topo: &Topology, clearance: f64) -> Vec<[usize; 2]> {
+/// sorted, each `[smaller, larger]` child node. Every candidate pair examined (both
+/// orders) is charged to `work`; the search stops part way once `work` is over its
+/// budget (the list is then incomplete, and the pass fails).
+fn collisions(s: &Skeleton, topo: &Topology, clearance: f64, work: &Work) -> Vec<[usize; 2]> {
     let bvh = Bvh::build(s, clearance);
     let mut pairs: Vec<[usize; 2]> = bvh
         .order
@@ -602,17 +666,50 @@ fn collisions(s: &Skeleton, topo: &Topology, clearance: f64) -> Vec<[usize; 2]> 
             let i = i as usize;
             let ci = capsule(s, i);
             let mut found = Vec::new();
+            if work.over() {
+                return found;
+            }
+            let mut examined = 0u64;
             bvh.visit(&bvh.boxes[i], |j| {
+                examined += 1;
                 if j > i && collide(s, topo, (i, &ci), (j, &capsule(s, j)), clearance) {
                     found.push([i, j]);
                 }
+                if examined.is_multiple_of(PAIR_CHECK) {
+                    work.charge_u64(PAIR_CHECK);
+                    return !work.over();
+                }
                 true
             });
+            work.charge_u64(examined % PAIR_CHECK);
             found
         })
         .collect();
     pairs.sort_unstable();
     pairs
+}
+
+/// Charges `work` with the candidate pairs a collision search of `s` examines (as
+/// [`collisions`] counts them) and its nodes, without testing them; false (and the
+/// budget over) when they are more than is left. Guards searches that do not count
+/// their own pairs ([`skeleton_collisions`]).
+fn charge_search(s: &Skeleton, clearance: f64, work: &Work) -> bool {
+    let bvh = Bvh::build(s, clearance);
+    let left = work.left();
+    let mut examined = 0u64;
+    for &i in &bvh.order {
+        bvh.visit(&bvh.boxes[i as usize], |_| {
+            examined += 1;
+            examined <= left
+        });
+        if examined > left {
+            work.exhaust();
+            return false;
+        }
+    }
+    work.charge_u64(examined);
+    work.charge(s.len());
+    !work.over()
 }
 
 /// Runs at most `max_rounds` rounds of thinning, then rotation, on the collisions left;
@@ -631,17 +728,22 @@ fn rounds(
             break;
         }
         work.charge(s.len());
-        let pairs = collisions(s, topo, o.clearance);
-        if pairs.is_empty() {
+        let pairs = collisions(s, topo, o.clearance, work);
+        if pairs.is_empty() || work.over() {
             break;
         }
         run += 1;
+        // Thinning and the rotation queue measure every pair again.
+        work.charge(2 * pairs.len());
         let thinned = thin(s, topo, &pairs, o);
         if thinned {
             work.charge(s.len());
         }
-        let pairs = if thinned { collisions(s, topo, o.clearance) } else { pairs };
-        let (moved, spent) = rotate_pairs(s, topo, &pairs, o);
+        let pairs = if thinned { collisions(s, topo, o.clearance, work) } else { pairs };
+        if work.over() {
+            break;
+        }
+        let (moved, spent) = rotate_pairs(s, topo, &pairs, o, work);
         work.charge(spent);
         rotations += moved;
         if !thinned && moved == 0 {
@@ -771,13 +873,20 @@ struct Trial {
     rot: DQuat,
 }
 
+/// Trials of one subtree evaluated together (in parallel); only those up to the first
+/// that clears are charged, so the work counted does not depend on this.
+const TRIAL_CHUNK: usize = 8;
+
 /// Moves subtrees to separate the pairs that thinning left; returns rotations applied.
-/// Also returns the work spent (capsule queries).
+/// Also returns the work spent (capsule queries) against the round's bound
+/// ([`DecollideOptions::work_per_node`]); the candidate pairs the queries examine are
+/// charged to `global` directly, and the pass stops once that is over its budget.
 fn rotate_pairs(
     s: &mut Skeleton,
     topo: &Topology,
     pairs: &[[usize; 2]],
     o: &DecollideOptions,
+    global: &Work,
 ) -> (usize, usize) {
     let mut bvh = Bvh::build(s, o.clearance);
     let mut moved = 0;
@@ -797,6 +906,9 @@ fn rotate_pairs(
         .collect();
     queue.sort_unstable();
     for (_, [a, b]) in queue {
+        if global.over() {
+            break;
+        }
         let (ca, cb) = (capsule(s, a), capsule(s, b));
         let Some((d, pa, pb)) = gap(s, topo, (a, &ca), (b, &cb), f64::INFINITY) else { continue };
         if d >= (ca.r + cb.r) * (1.0 + o.clearance) {
@@ -807,11 +919,11 @@ fn rotate_pairs(
         let mut done = false;
         let mut tried: Vec<(usize, DVec3, usize, Vec<Trial>)> = Vec::new();
         for &(w, c, away) in &cands {
-            if work > budget {
+            if work > budget || global.over() {
                 break;
             }
             let pivot = s.position[s.parent[c] as usize].as_dvec3();
-            let current = subtree_hits(
+            let (current, examined) = subtree_hits(
                 s,
                 topo,
                 &bvh,
@@ -819,16 +931,45 @@ fn rotate_pairs(
                 &Motion::rotation(pivot, DQuat::IDENTITY),
                 o.clearance,
                 usize::MAX,
+                global.left(),
             );
             work += w;
-            if current == 0 {
+            global.charge_u64(examined.saturating_add(w as u64));
+            if current == 0 || global.over() {
                 continue;
             }
             let trials = trials_for(s, c, away, &o.angles);
-            let first = trials.par_iter().position_first(|t| {
-                subtree_hits(s, topo, &bvh, c, &Motion::rotation(pivot, t.rot), o.clearance, 1) == 0
-            });
-            work += w * first.map_or(trials.len(), |k| k + 1);
+            // The first trial that clears, in order (evaluated a chunk at a time); the
+            // pairs of the trials up to it are charged.
+            let (mut first, mut charged, left) = (None, 0u64, global.left());
+            for (n, chunk) in trials.chunks(TRIAL_CHUNK).enumerate() {
+                let limit = left - charged;
+                let res: Vec<(usize, u64)> = chunk
+                    .par_iter()
+                    .map(|t| {
+                        subtree_hits(s, topo, &bvh, c, &Motion::rotation(pivot, t.rot), o.clearance, 1, limit)
+                    })
+                    .collect();
+                for (k, &(h, p)) in res.iter().enumerate() {
+                    charged = charged.saturating_add(p);
+                    if charged > left {
+                        break;
+                    }
+                    if h == 0 {
+                        first = Some(n * TRIAL_CHUNK + k);
+                        break;
+                    }
+                }
+                if first.is_some() || charged > left {
+                    break;
+                }
+            }
+            let trials_run = first.map_or(trials.len(), |k| k + 1);
+            work += w * trials_run;
+            global.charge_u64(charged.saturating_add((w * trials_run) as u64));
+            if global.over() {
+                break;
+            }
             if let Some(k) = first {
                 apply(s, topo, &mut bvh, c, &Motion::rotation(pivot, trials[k].rot), o.clearance);
                 moved += 1;
@@ -837,7 +978,7 @@ fn rotate_pairs(
             }
             tried.push((c, away, current, trials));
         }
-        if done || work > budget {
+        if done || work > budget || global.over() {
             continue;
         }
         // None clears: keep the trial that removes the most collisions (of the two
@@ -845,13 +986,30 @@ fn rotate_pairs(
         let mut best: Option<(usize, usize, DQuat)> = None; // (reduction, root, rotation)
         for (c, _, current, trials) in tried.into_iter().take(2) {
             let pivot = s.position[s.parent[c] as usize].as_dvec3();
-            let hits: Vec<usize> = trials
+            let left = global.left();
+            let res: Vec<(usize, u64)> = trials
                 .par_iter()
                 .map(|t| {
-                    subtree_hits(s, topo, &bvh, c, &Motion::rotation(pivot, t.rot), o.clearance, current)
+                    subtree_hits(
+                        s,
+                        topo,
+                        &bvh,
+                        c,
+                        &Motion::rotation(pivot, t.rot),
+                        o.clearance,
+                        current,
+                        left,
+                    )
                 })
                 .collect();
+            let hits: Vec<usize> = res.iter().map(|r| r.0).collect();
             work += topo.size(c) * trials.len();
+            global.charge_u64(
+                res.iter().fold((topo.size(c) * trials.len()) as u64, |a, r| a.saturating_add(r.1)),
+            );
+            if global.over() {
+                break;
+            }
             if let Some((k, &h)) = hits.iter().enumerate().min_by_key(|&(k, &h)| (h, k)) {
                 if h < current && best.is_none_or(|(r, ..)| current - h > r) {
                     best = Some((current - h, c, trials[k].rot));
@@ -922,7 +1080,7 @@ fn trade(
     work: &Work,
 ) -> usize {
     work.charge(s.len());
-    let mut total = collisions(s, topo, o.clearance).len();
+    let mut total = collisions(s, topo, o.clearance, work).len();
     let mut traded = 0;
     for &[a, b] in pairs {
         if work.over() {
@@ -943,20 +1101,26 @@ fn trade(
         moves.extend(stub_motions(s, topo, [a, b], o.clearance).into_iter().map(|(_, x, mv, _)| (x, mv)));
         let bvh = Bvh::build(s, o.clearance);
         work.charge(s.len() + moves.iter().map(|&(c, _)| topo.size(c)).sum::<usize>());
-        let mut scored: Vec<(usize, usize)> = moves
+        let left = work.left();
+        let res: Vec<(Option<(usize, usize)>, u64)> = moves
             .par_iter()
             .enumerate()
-            .filter_map(|(k, &(c, mv))| {
+            .map(|(k, &(c, mv))| {
                 // The one of the two that moves with `c`, against the other.
                 let (mover, other) = if topo.contains(c, a) { (a, b) } else { (b, a) };
                 let cm = moved_capsule(s, c, mover, &mv);
                 if collide(s, topo, (mover, &cm), (other, &capsule(s, other)), o.clearance) {
-                    return None;
+                    return (None, 0);
                 }
-                let hits = subtree_hits(s, topo, &bvh, c, &mv, o.clearance, TRADE_HITS + 1);
-                (hits <= TRADE_HITS).then_some((hits, k))
+                let (hits, examined) = subtree_hits(s, topo, &bvh, c, &mv, o.clearance, TRADE_HITS + 1, left);
+                ((hits <= TRADE_HITS).then_some((hits, k)), examined)
             })
             .collect();
+        work.charge_u64(res.iter().fold(0u64, |a, r| a.saturating_add(r.1)));
+        if work.over() {
+            break;
+        }
+        let mut scored: Vec<(usize, usize)> = res.into_iter().filter_map(|r| r.0).collect();
         scored.sort_unstable();
         for &(_, k) in scored.iter().take(TRADE_TRIALS) {
             let (c, mv) = moves[k];
@@ -970,7 +1134,10 @@ fn trade(
             let moved =
                 usize::from(mv.shift == DVec3::ZERO) + rounds(&mut copy, topo, o, TRADE_ROUNDS, work).1;
             work.charge(s.len());
-            let n = collisions(&copy, topo, o.clearance).len();
+            let n = collisions(&copy, topo, o.clearance, work).len();
+            if work.over() {
+                break;
+            }
             if n < total {
                 *s = copy;
                 total = n;
@@ -987,17 +1154,10 @@ fn trade(
 /// parent has several children or starts a new branch order, nearest first.
 fn joints_above(s: &Skeleton, topo: &Topology, x: usize, k: usize) -> Vec<usize> {
     let mut out = Vec::new();
-    let mut c = x;
-    while out.len() < k {
-        let p = s.parent[c];
-        if p == NO_PARENT {
-            break;
-        }
-        let p = p as usize;
-        if topo.child_count[p] > 1 || s.order[c] != s.order[p] {
-            out.push(c);
-        }
-        c = p;
+    let mut c = topo.joint_up[x];
+    while c != NO_PARENT && out.len() < k {
+        out.push(c as usize);
+        c = topo.joint_up[s.parent[c as usize] as usize];
     }
     out
 }
@@ -1067,7 +1227,9 @@ fn moved_capsule(s: &Skeleton, c: usize, m: usize, mv: &Motion) -> Capsule {
 }
 
 /// Collisions (at most `limit`) between the subtree at `c`, moved by `mv` (its base
-/// node stays put), and every internode outside it.
+/// node stays put), and every internode outside it, with the candidate pairs examined
+/// (the search stops once they are over `pair_limit`).
+#[allow(clippy::too_many_arguments)]
 fn subtree_hits(
     s: &Skeleton,
     topo: &Topology,
@@ -1076,21 +1238,24 @@ fn subtree_hits(
     mv: &Motion,
     clearance: f64,
     limit: usize,
-) -> usize {
-    let mut hits = 0;
+    pair_limit: u64,
+) -> (usize, u64) {
+    let (mut hits, mut examined) = (0, 0u64);
     for &m in topo.subtree(c) {
         let m = m as usize;
         let cm = moved_capsule(s, c, m, mv);
-        hits += capsule_hits(s, topo, bvh, c, (m, &cm), clearance, limit - hits);
-        if hits >= limit {
+        hits += capsule_hits(s, topo, bvh, c, (m, &cm), clearance, limit - hits, (&mut examined, pair_limit));
+        if hits >= limit || examined > pair_limit {
             break;
         }
     }
-    hits
+    (hits, examined)
 }
 
 /// Collisions (at most `limit`) of internode `m`, moved to the capsule `cm`, with every
-/// internode outside the subtree at `c`.
+/// internode outside the subtree at `c`. Candidate pairs examined are added to
+/// `examined`; the query stops once they are over `pair_limit`.
+#[allow(clippy::too_many_arguments)]
 fn capsule_hits(
     s: &Skeleton,
     topo: &Topology,
@@ -1099,16 +1264,18 @@ fn capsule_hits(
     (m, cm): (usize, &Capsule),
     clearance: f64,
     limit: usize,
+    (examined, pair_limit): (&mut u64, u64),
 ) -> usize {
     let mut hits = 0;
     bvh.visit(&capsule_box(cm, clearance), |j| {
+        *examined += 1;
         if topo.contains(c, j) {
-            return true;
+            return *examined <= pair_limit;
         }
         if collide(s, topo, (m, cm), (j, &capsule(s, j)), clearance) {
             hits += 1;
         }
-        hits < limit
+        hits < limit && *examined <= pair_limit
     });
     hits
 }
@@ -1123,10 +1290,19 @@ const RETRACT: [f64; 5] = [0.9, 0.8, 0.7, 0.6, 0.5];
 /// of the two when both are tips). This is what frees a closed figure such as the Koch
 /// snowflake, whose last internode ends on its first and has no joint to rotate about.
 /// Returns the tips pulled back.
-fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearance: f64) -> usize {
+fn retract_tips(
+    s: &mut Skeleton,
+    topo: &Topology,
+    pairs: &[[usize; 2]],
+    clearance: f64,
+    work: &Work,
+) -> usize {
     let mut bvh = Bvh::build(s, clearance);
     let mut pulled = 0;
     for &[a, b] in pairs {
+        if work.over() {
+            break;
+        }
         if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
             continue; // cleared by an earlier retraction
         }
@@ -1142,7 +1318,14 @@ fn retract_tips(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
                     break;
                 }
                 let cm = Capsule { a: base, b: base + (tip - base) * f, r: capsule(s, x).r };
-                if capsule_hits(s, topo, &bvh, x, (x, &cm), clearance, 1) == 0 {
+                let mut examined = 0u64;
+                let hits =
+                    capsule_hits(s, topo, &bvh, x, (x, &cm), clearance, 1, (&mut examined, work.left()));
+                work.charge_u64(examined.saturating_add(1));
+                if work.over() {
+                    return pulled;
+                }
+                if hits == 0 {
                     best = Some((k, x, cm.b));
                     break;
                 }
@@ -1185,10 +1368,19 @@ const STUB_HOPS: usize = 3;
 /// come first, then the lightest subtree (see [`stub_motions`]). Moves ignore
 /// [`DecollideOptions::max_moved`]: they are translations of a few radii, which keep a
 /// subtree's shape. Returns the stubs moved and internodes bent.
-fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearance: f64) -> usize {
+fn extend_stubs(
+    s: &mut Skeleton,
+    topo: &Topology,
+    pairs: &[[usize; 2]],
+    clearance: f64,
+    work: &Work,
+) -> usize {
     let mut bvh = Bvh::build(s, clearance);
     let mut pushed = 0;
     for &[a, b] in pairs {
+        if work.over() {
+            break;
+        }
         let (ca, cb) = (capsule(s, a), capsule(s, b));
         if !collide(s, topo, (a, &ca), (b, &cb), clearance) {
             continue; // cleared by an earlier move
@@ -1200,7 +1392,12 @@ fn extend_stubs(s: &mut Skeleton, topo: &Topology, pairs: &[[usize; 2]], clearan
             if best.is_some_and(|(bk, ..)| bk <= (k, weight)) {
                 continue;
             }
-            if subtree_hits(s, topo, &bvh, x, &mv, clearance, 1) == 0 {
+            let (hits, examined) = subtree_hits(s, topo, &bvh, x, &mv, clearance, 1, work.left());
+            work.charge_u64(examined.saturating_add(topo.size(x) as u64));
+            if work.over() {
+                return pushed;
+            }
+            if hits == 0 {
                 best = Some(((k, weight), x, mv));
             }
         }

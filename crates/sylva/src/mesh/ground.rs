@@ -95,8 +95,25 @@ pub enum CutOutcome {
 
 /// Cuts `mesh` at the plane of each of `roots` and fills the cut (see the module docs).
 /// Returns one outcome per root.
+///
+/// The roots are cut one after another, each on the mesh the ones before it left, but
+/// the work of each is local to it (issue 39: a forest of 10,000 separate roots used to
+/// rebuild the whole mesh once per root): the faces are indexed once by a grid over
+/// (x, z), a root looks only at the faces in the cells its reach covers, the faces it
+/// cuts are replaced in place and its fans appended, and the unused positions are
+/// dropped once at the end. The result is the one cutting and compacting the whole mesh
+/// root by root would give, byte for byte.
 pub fn cut_base(mesh: &mut Mesh, roots: &[SunkRoot]) -> Vec<CutOutcome> {
-    roots.iter().map(|r| cut_one(mesh, r)).collect()
+    if roots.is_empty() {
+        return Vec::new();
+    }
+    let mut work = Cutter::new(mesh, roots);
+    let outcomes: Vec<CutOutcome> =
+        roots.iter().enumerate().map(|(k, r)| work.cut(k as u32 + 1, r)).collect();
+    if outcomes.iter().any(|o| matches!(o, CutOutcome::Flat(_))) {
+        *mesh = work.finish(mesh);
+    }
+    outcomes
 }
 
 /// An intersection point's key: the two ends of the edge it lies on, ordered.
@@ -104,150 +121,403 @@ fn edge_key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
-    let plane = root.at.y;
-    let reach = CUT_REACH_RADII * root.radius;
-    let near = |p: Vec3| Vec2::new(p.x - root.at.x, p.z - root.at.z).length() <= reach;
-    let faces = mesh.face_count();
-    // Faces that take part: near the root with a corner below the plane.
-    let cut: Vec<bool> = (0..faces)
-        .map(|f| {
-            let face = mesh.face(f);
-            face.iter().any(|&i| mesh.positions[i as usize].y < plane)
-                && face.iter().any(|&i| near(mesh.positions[i as usize]))
-        })
-        .collect();
-    if !cut.iter().any(|&c| c) {
-        return CutOutcome::NothingBelow;
-    }
-    // A triangle mesh (hull, sweep, tube) stays one; a quad mesh (quad + Catmull–Clark)
-    // gets n-gons where the cut crosses its faces.
-    let triangles = mesh.face_offsets.windows(2).all(|w| w[1] - w[0] == 3);
-    let mut out = Mesh::new();
-    out.positions = mesh.positions.clone();
-    out.creases = mesh.creases.clone();
-    let mut uvs = mesh.uvs.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
-    let mut normals =
-        mesh.normals.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
-    let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-    let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-    // Directed edges on the plane, in the kept polygons' winding: loop successor map.
-    let mut plane_edges: Vec<(u32, u32)> = Vec::new();
-    for (f, &cut_face) in cut.iter().enumerate() {
-        let corners = mesh.corners(f);
-        let pos: &[u32] = &mesh.face_indices[corners.clone()];
-        let uv: Option<&[u32]> = mesh.uvs.as_ref().map(|c| &c.indices[corners.clone()]);
-        let nr: Option<&[u32]> = mesh.normals.as_ref().map(|c| &c.indices[corners.clone()]);
-        let push = |out: &mut Mesh,
-                    uvs: &mut Option<FaceVarying<Vec2>>,
-                    normals: &mut Option<FaceVarying<Vec3>>,
-                    p: &[u32],
-                    u: &[u32],
-                    n: &[u32]| {
-            out.push_face(p);
-            if let Some(c) = uvs.as_mut() {
-                c.indices.extend_from_slice(u);
-            }
-            if let Some(c) = normals.as_mut() {
-                c.indices.extend_from_slice(n);
-            }
+/// No face (as a [`Face`]'s parent).
+const NONE: u32 = u32::MAX;
+
+/// One face of [`Cutter`]'s arena: an original face, a piece a cut left of one, or a fan
+/// triangle of a filled cut.
+#[derive(Clone, Copy)]
+struct Face {
+    /// Its corners: `start..start + len` of the corner columns.
+    start: u32,
+    len: u32,
+    /// The face it is a piece of (`NONE` for an original face or a fan), and its rank
+    /// there (among the pieces, or among the top-level faces).
+    up: u32,
+    rank: u32,
+    /// The pieces replacing it once a cut crossed it: `first..first + count` of the arena.
+    replaced: Option<(u32, u32)>,
+}
+
+/// The mesh being cut, as an arena of faces (see [`cut_base`]).
+struct Cutter {
+    positions: Vec<Vec3>,
+    uv_values: Option<Vec<Vec2>>,
+    normal_values: Option<Vec<Vec3>>,
+    faces: Vec<Face>,
+    corner_pos: Vec<u32>,
+    corner_uv: Vec<u32>,
+    corner_nr: Vec<u32>,
+    /// Top-level faces in mesh order: the original faces, then each filled cut's fans.
+    top: Vec<u32>,
+    /// Live faces that are not triangles (a triangle mesh stays one).
+    polygons: usize,
+    /// Face ids by the (x, z) grid cells of their corners.
+    grid: HashMap<(i64, i64), Vec<u32>>,
+    cell: f32,
+    /// The root that last found each face (so a face in several cells counts once).
+    stamp: Vec<u32>,
+}
+
+/// A corner of a cut face's kept polygon: position, uv and normal index, on the plane.
+type Corner = (u32, u32, u32, bool);
+
+impl Cutter {
+    fn new(mesh: &Mesh, roots: &[SunkRoot]) -> Cutter {
+        // Cells about as wide as a typical root's reach (the median), so a root looks at
+        // a few cells; a root far wider than that walks the occupied cells instead.
+        let mut reach: Vec<f32> = roots.iter().map(|r| CUT_REACH_RADII * r.radius).collect();
+        reach.sort_unstable_by(f32::total_cmp);
+        let cell = reach[reach.len() / 2];
+        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
+        let faces = mesh.face_count();
+        let mut c = Cutter {
+            positions: mesh.positions.clone(),
+            uv_values: mesh.uvs.as_ref().map(|u| u.values.clone()),
+            normal_values: mesh.normals.as_ref().map(|n| n.values.clone()),
+            faces: Vec::with_capacity(faces),
+            corner_pos: mesh.face_indices.clone(),
+            corner_uv: mesh.uvs.as_ref().map(|u| u.indices.clone()).unwrap_or_default(),
+            corner_nr: mesh.normals.as_ref().map(|n| n.indices.clone()).unwrap_or_default(),
+            top: (0..faces as u32).collect(),
+            polygons: 0,
+            grid: HashMap::new(),
+            cell,
+            stamp: Vec::new(),
         };
-        if !cut_face {
-            push(&mut out, &mut uvs, &mut normals, pos, uv.unwrap_or(&[]), nr.unwrap_or(&[]));
-            continue;
+        for f in 0..faces {
+            let r = mesh.corners(f);
+            c.faces.push(Face {
+                start: r.start as u32,
+                len: r.len() as u32,
+                up: NONE,
+                rank: f as u32,
+                replaced: None,
+            });
+            c.polygons += usize::from(r.len() != 3);
+            c.index(f as u32);
         }
-        // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
-        // normal) and whether it lies on the plane.
-        let k = pos.len();
-        let d = |i: usize| mesh.positions[pos[i] as usize].y - plane;
-        let mut kept: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(k + 2);
-        let corner = |i: usize| {
-            (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
-        };
-        for i in 0..k {
-            let j = (i + 1) % k;
-            let (di, dj) = (d(i), d(j));
-            if di >= 0.0 {
-                kept.push(corner(i));
+        c
+    }
+
+    /// The grid cell of `p`.
+    fn cell_of(&self, p: Vec3) -> (i64, i64) {
+        ((p.x / self.cell).floor() as i64, (p.z / self.cell).floor() as i64)
+    }
+
+    /// Adds face `f` to the cells of its corners.
+    fn index(&mut self, f: u32) {
+        let face = self.faces[f as usize];
+        let mut cells: Vec<(i64, i64)> = self.corner_pos
+            [face.start as usize..(face.start + face.len) as usize]
+            .iter()
+            .map(|&i| self.cell_of(self.positions[i as usize]))
+            .collect();
+        cells.sort_unstable();
+        cells.dedup();
+        for k in cells {
+            self.grid.entry(k).or_default().push(f);
+        }
+    }
+
+    fn pos(&self, f: u32) -> &[u32] {
+        let face = &self.faces[f as usize];
+        &self.corner_pos[face.start as usize..(face.start + face.len) as usize]
+    }
+
+    /// The live faces near `root` (a corner within its reach horizontally) with a corner
+    /// below its plane, in mesh order.
+    fn candidates(&mut self, stamp: u32, root: &SunkRoot) -> Vec<u32> {
+        let plane = root.at.y;
+        let reach = CUT_REACH_RADII * root.radius;
+        let near = |p: Vec3| Vec2::new(p.x - root.at.x, p.z - root.at.z).length() <= reach;
+        // One cell more each way: a corner the rounding of `at ± reach` puts just
+        // outside is still found.
+        let (lo, hi) =
+            (self.cell_of(root.at - Vec3::splat(reach)), self.cell_of(root.at + Vec3::splat(reach)));
+        let (lo, hi) = (
+            (lo.0.saturating_sub(1), lo.1.saturating_sub(1)),
+            (hi.0.saturating_add(1), hi.1.saturating_add(1)),
+        );
+        let span = (hi.0 as i128 - lo.0 as i128 + 1) * (hi.1 as i128 - lo.1 as i128 + 1);
+        let lists: Vec<&Vec<u32>> = if span > self.grid.len() as i128 || !(reach.is_finite()) {
+            self.grid.values().collect()
+        } else {
+            let mut v = Vec::new();
+            for x in lo.0..=hi.0 {
+                for z in lo.1..=hi.1 {
+                    if let Some(l) = self.grid.get(&(x, z)) {
+                        v.push(l);
+                    }
+                }
             }
-            if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
-                let t = di / (di - dj);
-                let (a, b) = (pos[i], pos[j]);
-                let key = edge_key(a, b);
-                let p = *new_point.entry(key).or_insert_with(|| {
-                    let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
-                    let mut q = pa + (pb - pa) * t;
-                    q.y = plane;
-                    out.positions.push(q);
-                    (out.positions.len() - 1) as u32
-                });
-                // t measured from the key's first end, so both faces agree.
-                let t_key = if a == key.0 { t } else { 1.0 - t };
-                let (ui, un) = (
-                    uvs.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
+            v
+        };
+        self.stamp.resize(self.faces.len(), 0);
+        let mut found = Vec::new();
+        for list in lists {
+            for &f in list {
+                if self.stamp[f as usize] == stamp || self.faces[f as usize].replaced.is_some() {
+                    continue;
+                }
+                self.stamp[f as usize] = stamp;
+                let face = self.pos(f);
+                if face.iter().any(|&i| self.positions[i as usize].y < plane)
+                    && face.iter().any(|&i| near(self.positions[i as usize]))
+                {
+                    found.push(f);
+                }
+            }
+        }
+        // Mesh order: the path of ranks from the top-level face down.
+        let mut keyed: Vec<(Vec<u32>, u32)> = found
+            .into_iter()
+            .map(|f| {
+                let mut path = Vec::new();
+                let mut g = f;
+                loop {
+                    let face = &self.faces[g as usize];
+                    path.push(face.rank);
+                    if face.up == NONE {
+                        break;
+                    }
+                    g = face.up;
+                }
+                path.reverse();
+                (path, f)
+            })
+            .collect();
+        keyed.sort_unstable();
+        keyed.into_iter().map(|(_, f)| f).collect()
+    }
+
+    /// Cuts at one root (`stamp`: its number, from 1): the faces it crosses are replaced
+    /// by their pieces above its plane and each closed cut loop is filled; a cut whose
+    /// loops do not close leaves everything as it was.
+    fn cut(&mut self, stamp: u32, root: &SunkRoot) -> CutOutcome {
+        let plane = root.at.y;
+        let cut = self.candidates(stamp, root);
+        if cut.is_empty() {
+            return CutOutcome::NothingBelow;
+        }
+        let triangles = self.polygons == 0;
+        let (has_uv, has_nr) = (self.uv_values.is_some(), self.normal_values.is_some());
+        let marks = (
+            self.positions.len(),
+            self.uv_values.as_ref().map_or(0, Vec::len),
+            self.normal_values.as_ref().map_or(0, Vec::len),
+        );
+        let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+        let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+        // Directed edges on the plane, in the kept polygons' winding: loop successor map.
+        let mut plane_edges: Vec<(u32, u32)> = Vec::new();
+        // The pieces of each cut face: (position, uv, normal) corner lists.
+        type Piece = (Vec<u32>, Vec<u32>, Vec<u32>);
+        let mut pieces: Vec<(u32, Vec<Piece>)> = Vec::with_capacity(cut.len());
+        for &f in &cut {
+            let face = self.faces[f as usize];
+            let corners = face.start as usize..(face.start + face.len) as usize;
+            let pos: Vec<u32> = self.corner_pos[corners.clone()].to_vec();
+            let uv: Option<&[u32]> = has_uv.then(|| &self.corner_uv[corners.clone()]);
+            let nr: Option<&[u32]> = has_nr.then(|| &self.corner_nr[corners.clone()]);
+            // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
+            // normal) and whether it lies on the plane.
+            let k = pos.len();
+            let ds: Vec<f32> = pos.iter().map(|&i| self.positions[i as usize].y - plane).collect();
+            let d = |i: usize| ds[i];
+            let mut kept: Vec<Corner> = Vec::with_capacity(k + 2);
+            let corner = |i: usize| {
+                (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
+            };
+            for i in 0..k {
+                let j = (i + 1) % k;
+                let (di, dj) = (d(i), d(j));
+                if di >= 0.0 {
+                    kept.push(corner(i));
+                }
+                if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
+                    let t = di / (di - dj);
+                    let (a, b) = (pos[i], pos[j]);
+                    let key = edge_key(a, b);
+                    let positions = &mut self.positions;
+                    let p = *new_point.entry(key).or_insert_with(|| {
+                        let (pa, pb) = (positions[a as usize], positions[b as usize]);
+                        let mut q = pa + (pb - pa) * t;
+                        q.y = plane;
+                        positions.push(q);
+                        (positions.len() - 1) as u32
+                    });
+                    // t measured from the key's first end, so both faces agree.
+                    let t_key = if a == key.0 { t } else { 1.0 - t };
+                    let ui = self.uv_values.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
                         let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
                         *new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
-                            let v = c.values[u0 as usize].lerp(c.values[u1 as usize], t_key);
-                            c.values.push(v);
-                            (c.values.len() - 1) as u32
+                            let v = c[u0 as usize].lerp(c[u1 as usize], t_key);
+                            c.push(v);
+                            (c.len() - 1) as u32
                         })
-                    }),
-                    normals.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
+                    });
+                    let un = self.normal_values.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
                         let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
                         *new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
-                            let v =
-                                c.values[n0 as usize].lerp(c.values[n1 as usize], t_key).normalize_or_zero();
-                            c.values.push(v);
-                            (c.values.len() - 1) as u32
+                            let v = c[n0 as usize].lerp(c[n1 as usize], t_key).normalize_or_zero();
+                            c.push(v);
+                            (c.len() - 1) as u32
                         })
-                    }),
-                );
-                kept.push((p, ui, un, true));
-            }
-        }
-        // The edges that run from a point on the plane to the next through the removed
-        // part: where the original polygon went below between them.
-        let n = kept.len();
-        for a in 0..n {
-            let b = (a + 1) % n;
-            if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
-                // On the plane at both ends: a boundary edge unless it is an edge of the
-                // original polygon (both original corners, consecutive).
-                let original =
-                    pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
-                if !original {
-                    plane_edges.push((kept[a].0, kept[b].0));
+                    });
+                    kept.push((p, ui, un, true));
                 }
             }
+            // The edges that run from a point on the plane to the next through the
+            // removed part: where the original polygon went below between them.
+            let n = kept.len();
+            for a in 0..n {
+                let b = (a + 1) % n;
+                if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
+                    // On the plane at both ends: a boundary edge unless it is an edge of
+                    // the original polygon (both original corners, consecutive).
+                    let original =
+                        pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
+                    if !original {
+                        plane_edges.push((kept[a].0, kept[b].0));
+                    }
+                }
+            }
+            let distinct = {
+                let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            let mut own = Vec::new();
+            if distinct >= 3 {
+                let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
+                let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
+                let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
+                if triangles && p.len() > 3 {
+                    // A clipped triangle is a quad: fanned, so a triangle mesh stays one
+                    // (Loop subdivision needs triangles). Clipped polygons are convex.
+                    for t in 1..p.len() - 1 {
+                        let pick = |v: &[u32]| vec![v[0], v[t], v[t + 1]];
+                        own.push((pick(&p), pick(&u), pick(&nn)));
+                    }
+                } else {
+                    own.push((p, u, nn));
+                }
+            }
+            pieces.push((f, own));
         }
-        let distinct = {
-            let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
-            v.sort_unstable();
-            v.dedup();
-            v.len()
+        let open = |c: &mut Cutter| {
+            c.positions.truncate(marks.0);
+            if let Some(v) = c.uv_values.as_mut() {
+                v.truncate(marks.1);
+            }
+            if let Some(v) = c.normal_values.as_mut() {
+                v.truncate(marks.2);
+            }
+            CutOutcome::Open
         };
-        if distinct >= 3 {
-            let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
-            let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
-            let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
-            if triangles && p.len() > 3 {
-                // A clipped triangle is a quad: fanned, so a triangle mesh stays one
-                // (Loop subdivision needs triangles). Clipped polygons are convex.
-                for t in 1..p.len() - 1 {
-                    let pick = |v: &[u32]| [v[0], v[t], v[t + 1]];
-                    push(&mut out, &mut uvs, &mut normals, &pick(&p), &pick(&u), &pick(&nn));
-                }
-            } else {
-                push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
+        let Some(loops) = chain_loops(&plane_edges) else { return open(self) };
+        // Commit: the pieces replace their faces.
+        for (f, own) in pieces {
+            let first = self.faces.len() as u32;
+            for (rank, (p, u, n)) in own.into_iter().enumerate() {
+                self.push(&p, &u, &n, f, rank as u32);
+            }
+            let len = self.faces[f as usize].len;
+            self.polygons -= usize::from(len != 3);
+            self.faces[f as usize].replaced = Some((first, self.faces.len() as u32 - first));
+        }
+        // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
+        // texel scale (one unit of u around the root's circumference).
+        let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
+        for ring in &loops {
+            let c = ring.iter().map(|&i| self.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
+            let centre = self.positions.len() as u32;
+            self.positions.push(Vec3::new(c.x, plane, c.z));
+            let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
+            let positions = &self.positions;
+            let uv0 = self.uv_values.as_mut().map(|ch| {
+                let first = ch.len() as u32;
+                ch.push(Vec2::splat(0.5));
+                ch.extend(ring.iter().map(|&i| uv_of(positions[i as usize])));
+                first
+            });
+            let n0 = self.normal_values.as_mut().map(|ch| {
+                ch.push(-Vec3::Y);
+                (ch.len() - 1) as u32
+            });
+            for (k, &a) in ring.iter().enumerate() {
+                let kb = (k + 1) % ring.len();
+                let b = ring[kb];
+                let u = uv0.map_or(Vec::new(), |u0| vec![u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
+                let n = n0.map_or(Vec::new(), |n0| vec![n0; 3]);
+                let rank = self.top.len() as u32;
+                let id = self.push(&[centre, a, b], &u, &n, NONE, rank);
+                self.top.push(id);
             }
         }
+        CutOutcome::Flat(loops.len())
     }
-    // Chain the reversed plane edges into loops.
+
+    /// Appends a face (a piece of `up` of rank `rank`, or a top-level face) and indexes it.
+    fn push(&mut self, p: &[u32], u: &[u32], n: &[u32], up: u32, rank: u32) -> u32 {
+        let start = self.corner_pos.len() as u32;
+        self.corner_pos.extend_from_slice(p);
+        if self.uv_values.is_some() {
+            self.corner_uv.extend_from_slice(u);
+        }
+        if self.normal_values.is_some() {
+            self.corner_nr.extend_from_slice(n);
+        }
+        let id = self.faces.len() as u32;
+        self.faces.push(Face { start, len: p.len() as u32, up, rank, replaced: None });
+        self.polygons += usize::from(p.len() != 3);
+        self.index(id);
+        id
+    }
+
+    /// The cut mesh: live faces in mesh order, unused positions dropped.
+    fn finish(self, mesh: &Mesh) -> Mesh {
+        let mut out = Mesh::new();
+        out.positions = self.positions;
+        out.creases = mesh.creases.clone();
+        let mut uvs = self.uv_values.map(|values| FaceVarying { values, indices: Vec::new() });
+        let mut normals = self.normal_values.map(|values| FaceVarying { values, indices: Vec::new() });
+        let mut stack: Vec<u32> = Vec::new();
+        for &t in self.top.iter().rev() {
+            stack.push(t);
+        }
+        while let Some(f) = stack.pop() {
+            let face = &self.faces[f as usize];
+            if let Some((first, count)) = face.replaced {
+                stack.extend((first..first + count).rev());
+                continue;
+            }
+            let r = face.start as usize..(face.start + face.len) as usize;
+            out.push_face(&self.corner_pos[r.clone()]);
+            if let Some(c) = uvs.as_mut() {
+                c.indices.extend_from_slice(&self.corner_uv[r.clone()]);
+            }
+            if let Some(c) = normals.as_mut() {
+                c.indices.extend_from_slice(&self.corner_nr[r]);
+            }
+        }
+        out.uvs = uvs;
+        out.normals = normals;
+        compact(&mut out);
+        out
+    }
+}
+
+/// Chains the reversed plane edges into closed loops (each start the smallest vertex not
+/// yet on a loop); `None` when they do not close.
+fn chain_loops(plane_edges: &[(u32, u32)]) -> Option<Vec<Vec<u32>>> {
     let mut next: HashMap<u32, u32> = HashMap::with_capacity(plane_edges.len());
-    for &(a, b) in &plane_edges {
+    for &(a, b) in plane_edges {
         if next.insert(b, a).is_some() {
-            return CutOutcome::Open;
+            return None;
         }
     }
     let mut loops: Vec<Vec<u32>> = Vec::new();
@@ -262,59 +532,22 @@ fn cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
         seen.insert(s);
         let mut v = s;
         loop {
-            let Some(&w) = next.get(&v) else { return CutOutcome::Open };
+            let &w = next.get(&v)?;
             if w == s {
                 break;
             }
             if !seen.insert(w) || ring.len() > plane_edges.len() {
-                return CutOutcome::Open;
+                return None;
             }
             ring.push(w);
             v = w;
         }
         if ring.len() < 3 {
-            return CutOutcome::Open;
+            return None;
         }
         loops.push(ring);
     }
-    if loops.is_empty() {
-        return CutOutcome::Open;
-    }
-    // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
-    // texel scale (one unit of u around the root's circumference).
-    let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
-    for ring in &loops {
-        let c = ring.iter().map(|&i| out.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
-        let centre = out.positions.len() as u32;
-        out.positions.push(Vec3::new(c.x, plane, c.z));
-        let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
-        let uv0 = uvs.as_mut().map(|ch| {
-            let first = ch.values.len() as u32;
-            ch.values.push(Vec2::splat(0.5));
-            ch.values.extend(ring.iter().map(|&i| uv_of(out.positions[i as usize])));
-            first
-        });
-        let n0 = normals.as_mut().map(|ch| {
-            ch.values.push(-Vec3::Y);
-            (ch.values.len() - 1) as u32
-        });
-        for (k, &a) in ring.iter().enumerate() {
-            let kb = (k + 1) % ring.len();
-            let b = ring[kb];
-            out.push_face(&[centre, a, b]);
-            if let (Some(ch), Some(u0)) = (uvs.as_mut(), uv0) {
-                ch.indices.extend_from_slice(&[u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
-            }
-            if let (Some(ch), Some(n0)) = (normals.as_mut(), n0) {
-                ch.indices.extend_from_slice(&[n0; 3]);
-            }
-        }
-    }
-    out.uvs = uvs;
-    out.normals = normals;
-    compact(&mut out);
-    *mesh = out;
-    CutOutcome::Flat(loops.len())
+    (!loops.is_empty()).then_some(loops)
 }
 
 /// Drops positions no face uses (renumbering faces and creases).
@@ -408,6 +641,328 @@ mod tests {
         let r = SunkRoot { node: 0, at: Vec3::new(0.0, -5.0, 0.0), radius: 1.0 };
         assert_eq!(cut_base(&mut m, &[r]), vec![CutOutcome::NothingBelow]);
         assert_eq!(m, before);
+    }
+
+    /// The cut as it was before issue 39 (the whole mesh rebuilt and compacted once per
+    /// root), kept to check that the local cut gives the same bytes.
+    fn reference_cut_base(mesh: &mut Mesh, roots: &[SunkRoot]) -> Vec<CutOutcome> {
+        roots.iter().map(|r| reference_cut_one(mesh, r)).collect()
+    }
+
+    fn reference_cut_one(mesh: &mut Mesh, root: &SunkRoot) -> CutOutcome {
+        let plane = root.at.y;
+        let reach = CUT_REACH_RADII * root.radius;
+        let near = |p: Vec3| Vec2::new(p.x - root.at.x, p.z - root.at.z).length() <= reach;
+        let faces = mesh.face_count();
+        // Faces that take part: near the root with a corner below the plane.
+        let cut: Vec<bool> = (0..faces)
+            .map(|f| {
+                let face = mesh.face(f);
+                face.iter().any(|&i| mesh.positions[i as usize].y < plane)
+                    && face.iter().any(|&i| near(mesh.positions[i as usize]))
+            })
+            .collect();
+        if !cut.iter().any(|&c| c) {
+            return CutOutcome::NothingBelow;
+        }
+        // A triangle mesh (hull, sweep, tube) stays one; a quad mesh (quad + Catmull–Clark)
+        // gets n-gons where the cut crosses its faces.
+        let triangles = mesh.face_offsets.windows(2).all(|w| w[1] - w[0] == 3);
+        let mut out = Mesh::new();
+        out.positions = mesh.positions.clone();
+        out.creases = mesh.creases.clone();
+        let mut uvs =
+            mesh.uvs.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
+        let mut normals =
+            mesh.normals.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
+        let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+        let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
+        // Directed edges on the plane, in the kept polygons' winding: loop successor map.
+        let mut plane_edges: Vec<(u32, u32)> = Vec::new();
+        for (f, &cut_face) in cut.iter().enumerate() {
+            let corners = mesh.corners(f);
+            let pos: &[u32] = &mesh.face_indices[corners.clone()];
+            let uv: Option<&[u32]> = mesh.uvs.as_ref().map(|c| &c.indices[corners.clone()]);
+            let nr: Option<&[u32]> = mesh.normals.as_ref().map(|c| &c.indices[corners.clone()]);
+            let push = |out: &mut Mesh,
+                        uvs: &mut Option<FaceVarying<Vec2>>,
+                        normals: &mut Option<FaceVarying<Vec3>>,
+                        p: &[u32],
+                        u: &[u32],
+                        n: &[u32]| {
+                out.push_face(p);
+                if let Some(c) = uvs.as_mut() {
+                    c.indices.extend_from_slice(u);
+                }
+                if let Some(c) = normals.as_mut() {
+                    c.indices.extend_from_slice(n);
+                }
+            };
+            if !cut_face {
+                push(&mut out, &mut uvs, &mut normals, pos, uv.unwrap_or(&[]), nr.unwrap_or(&[]));
+                continue;
+            }
+            // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
+            // normal) and whether it lies on the plane.
+            let k = pos.len();
+            let d = |i: usize| mesh.positions[pos[i] as usize].y - plane;
+            let mut kept: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(k + 2);
+            let corner = |i: usize| {
+                (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
+            };
+            for i in 0..k {
+                let j = (i + 1) % k;
+                let (di, dj) = (d(i), d(j));
+                if di >= 0.0 {
+                    kept.push(corner(i));
+                }
+                if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
+                    let t = di / (di - dj);
+                    let (a, b) = (pos[i], pos[j]);
+                    let key = edge_key(a, b);
+                    let p = *new_point.entry(key).or_insert_with(|| {
+                        let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+                        let mut q = pa + (pb - pa) * t;
+                        q.y = plane;
+                        out.positions.push(q);
+                        (out.positions.len() - 1) as u32
+                    });
+                    // t measured from the key's first end, so both faces agree.
+                    let t_key = if a == key.0 { t } else { 1.0 - t };
+                    let (ui, un) = (
+                        uvs.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
+                            let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
+                            *new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
+                                let v = c.values[u0 as usize].lerp(c.values[u1 as usize], t_key);
+                                c.values.push(v);
+                                (c.values.len() - 1) as u32
+                            })
+                        }),
+                        normals.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
+                            let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
+                            *new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
+                                let v = c.values[n0 as usize]
+                                    .lerp(c.values[n1 as usize], t_key)
+                                    .normalize_or_zero();
+                                c.values.push(v);
+                                (c.values.len() - 1) as u32
+                            })
+                        }),
+                    );
+                    kept.push((p, ui, un, true));
+                }
+            }
+            // The edges that run from a point on the plane to the next through the removed
+            // part: where the original polygon went below between them.
+            let n = kept.len();
+            for a in 0..n {
+                let b = (a + 1) % n;
+                if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
+                    // On the plane at both ends: a boundary edge unless it is an edge of the
+                    // original polygon (both original corners, consecutive).
+                    let original =
+                        pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
+                    if !original {
+                        plane_edges.push((kept[a].0, kept[b].0));
+                    }
+                }
+            }
+            let distinct = {
+                let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            if distinct >= 3 {
+                let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
+                let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
+                let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
+                if triangles && p.len() > 3 {
+                    // A clipped triangle is a quad: fanned, so a triangle mesh stays one
+                    // (Loop subdivision needs triangles). Clipped polygons are convex.
+                    for t in 1..p.len() - 1 {
+                        let pick = |v: &[u32]| [v[0], v[t], v[t + 1]];
+                        push(&mut out, &mut uvs, &mut normals, &pick(&p), &pick(&u), &pick(&nn));
+                    }
+                } else {
+                    push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
+                }
+            }
+        }
+        // Chain the reversed plane edges into loops.
+        let mut next: HashMap<u32, u32> = HashMap::with_capacity(plane_edges.len());
+        for &(a, b) in &plane_edges {
+            if next.insert(b, a).is_some() {
+                return CutOutcome::Open;
+            }
+        }
+        let mut loops: Vec<Vec<u32>> = Vec::new();
+        let mut seen: HashSet<u32> = HashSet::new();
+        let mut starts: Vec<u32> = next.keys().copied().collect();
+        starts.sort_unstable();
+        for s in starts {
+            if seen.contains(&s) {
+                continue;
+            }
+            let mut ring = vec![s];
+            seen.insert(s);
+            let mut v = s;
+            loop {
+                let Some(&w) = next.get(&v) else { return CutOutcome::Open };
+                if w == s {
+                    break;
+                }
+                if !seen.insert(w) || ring.len() > plane_edges.len() {
+                    return CutOutcome::Open;
+                }
+                ring.push(w);
+                v = w;
+            }
+            if ring.len() < 3 {
+                return CutOutcome::Open;
+            }
+            loops.push(ring);
+        }
+        if loops.is_empty() {
+            return CutOutcome::Open;
+        }
+        // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
+        // texel scale (one unit of u around the root's circumference).
+        let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
+        for ring in &loops {
+            let c = ring.iter().map(|&i| out.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
+            let centre = out.positions.len() as u32;
+            out.positions.push(Vec3::new(c.x, plane, c.z));
+            let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
+            let uv0 = uvs.as_mut().map(|ch| {
+                let first = ch.values.len() as u32;
+                ch.values.push(Vec2::splat(0.5));
+                ch.values.extend(ring.iter().map(|&i| uv_of(out.positions[i as usize])));
+                first
+            });
+            let n0 = normals.as_mut().map(|ch| {
+                ch.values.push(-Vec3::Y);
+                (ch.values.len() - 1) as u32
+            });
+            for (k, &a) in ring.iter().enumerate() {
+                let kb = (k + 1) % ring.len();
+                let b = ring[kb];
+                out.push_face(&[centre, a, b]);
+                if let (Some(ch), Some(u0)) = (uvs.as_mut(), uv0) {
+                    ch.indices.extend_from_slice(&[u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
+                }
+                if let (Some(ch), Some(n0)) = (normals.as_mut(), n0) {
+                    ch.indices.extend_from_slice(&[n0; 3]);
+                }
+            }
+        }
+        out.uvs = uvs;
+        out.normals = normals;
+        reference_compact(&mut out);
+        *mesh = out;
+        CutOutcome::Flat(loops.len())
+    }
+
+    /// Drops positions no face uses (renumbering faces and creases).
+    fn reference_compact(mesh: &mut Mesh) {
+        let mut map = vec![u32::MAX; mesh.positions.len()];
+        let mut kept = Vec::with_capacity(mesh.positions.len());
+        for &i in &mesh.face_indices {
+            if map[i as usize] == u32::MAX {
+                map[i as usize] = kept.len() as u32;
+                kept.push(i);
+            }
+        }
+        // Keep the original order (stable output) rather than first use.
+        kept.sort_unstable();
+        for (new, &old) in kept.iter().enumerate() {
+            map[old as usize] = new as u32;
+        }
+        mesh.positions = kept.iter().map(|&i| mesh.positions[i as usize]).collect();
+        for i in &mut mesh.face_indices {
+            *i = map[*i as usize];
+        }
+        mesh.creases.retain(|c| map[c.a as usize] != u32::MAX && map[c.b as usize] != u32::MAX);
+        for c in &mut mesh.creases {
+            c.a = map[c.a as usize];
+            c.b = map[c.b as usize];
+        }
+    }
+
+    /// Tubes (a [`tube`] each, scaled and moved) of a forest: some far apart, some
+    /// overlapping so that one root's cut crosses another's faces and fans, some at other
+    /// heights, one root far wider than the rest, one with nothing below it; triangle and
+    /// quad meshes, with and without UVs, and an unused position.
+    #[test]
+    fn the_local_cut_is_the_whole_mesh_cut_byte_for_byte() {
+        let place = |m: &Mesh, at: Vec3, s: f32| {
+            let mut out = m.clone();
+            out.positions.iter_mut().for_each(|p| *p = *p * s + at);
+            out
+        };
+        let forest = |triangles: bool, uvs: bool| {
+            let mut m = Mesh::new();
+            let mut roots = Vec::new();
+            let spots = [
+                (Vec3::new(0.0, 0.0, 0.0), 1.0),
+                (Vec3::new(10.0, 0.0, 0.0), 1.0),
+                (Vec3::new(1.5, 0.3, 0.5), 0.8),
+                (Vec3::new(-20.0, 5.0, 3.0), 2.0),
+                (Vec3::new(0.7, -0.2, -0.4), 0.5),
+                (Vec3::new(40.0, 0.0, 40.0), 9.0),
+                (Vec3::new(10.0, 0.0, 0.0), 1.0),
+            ];
+            m.positions.push(Vec3::splat(99.0)); // unused
+            for (k, &(at, s)) in spots.iter().enumerate() {
+                let t = place(&tube(), at, s);
+                let base = m.positions.len() as u32;
+                m.positions.extend(&t.positions);
+                for f in 0..t.face_count() {
+                    let face: Vec<u32> = t.face(f).iter().map(|&i| i + base).collect();
+                    if triangles && face.len() == 4 {
+                        m.push_face(&[face[0], face[1], face[2]]);
+                        m.push_face(&[face[0], face[2], face[3]]);
+                    } else {
+                        m.push_face(&face);
+                    }
+                }
+                roots.push(SunkRoot { node: k as u32, at, radius: s });
+            }
+            roots.push(SunkRoot { node: 99, at: Vec3::new(500.0, 0.0, 0.0), radius: 1.0 });
+            if uvs {
+                m.uvs = Some(FaceVarying {
+                    values: m.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect(),
+                    indices: m.face_indices.clone(),
+                });
+                m.normals = Some(FaceVarying {
+                    values: m.positions.iter().map(|p| p.normalize_or_zero()).collect(),
+                    indices: m.face_indices.clone(),
+                });
+            }
+            (m, roots)
+        };
+        for triangles in [false, true] {
+            for uvs in [false, true] {
+                let (m, roots) = forest(triangles, uvs);
+                for n in 1..=roots.len() {
+                    let (mut a, mut b) = (m.clone(), m.clone());
+                    let oa = cut_base(&mut a, &roots[..n]);
+                    let ob = reference_cut_base(&mut b, &roots[..n]);
+                    assert_eq!(oa, ob, "outcomes, {n} roots (triangles {triangles}, uvs {uvs})");
+                    assert_eq!(a, b, "mesh, {n} roots (triangles {triangles}, uvs {uvs})");
+                    if n == roots.len() {
+                        let flat = oa.iter().filter(|o| matches!(o, CutOutcome::Flat(_))).count();
+                        assert!(flat >= 3 && oa.contains(&CutOutcome::NothingBelow), "{oa:?}");
+                    }
+                }
+                // Reversed order too: cuts interact.
+                let rev: Vec<SunkRoot> = roots.iter().rev().copied().collect();
+                let (mut a, mut b) = (m.clone(), m.clone());
+                assert_eq!(cut_base(&mut a, &rev), reference_cut_base(&mut b, &rev));
+                assert_eq!(a, b);
+            }
+        }
     }
 
     #[test]
