@@ -778,9 +778,11 @@ fn derive(what: &str, iterations: Option<u32>, seed: Option<u64>, sets: &[String
         ));
     };
     let d = sylva::pipeline::derive_lsystem(&loaded, g)?;
-    let text = d.lsystem.format(&d.string);
+    // Streamed: a string of millions of modules is never held whole as text.
     use std::io::Write;
-    let mut stdout = std::io::stdout().lock();
-    writeln!(stdout, "{text}").into_diagnostic()?;
+    let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+    d.lsystem.write_to(&d.string, &mut stdout).into_diagnostic()?;
+    writeln!(stdout).into_diagnostic()?;
+    stdout.flush().into_diagnostic()?;
     Ok(())
 }

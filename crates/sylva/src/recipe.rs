@@ -1180,6 +1180,9 @@ impl Recipe {
                 if g.max_modules == 0 {
                     return bad("generator.max_modules", "must be at least 1".into());
                 }
+                if let Err(why) = crate::lsystem::derive::check_module_budget(g.max_modules) {
+                    return bad("generator.max_modules", why);
+                }
                 if g.max_nodes == 0 {
                     return bad("generator.max_nodes", "must be at least 1".into());
                 }

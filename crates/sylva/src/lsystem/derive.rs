@@ -14,6 +14,7 @@ use super::expr::{EvalError, Evaluator, Expr, ModelFunctions};
 use super::parse::{ContextItem, LSystem, ModuleTemplate, Production, RuleSet};
 use super::source::{ErrorKind, LsystemError};
 pub use super::string::ModuleString;
+use super::string::{try_room, OutOfMemory, BYTES_PER_MODULE, BYTES_PER_PARAMETER};
 
 /// The words for an evaluation error kind.
 fn error_words(kind: ErrorKind) -> &'static str {
@@ -28,6 +29,39 @@ fn error_words(kind: ErrorKind) -> &'static str {
 
 /// Default limit on the number of modules in a derived string.
 pub const DEFAULT_MODULE_BUDGET: usize = 50_000_000;
+
+/// Most bytes a derivation step holds per module of the module budget, in the worst
+/// case (issue 39): three strings (the one being rewritten, the one being written and,
+/// with multi-module decomposition predecessors, the step's string before its
+/// decomposition), each [`BYTES_PER_MODULE`] (6) plus [`PARAMS_PER_MODULE`] (4)
+/// parameters of [`BYTES_PER_PARAMETER`] (8) per module, so 38 bytes each; plus the
+/// bracket partners of a context L-system (4) and, with sub-L-systems, the owner of
+/// each module, its stack and the owners before decomposition (2 each): 124 bytes.
+/// A derivation without parameters, contexts or sub-L-systems holds 12 bytes per module.
+pub const PEAK_BYTES_PER_MODULE: usize =
+    3 * (BYTES_PER_MODULE + PARAMS_PER_MODULE * BYTES_PER_PARAMETER) + 10;
+
+/// Largest module budget (`generator.max_modules`) a derivation accepts: 500 million
+/// modules (ten times the default), whose worst case at [`PEAK_BYTES_PER_MODULE`] is
+/// 62 GB (57.7 GiB), within 64 GiB; a string of as many modules without parameters
+/// takes 3 GB. Larger values are an error naming the key. Under the cap, a derivation
+/// that outgrows the machine's memory still stops with an error naming the key and the
+/// size asked, never an abort: every string grows fallibly, and each step reserves
+/// its estimated size before it writes.
+pub const MAX_MODULE_BUDGET: usize = 500_000_000;
+
+/// The module budget against [`MAX_MODULE_BUDGET`]: above it, why (the words that
+/// follow the key `generator.max_modules` in a message).
+pub fn check_module_budget(budget: usize) -> Result<(), String> {
+    if budget > MAX_MODULE_BUDGET {
+        return Err(format!(
+            "is {budget}, more than the largest module budget {MAX_MODULE_BUDGET}: a derivation step may \
+             hold up to {PEAK_BYTES_PER_MODULE} bytes per module of the budget ({} GB at the largest)",
+            (MAX_MODULE_BUDGET * PEAK_BYTES_PER_MODULE) as f64 / 1e9
+        ));
+    }
+    Ok(())
+}
 
 /// Work allowed per module of the module budget (issue 27): a derivation, with its
 /// decomposition, homomorphism, query passes and environmental program, may do at most
@@ -81,26 +115,39 @@ type Site<'a> = Option<(&'a ModuleString, usize, &'a [u32])>;
 
 /// Partner index of every bracket in `m` (`u32::MAX` for other modules); an unmatched
 /// `[` points past the end, an unmatched `]` to 0.
-fn bracket_partners(m: &ModuleString, open: Option<u16>, close: Option<u16>) -> Vec<u32> {
-    let mut out = vec![u32::MAX; m.len()];
-    let mut stack = Vec::new();
+fn bracket_partners(
+    m: &ModuleString,
+    open: Option<u16>,
+    close: Option<u16>,
+) -> Result<Vec<u32>, OutOfMemory> {
+    const NONE: u32 = u32::MAX;
+    let mut out = Vec::new();
+    try_room(&mut out, m.len(), m.len())?;
+    out.resize(m.len(), NONE);
+    // The open brackets waiting for their partner form a stack linked through `out`
+    // (each points at the one opened before it), so no memory beyond `out` is needed.
+    let mut top = NONE;
     for (i, &s) in m.syms.iter().enumerate() {
         if Some(s) == open {
-            stack.push(i);
+            out[i] = top;
+            top = i as u32;
         } else if Some(s) == close {
-            match stack.pop() {
-                Some(o) => {
-                    out[o] = i as u32;
-                    out[i] = o as u32;
-                }
-                None => out[i] = 0,
+            if top == NONE {
+                out[i] = 0;
+            } else {
+                let o = top as usize;
+                top = out[o];
+                out[o] = i as u32;
+                out[i] = o as u32;
             }
         }
     }
-    for o in stack {
+    while top != NONE {
+        let o = top as usize;
+        top = out[o];
         out[o] = m.len() as u32;
     }
-    out
+    Ok(out)
 }
 
 /// Empties a module string, keeping its allocations.
@@ -130,20 +177,25 @@ impl Pending {
         Self { modules: ModuleString::new(), depths: Vec::new(), groups: Vec::new(), next_group: 1 }
     }
 
-    fn push(&mut self, sym: u16, params: &[f64], depth: u32, group: u32) {
-        self.modules.push(sym, params);
+    fn push(&mut self, sym: u16, params: &[f64], depth: u32, group: u32) -> Result<(), OutOfMemory> {
+        let n = self.depths.len();
+        try_room(&mut self.depths, 1, n)?;
+        try_room(&mut self.groups, 1, n)?;
+        self.modules.try_push(sym, params)?;
         self.depths.push(depth);
         self.groups.push(group);
+        Ok(())
     }
 
     /// Pushes the modules of a successor as a new group at `depth`, its first on top.
-    fn push_successor(&mut self, succ: &ModuleString, depth: u32) {
+    fn push_successor(&mut self, succ: &ModuleString, depth: u32) -> Result<(), OutOfMemory> {
         let group = self.next_group;
         self.next_group = self.next_group.wrapping_add(1);
         for j in (0..succ.len()).rev() {
             let (s, p) = succ.module(j);
-            self.push(s, p, depth, group);
+            self.push(s, p, depth, group)?;
         }
+        Ok(())
     }
 
     /// Takes the top module: its symbol, depth and group, its parameters into `params`.
@@ -225,7 +277,7 @@ impl LSystem {
                 buf.push(v);
             }
             if whole {
-                out.push(m.sym, &buf);
+                out.try_push(m.sym, &buf).map_err(|e| self.memory_error(e, ev, "the axiom"))?;
             } else {
                 self.expand(
                     &self.decomposition,
@@ -242,7 +294,8 @@ impl LSystem {
         }
         if whole {
             let raw = std::mem::take(&mut out);
-            out = ModuleString::with_capacity(raw.len(), raw.params.len());
+            out = ModuleString::try_with_capacity(raw.len(), raw.params.len())
+                .map_err(|e| self.memory_error(e, ev, "the axiom"))?;
             self.expand_run(
                 &self.decomposition,
                 "decomposition",
@@ -301,6 +354,11 @@ impl LSystem {
                     super::environment::PROGRAMS.join(", ")
                 )));
         }
+        check_module_budget(opts.budget).map_err(|m| {
+            self.source.error_nowhere(ErrorKind::Budget, &format!("`generator.max_modules` {m}")).with_help(
+                "lower it with --set generator.max_modules=N; larger strings would not fit in memory",
+            )
+        })?;
         let env = if self.environment_at.is_some() { env } else { None };
         if let Some(e) = env {
             // A derivation starts from the program's initial state (clover's leaves).
@@ -414,6 +472,31 @@ impl LSystem {
             .with_help("derive fewer steps (-n) or raise the limit with --set generator.max_modules=N")
     }
 
+    /// A string that could not grow (issue 39): a budget error naming
+    /// `generator.max_modules` and the allocation that failed.
+    #[cold]
+    fn memory_error(&self, e: OutOfMemory, ev: &Evaluator, what: &str) -> Box<LsystemError> {
+        let limit = if ev.module_limit == usize::MAX {
+            "no module budget".to_string()
+        } else {
+            format!("generator.max_modules = {}", ev.module_limit)
+        };
+        self.source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "{what} outgrows the memory available after {} step(s): allocating {} bytes for a \
+                     string of {} modules failed ({limit}; a module takes {BYTES_PER_MODULE} bytes plus \
+                     {BYTES_PER_PARAMETER} per parameter, and a step holds two strings)",
+                    ev.steps_done, e.bytes, e.modules
+                ),
+            )
+            .with_help(
+                "derive fewer steps (-n), or lower the module budget with --set generator.max_modules=N so \
+                 that the derivation stops at the budget before memory runs out",
+            )
+    }
+
     /// One parallel rewriting step from `cur` into `out` (cleared first).
     pub fn step(
         &self,
@@ -429,18 +512,22 @@ impl LSystem {
         out.pofs.push(0);
         // Reserve from a cheap estimate (no successor longer than its symbol's longest),
         // capped by the budget so the reservation itself can never explode.
+        // Fallibly (issue 39): a step that does not fit in memory is an error naming
+        // `generator.max_modules`, not an abort.
+        let what = format!("derivation step {step}");
+        let oom = |e: OutOfMemory, ev: &Evaluator| self.memory_error(e, ev, &what);
         let estimate = self.growth_bound(cur).min(opts.budget + 1);
-        out.syms.reserve(estimate);
-        out.pofs.reserve(estimate);
-        let ratio = if cur.is_empty() { 1 } else { cur.params.len().div_ceil(cur.len()).max(1) };
-        out.params.reserve(estimate.saturating_mul(ratio).min(opts.budget.saturating_mul(4)));
+        // Parameters as many per module as now (rounded up), within the budget's.
+        let params = (estimate as u128 * cur.params.len() as u128).div_ceil(cur.len().max(1) as u128);
+        let params = params.min(param_budget(opts.budget) as u128) as usize;
+        out.try_reserve_exact(estimate, params).map_err(|e| oom(e, ev))?;
         let context = self.has_context || self.subsystems.iter().any(|s| s.lsystem.has_context);
         let brackets = if context {
-            bracket_partners(cur, self.symbols.get("["), self.symbols.get("]"))
+            bracket_partners(cur, self.symbols.get("["), self.symbols.get("]")).map_err(|e| oom(e, ev))?
         } else {
             Vec::new()
         };
-        let owner = self.owners(cur)?;
+        let owner = self.owners_in(cur, Some(ev))?;
         let (open, close) = (self.symbols.get("["), self.symbols.get("]"));
         let cut = self.symbols.get("%");
         let mut args: Vec<f64> = Vec::with_capacity(16);
@@ -497,7 +584,7 @@ impl LSystem {
                 None if decompose => {
                     sys.expand(&sys.decomposition, "decomposition", sym, params, 0, out, ev, &mut scratch)?
                 }
-                None => out.push(sym, params),
+                None => out.try_push(sym, params).map_err(|e| oom(e, ev))?,
                 Some((k, uses_buf)) => {
                     let p = &sys.productions[k];
                     // A multi-module predecessor consumes its following modules too.
@@ -528,13 +615,15 @@ impl LSystem {
                 }
             }
             if whole && raw_owner.len() < out.len() {
+                let more = out.len() - raw_owner.len();
+                try_room(&mut raw_owner, more, out.len()).map_err(|e| oom(e, ev))?;
                 raw_owner.resize(out.len(), owner.get(i).copied().unwrap_or(0));
             }
             self.check_step_size(out, opts, step)?;
         }
         if whole {
             let raw = std::mem::take(out);
-            *out = ModuleString::with_capacity(raw.len(), raw.params.len());
+            *out = ModuleString::try_with_capacity(raw.len(), raw.params.len()).map_err(|e| oom(e, ev))?;
             let mut a = 0;
             while a < raw.len() {
                 let k = raw_owner.get(a).copied().unwrap_or(0);
@@ -588,12 +677,22 @@ impl LSystem {
     /// closes it belongs to the sub-L-system. A `$` with no sub-L-system open is the
     /// turtle's roll-to-horizontal and belongs to whatever is around it.
     pub fn owners(&self, m: &ModuleString) -> Result<Vec<u16>, Box<LsystemError>> {
+        self.owners_in(m, None)
+    }
+
+    /// [`LSystem::owners`]; a failed allocation names the budget of `ev`.
+    fn owners_in(&self, m: &ModuleString, ev: Option<&Evaluator>) -> Result<Vec<u16>, Box<LsystemError>> {
         if self.subsystems.is_empty() {
             return Ok(Vec::new());
         }
         let (call, end) = (self.symbols.get("?"), self.symbols.get("$"));
         let mut stack: Vec<u16> = Vec::new();
-        let mut out = Vec::with_capacity(m.len());
+        let mut out = Vec::new();
+        let oom = |e| match ev {
+            Some(ev) => self.memory_error(e, ev, "the derived string"),
+            None => self.memory_error(e, &Evaluator::new(0), "the derived string"),
+        };
+        try_room(&mut out, m.len(), m.len()).map_err(oom)?;
         for i in 0..m.len() {
             let (sym, params) = m.module(i);
             out.push(stack.last().copied().unwrap_or(0));
@@ -610,6 +709,7 @@ impl LSystem {
                         ),
                     ));
                 };
+                try_room(&mut stack, 1, m.len()).map_err(oom)?;
                 stack.push(k as u16 + 1);
             } else if Some(sym) == end && !stack.is_empty() {
                 stack.pop();
@@ -930,8 +1030,7 @@ impl LSystem {
     ) -> Result<(), Box<LsystemError>> {
         for m in &p.succ {
             if m.args.is_empty() {
-                out.syms.push(m.sym);
-                out.pofs.push(out.params.len() as u32);
+                out.try_push(m.sym, &[]).map_err(|e| self.memory_error(e, ev, "the derived string"))?;
                 continue;
             }
             args.clear();
@@ -943,7 +1042,7 @@ impl LSystem {
                     }
                 }
             }
-            out.push(m.sym, args);
+            out.try_push(m.sym, args).map_err(|e| self.memory_error(e, ev, "the derived string"))?;
         }
         Ok(())
     }
@@ -966,11 +1065,11 @@ impl LSystem {
         scratch: &mut Vec<f64>,
     ) -> Result<(), Box<LsystemError>> {
         if rules.by_symbol.get(sym as usize).is_none_or(|p| p.is_empty()) {
-            out.push(sym, params);
+            out.try_push(sym, params).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
             return self.charge_expanded(what, ev, out);
         }
         let mut pending = Pending::new();
-        pending.push(sym, params, depth, 0);
+        pending.push(sym, params, depth, 0).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
         self.drain(rules, what, &mut pending, out, ev, scratch)
     }
 
@@ -1004,7 +1103,8 @@ impl LSystem {
             let prods = match rules.by_symbol.get(sym as usize) {
                 Some(p) if !p.is_empty() => p,
                 _ => {
-                    out.push(sym, params);
+                    out.try_push(sym, params)
+                        .map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
                     self.charge_expanded(what, ev, out)?;
                     i += 1;
                     continue;
@@ -1018,7 +1118,7 @@ impl LSystem {
             let Some((k, uses_buf)) =
                 self.choose(rules, what, prods, sym, params, Some(&look), 0, ev, &mut buf)?
             else {
-                out.push(sym, params);
+                out.try_push(sym, params).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
                 self.charge_expanded(what, ev, out)?;
                 i += 1;
                 continue;
@@ -1028,7 +1128,7 @@ impl LSystem {
             let locals: &[f64] = if uses_buf { &buf } else { params };
             clear_string(&mut tmp);
             self.emit(p, locals, &mut tmp, ev, scratch)?;
-            pending.push_successor(&tmp, 1);
+            pending.push_successor(&tmp, 1).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
             self.check_pending(what, &pending, ev)?;
             self.drain(rules, what, &mut pending, out, ev, scratch)?;
         }
@@ -1055,7 +1155,7 @@ impl LSystem {
             let prods = match rules.by_symbol.get(sym as usize) {
                 Some(p) if !p.is_empty() => p,
                 _ => {
-                    out.push(sym, &cur);
+                    out.try_push(sym, &cur).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
                     self.charge_expanded(what, ev, out)?;
                     continue;
                 }
@@ -1080,7 +1180,7 @@ impl LSystem {
             let Some((k, uses_buf)) =
                 self.choose(rules, what, prods, sym, &cur, site, depth, ev, &mut buf)?
             else {
-                out.push(sym, &cur);
+                out.try_push(sym, &cur).map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
                 self.charge_expanded(what, ev, out)?;
                 continue;
             };
@@ -1093,7 +1193,9 @@ impl LSystem {
             let locals: &[f64] = if uses_buf { &buf } else { &cur };
             clear_string(&mut tmp);
             self.emit(p, locals, &mut tmp, ev, scratch)?;
-            pending.push_successor(&tmp, depth + 1);
+            pending
+                .push_successor(&tmp, depth + 1)
+                .map_err(|e| self.memory_error(e, ev, &format!("the {what}")))?;
             self.check_pending(what, pending, ev)?;
         }
         Ok(())
@@ -1249,9 +1351,13 @@ impl LSystem {
         if empty(self) && self.subsystems.iter().all(|s| empty(&s.lsystem)) {
             return Ok(std::borrow::Cow::Borrowed(m));
         }
-        let owner = self.owners(m)?;
+        check_module_budget(budget).map_err(|m| {
+            self.source.error_nowhere(ErrorKind::Budget, &format!("`generator.max_modules` {m}"))
+        })?;
+        let owner = self.owners_in(m, Some(ev))?;
         let mut out =
-            ModuleString::with_capacity(m.len().min(budget), m.params.len().min(param_budget(budget)));
+            ModuleString::try_with_capacity(m.len().min(budget), m.params.len().min(param_budget(budget)))
+                .map_err(|e| self.memory_error(e, ev, "the homomorphism"))?;
         let mut scratch = Vec::new();
         // The homomorphism has a work budget of its own, as large as the derivation's.
         let saved = (ev.module_limit, ev.work_limit);
@@ -1327,6 +1433,22 @@ impl LSystem {
             }
             s.push(')');
         }
+    }
+
+    /// Writes the whole string as text, as [`LSystem::format`] makes it, in pieces of
+    /// about 64 KiB: a string of hundreds of millions of modules is printed without
+    /// its text ever being held whole in memory (issue 39).
+    pub fn write_to(&self, m: &ModuleString, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let mut s = String::with_capacity(1 << 16);
+        for i in 0..m.len() {
+            let (sym, params) = m.module(i);
+            self.write_module(&mut s, sym, params);
+            if s.len() >= (1 << 16) - 256 {
+                w.write_all(s.as_bytes())?;
+                s.clear();
+            }
+        }
+        w.write_all(s.as_bytes())
     }
 
     /// The whole string as text, cpfg-style (`b[a]a`, `F(1)+(60)F(1)`).

@@ -338,6 +338,16 @@ impl Slots for &mut [f64] {
 /// Most iterations one statement block's loops may run.
 pub const LOOP_LIMIT: u64 = 10_000_000;
 
+/// Deepest nesting an expression or statement block may have (issue 39): every
+/// parenthesis, unary operator (`-`, `+`, `!`), exponent (`^`), function argument, array
+/// index, branch of `?:` and nested statement (`{ }`, `if`, `else`, `while`, `do`) is one
+/// level. The compiler recurses once per level, so the limit bounds its stack use
+/// (about 10 frames, a few kilobytes in a debug build, per parenthesis) on any thread,
+/// whatever the input. Real models nest a handful of levels (the cpfg corpus at most
+/// 3 parentheses and 2 braces); deeper input is a located syntax error naming the
+/// limit.
+pub const MAX_NESTING: u32 = 256;
+
 /// A compiled expression with its place in the source.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Expr {
@@ -908,13 +918,46 @@ struct Parser<'a> {
     end: usize,
     scope: &'a Scope<'a>,
     ops: Vec<Op>,
+    /// Current nesting level ([`MAX_NESTING`]).
+    depth: u32,
 }
 
 type PResult = Result<(), Box<LsystemError>>;
 
 impl<'a> Parser<'a> {
     fn new(src: &'a Source, start: usize, end: usize, scope: &'a Scope<'a>) -> Self {
-        Parser { src, s: src.text.as_bytes(), pos: start, end, scope, ops: Vec::new() }
+        Parser { src, s: src.text.as_bytes(), pos: start, end, scope, ops: Vec::new(), depth: 0 }
+    }
+
+    /// Enters one level of nesting at `at`; an error past [`MAX_NESTING`]. Every
+    /// recursive call of the compiler goes through here (and [`Parser::leave`]).
+    fn enter(&mut self, at: usize) -> PResult {
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(self
+                .src
+                .error(
+                    ErrorKind::Syntax,
+                    at.min(self.end.saturating_sub(1)),
+                    1,
+                    &format!(
+                        "the expression nests more than {MAX_NESTING} levels deep (parentheses, unary \
+                         operators, exponents, function arguments, `?:` branches and statements each count), \
+                         sylva's limit on nesting"
+                    ),
+                    "too deep",
+                )
+                .with_help(format!(
+                    "split the expression, or compute parts of it in a statement block; {MAX_NESTING} levels \
+                     is far more than real models use"
+                )));
+        }
+        Ok(())
+    }
+
+    /// Leaves a level entered with [`Parser::enter`].
+    fn leave(&mut self) {
+        self.depth -= 1;
     }
 
     fn expect_end(&mut self) -> PResult {
@@ -1048,6 +1091,13 @@ impl<'a> Parser<'a> {
     /// One statement (or a `{ }` block of them).
     fn statement(&mut self) -> PResult {
         self.skip_ws();
+        self.enter(self.pos)?;
+        let r = self.statement_inner();
+        self.leave();
+        r
+    }
+
+    fn statement_inner(&mut self) -> PResult {
         if self.eat("{") {
             loop {
                 self.skip_ws();
@@ -1193,6 +1243,14 @@ impl<'a> Parser<'a> {
     }
 
     fn ternary(&mut self) -> PResult {
+        self.skip_ws();
+        self.enter(self.pos)?;
+        let r = self.ternary_inner();
+        self.leave();
+        r
+    }
+
+    fn ternary_inner(&mut self) -> PResult {
         self.or()?;
         if self.eat("?") {
             let jf = self.ops.len();
@@ -1305,32 +1363,31 @@ impl<'a> Parser<'a> {
     }
 
     fn unary(&mut self) -> PResult {
-        match self.peek() {
-            Some(b'-') => {
-                self.pos += 1;
-                self.unary()?;
-                self.ops.push(Op::Neg);
-                Ok(())
-            }
-            Some(b'+') => {
-                self.pos += 1;
-                self.unary()
-            }
-            Some(b'!') if self.s.get(self.pos + 1) != Some(&b'=') => {
-                self.pos += 1;
-                self.unary()?;
-                self.ops.push(Op::Not);
-                Ok(())
-            }
-            _ => self.power(),
+        let op = match self.peek() {
+            Some(b'-') => Some(Op::Neg),
+            Some(b'+') => None,
+            Some(b'!') if self.s.get(self.pos + 1) != Some(&b'=') => Some(Op::Not),
+            _ => return self.power(),
+        };
+        self.enter(self.pos)?;
+        self.pos += 1;
+        let r = self.unary();
+        self.leave();
+        r?;
+        if let Some(op) = op {
+            self.ops.push(op);
         }
+        Ok(())
     }
 
     fn power(&mut self) -> PResult {
         self.primary()?;
         if self.peek() == Some(b'^') {
+            self.enter(self.pos)?;
             self.pos += 1;
-            self.unary()?;
+            let r = self.unary();
+            self.leave();
+            r?;
             self.ops.push(Op::Pow);
         }
         Ok(())

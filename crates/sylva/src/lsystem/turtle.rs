@@ -361,6 +361,13 @@ fn command(name: &str) -> Cmd {
     }
 }
 
+/// Deepest nesting of branches (`[`, and sub-L-systems `?(n)`) and of polygons (`{`)
+/// the turtle follows (issue 39): each open level saves the turtle's state (about 220
+/// bytes) or a polygon, so a string of millions of unclosed `[` would otherwise need
+/// gigabytes. A million levels (about 220 MB of saved states) is far more than any
+/// plant nests; deeper strings are a budget error naming the module.
+pub const MAX_NESTING: usize = 1_000_000;
+
 /// Interprets `string` (whose symbols are named by `symbols`) into a skeleton.
 /// `source` is only used to name the file in error messages.
 pub fn interpret(
@@ -476,6 +483,19 @@ fn run(
     on_query: &mut dyn FnMut(usize, QueryState),
 ) -> Result<Skeleton, Box<LsystemError>> {
     let fail = |what: String| source.error_nowhere(ErrorKind::NonFinite, &what);
+    // A branch or polygon opened past [`MAX_NESTING`] levels, or whose saved state
+    // cannot be allocated.
+    let too_deep = |i: usize, what: &str| {
+        source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "module {i} of the derived string opens {what} more than {MAX_NESTING} levels deep, the \
+                     turtle's limit on nesting (each open level keeps a saved state)"
+                ),
+            )
+            .with_help("close the branches the grammar opens (`[` … `]`), or derive fewer steps (-n)")
+    };
     for (name, v) in [
         ("angle", opts.angle),
         ("step", opts.step),
@@ -634,6 +654,10 @@ fn run(
             }
             Cmd::SubStart if !p.is_empty() => {
                 // A sub-L-system is drawn like a branch, its lengths scaled.
+                if stack.len() >= MAX_NESTING || stack.try_reserve(1).is_err() || subs.try_reserve(1).is_err()
+                {
+                    return Err(too_deep(i, "a sub-L-system (`?`)"));
+                }
                 subs.push(stack.len());
                 stack.push(st);
                 let s = p.get(1).copied().unwrap_or(1.0);
@@ -665,6 +689,9 @@ fn run(
                 }
             }
             Cmd::Push => {
+                if stack.len() >= MAX_NESTING || stack.try_reserve(1).is_err() {
+                    return Err(too_deep(i, "a branch (`[`)"));
+                }
                 stack.push(st);
                 st.order = st.order.saturating_add(1);
                 st.sweep_branch = st.sweep != NO_PARENT;
@@ -853,7 +880,12 @@ fn run(
                     }
                 }
             }
-            Cmd::PolygonStart => polygons.push(vec![st.pos]),
+            Cmd::PolygonStart => {
+                if polygons.len() >= MAX_NESTING || polygons.try_reserve(1).is_err() {
+                    return Err(too_deep(i, "a polygon (`{`)"));
+                }
+                polygons.push(vec![st.pos]);
+            }
             Cmd::Vertex => {
                 if let Some(poly) = polygons.last_mut() {
                     if poly.last().is_none_or(|v| v.distance(st.pos) > 1e-12) {
