@@ -60,14 +60,14 @@ struct GrowArgs {
     /// Do not write a preview.
     #[arg(long, conflicts_with = "preview")]
     no_preview: bool,
-    /// Preview width and height in pixels (recipe key `output.preview_size`).
-    #[arg(long, value_name = "PIXELS")]
+    /// Preview width and height in pixels, 1..=8192 (recipe key `output.preview_size`).
+    #[arg(long, value_name = "PIXELS", value_parser = whole_in::<u32>(1, sylva::preview::MAX_SIZE as u64))]
     preview_size: Option<u32>,
     /// Derivation steps (recipe key `generator.iterations`).
-    #[arg(short = 'n', long)]
+    #[arg(short = 'n', long, value_parser = whole_in::<u32>(0, u32::MAX as u64))]
     iterations: Option<u32>,
     /// Random seed (recipe key `seed`).
-    #[arg(long)]
+    #[arg(long, value_parser = whole_in::<u64>(0, i64::MAX as u64))]
     seed: Option<u64>,
     /// Set any recipe key: `--set generator.angle=22.5 --set mesh.sides=6`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -89,23 +89,92 @@ struct GrowArgs {
     quiet: bool,
 }
 
+/// Why a flag's value is not a whole number in its range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum BadNumber {
+    /// Not a number at all.
+    NotANumber,
+    /// A number outside the range (however many digits it has).
+    OutOfRange,
+    /// A fraction inside the range.
+    NotWhole,
+    /// A whole number inside the range written as a float (`1e3`): the recipe refuses
+    /// floats for whole-number keys, so the flags do too.
+    Float,
+}
+
+impl BadNumber {
+    /// The message, naming the range.
+    fn say(self, lo: u64, hi: u64) -> String {
+        let why = match self {
+            BadNumber::NotANumber => "not a number",
+            BadNumber::OutOfRange => "out of range",
+            BadNumber::NotWhole => "not a whole number",
+            BadNumber::Float => "written as a float (write it in digits)",
+        };
+        format!("{why}: use a whole number in {lo}..={hi}")
+    }
+}
+
+/// `s` as a whole number in `lo..=hi`: digits, `_` allowed between them.
+fn whole_number(s: &str, lo: u64, hi: u64) -> std::result::Result<u64, BadNumber> {
+    let t = s.trim().replace('_', "");
+    match t.parse::<u64>() {
+        Ok(n) if (lo..=hi).contains(&n) => Ok(n),
+        Ok(_) => Err(BadNumber::OutOfRange),
+        Err(_) if !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()) => Err(BadNumber::OutOfRange),
+        Err(_) => match t.parse::<f64>() {
+            Ok(x) if x.is_finite() && (x < lo as f64 || x > hi as f64) => Err(BadNumber::OutOfRange),
+            Ok(x) if x.is_finite() && x.fract() != 0.0 => Err(BadNumber::NotWhole),
+            Ok(x) if x.is_finite() => Err(BadNumber::Float),
+            _ => Err(BadNumber::NotANumber),
+        },
+    }
+}
+
+/// A clap value parser for a whole number in `lo..=hi` whose every message names the
+/// range (clap names the flag): a number out of the range, however long, is "out of
+/// range", not "invalid digit" or "too large to fit".
+fn whole_in<T>(
+    lo: u64,
+    hi: u64,
+) -> impl Fn(&str) -> std::result::Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<u64> + Clone + Send + Sync + 'static,
+{
+    move |s: &str| {
+        let n = whole_number(s, lo, hi).map_err(|e| e.say(lo, hi))?;
+        T::try_from(n).map_err(|_| BadNumber::OutOfRange.say(lo, hi))
+    }
+}
+
 /// `--lod 30000,8000,2000,impostor` as recipe overrides (`lod.levels`, `lod.impostor`).
+/// An item that is not a number, one out of [`recipe::LOD_BUDGETS`] and one that is not
+/// whole get their own messages, each naming `--lod` and the range.
 fn lod_overrides(spec: &str) -> Result<Vec<(String, toml::Value)>> {
+    use sylva::diagnostic::quote;
     let mut levels = Vec::new();
     let mut impostor = false;
+    let (lo, hi) = (u64::from(*recipe::LOD_BUDGETS.start()), u64::from(*recipe::LOD_BUDGETS.end()));
     for (i, item) in spec.split(',').map(str::trim).enumerate() {
+        let (shown, k) = (quote(spec), i + 1);
         if item.eq_ignore_ascii_case("impostor") {
             impostor = true;
         } else if impostor {
-            return Err(miette::miette!("--lod {spec}: `impostor` must come last (item {})", i + 1));
+            return Err(miette::miette!("--lod {shown}: `impostor` must come last (item {k})"));
         } else {
-            let n: u32 = item.replace('_', "").parse().map_err(|_| {
-                miette::miette!(
-                    "--lod {spec}: item {} (`{item}`) is neither a triangle budget nor `impostor`",
-                    i + 1
-                )
+            let n = whole_number(item, lo, hi).map_err(|e| match e {
+                BadNumber::NotANumber => miette::miette!(
+                    "--lod {shown}: item {k} (`{}`) is neither a triangle budget (a whole number in {lo}..={hi}) nor `impostor`",
+                    quote(item)
+                ),
+                e => miette::miette!(
+                    "--lod {shown}: item {k} (`{}`) is not a triangle budget: {}",
+                    quote(item),
+                    e.say(lo, hi)
+                ),
             })?;
-            levels.push(toml::Value::Integer(n.into()));
+            levels.push(toml::Value::Integer(n as i64));
         }
     }
     Ok(vec![
@@ -142,14 +211,14 @@ struct RenderArgs {
     wind: Option<String>,
     /// Frames to render (1..=1200) at `--fps`; default 60 with `--wind`, else 1. With
     /// `--window`: close the window after N frames (default: stay open).
-    #[arg(long)]
+    #[arg(long, value_parser = whole_in::<u32>(1, sylva::animation::MAX_FRAMES as u64))]
     frames: Option<u32>,
     /// Frames per second of an animation (1..=60).
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = whole_in::<u32>(1, 60))]
     fps: u32,
     /// Draw N copies of the tree on a grid (seeded yaw, scale and position jitter),
     /// instanced, each at the level of detail its projected size asks for.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = whole_in::<u32>(1, MAX_FOREST as u64))]
     forest: Option<u32>,
     /// Levels of detail as for `grow --lod` (`30000,8000,impostor`); far trees of a
     /// forest use the coarser ones.
@@ -159,10 +228,10 @@ struct RenderArgs {
     #[arg(long)]
     no_msaa: bool,
     /// Derivation steps (recipe key `generator.iterations`).
-    #[arg(short = 'n', long)]
+    #[arg(short = 'n', long, value_parser = whole_in::<u32>(0, u32::MAX as u64))]
     iterations: Option<u32>,
     /// Random seed (recipe key `seed`; also seeds the forest's jitter).
-    #[arg(long)]
+    #[arg(long, value_parser = whole_in::<u64>(0, i64::MAX as u64))]
     seed: Option<u64>,
     /// Set any recipe key, as for `grow`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -231,14 +300,22 @@ impl RenderOutput {
 
 /// `WxH` as (width, height), each in 1..=8192.
 fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let bad = || miette::miette!("--size {s}: expected WIDTHxHEIGHT in pixels, e.g. 1920x1080");
-    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
-    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    let shown = sylva::diagnostic::quote(s);
     let max = sylva::preview::MAX_SIZE;
-    if !(1..=max).contains(&w) || !(1..=max).contains(&h) {
-        return Err(miette::miette!("--size {s}: width and height must each be in 1..={max}"));
-    }
-    Ok((w, h))
+    let bad = || miette::miette!("--size {shown}: expected WIDTHxHEIGHT in pixels, e.g. 1920x1080");
+    let range = || miette::miette!("--size {shown}: width and height must each be in 1..={max}");
+    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    // A side that is all digits is a number, however long: too large, not malformed.
+    let side = |t: &str| -> Result<u32> {
+        let t = t.trim();
+        match t.parse::<u32>() {
+            Ok(n) if (1..=max).contains(&n) => Ok(n),
+            Ok(_) => Err(range()),
+            Err(_) if !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()) => Err(range()),
+            Err(_) => Err(bad()),
+        }
+    };
+    Ok((side(w)?, side(h)?))
 }
 
 fn render(args: RenderArgs) -> Result<()> {
@@ -506,10 +583,10 @@ enum LsysCommand {
         /// L-system file (.l), recipe (.toml) or preset name.
         what: String,
         /// Derivation steps (default: the file's derivation length).
-        #[arg(short = 'n', long)]
+        #[arg(short = 'n', long, value_parser = whole_in::<u32>(0, u32::MAX as u64))]
         iterations: Option<u32>,
         /// Random seed.
-        #[arg(long)]
+        #[arg(long, value_parser = whole_in::<u64>(0, i64::MAX as u64))]
         seed: Option<u64>,
         /// Set any recipe key.
         #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -524,6 +601,10 @@ fn main() -> ExitCode {
     let _ =
         miette::set_hook(Box::new(|_| Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())));
     let cli = Cli::parse();
+    if let Err(e) = start_threads() {
+        report(&e);
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Grow(args) => grow(args),
         Command::Render(args) => render(args),
@@ -543,10 +624,44 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{e:?}");
+            report(&e);
             ExitCode::FAILURE
         }
     }
+}
+
+/// Prints an error with miette's handler. The report is rendered into a string first;
+/// should the renderer panic on some input (miette's graphical handler did on columns
+/// past 65,535, issue 39; located errors now carry clipped excerpts), the panic is
+/// caught, silently, and the plain message, its causes and its help are printed
+/// instead: printing an error never panics.
+fn report(e: &miette::Report) {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let rendered = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| format!("{e:?}")));
+    std::panic::set_hook(hook);
+    match rendered {
+        Ok(text) => eprintln!("{text}"),
+        Err(_) => {
+            eprintln!("Error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            if let Some(help) = e.help() {
+                eprintln!("  help: {help}");
+            }
+        }
+    }
+}
+
+/// Starts the engine's worker threads before any work, so a `RAYON_NUM_THREADS` above
+/// [`sylva::refine::MAX_THREADS`], or one the system cannot start, is an error naming
+/// it rather than a panic at the first parallel step.
+fn start_threads() -> Result<()> {
+    sylva::refine::start_global_threads().map_err(|e| match std::env::var("RAYON_NUM_THREADS") {
+        Ok(v) => miette::miette!("RAYON_NUM_THREADS={}: {e}", sylva::diagnostic::quote(&v)),
+        Err(_) => miette::miette!("{e}"),
+    })
 }
 
 /// Collects flags and `--set` pairs into recipe overrides, flags last so they win.

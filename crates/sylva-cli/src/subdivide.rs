@@ -5,7 +5,7 @@
 //! (`t crease 2/1 v0 v1 sharpness`, `t corner 1/1 v sharpness`); see
 //! `sylva::mesh::obj_read`.
 
-use miette::{IntoDiagnostic, Result};
+use miette::Result;
 use std::path::PathBuf;
 use std::time::Instant;
 use sylva::refine::{self, FvarInterpolation, RefineOptions, Scheme, SubdivideOptions};
@@ -44,8 +44,9 @@ pub struct SubdivideArgs {
     /// Refuse to write more faces than this.
     #[arg(long, value_name = "FACES", default_value_t = refine::DEFAULT_MAX_FACES)]
     pub max_faces: usize,
-    /// Worker threads (default: all cores; the output is identical for any count).
-    #[arg(long)]
+    /// Worker threads, 1..=1024 (`refine::MAX_THREADS`; default: all cores; the output is
+    /// identical for any count).
+    #[arg(long, value_parser = crate::whole_in::<usize>(1, refine::MAX_THREADS as u64))]
     pub threads: Option<usize>,
     /// Adaptive Loop refinement instead of uniform (seed 001): `flatness=RAD,size=AREA`
     /// (flatness in radians, or degrees with a `deg` suffix; size = smallest triangle
@@ -376,7 +377,9 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
         }
     };
     let refined = match args.threads {
-        Some(n) if n > 1 => refine::with_threads(n, subdivide).into_diagnostic()?,
+        Some(n) if n > 1 => {
+            refine::with_threads(n, subdivide).map_err(|e| miette::miette!("--threads {n}: {e}"))?
+        }
         _ => subdivide(),
     }
     .map_err(|e| miette::Report::new(e).wrap_err(format!("cannot subdivide {}", args.input.display())))?;

@@ -212,8 +212,15 @@ impl LodSection {
         if self.levels.len() > 8 {
             return bad("levels", format!("has {} budgets; at most 8", self.levels.len()));
         }
-        if let Some(b) = self.levels.iter().find(|&&b| !(12..=10_000_000).contains(&b)) {
-            return bad("levels", format!("budgets must be in 12..=10000000 triangles, got {b}"));
+        if let Some(b) = self.levels.iter().find(|&&b| !LOD_BUDGETS.contains(&b)) {
+            return bad(
+                "levels",
+                format!(
+                    "budgets must be in {}..={} triangles, got {b}",
+                    LOD_BUDGETS.start(),
+                    LOD_BUDGETS.end()
+                ),
+            );
         }
         if self.levels.windows(2).any(|w| w[1] >= w[0]) {
             return bad("levels", format!("budgets must decrease, got {:?}", self.levels));
@@ -227,6 +234,9 @@ impl LodSection {
         Ok(())
     }
 }
+
+/// The triangle budgets `lod.levels` (and `--lod`) accept.
+pub const LOD_BUDGETS: std::ops::RangeInclusive<u32> = 12..=10_000_000;
 
 /// `[leaves]`: how leaf organs are written.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -938,18 +948,34 @@ impl Loaded {
 
 /// Parses `key=value` (the CLI's `--set`). The value is read as TOML when it parses
 /// (`3`, `22.5`, `true`, `"x"`, `[1, 2]`), else taken as a bare string.
+///
+/// A value that starts like a TOML array, table or string (`[`, `{`, `"`) must parse:
+/// its syntax error names the key and the column in the value, with a clipped excerpt.
+/// Messages quote the key and the value clipped ([`crate::diagnostic::quote`]).
 pub fn parse_set(kv: &str) -> Result<(String, toml::Value)> {
+    use crate::diagnostic::{caret_excerpt, clip_quoted, quote};
     let Some((k, v)) = kv.split_once('=') else {
-        return Err(Error::Recipe(format!("`--set {kv}` is not of the form key=value")));
+        return Err(Error::Recipe(format!("`--set {}` is not of the form key=value", quote(kv))));
     };
     let key = k.trim();
     if key.is_empty() || key.split('.').any(|p| p.trim().is_empty()) {
-        return Err(Error::Recipe(format!("`--set {kv}`: bad key `{key}`")));
+        return Err(Error::Recipe(format!("`--set {}`: bad key `{}`", quote(kv), quote(key))));
     }
-    let value = toml::from_str::<toml::Table>(&format!("v = {}", v.trim()))
-        .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(v.trim().to_string()));
+    let v = v.trim();
+    const PREFIX: &str = "v = ";
+    let value = match toml::from_str::<toml::Table>(&format!("{PREFIX}{v}")) {
+        Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(v.to_string())),
+        Err(e) if v.starts_with(['[', '{', '"']) => {
+            let at = e.span().map_or(0, |r| r.start.saturating_sub(PREFIX.len()));
+            let (_, col, excerpt) = caret_excerpt(v, at);
+            return Err(Error::Recipe(format!(
+                "`--set {}=…`: the value is not valid TOML at column {col}: {}\n{excerpt}",
+                quote(key),
+                clip_quoted(e.message().trim())
+            )));
+        }
+        Err(_) => toml::Value::String(v.to_string()),
+    };
     Ok((key.to_string(), value))
 }
 
@@ -967,8 +993,9 @@ pub fn set_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result
             toml::Value::Table(t) => t,
             _ => {
                 return Err(Error::Recipe(format!(
-                    "cannot set `{key}`: `{}` is a value, not a table",
-                    parts[..=i].join(".")
+                    "cannot set `{}`: `{}` is a value, not a table",
+                    crate::diagnostic::quote(key),
+                    crate::diagnostic::quote(&parts[..=i].join("."))
                 )))
             }
         };
@@ -983,12 +1010,21 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
     }
     let recipe: Recipe = serde_path_to_error::deserialize(toml::Value::Table(table.clone())).map_err(
         |e: serde_path_to_error::Error<toml::de::Error>| {
-            let path = e.path().to_string();
-            let why = e.into_inner().message().trim().to_string();
+            let mut path = e.path().to_string();
+            let mut why = e.into_inner().message().trim().to_string();
+            // `generator` is an internally tagged enum: serde reads its table through a
+            // buffer the path tracker cannot see into, so the key inside is found by
+            // reading the table again as the variant its `type` names.
+            if path == "generator" {
+                if let Some((inner, w)) = table.get("generator").and_then(generator_key_error) {
+                    (path, why) = (format!("generator.{inner}"), w);
+                }
+            }
+            let why = type_hint(&crate::diagnostic::clip_quoted(&why));
             if path == "." {
                 Error::Recipe(why)
             } else {
-                Error::Recipe(format!("`{path}`: {why}"))
+                Error::Recipe(format!("`{}`: {why}", crate::diagnostic::quote(&path)))
             }
         },
     )?;
@@ -1003,17 +1039,66 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
         let mut unknown = Vec::new();
         unknown_keys(&table, &back, "", &mut unknown);
         if let Some(k) = unknown.first() {
-            return Err(Error::Recipe(format!("unknown key `{k}`")));
+            return Err(Error::Recipe(format!("unknown key `{}`", crate::diagnostic::quote(k))));
         }
     }
     recipe.check()?;
     Ok(recipe)
 }
 
+/// The key inside a `[generator]` table whose value fails to read, and why: the table
+/// read again (without its `type`) as the variant `type` names, with the path tracked.
+/// `None` when the table reads (the error is elsewhere) or `type` is not known.
+fn generator_key_error(generator: &toml::Value) -> Option<(String, String)> {
+    fn read<T: serde::de::DeserializeOwned>(v: toml::Value) -> Option<(String, String)> {
+        let e = serde_path_to_error::deserialize::<_, T>(v).err()?;
+        let path = e.path().to_string();
+        (path != ".").then(|| (path, e.into_inner().message().trim().to_string()))
+    }
+    let mut t = generator.as_table()?.clone();
+    let ty = t.remove("type")?;
+    let v = toml::Value::Table(t);
+    match ty.as_str()? {
+        "lsystem" => read::<LsystemGenerator>(v),
+        "import" => read::<ImportGenerator>(v),
+        "weber-penn" => read::<crate::grow::weber_penn::WeberPennParams>(v),
+        "space-colonization" => read::<crate::grow::colonize::ColonizeParams>(v),
+        "least-cost" => read::<crate::grow::least_cost::LeastCostParams>(v),
+        _ => None,
+    }
+}
+
+/// serde's type names in a message said in words: `expected u32` becomes `expected a
+/// whole number in 0..=4294967295 (u32)`, `expected f64` `expected a number (f64)`.
+fn type_hint(why: &str) -> String {
+    let mut out = why.to_string();
+    for (ty, words) in [
+        ("u8", format!("a whole number in 0..={}", u8::MAX)),
+        ("u16", format!("a whole number in 0..={}", u16::MAX)),
+        ("u32", format!("a whole number in 0..={}", u32::MAX)),
+        ("u64", format!("a whole number in 0..={}", u64::MAX)),
+        ("usize", format!("a whole number in 0..={}", usize::MAX)),
+        ("i32", format!("a whole number in {}..={}", i32::MIN, i32::MAX)),
+        ("i64", format!("a whole number in {}..={}", i64::MIN, i64::MAX)),
+        ("f32", "a number".to_string()),
+        ("f64", "a number".to_string()),
+    ] {
+        let pat = format!("expected {ty}");
+        let whole_word = |k: &usize| !out[k + pat.len()..].starts_with(char::is_alphanumeric);
+        if let Some(k) = out.find(&pat).filter(whole_word) {
+            out.replace_range(k..k + pat.len(), &format!("expected {words} ({ty})"));
+            break;
+        }
+    }
+    out
+}
+
 /// Keys the recipe leaves out when it is written at their defaults (so files' metadata
 /// keeps its old form): missing from the round trip, they are still known. The `[wind]`
 /// and `[lod]` tables check their own keys (`deny_unknown_fields`).
-const SKIPPED_AT_DEFAULT: [&str; 15] = [
+const SKIPPED_AT_DEFAULT: &[&str] = &[
+    "input",
+    "generator.allow_paths",
     "fit.decollide.max_work",
     "mesh.leaf",
     "refine.boundary",
@@ -1047,6 +1132,24 @@ fn unknown_keys(input: &toml::Table, back: &toml::Table, prefix: &str, out: &mut
     }
 }
 
+/// A TOML syntax error in `text`, as toml writes it (`TOML parse error at line L, column
+/// C`, the line with a caret, the message), except that a line longer than a few hundred
+/// characters is shown clipped around the error and quoted pieces of the message are
+/// clipped (toml prints the whole line, however long).
+fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    use crate::diagnostic::{caret_excerpt, clip_quoted, EXCERPT_SIDE};
+    let full = e.to_string();
+    let Some(span) = e.span() else { return clip_quoted(full.trim()).into_owned() };
+    let at = span.start.min(text.len());
+    let start = text[..at].rfind('\n').map_or(0, |k| k + 1);
+    let line = text[start..].split('\n').next().unwrap_or("");
+    if line.len() <= 2 * EXCERPT_SIDE && full.len() <= 8 * EXCERPT_SIDE {
+        return full.trim().to_string();
+    }
+    let (line, col, excerpt) = caret_excerpt(text, at);
+    format!("TOML parse error at line {line}, column {col}\n{excerpt}\n{}", clip_quoted(e.message().trim()))
+}
+
 /// Loads the recipe for `what`: an embedded preset name, a `.toml` recipe file, or a
 /// bare model file (`.l`) that gets the default recipe. `sets` are `--set` overrides.
 pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
@@ -1055,7 +1158,7 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
     if ext == "toml" {
         let text = crate::fsutil::read_to_string(path)?;
         let table: toml::Table = toml::from_str(&text)
-            .map_err(|e| Error::Recipe(format!("{}: {}", path.display(), e.to_string().trim())))?;
+            .map_err(|e| Error::Recipe(format!("{}: {}", path.display(), toml_error(&text, &e))))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let recipe = from_table(table, sets).map_err(|e| match e {
             Error::Recipe(m) => Error::Recipe(format!("{}: {m}", path.display())),

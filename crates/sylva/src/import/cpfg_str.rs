@@ -26,6 +26,7 @@
 //! produce. The turtle ([`crate::lsystem::interpret`]) draws the result.
 
 use super::{located, parse_number, NumberError};
+use crate::diagnostic::quote;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use crate::lsystem::{ModuleString, Symbols};
 
@@ -130,6 +131,8 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
         }
         let end = name_end(text, i);
         let module = &text[at..end];
+        // Messages quote at most a clipped piece of the input.
+        let shown = quote(module);
         let Some(sym) = symbols.intern(module) else {
             return Err(err(
                 ErrorKind::Syntax,
@@ -156,7 +159,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                             ErrorKind::Syntax,
                             open,
                             1,
-                            &format!("unclosed `(` after module `{module}`"),
+                            &format!("unclosed `(` after module `{shown}`"),
                             "opened here",
                         ));
                     }
@@ -165,11 +168,12 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                         ErrorKind::Syntax,
                         i,
                         c.len_utf8(),
-                        &format!("expected a number in the parameters of `{module}`, found `{c}`"),
+                        &format!("expected a number in the parameters of `{shown}`, found `{c}`"),
                         "expected a number",
                     ));
                 }
                 let tok = &text[i..t_end];
+                let shown_tok = quote(tok);
                 match parse_number(tok) {
                     Ok(v) => params.push(v),
                     Err(NumberError::NonFinite) => {
@@ -177,7 +181,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                             ErrorKind::NonFinite,
                             i,
                             tok.len(),
-                            &format!("parameter `{tok}` of module `{module}` is not a finite number"),
+                            &format!("parameter `{shown_tok}` of module `{shown}` is not a finite number"),
                             "not finite",
                         ));
                     }
@@ -187,7 +191,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                             i,
                             tok.len(),
                             &format!(
-                                "parameter `{tok}` of module `{module}` is not a number (string files hold numbers, not expressions)"
+                                "parameter `{shown_tok}` of module `{shown}` is not a number (string files hold numbers, not expressions)"
                             ),
                             "not a number",
                         ));
@@ -205,7 +209,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                             ErrorKind::Syntax,
                             open,
                             1,
-                            &format!("unclosed `(` after module `{module}`"),
+                            &format!("unclosed `(` after module `{shown}`"),
                             "opened here",
                         ));
                     }
@@ -215,7 +219,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                             ErrorKind::Syntax,
                             i,
                             c.len_utf8(),
-                            &format!("expected `,` or `)` in the parameters of `{module}`, found `{c}`"),
+                            &format!("expected `,` or `)` in the parameters of `{shown}`, found `{c}`"),
                             "expected `,` or `)`",
                         ));
                     }
@@ -229,7 +233,7 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                     at,
                     i - at,
                     &format!(
-                        "turtle module `{module}` takes at most {max} parameter(s), got {}",
+                        "turtle module `{shown}` takes at most {max} parameter(s), got {}",
                         params.len()
                     ),
                     "too many parameters",

@@ -27,9 +27,7 @@ pub mod skel_json;
 use crate::error::{Error, Result};
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use crate::skeleton::Skeleton;
-use miette::{NamedSource, SourceSpan};
 use std::path::Path;
-use std::sync::Arc;
 
 /// The skeleton file extensions [`load_skeleton`] understands, for error messages.
 pub const SKELETON_EXTENSIONS: &str = ".lst, .skel.json (any .json)";
@@ -69,8 +67,8 @@ pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleto
 ///
 /// The error is built directly rather than through a `Source`, which would run the
 /// cpfg preprocessor over the text (LST and `.str` files are not C: a `.str` line may
-/// start with the module `#`). It is built only on the error path, so a successful
-/// parse never copies its input.
+/// start with the module `#`). It is built only on the error path and keeps only a
+/// clipped window of the text ([`LsystemError::located`]).
 pub(crate) fn located(
     name: &str,
     text: &str,
@@ -80,34 +78,12 @@ pub(crate) fn located(
     what: &str,
     label: &str,
 ) -> Box<LsystemError> {
-    let mut at = at.min(text.len());
-    while !text.is_char_boundary(at) {
-        at -= 1;
-    }
-    let before = &text[..at];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    let len = len.max(1).min(text.len() - at).max(usize::from(at < text.len()));
-    Box::new(LsystemError {
-        kind,
-        message: format!("{name}:{line}:{col}: {what}"),
-        source_code: NamedSource::new(name, Arc::<str>::from(text)),
-        span: Some(SourceSpan::new(at.into(), len)),
-        label: label.to_string(),
-        help: None,
-    })
+    LsystemError::located(kind, name, text, at, len.max(1), what, label)
 }
 
 /// An error with no place in the file: `name: what`.
-pub(crate) fn nowhere(name: &str, text: &str, kind: ErrorKind, what: &str) -> Box<LsystemError> {
-    Box::new(LsystemError {
-        kind,
-        message: format!("{name}: {what}"),
-        source_code: NamedSource::new(name, Arc::<str>::from(text)),
-        span: None,
-        label: String::new(),
-        help: None,
-    })
+pub(crate) fn nowhere(name: &str, _text: &str, kind: ErrorKind, what: &str) -> Box<LsystemError> {
+    LsystemError::nowhere(kind, name, what)
 }
 
 /// Why a token is not a usable number.

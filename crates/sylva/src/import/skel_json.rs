@@ -4,6 +4,7 @@
 
 use super::lst::perpendicular;
 use super::{located, nowhere};
+use crate::diagnostic::{clip, clip_quoted, quote, QUOTE_CHARS};
 use crate::error::{Error, Result};
 use crate::lsystem::source::ErrorKind;
 use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
@@ -105,7 +106,7 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
     if doc.format != JSON_FORMAT {
         return Err(bad(format!(
             "not a sylva skeleton: format is {:?}, expected {JSON_FORMAT:?}",
-            doc.format
+            quote(&doc.format)
         )));
     }
     if doc.version != JSON_VERSION {
@@ -163,11 +164,15 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
                     .collect();
                 let n = rings.first().map_or(0, Vec::len);
                 if rings.iter().any(|r| r.len() != n) {
-                    return Err(bad(format!("organs[{k}].rings: every ring needs the same number of points")));
+                    return Err(bad(format!(
+                        "organs[{k}].rings: every ring needs the same number of points"
+                    )));
                 }
                 OrganKind::Swept(crate::skeleton::SweptSurface { rings, closed: o.closed.unwrap_or(false) })
             }
-            ("swept", ..) => return Err(bad(format!("organs[{k}]: a swept organ has no `name` or `vertices`"))),
+            ("swept", ..) => {
+                return Err(bad(format!("organs[{k}]: a swept organ has no `name` or `vertices`")))
+            }
             ("leaf", None, None) => OrganKind::Leaf,
             ("sphere", None, None) => OrganKind::Sphere,
             ("disc", None, None) => OrganKind::Disc,
@@ -184,7 +189,8 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
             }
             (other, ..) => {
                 return Err(bad(format!(
-                    "organs[{k}].kind: unknown organ kind {other:?} (leaf, polygon, surface, sphere, disc, swept)"
+                    "organs[{k}].kind: unknown organ kind {:?} (leaf, polygon, surface, sphere, disc, swept)",
+                    quote(other)
                 )))
             }
         };
@@ -217,8 +223,12 @@ pub fn from_json_budget(name: &str, text: &str, max_nodes: usize) -> Result<Skel
 fn json_error(name: &str, text: &str, path: &str, e: &serde_json::Error) -> Error {
     let at = offset_of(text, e.line(), e.column());
     let full = e.to_string();
-    let msg = full.rsplit_once(" at line ").map_or(full.as_str(), |(m, _)| m);
-    let what = if path.is_empty() || path == "." { msg.to_string() } else { format!("{path}: {msg}") };
+    let msg = clip_quoted(full.rsplit_once(" at line ").map_or(full.as_str(), |(m, _)| m));
+    let what = if path.is_empty() || path == "." {
+        msg.into_owned()
+    } else {
+        format!("{}: {msg}", clip(path, 4 * QUOTE_CHARS))
+    };
     located(name, text, ErrorKind::Syntax, at, 1, &what, "here").into()
 }
 

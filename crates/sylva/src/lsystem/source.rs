@@ -4,7 +4,6 @@
 //! at the line and column the user wrote, in the right file. The preprocessor that
 //! builds it is [`super::preprocess`]; seed 001 §4.3 (cpfg's files), seed 002 §2.
 
-use miette::{NamedSource, SourceSpan};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -89,16 +88,7 @@ impl Source {
     ) -> Box<LsystemError> {
         let (file, off) = ((o >> 32) as usize, (o & 0xffff_ffff) as usize);
         let (name, text) = &self.files[file.min(self.files.len() - 1)];
-        let (line, col) = line_col(text, off);
-        let len = len.min(text.len().saturating_sub(off)).max(usize::from(off < text.len()));
-        Box::new(LsystemError {
-            kind,
-            message: format!("{name}:{line}:{col}: {what}"),
-            source_code: NamedSource::new(name.clone(), text.clone()),
-            span: Some(SourceSpan::new(off.into(), len)),
-            label: label.to_string(),
-            help: None,
-        })
+        LsystemError::located(kind, name, text, off, len, what, label)
     }
 
     /// An error at an ORIGINAL byte offset of the main file.
@@ -115,25 +105,8 @@ impl Source {
 
     /// An error with no particular place in the file.
     pub fn error_nowhere(&self, kind: ErrorKind, what: &str) -> Box<LsystemError> {
-        Box::new(LsystemError {
-            kind,
-            message: format!("{}: {what}", self.name),
-            source_code: NamedSource::new(self.name.clone(), self.original.clone()),
-            span: None,
-            label: String::new(),
-            help: None,
-        })
+        LsystemError::nowhere(kind, &self.name, what)
     }
 }
 
-/// 1-based line and column of a byte offset in `text`.
-fn line_col(text: &str, off: usize) -> (usize, usize) {
-    let mut off = off.min(text.len());
-    while !text.is_char_boundary(off) {
-        off -= 1;
-    }
-    let before = &text[..off];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
-    (line, col)
-}
+use crate::diagnostic::line_col;

@@ -1063,12 +1063,69 @@ pub fn subdivide_traced(
     Ok((out, control_faces))
 }
 
+/// The most worker threads a pool may have ([`with_threads`], `sylva subdivide
+/// --threads`, `RAYON_NUM_THREADS` for [`start_global_threads`]). A fixed number, not one
+/// derived from the machine, so a command that works on one machine is not refused on
+/// another: far above the cores of any machine sylva runs on (the result is the same
+/// for any count, so more threads than cores only cost memory), yet small enough that
+/// the pool's stacks (2 MiB of address space each, 2 GiB for 1024) fit a 6 GB
+/// address-space limit. Issue 39: 100,000 threads failed after 36 s with an error that
+/// never named threads.
+pub const MAX_THREADS: usize = 1024;
+
+/// Why a pool of worker threads could not be started.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+pub enum ThreadsError {
+    /// More threads were asked for than [`MAX_THREADS`]; nothing was started.
+    #[error("{threads} worker threads: more than the limit of {MAX_THREADS} (use 1..={MAX_THREADS}; the output is the same for any count)")]
+    TooMany {
+        /// The count asked for.
+        threads: usize,
+    },
+    /// The system refused to start the threads (too many processes, no memory).
+    #[error("cannot start {threads} worker threads: {source} (use fewer)")]
+    Start {
+        /// The count asked for.
+        threads: usize,
+        /// Why.
+        source: rayon::ThreadPoolBuildError,
+    },
+}
+
 /// Runs `f` on a dedicated rayon pool of `threads` workers (refinement inside it uses that
-/// many threads; the result is the same for any count).
-pub fn with_threads<R: Send>(
-    threads: usize,
-    f: impl FnOnce() -> R + Send,
-) -> Result<R, rayon::ThreadPoolBuildError> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()?;
+/// many threads; the result is the same for any count). `0` counts as 1. More than
+/// [`MAX_THREADS`] is [`ThreadsError::TooMany`], checked before any thread starts; a pool
+/// the system cannot start is [`ThreadsError::Start`].
+pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, ThreadsError> {
+    let threads = threads.max(1);
+    if threads > MAX_THREADS {
+        return Err(ThreadsError::TooMany { threads });
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|source| ThreadsError::Start { threads, source })?;
     Ok(pool.install(f))
+}
+
+/// Starts rayon's global pool now, so that a count it cannot start is an error rather
+/// than a panic at its first use: the pool has `RAYON_NUM_THREADS` workers when that is
+/// set to a number above 0 (at most [`MAX_THREADS`], else [`ThreadsError::TooMany`]
+/// before any thread starts), else one per core. Call it once, before any parallel
+/// work; a global pool that is already running is left as it is.
+pub fn start_global_threads() -> Result<(), ThreadsError> {
+    let asked = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.trim().parse::<u128>().ok());
+    let asked = asked.map_or(0, |n| usize::try_from(n).unwrap_or(usize::MAX));
+    if asked > MAX_THREADS {
+        return Err(ThreadsError::TooMany { threads: asked });
+    }
+    match rayon::ThreadPoolBuilder::new().build_global() {
+        Ok(()) => Ok(()),
+        // rayon says so only in words: a pool already running is not an error here.
+        Err(e) if e.to_string().contains("already") => Ok(()),
+        Err(source) => {
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            Err(ThreadsError::Start { threads: if asked == 0 { cores } else { asked }, source })
+        }
+    }
 }

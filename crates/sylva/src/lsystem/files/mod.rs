@@ -63,7 +63,6 @@ pub mod view;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use colormap::ColorMap;
 use func::Function;
-use miette::{NamedSource, SourceSpan};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use surface::Surface;
@@ -478,14 +477,7 @@ fn read_text(path: &Path) -> Result<String, crate::Error> {
 
 /// An [`LsystemError`] with no place in a file (for binary files).
 fn plain_error(name: &str, what: &str) -> Box<LsystemError> {
-    Box::new(LsystemError {
-        kind: ErrorKind::Syntax,
-        message: format!("{name}: {what}"),
-        source_code: NamedSource::new(name, Arc::<str>::from("")),
-        span: None,
-        label: String::new(),
-        help: None,
-    })
+    LsystemError::nowhere(ErrorKind::Syntax, name, what)
 }
 
 /// A text file being read, for located errors: the original text is kept as is (no
@@ -501,31 +493,9 @@ impl TextFile {
         TextFile { name: name.to_string(), text: Arc::from(text) }
     }
 
-    /// 1-based line and column of a byte offset.
-    pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
-        let mut at = offset.min(self.text.len());
-        while !self.text.is_char_boundary(at) {
-            at -= 1;
-        }
-        let before = &self.text[..at];
-        let line = before.matches('\n').count() + 1;
-        let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
-        (line, col)
-    }
-
     /// A syntax error at byte `offset` spanning `len` bytes.
     pub(crate) fn error(&self, offset: usize, len: usize, what: &str, label: &str) -> Box<LsystemError> {
-        let offset = offset.min(self.text.len());
-        let (line, col) = self.line_col(offset);
-        let len = len.min(self.text.len() - offset).max(usize::from(offset < self.text.len()));
-        Box::new(LsystemError {
-            kind: ErrorKind::Syntax,
-            message: format!("{}:{line}:{col}: {what}", self.name),
-            source_code: NamedSource::new(self.name.clone(), self.text.clone()),
-            span: Some(SourceSpan::new(offset.into(), len)),
-            label: label.to_string(),
-            help: None,
-        })
+        LsystemError::located(ErrorKind::Syntax, &self.name, &self.text, offset, len, what, label)
     }
 }
 
