@@ -72,24 +72,83 @@ pub fn stage_animation(
 ) -> Result<()> {
     let bad = |why: String| Error::InvalidGeometry { what: format!("animation {}", path.display()), why };
     let Some(first) = frames.first() else { return Err(bad("no frames".into())) };
-    let (w, h) = (first.width, first.height);
-    if frames.iter().any(|f| f.width != w || f.height != h || f.rgba.len() != (w * h * 4) as usize) {
-        return Err(bad("frames differ in size".into()));
+    let size = (first.width, first.height);
+    stage_animation_with(size, frames.len(), fps, path, set, |k| Ok::<_, Error>(frames[k].clone()))
+}
+
+/// Most bytes of pixels (RGBA, 4 per pixel) an animation or a frame sequence may have
+/// in all its frames together: 16 GiB, e.g. 1200 frames of 1920×1080, 60 of 8192×8192
+/// (issue 39: 1200 frames of 8192×8192 are 322 GB of pictures; frames are streamed to
+/// the file one at a time, so this bounds the work and the output, not the memory).
+pub const MAX_ANIMATION_BYTES: u64 = 16 << 30;
+
+/// The bytes of pixels of `frames` RGBA frames of `width × height`, or an error saying
+/// how much that is when it is over [`MAX_ANIMATION_BYTES`] (checked before any frame is
+/// drawn).
+pub fn animation_bytes(frames: u64, (width, height): (u32, u32)) -> std::result::Result<u64, String> {
+    let frame = width as u64 * height as u64 * 4;
+    let total = frames.saturating_mul(frame);
+    if total > MAX_ANIMATION_BYTES {
+        return Err(format!(
+            "{frames} frames of {width}x{height} pixels ({frame} bytes each) are {total} bytes of pictures, \
+             more than the limit of {MAX_ANIMATION_BYTES} bytes"
+        ));
     }
+    Ok(total)
+}
+
+/// Streams `count` frames of `width × height` into an animation at `path` staged in
+/// `set` (a GIF for `.gif`, an animated PNG for `.png` / `.apng`): frame `k` is made by
+/// `frame(k)` when the encoder needs it and dropped once it is encoded, so memory does
+/// not grow with the frame count. An error from `frame` is returned as it is (the
+/// temporary is removed; nothing reaches `path`).
+///
+/// Errors: no frames, a frame of another size, more pixels than
+/// [`MAX_ANIMATION_BYTES`], an unknown extension, `frame`'s error, or a failed write.
+pub fn stage_animation_with<E: From<Error>>(
+    (w, h): (u32, u32),
+    count: usize,
+    fps: u32,
+    path: &std::path::Path,
+    set: &mut crate::fsutil::OutputSet,
+    mut frame: impl FnMut(usize) -> std::result::Result<Image, E>,
+) -> std::result::Result<(), E> {
+    let bad = |why: String| Error::InvalidGeometry { what: format!("animation {}", path.display()), why };
+    if count == 0 {
+        return Err(bad("no frames".into()).into());
+    }
+    animation_bytes(count as u64, (w, h)).map_err(|why| E::from(bad(why)))?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let fps = fps.clamp(1, 100);
     let io = |e: &dyn std::fmt::Display| std::io::Error::other(e.to_string());
-    match ext.as_str() {
+    // The first error of `frame` (or a frame of the wrong size), kept whole; the
+    // encoder sees a plain I/O error and stops.
+    let mut failed: Option<E> = None;
+    let mut next = |k: usize| -> std::io::Result<Image> {
+        match frame(k) {
+            Ok(f) if f.width == w && f.height == h && f.rgba.len() as u64 == w as u64 * h as u64 * 4 => Ok(f),
+            Ok(f) => {
+                let why = format!("frame {k} is {}x{}, not {w}x{h}", f.width, f.height);
+                failed = Some(bad(why).into());
+                Err(std::io::Error::other("a frame failed"))
+            }
+            Err(e) => {
+                failed = Some(e);
+                Err(std::io::Error::other("a frame failed"))
+            }
+        }
+    };
+    let staged = match ext.as_str() {
         "gif" => {
             let (gw, gh) = (
-                u16::try_from(w).map_err(|_| bad(format!("{w} pixels is too wide for GIF")))?,
-                u16::try_from(h).map_err(|_| bad(format!("{h} pixels is too tall for GIF")))?,
+                u16::try_from(w).map_err(|_| E::from(bad(format!("{w} pixels is too wide for GIF"))))?,
+                u16::try_from(h).map_err(|_| E::from(bad(format!("{h} pixels is too tall for GIF"))))?,
             );
             set.stage(path, |out| {
                 let mut enc = gif::Encoder::new(out, gw, gh, &[]).map_err(|e| io(&e))?;
                 enc.set_repeat(gif::Repeat::Infinite).map_err(|e| io(&e))?;
-                for f in frames {
-                    let mut rgba = f.rgba.clone();
+                for k in 0..count {
+                    let mut rgba = next(k)?.rgba;
                     let mut frame = gif::Frame::from_rgba_speed(gw, gh, &mut rgba, 10);
                     frame.delay = (100 / fps) as u16;
                     enc.write_frame(&frame).map_err(|e| io(&e))?;
@@ -101,15 +160,20 @@ pub fn stage_animation(
             let mut enc = png::Encoder::new(out, w, h);
             enc.set_color(png::ColorType::Rgba);
             enc.set_depth(png::BitDepth::Eight);
-            enc.set_animated(frames.len() as u32, 0).map_err(|e| io(&e))?;
+            let frames = u32::try_from(count).map_err(|e| io(&e))?;
+            enc.set_animated(frames, 0).map_err(|e| io(&e))?;
             enc.set_frame_delay(1, fps as u16).map_err(|e| io(&e))?;
             let mut writer = enc.write_header().map_err(|e| io(&e))?;
-            for f in frames {
-                writer.write_image_data(&f.rgba).map_err(|e| io(&e))?;
+            for k in 0..count {
+                writer.write_image_data(&next(k)?.rgba).map_err(|e| io(&e))?;
             }
             writer.finish().map_err(|e| io(&e))
         }),
-        _ => Err(bad(format!("`.{ext}` is not an animation format; use .gif or .png (APNG)"))),
+        _ => return Err(bad(format!("`.{ext}` is not an animation format; use .gif or .png (APNG)")).into()),
+    };
+    match failed {
+        Some(e) => Err(e),
+        None => staged.map_err(E::from),
     }
 }
 

@@ -726,7 +726,19 @@ impl Renderer {
         let camera = self.camera(opts, instances);
         let mut guard = self.targets.lock().unwrap_or_else(|e| e.into_inner());
         if guard.as_ref().is_none_or(|t| t.key != (w, h, samples)) {
-            *guard = Some(self.make_targets(w, h, samples));
+            // A device out of memory for the targets (an 8192² 4× MSAA frame is over 1 GB
+            // of colour and depth) is an error, not wgpu's panic.
+            *guard = None;
+            let scope = self.gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let targets = self.make_targets(w, h, samples);
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(invalid(format!(
+                    "the device has no memory for a {w}x{h} frame with {samples} sample(s) per pixel \
+                     (about {} bytes of targets): {e}",
+                    frame_memory(w, h, samples)
+                )));
+            }
+            *guard = Some(targets);
         }
         let t = guard.as_ref().expect("targets were just made");
         let mut encoder = self
@@ -808,6 +820,15 @@ impl Renderer {
             if !(1..=limit).contains(&v) {
                 return Err(invalid(format!("image {name} is {v}; it must be in 1..={limit}")));
             }
+        }
+        // The readback copies a frame into one buffer of padded rows.
+        let staging = (w * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) as u64 * h as u64;
+        let max_buffer = self.gpu.device.limits().max_buffer_size;
+        if staging > max_buffer {
+            return Err(invalid(format!(
+                "a {w}x{h} frame needs a readback buffer of {staging} bytes, more than the device's \
+                 limit of {max_buffer}"
+            )));
         }
         if !(1.0..=120.0).contains(&fov_deg) {
             return Err(invalid(format!("fov_deg is {fov_deg}; it must be in 1..=120")));
@@ -974,6 +995,17 @@ impl Renderer {
         let rgba = raw.chunks_exact(padded as usize).flat_map(|r| &r[..row as usize]).copied().collect();
         Image { width: w, height: h, rgba }
     }
+}
+
+/// Bytes of device memory one frame of `w × h` with `samples` samples per pixel takes
+/// in [`Renderer::render`]: multisampled colour and depth, the resolved colour and the
+/// readback buffer (on a software adapter such as lavapipe all of it is host memory,
+/// plus the image read back). Frames are drawn one at a time, so this does not grow
+/// with the frame count or with the trees of a forest (instanced).
+pub fn frame_memory(w: u32, h: u32, samples: u32) -> u64 {
+    let px = w as u64 * h as u64;
+    let per_sample = 4 + 4; // Rgba8 colour + Depth32 depth
+    px * (samples as u64 * per_sample + if samples > 1 { 4 } else { 0 } + 4)
 }
 
 /// An sRGB RGBA texture of `rgba` and its view.
