@@ -337,6 +337,16 @@ fn render(args: RenderArgs) -> Result<()> {
     if !(1..=60).contains(&args.fps) {
         return Err(miette::miette!("--fps {}: use 1..=60 frames per second", args.fps));
     }
+    if output.is_some() {
+        // Frames are streamed to the file one at a time, so memory holds one frame; but
+        // 1200 frames of 8192x8192 are still 322 GB of pictures to draw and encode.
+        sylva::animation::animation_bytes(frames as u64, (width, height)).map_err(|why| {
+            miette::miette!(
+                "--frames {frames} --size {}: {why}; render fewer --frames or a smaller --size",
+                args.size.trim()
+            )
+        })?;
+    }
     if let Some(n) = args.forest {
         if !(1..=MAX_FOREST).contains(&n) {
             return Err(miette::miette!("--forest {n}: draw 1..={MAX_FOREST} trees"));
@@ -519,37 +529,42 @@ fn render_gpu(
         opts.frame = Some((bounds.0 - pad, bounds.1 + pad));
     }
     let draw_start = std::time::Instant::now();
-    let mut images = Vec::with_capacity(frames as usize);
+    // Frames are drawn as the encoder asks for them and dropped once written (memory
+    // holds one frame, whatever the frame count); every file is staged and the set is
+    // committed only when all frames are drawn, so a failure leaves nothing.
     let mut stats = None;
-    for f in 0..frames {
-        let t = f as f32 / args.fps as f32;
+    let mut draw = |k: usize| -> Result<sylva::preview::Image> {
+        let t = k as f32 / args.fps as f32;
         let r = renderer.render(&opts, &instances, t).map_err(|e| miette::miette!("{e}"))?;
         stats.get_or_insert(r.stats);
-        images.push(r.image);
-    }
-    let draw_time = draw_start.elapsed();
-    let written: Vec<PathBuf> = match output {
-        RenderOutput::Png(p) if images.len() == 1 => {
-            sylva::preview::write_png(&images[0], p)?;
-            vec![p.clone()]
+        Ok(r.image)
+    };
+    let (set, written) = match output {
+        RenderOutput::Png(p) if frames == 1 => {
+            let mut set = sylva::fsutil::OutputSet::new(p);
+            sylva::preview::stage_png(&draw(0)?, p, &mut set)?;
+            (set, vec![p.clone()])
         }
         RenderOutput::Png(p) | RenderOutput::Gif(p) => {
-            sylva::animation::write_animation(&images, args.fps, p)?;
-            vec![p.clone()]
+            let mut set = sylva::fsutil::OutputSet::new(p);
+            let size = (width, height);
+            sylva::animation::stage_animation_with(size, frames as usize, args.fps, p, &mut set, &mut draw)?;
+            (set, vec![p.clone()])
         }
         RenderOutput::Sequence(before, after, w) => {
             // The frames are one result: all of them replace an earlier sequence, or none.
             let mut set = sylva::fsutil::OutputSet::new(RenderOutput::frame_path(before, after, *w, 0));
-            let mut out = Vec::with_capacity(images.len());
-            for (k, im) in images.iter().enumerate() {
+            let mut out = Vec::with_capacity(frames as usize);
+            for k in 0..frames as usize {
                 let p = RenderOutput::frame_path(before, after, *w, k);
-                sylva::preview::stage_png(im, &p, &mut set)?;
+                sylva::preview::stage_png(&draw(k)?, &p, &mut set)?;
                 out.push(p);
             }
-            set.commit()?;
-            out
+            (set, out)
         }
     };
+    set.commit()?;
+    let draw_time = draw_start.elapsed();
     if !args.quiet {
         let s = stats.unwrap_or_default();
         println!("{}: {}", loaded.recipe.name, loaded.recipe.description);
