@@ -103,6 +103,15 @@ fn twenty_thousand_nested_parentheses_are_a_located_error() {
         assert_eq!(ls.format(&m), "A(7)");
         let (ls, m) = derive(&lsystem(&format!("A({})", nested("abs(", "-3", ")", 200)), ""), 0).unwrap();
         assert_eq!(ls.format(&m), "A(3)");
+        // Function-like macros nested 20,000 deep stop at the preprocessor's 64 levels.
+        let text =
+            format!("#define M(x) (x)\n{}", lsystem(&format!("A({})", nested("M(", "1", ")", 20_000)), ""));
+        let e = parse(&text).failure("an error");
+        assert!(
+            e.message.starts_with("t.l:3:") && e.message.contains("more than 64 levels"),
+            "{}",
+            e.message
+        );
         // A `#if` condition is an expression too.
         let text = format!("#if {}\n#endif\n{}", nested("(", "1", ")", 20_000), lsystem("A", ""));
         let e = parse(&text).failure("an error");
@@ -320,18 +329,29 @@ fn decomposed() -> String {
     )
 }
 
+/// Nine million query modules `?P(0,0,0)` (270 MB of string): the turtle's answers to
+/// them (104 bytes each, 936 MB) are reserved before the query pass, and refused.
+fn queries() -> String {
+    lsystem(&"B".repeat(3000), &format!("B --> {}", "?P(0,0,0)".repeat(3000)))
+}
+
 /// Runs in the child, under the limit: derives the L-system `$SYLVA_NESTING_OOM_CHILD`
 /// names with the largest module budget and prints the error.
 #[test]
 #[ignore = "run by a_derivation_that_outgrows_memory_is_a_named_error under ulimit -v"]
 fn outgrow_memory_child() {
     let Ok(which) = std::env::var(CHILD) else { return };
-    let (text, steps) = if which == "thousandfold" { (thousandfold(), 3) } else { (decomposed(), 0) };
+    let (text, steps) = match which.as_str() {
+        "thousandfold" => (thousandfold(), 3),
+        "decomposed" => (decomposed(), 0),
+        _ => (queries(), 1),
+    };
     let ls = parse(&text).unwrap();
+    let opts = DeriveOptions { steps, budget: MAX_MODULE_BUDGET, seed: 1 };
     let e = ls
-        .derive(&DeriveOptions { steps, budget: MAX_MODULE_BUDGET, seed: 1 })
+        .derive_full(&opts, Default::default(), Some(&TurtleOptions::default()), None)
         .failure("the derivation outgrows the address-space limit");
-    println!("ERROR: {:?}: {}", e.kind, e.message);
+    println!("ERROR: {:?}: {} HELP: {}", e.kind, e.message, e.help.as_deref().unwrap_or(""));
 }
 
 /// With `generator.max_modules` at its largest and a 1 GB address-space limit, a
@@ -344,7 +364,7 @@ fn a_derivation_that_outgrows_memory_is_a_named_error() {
         return;
     }
     let exe = std::env::current_exe().unwrap();
-    for which in ["thousandfold", "decomposed"] {
+    for which in ["thousandfold", "decomposed", "queries"] {
         let out = std::process::Command::new("sh")
             .arg("-c")
             .arg("ulimit -v 1000000 || exit 77; exec \"$0\" \"$@\"")
@@ -363,6 +383,11 @@ fn a_derivation_that_outgrows_memory_is_a_named_error() {
         let line =
             stdout.lines().find_map(|l| l.split_once("ERROR: ")).unwrap_or_else(|| panic!("{stdout}")).1;
         assert!(line.starts_with("Budget: t.l: "), "{which}: {line}");
+        if which == "queries" {
+            assert!(line.contains("9000000 query modules") && line.contains("936000000 bytes"), "{line}");
+            assert!(line.contains("--set generator.max_modules=N"), "{line}");
+            continue;
+        }
         assert!(
             line.contains("outgrows the memory available")
                 && line.contains("generator.max_modules = 500000000")

@@ -941,7 +941,7 @@ impl<'a> Parser<'a> {
                     at.min(self.end.saturating_sub(1)),
                     1,
                     &format!(
-                        "the expression nests more than {MAX_NESTING} levels deep (parentheses, unary \
+                        "the expression or statement block nests more than {MAX_NESTING} levels deep (parentheses, unary \
                          operators, exponents, function arguments, `?:` branches and statements each count), \
                          sylva's limit on nesting"
                     ),

@@ -430,10 +430,31 @@ pub fn answer_queries_within(
     if which.iter().all(|w| w.is_none() || (env.is_none() && *w == Some(4))) {
         return Ok(0);
     }
+    // Reserved fallibly before the run (issue 39): a string of hundreds of millions of
+    // query modules is an error naming the module budget, not an abort.
+    let queries = string.syms.iter().filter(|&&s| which[s as usize].is_some()).count();
     let mut found: Vec<(usize, QueryState)> = Vec::new();
+    let (mut at, mut sensors): (Vec<usize>, Vec<Sensor>) = (Vec::new(), Vec::new());
+    let sensed = if env.is_some() { queries } else { 0 };
+    if found.try_reserve_exact(queries).is_err()
+        || at.try_reserve_exact(sensed).is_err()
+        || sensors.try_reserve_exact(sensed).is_err()
+    {
+        return Err(source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "the string's {queries} query modules (`?P`, `?H`, `?U`, `?L`, `?E`) need more memory \
+                     than is available to answer: {} bytes",
+                    queries.saturating_mul(std::mem::size_of::<(usize, QueryState)>())
+                ),
+            )
+            .with_help(
+                "derive fewer steps (-n), or lower the module budget with --set generator.max_modules=N",
+            ));
+    }
     run(symbols, string, opts, source, &mut |_, _| {}, &mut |i, st| found.push((i, st)))?;
     // The `?E` modules: their indices in the string and what the environment sees.
-    let (mut at, mut sensors): (Vec<usize>, Vec<Sensor>) = (Vec::new(), Vec::new());
     for (i, st) in found {
         let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
         match which[string.syms[i] as usize] {
@@ -526,12 +547,27 @@ fn run(
             )
             .with_help(crate::skeleton::NODE_BUDGET_HELP));
     }
-    sk.position.reserve(draws + 1);
-    sk.radius.reserve(draws + 1);
-    sk.parent.reserve(draws + 1);
-    sk.up.reserve(draws + 1);
-    sk.order.reserve(draws + 1);
-    sk.material.reserve(draws + 1);
+    // Fallibly (issue 39): the query pass has no node budget, so its skeleton may be
+    // as large as the string.
+    if sk.position.try_reserve_exact(draws + 1).is_err()
+        || sk.radius.try_reserve_exact(draws + 1).is_err()
+        || sk.parent.try_reserve_exact(draws + 1).is_err()
+        || sk.up.try_reserve_exact(draws + 1).is_err()
+        || sk.order.try_reserve_exact(draws + 1).is_err()
+        || sk.material.try_reserve_exact(draws + 1).is_err()
+    {
+        return Err(source
+            .error_nowhere(
+                ErrorKind::Budget,
+                &format!(
+                    "the string draws {draws} internodes: the turtle's skeleton of as many nodes needs more \
+                     memory than is available"
+                ),
+            )
+            .with_help(
+                "derive fewer steps (-n), or lower the module budget with --set generator.max_modules=N",
+            ));
+    }
     let left = DVec3::from(opts.left)
         .try_normalize()
         .filter(|l| l.is_finite() && l.dot(DVec3::Y).abs() < 1e-9)
