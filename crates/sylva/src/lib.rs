@@ -34,6 +34,7 @@ pub mod fsutil;
 pub mod geometry;
 pub mod grow;
 pub mod import;
+pub mod input;
 pub mod lod;
 pub mod lsystem;
 pub mod mesh;

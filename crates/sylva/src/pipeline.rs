@@ -5,8 +5,9 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
+use crate::input::SideFiles;
 use crate::lsystem::files::view::{LineStyle, MovementKind};
-use crate::lsystem::files::{load_folder, ModelFolder};
+use crate::lsystem::files::{folder_of, load_folder_in, ModelFolder};
 use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
 use crate::mesh::ground::SunkRoot;
@@ -102,18 +103,43 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
             (k.clone(), s)
         })
         .collect();
-    // `#include "x"` reads x next to the model (inside presets/ for presets).
+    // `#include "x"` reads x next to the model (inside presets/ for presets); on disk,
+    // only from inside the model folder or a folder of `generator.allow_paths`, within
+    // `input.max_bytes` (issue 39, `crate::input`).
     let dir = std::path::Path::new(&g.file).parent().map(|p| p.to_path_buf()).unwrap_or_default();
-    let resolve = |inc: &str| -> Option<(String, String)> {
-        let rel = dir.join(inc);
-        loaded.read(&rel.to_string_lossy()).ok()
+    let allow: Vec<std::path::PathBuf> = match &loaded.origin {
+        Origin::Folder(d) => g.allow_paths.iter().map(|p| d.join(p)).collect(),
+        Origin::Preset(_) => Vec::new(),
+    };
+    let max_bytes = loaded.recipe.input.max_bytes;
+    let include_files = match &loaded.origin {
+        Origin::Folder(d) => Some(SideFiles::new(&d.join(&dir), &allow, max_bytes)),
+        Origin::Preset(_) => None,
+    };
+    let resolve = |inc: &str| -> std::result::Result<(String, String), String> {
+        let Some(side) = &include_files else {
+            let rel = dir.join(inc);
+            return loaded.read(&rel.to_string_lossy()).map_err(|_| "no such file next to the model".into());
+        };
+        let what = format!("`#include \"{}\"`", crate::input::excerpt(inc));
+        let path = side.resolve(inc, &what).map_err(|e| e.to_string())?;
+        if !path.exists() {
+            return Err("no such file next to the model".into());
+        }
+        let text = side.read_text(&path, &what).map_err(|e| e.to_string())?;
+        Ok((path.display().to_string(), text))
     };
     let ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
-    // The model folder's files are optional: a broken one is a warning, not an error.
+    // The model folder's files are optional: a broken one is a warning, not an error;
+    // a refused one (outside the folder, not a regular file, too large) is an error.
     let mut warnings = Vec::new();
     let folder = match (&loaded.origin, g.view.as_str()) {
-        (Origin::Folder(d), "auto") => match load_folder(&d.join(&g.file)) {
+        (Origin::Folder(d), "auto") => match load_folder_in(
+            &d.join(&g.file),
+            &SideFiles::new(&folder_of(&d.join(&g.file)), &allow, max_bytes),
+        ) {
             Ok(f) => Some(f),
+            Err(e) if crate::input::is_refusal(&e) => return Err(e),
             Err(e) => {
                 warnings.push(format!("the model folder's view/function/surface files were not used: {e}"));
                 None
@@ -140,7 +166,8 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         (None, Origin::Folder(d)) => d.join(&dir),
         (None, _) => dir.clone(),
     };
-    let env = environment(g, folder.as_ref(), &ls, &env_dir, &mut warnings)?;
+    let env_files = SideFiles::new(&env_dir, &allow, max_bytes);
+    let env = environment(g, folder.as_ref(), &ls, &env_files, &mut warnings)?;
     if ls.writes_files {
         warnings.push(
             "the model writes files (fopen/fprintf): sylva discards file output, as it discards printf"
@@ -167,7 +194,7 @@ fn environment(
     g: &LsystemGenerator,
     folder: Option<&ModelFolder>,
     ls: &LSystem,
-    dir: &std::path::Path,
+    dir: &SideFiles,
     warnings: &mut Vec<String>,
 ) -> Result<Option<lsystem::environment::Environment>> {
     use lsystem::environment::{Environment, Overrides, Spec, PROGRAMS};
@@ -222,7 +249,8 @@ fn environment(
     let spec = match spec_path {
         Some(path) => {
             let e = folder.and_then(|f| f.environment_file.as_ref()).map(|p| p.display().to_string());
-            let spec = Spec::read(path).map_err(|m| {
+            let what = format!("{}: `executable:`", e.as_deref().unwrap_or_default());
+            let spec = Spec::read_in(dir, path, &what).map_err(|m| {
                 recipe_error(format!("{m} (the spec file of {program}, named by {})", e.unwrap_or_default()))
             })?;
             warnings.extend(spec.unknown(program));
@@ -241,7 +269,7 @@ fn environment(
             obstacles: c.obstacles.clone(),
         })
         .unwrap_or_default();
-    Environment::configure(program, spec.as_ref(), &over, dir, warnings).map(Some).map_err(recipe_error)
+    Environment::configure_in(program, spec.as_ref(), &over, dir, warnings).map(Some).map_err(recipe_error)
 }
 
 /// Turtle options from the recipe, with the model folder's view file filling in every
@@ -429,7 +457,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 };
                 let opts =
                     crate::import::lst::LstOptions { gap, max_nodes: g.max_nodes, ..Default::default() };
-                crate::import::load_skeleton_with(&path, &opts)?
+                crate::import::load_skeleton_limited(&path, &opts, loaded.recipe.input.max_bytes)?
             };
             report.interpret_time = t.elapsed();
             Ok(Generated { skeleton: sk, surfaces: HashMap::new(), curves: None })

@@ -55,9 +55,34 @@ pub struct Recipe {
     /// Levels of detail (`[lod]`, issue 24); left out of the file's metadata while off.
     #[serde(default, skip_serializing_if = "LodSection::is_off")]
     pub lod: LodSection,
+    /// Input limits (`[input]`, issue 39); left out of the file's metadata at its default.
+    #[serde(default, skip_serializing_if = "InputSection::is_default")]
+    pub input: InputSection,
     /// Output files.
     #[serde(default)]
     pub output: OutputSection,
+}
+
+/// `[input]`: limits on the files a run reads (issue 39, [`crate::input`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InputSection {
+    /// The most bytes one input file may hold (the recipe, the model and every file it
+    /// names); a larger file is refused before it is read.
+    pub max_bytes: u64,
+}
+
+impl Default for InputSection {
+    fn default() -> Self {
+        InputSection { max_bytes: crate::input::DEFAULT_MAX_BYTES }
+    }
+}
+
+impl InputSection {
+    /// `true` at the default limit (the section is then left out of written metadata).
+    pub fn is_default(&self) -> bool {
+        *self == InputSection::default()
+    }
 }
 
 /// `[wind]`: the wind of seed 003 (spec 003 §4) as a skinned rig with a looping clip and
@@ -475,6 +500,12 @@ pub struct LsystemGenerator {
     /// (`[generator.environment]`); without it, the model folder's `.e` file names it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub environment: Option<EnvironmentConfig>,
+    /// Folders besides the model's own whose files the model folder's files may name
+    /// (`specifications`, view, `.e` and spec files, `#include`; issue 39): relative
+    /// ones are relative to the recipe's folder. Empty (the default): the model folder
+    /// only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub allow_paths: Vec<String>,
     /// The `generator` keys the recipe (or `--set`) gave explicitly; a view file's
     /// settings apply only to the others.
     #[serde(skip)]
@@ -939,7 +970,7 @@ impl Loaded {
             },
             Origin::Folder(dir) => {
                 let path = dir.join(file);
-                let text = crate::fsutil::read_to_string(&path)?;
+                let text = crate::input::read_input_to_string(&path, self.recipe.input.max_bytes)?;
                 Ok((path.display().to_string(), text))
             }
         }
@@ -1156,7 +1187,16 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
     let path = Path::new(what);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext == "toml" {
-        let text = crate::fsutil::read_to_string(path)?;
+        // The recipe's own limit is known only once it is read: `--set input.max_bytes`
+        // applies to it, the recipe file's key does not.
+        let limit = sets
+            .iter()
+            .find(|(k, _)| k == crate::input::MAX_BYTES_KEY)
+            .and_then(|(_, v)| v.as_integer())
+            .and_then(|v| u64::try_from(v).ok())
+            .filter(|&v| v > 0)
+            .unwrap_or(crate::input::DEFAULT_MAX_BYTES);
+        let text = crate::input::read_input_to_string(path, limit)?;
         let table: toml::Table = toml::from_str(&text)
             .map_err(|e| Error::Recipe(format!("{}: {}", path.display(), toml_error(&text, &e))))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -1262,6 +1302,9 @@ impl Recipe {
     /// Checks value ranges that serde cannot express.
     pub fn check(&self) -> Result<()> {
         let bad = |k: &str, why: String| Err(Error::Recipe(format!("`{k}` {why}")));
+        if self.input.max_bytes == 0 {
+            return bad(crate::input::MAX_BYTES_KEY, "must be at least 1".into());
+        }
         match &self.generator {
             Generator::Lsystem(g) => {
                 for (k, v) in [
@@ -1288,6 +1331,9 @@ impl Recipe {
                 }
                 if g.max_nodes == 0 {
                     return bad("generator.max_nodes", "must be at least 1".into());
+                }
+                if let Some(p) = g.allow_paths.iter().find(|p| p.trim().is_empty()) {
+                    return bad("generator.allow_paths", format!("names an empty folder `{p}`"));
                 }
                 for (k, v) in &g.define {
                     if matches!(v, toml::Value::Table(_) | toml::Value::Array(_)) {

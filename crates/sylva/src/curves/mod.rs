@@ -104,7 +104,10 @@ pub fn load_preset(name_or_path: &str, sets: &[(String, toml::Value)]) -> Result
         || name_or_path.contains('/')
         || name_or_path.contains('\\');
     let (text, origin) = if is_file {
-        (crate::fsutil::read_to_string(path)?, path.display().to_string())
+        (
+            crate::input::read_input_to_string(path, crate::input::DEFAULT_MAX_BYTES)?,
+            path.display().to_string(),
+        )
     } else if let Some(p) = crate::presets::get(name_or_path) {
         (p.recipe.to_string(), format!("preset `{}`", p.name))
     } else {

@@ -671,7 +671,10 @@ impl MeshRegion {
 /// Reads a file from disk (the default file reader of [`grow`]).
 fn read_from_disk(file: &str) -> Result<(String, String)> {
     let path = std::path::Path::new(file);
-    Ok((path.display().to_string(), crate::fsutil::read_to_string(path)?))
+    Ok((
+        path.display().to_string(),
+        crate::input::read_input_to_string(path, crate::input::DEFAULT_MAX_BYTES)?,
+    ))
 }
 
 /// Seeds of the three random streams.

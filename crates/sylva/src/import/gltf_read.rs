@@ -36,7 +36,7 @@ fn bad(path: &Path, why: impl Into<String>) -> Error {
 
 /// Reads every triangle primitive of a `.glb` or `.gltf` file.
 pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Read { path: path.to_owned(), source })?;
+    let bytes = crate::input::read_input(path, crate::input::DEFAULT_MAX_BYTES)?;
     let (json_bytes, glb_bin) =
         if bytes.starts_with(b"glTF") { split_glb(path, &bytes)? } else { (&bytes[..], None) };
     let root: json::Root =
@@ -76,7 +76,8 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
                             ),
                         ));
                     }
-                    std::fs::read(&file).map_err(|source| Error::Read { path: file, source })?
+                    let most = b.byte_length.0.saturating_add(4).max(1 << 20);
+                    crate::input::read_input(&file, most.min(crate::input::DEFAULT_MAX_BYTES))?
                 }
             }
         };

@@ -46,15 +46,21 @@ pub fn load_skeleton(path: &Path) -> Result<Skeleton> {
 /// Like [`load_skeleton`], with explicit options for `.lst` files (their node budget,
 /// [`lst::LstOptions::max_nodes`], bounds JSON skeletons too).
 pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleton> {
+    load_skeleton_limited(path, opts, crate::input::DEFAULT_MAX_BYTES)
+}
+
+/// Like [`load_skeleton_with`], reading at most `max_bytes` (the recipe's
+/// `input.max_bytes`) from a regular file ([`crate::input::read_input`]).
+pub fn load_skeleton_limited(path: &Path, opts: &lst::LstOptions, max_bytes: u64) -> Result<Skeleton> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let name = path.display().to_string();
     match ext.as_str() {
         "lst" => {
-            let text = crate::fsutil::read_to_string(path)?;
+            let text = crate::input::read_input_to_string(path, max_bytes)?;
             Ok(lst::parse(&name, &text, opts)?)
         }
         "json" => {
-            let text = crate::fsutil::read_to_string(path)?;
+            let text = crate::input::read_input_to_string(path, max_bytes)?;
             skel_json::from_json_budget(&name, &text, opts.max_nodes)
         }
         _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS }),

@@ -350,7 +350,7 @@ impl LSystem {
     /// Parses an L-system file. `name` is used in messages; `defines` override the
     /// file's `#define` values.
     pub fn parse(name: &str, text: &str, defines: &[(String, String)]) -> PResult<LSystem> {
-        Self::parse_with(name, text, defines, &|_| None)
+        Self::parse_with(name, text, defines, &|_| Err("no such file next to the model".into()))
     }
 
     /// Like [`LSystem::parse`], resolving `#include` through `resolve`.

@@ -16,8 +16,10 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Finds a file named by `#include`: given the name as written, returns the display
-/// name and the text, or `None` when there is no such file.
-pub type IncludeResolver<'a> = &'a dyn Fn(&str) -> Option<(String, String)>;
+/// name and the text, or why it cannot be included (no such file; refused: outside
+/// the model folder, not a regular file, over the input limit), which the error at the
+/// `#include` line quotes.
+pub type IncludeResolver<'a> = &'a dyn Fn(&str) -> Result<(String, String), String>;
 
 /// Most characters one logical line may expand to (issue 27: `#define A B B`,
 /// `#define B C C`, … doubles at every level; C preprocessors have no such limit, an
@@ -42,7 +44,7 @@ impl Source {
         original: &str,
         overrides: &[(String, String)],
     ) -> Result<Source, Box<LsystemError>> {
-        Self::with_includes(name, original, overrides, &|_| None)
+        Self::with_includes(name, original, overrides, &|_| Err("no such file next to the model".into()))
     }
 
     /// Like [`Source::new`], resolving `#include "file"` through `resolve`.
@@ -247,13 +249,16 @@ impl Source {
                 if depth >= 16 {
                     return Err(err(self, ErrorKind::Syntax, "`#include` nested more than 16 deep", "here"));
                 }
-                let Some((name, text)) = resolve(file) else {
-                    return Err(err(
-                        self,
-                        ErrorKind::Syntax,
-                        &format!("cannot include `{file}`: no such file next to the model"),
-                        "included here",
-                    ));
+                let (name, text) = match resolve(file) {
+                    Ok(found) => found,
+                    Err(why) => {
+                        return Err(err(
+                            self,
+                            ErrorKind::Syntax,
+                            &format!("cannot include `{}`: {why}", crate::input::excerpt(file)),
+                            "included here",
+                        ))
+                    }
                 };
                 self.files.push((name, Arc::from(text.as_str())));
                 let idx = self.files.len() - 1;
@@ -665,7 +670,9 @@ mod tests {
     #[test]
     fn includes_map_errors_to_their_file() {
         let resolve = |name: &str| {
-            (name == "leaf.l").then(|| ("leaf.l".to_string(), "#define W 2\nbad here\n".to_string()))
+            (name == "leaf.l")
+                .then(|| ("leaf.l".to_string(), "#define W 2\nbad here\n".to_string()))
+                .ok_or_else(|| "no such file next to the model".to_string())
         };
         let s = Source::with_includes("t.l", "#include \"leaf.l\"\nx W\n", &[], &resolve).unwrap();
         assert!(s.text.contains("x 2"));

@@ -61,7 +61,12 @@ pub enum ObjError {
 /// Reads an OBJ file (see the module docs for what is understood).
 pub fn read_obj(path: &Path) -> Result<ObjMesh, ObjError> {
     let text =
-        std::fs::read_to_string(path).map_err(|source| ObjError::Io { path: path.to_path_buf(), source })?;
+        crate::input::read_input_to_string(path, crate::input::DEFAULT_MAX_BYTES).map_err(|e| match e {
+            crate::Error::Read { path, source } => ObjError::Io { path, source },
+            other => {
+                ObjError::Io { path: path.to_path_buf(), source: std::io::Error::other(other.to_string()) }
+            }
+        })?;
     parse_obj(&text).map_err(|e| match e {
         ObjError::Parse { line, message, .. } => {
             ObjError::Parse { path: Some(path.to_path_buf()), line, message }

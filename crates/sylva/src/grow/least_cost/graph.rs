@@ -861,7 +861,8 @@ impl Graph {
 
     /// Reads a graph written by [`Graph::write`]; returns it with its key.
     pub fn read(path: &Path) -> Result<(Graph, u64)> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Read { path: path.to_path_buf(), source })?;
+        // A cache sylva wrote: no size limit, but a regular file only.
+        let bytes = crate::input::read_input(path, u64::MAX)?;
         let bad = |why: &str| Error::Recipe(format!("graph file {}: {why}", path.display()));
         let mut at = 0usize;
         let mut take = |n: usize| -> Result<&[u8]> {

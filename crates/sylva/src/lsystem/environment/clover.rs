@@ -38,7 +38,7 @@
 
 use super::image::{self, Intensity};
 use super::{Overrides, Sensor, Spec, Work};
-use std::path::Path;
+use crate::input::{excerpt, SideFiles};
 use std::sync::{Arc, Mutex};
 
 /// The spec-file keys `clover` reads.
@@ -99,18 +99,19 @@ impl std::fmt::Debug for Memory {
 
 impl Clover {
     /// Settings from the spec file and the recipe's overrides; the image is read from
-    /// `dir`. A missing image is a note (uniform light), a broken one an error.
+    /// the model folder `files` (confined to it, [`SideFiles`]). A missing image is a
+    /// note (uniform light), a broken or refused one an error.
     pub fn configure(
         spec: &Spec,
         over: &Overrides,
-        dir: &Path,
+        files: &SideFiles,
         notes: &mut Vec<String>,
     ) -> Result<Clover, String> {
         let mut pair = |key: &str, default: [f64; 2]| -> Result<[f64; 2], String> {
             let Some(e) = spec.get(key) else { return Ok(default) };
             let (v, rest) = spec.numbers(e, 2)?;
             if let Some(rest) = rest {
-                notes.push(format!("{}:{}: `{rest}` after the {key} ignored", spec.file, e.line));
+                notes.push(format!("{}:{}: `{}` after the {key} ignored", spec.file, e.line, excerpt(&rest)));
             }
             Ok([v[0], v[1]])
         };
@@ -130,16 +131,23 @@ impl Clover {
         }
         let size = [size[0] as usize, size[1] as usize];
         let transmittance = super::transmittance(spec, over, DEFAULT_TRANSMITTANCE, "clover")?;
-        let image = over.image.clone().or_else(|| spec.get("input image").map(|e| e.value.clone()));
+        let image = match (&over.image, spec.get("input image")) {
+            (Some(name), _) => Some((name.clone(), "`generator.environment.image`".to_string())),
+            (None, Some(e)) => Some((e.value.clone(), format!("{}:{}: `input image:`", spec.file, e.line))),
+            (None, None) => None,
+        };
         let light = match image {
             None => None,
-            Some(name) => {
-                let path = dir.join(&name);
-                if path.is_file() {
-                    Some(Arc::new(resample(&image::read(&path)?, size)))
+            Some((name, at)) => {
+                let path = files.resolve(&name, &at).map_err(|e| e.to_string())?;
+                if path.exists() {
+                    let bytes = files.read(&path, &at).map_err(|e| e.to_string())?;
+                    let img = image::decode(&bytes).map_err(|why| format!("{}: {why}", path.display()))?;
+                    Some(Arc::new(resample(&img, size)))
                 } else {
                     notes.push(format!(
-                        "clover: the input image {name} is missing: uniform full light (1) over the whole grid"
+                        "clover: the input image {} is missing: uniform full light (1) over the whole grid",
+                        excerpt(&name)
                     ));
                     None
                 }
@@ -268,7 +276,7 @@ mod tests {
         Clover::configure(
             &Spec::parse("e.spec", spec),
             &Overrides::default(),
-            Path::new("."),
+            &SideFiles::new(std::path::Path::new("."), &[], u64::MAX),
             &mut Vec::new(),
         )
         .unwrap()
@@ -327,7 +335,7 @@ mod tests {
             let e = Clover::configure(
                 &Spec::parse("e.spec", bad),
                 &Overrides::default(),
-                Path::new("."),
+                &SideFiles::new(std::path::Path::new("."), &[], u64::MAX),
                 &mut vec![],
             )
             .unwrap_err();
@@ -337,7 +345,7 @@ mod tests {
         let c = Clover::configure(
             &Spec::parse("e.spec", "input image: no-such-light.rgb\n"),
             &Overrides::default(),
-            Path::new("."),
+            &SideFiles::new(std::path::Path::new("."), &[], u64::MAX),
             &mut notes,
         )
         .unwrap();

@@ -38,7 +38,8 @@ impl Intensity {
 /// Reads an SGI or PNG image (told apart by their magic numbers); `Err` names the file
 /// and what is wrong.
 pub fn read(path: &Path) -> Result<Intensity, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the image {}: {e}", path.display()))?;
+    let bytes = crate::input::read_input(path, crate::input::DEFAULT_MAX_BYTES)
+        .map_err(|e| format!("cannot read the image: {e}"))?;
     decode(&bytes).map_err(|why| format!("{}: {why}", path.display()))
 }
 

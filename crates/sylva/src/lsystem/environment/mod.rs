@@ -45,6 +45,7 @@ pub mod honda81;
 pub mod image;
 pub mod obcheck;
 
+use crate::input::{excerpt, SideFiles};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -111,8 +112,11 @@ pub struct SpecEntry {
 }
 
 /// An environmental program's spec file: `key: value` lines. Blank lines and lines
-/// starting with `#` or `/*` are comments; other lines without `:` are kept in
-/// [`Spec::notes`] as ignored.
+/// starting with `#` or `/*` are comments; other lines without `:` are counted in one
+/// note of [`Spec::notes`] as ignored, by line number only: the spec file is named by
+/// a model folder, not by the user, so its text is never repeated (issue 39: a private
+/// key named as a spec file came out line by line). Keys and values are quoted
+/// clipped ([`excerpt`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spec {
     /// The file's name, as errors show it.
@@ -127,6 +131,7 @@ impl Spec {
     /// Parses spec text read from `file` (the name errors show).
     pub fn parse(file: &str, text: &str) -> Spec {
         let mut spec = Spec { file: file.to_string(), entries: Vec::new(), notes: Vec::new() };
+        let mut plain: Vec<usize> = Vec::new();
         for (k, raw) in text.lines().enumerate() {
             let line = raw.trim();
             if line.is_empty() || line.starts_with('#') || line.starts_with("/*") {
@@ -138,17 +143,38 @@ impl Spec {
                     value: value.trim().to_string(),
                     line: k + 1,
                 }),
-                None => spec.notes.push(format!("{file}:{}: `{line}` is not `key: value`", k + 1)),
+                None => plain.push(k + 1),
             }
+        }
+        if let Some(first) = plain.first() {
+            let shown: Vec<String> = plain.iter().take(5).map(usize::to_string).collect();
+            let more = if plain.len() > 5 { ", …" } else { "" };
+            spec.notes.push(if plain.len() == 1 {
+                format!("{file}:{first}: a line that is not `key: value` (ignored)")
+            } else {
+                format!(
+                    "{file}: {} lines are not `key: value` (lines {}{more}; ignored)",
+                    plain.len(),
+                    shown.join(", ")
+                )
+            });
         }
         spec
     }
 
-    /// Reads and parses the spec file at `path`; `Err` says which file and why.
+    /// Reads and parses the spec file at `path` (a regular file of at most the default
+    /// input limit, [`crate::input::read_input`]); `Err` says which file and why.
     pub fn read(path: &Path) -> Result<Spec, String> {
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read the spec file {}: {e}", path.display()))?;
+        let bytes = crate::input::read_input(path, crate::input::DEFAULT_MAX_BYTES)
+            .map_err(|e| format!("the spec file: {e}"))?;
         Ok(Spec::parse(&path.display().to_string(), &String::from_utf8_lossy(&bytes)))
+    }
+
+    /// Reads and parses the spec file at `path` through the model folder's `files`
+    /// (confined to it, within its input limit); `what` says where it is named.
+    pub fn read_in(files: &SideFiles, path: &Path, what: &str) -> Result<Spec, crate::Error> {
+        let text = files.read_text(path, what)?;
+        Ok(Spec::parse(&path.display().to_string(), &text))
     }
 
     /// The last entry with `key` (lower case), as cpfg's readers let later lines win.
@@ -162,7 +188,12 @@ impl Spec {
         let mut out = self.notes.clone();
         for e in &self.entries {
             if !known.contains(&e.key.as_str()) {
-                out.push(format!("{}:{}: `{}` is not a {program} key (ignored)", self.file, e.line, e.key));
+                out.push(format!(
+                    "{}:{}: `{}` is not a {program} key (ignored)",
+                    self.file,
+                    e.line,
+                    excerpt(&e.key)
+                ));
             }
         }
         out
@@ -170,7 +201,7 @@ impl Spec {
 
     /// An error about `e`: `file:line: key: why (got value)`.
     pub fn error(&self, e: &SpecEntry, why: &str) -> String {
-        format!("{}:{}: `{}`: {why} (got `{}`)", self.file, e.line, e.key, e.value)
+        format!("{}:{}: `{}`: {why} (got `{}`)", self.file, e.line, excerpt(&e.key), excerpt(&e.value))
     }
 
     /// The entry's value as one finite number.
@@ -293,19 +324,30 @@ pub fn executable_line(e_text: &str) -> Option<ExecutableLine> {
 }
 
 /// For the model folder reader: the spec file the `.e` file (`e_name`, text `e_text`,
-/// in `dir`) names, when it names one. Unknown keys of the spec file and a missing
-/// spec file are noted in `ignored` (the pipeline reports a missing one as an error
-/// when the program is used).
-pub fn spec_file(dir: &Path, e_name: &str, e_text: &str, ignored: &mut Vec<String>) -> Option<PathBuf> {
-    let exe = executable_line(e_text)?;
-    let spec = exe.spec?;
-    let path = dir.join(&spec);
-    match Spec::read(&path) {
-        Ok(s) if PROGRAMS.contains(&exe.program.as_str()) => ignored.extend(s.unknown(&exe.program)),
-        Ok(_) => {}
-        Err(_) => ignored.push(format!("missing spec file {spec} (named by {e_name})")),
+/// in the model folder `files`) names, when it names one. Unknown keys of the spec file
+/// and a missing spec file are noted in `ignored` (the pipeline reports a missing one
+/// as an error when the program is used). A spec file outside the folder, or one that
+/// is not a regular file or is over the input limit, is an error
+/// ([`crate::input::is_refusal`]).
+pub fn spec_file_in(
+    files: &SideFiles,
+    e_name: &str,
+    e_text: &str,
+    ignored: &mut Vec<String>,
+) -> Result<Option<PathBuf>, crate::Error> {
+    let Some(exe) = executable_line(e_text) else { return Ok(None) };
+    let Some(spec) = exe.spec else { return Ok(None) };
+    let at = format!("{}: `executable:`", excerpt(e_name));
+    let path = files.resolve(&spec, &at)?;
+    if !path.exists() {
+        ignored.push(format!("missing spec file {} (named by {})", excerpt(&spec), excerpt(e_name)));
+        return Ok(Some(path));
     }
-    Some(path)
+    let s = Spec::read_in(files, &path, &at)?;
+    if PROGRAMS.contains(&exe.program.as_str()) {
+        ignored.extend(s.unknown(&exe.program));
+    }
+    Ok(Some(path))
 }
 
 /// A leaf transmittance in [0, 1]: the recipe's override, else the spec's
@@ -357,14 +399,28 @@ impl Environment {
     }
 
     /// The program `name` configured from its spec file (when there is one) and the
-    /// recipe's overrides; data files (images, obstacles) are read relative to `dir`.
-    /// Notes on what was not used (a missing image) are appended to `notes`. `Err`
-    /// names the file, line and why, or the programs sylva has.
+    /// recipe's overrides; data files (images, obstacles) are read from inside `dir`
+    /// ([`Environment::configure_in`] with `dir` as the model folder and the default
+    /// input limit). Notes on what was not used (a missing image) are appended to
+    /// `notes`. `Err` names the file, line and why, or the programs sylva has.
     pub fn configure(
         name: &str,
         spec: Option<&Spec>,
         over: &Overrides,
         dir: &Path,
+        notes: &mut Vec<String>,
+    ) -> Result<Environment, String> {
+        let files = SideFiles::new(dir, &[], crate::input::DEFAULT_MAX_BYTES);
+        Environment::configure_in(name, spec, over, &files, notes)
+    }
+
+    /// [`Environment::configure`] reading the data files through the model folder's
+    /// `files`: confined to its folders and within its input limit.
+    pub fn configure_in(
+        name: &str,
+        spec: Option<&Spec>,
+        over: &Overrides,
+        dir: &SideFiles,
         notes: &mut Vec<String>,
     ) -> Result<Environment, String> {
         let empty = Spec { file: "(no spec file)".into(), entries: Vec::new(), notes: Vec::new() };
@@ -480,6 +536,7 @@ mod tests {
         );
         assert_eq!(s.entries.len(), 4);
         assert_eq!(s.notes.len(), 1);
+        assert!(s.notes[0].contains("e.spec:4:") && !s.notes[0].contains("nonsense"), "{:?}", s.notes);
         let (v, rest) = s.numbers(s.get("grid range").unwrap(), 2).unwrap();
         assert_eq!((v, rest.as_deref()), (vec![100.0, 100.0], Some("view.pnl")));
         let (v, rest) = s.numbers(s.get("grid size").unwrap(), 2).unwrap();
@@ -487,7 +544,10 @@ mod tests {
         let e = s.number(s.get("radius").unwrap()).unwrap_err();
         assert!(e.contains("e.spec:5:") && e.contains("radius") && e.contains("not a number"), "{e}");
         let u = s.unknown("clover");
-        assert!(u.iter().any(|n| n.contains("radius")) && u.iter().any(|n| n.contains("nonsense")), "{u:?}");
+        assert!(u.iter().any(|n| n.contains("radius")) && u.iter().any(|n| n.contains("e.spec:4:")), "{u:?}");
+        let many = Spec::parse("k.spec", &"SECRET-LINE\n".repeat(9));
+        assert_eq!(many.notes.len(), 1);
+        assert!(many.notes[0].contains("9 lines") && !many.notes[0].contains("SECRET"), "{:?}", many.notes);
         let e = s.numbers(s.get("verbose").unwrap(), 2).unwrap_err();
         assert!(e.contains("e.spec:1:"), "{e}");
     }

@@ -23,8 +23,8 @@
 //! Work: one unit per sensor and one per obstacle tested.
 
 use super::{Overrides, Sensor, Spec, Work};
+use crate::input::{excerpt, SideFiles};
 use glam::DVec3;
-use std::path::Path;
 use std::sync::Arc;
 
 /// The spec-file keys `obcheck` reads.
@@ -82,12 +82,12 @@ pub fn parse_obstacles(file: &str, text: &str) -> Result<Vec<Obstacle>, String> 
         let nums: Vec<f64> = words
             .map(|w| w.parse::<f64>().ok().filter(|v| v.is_finite()))
             .collect::<Option<_>>()
-            .ok_or_else(|| format!("{at}: `{line}`: the values must be finite numbers"))?;
+            .ok_or_else(|| format!("{at}: `{}`: the values must be finite numbers", excerpt(line)))?;
         let want = |n: usize, names: &str| -> Result<(), String> {
             if nums.len() == n {
                 Ok(())
             } else {
-                Err(format!("{at}: `{kind}` needs {n} numbers ({names}), got {}", nums.len()))
+                Err(format!("{at}: `{}` needs {n} numbers ({names}), got {}", excerpt(&kind), nums.len()))
             }
         };
         let v = |i: usize| DVec3::new(nums[i], nums[i + 1], nums[i + 2]);
@@ -111,7 +111,9 @@ pub fn parse_obstacles(file: &str, text: &str) -> Result<Vec<Obstacle>, String> 
                 }
                 Obstacle::HalfSpace(v(0) / len, nums[3] / len)
             }
-            other => return Err(format!("{at}: unknown obstacle `{other}` (sphere, box or halfspace)")),
+            other => {
+                return Err(format!("{at}: unknown obstacle `{}` (sphere, box or halfspace)", excerpt(other)))
+            }
         });
         if out.len() > MAX_OBSTACLES {
             return Err(format!("{at}: more than {MAX_OBSTACLES} obstacles"));
@@ -122,11 +124,14 @@ pub fn parse_obstacles(file: &str, text: &str) -> Result<Vec<Obstacle>, String> 
 
 impl Obcheck {
     /// Settings from the spec file and the recipe's overrides; the obstacle file is
-    /// read from `dir`. A missing or broken obstacle file is an error naming it.
-    pub fn configure(spec: &Spec, over: &Overrides, dir: &Path) -> Result<Obcheck, String> {
-        let file = match (&over.obstacles, spec.get("obstacles")) {
-            (Some(f), _) => f.clone(),
-            (None, Some(e)) if !e.value.is_empty() => e.value.clone(),
+    /// read from the model folder `files` (confined to it, [`SideFiles`]). A missing,
+    /// broken or refused obstacle file is an error naming it.
+    pub fn configure(spec: &Spec, over: &Overrides, files: &SideFiles) -> Result<Obcheck, String> {
+        let (file, at) = match (&over.obstacles, spec.get("obstacles")) {
+            (Some(f), _) => (f.clone(), "`generator.environment.obstacles`".to_string()),
+            (None, Some(e)) if !e.value.is_empty() => {
+                (e.value.clone(), format!("{}:{}: `obstacles:`", spec.file, e.line))
+            }
             (None, Some(e)) => return Err(spec.error(e, "expected the obstacle file's name")),
             (None, None) => {
                 return Err(format!(
@@ -135,9 +140,8 @@ impl Obcheck {
                 ))
             }
         };
-        let path = dir.join(&file);
-        let bytes = std::fs::read(&path)
-            .map_err(|e| format!("obcheck: cannot read the obstacle file {}: {e}", path.display()))?;
+        let path = files.resolve(&file, &at).map_err(|e| e.to_string())?;
+        let bytes = files.read(&path, &at).map_err(|e| format!("obcheck: the obstacle file: {e}"))?;
         let obstacles = parse_obstacles(&path.display().to_string(), &String::from_utf8_lossy(&bytes))?;
         Ok(Obcheck { file, obstacles: Arc::new(obstacles) })
     }
@@ -219,12 +223,12 @@ mod tests {
         let e = Obcheck::configure(
             &Spec::parse("o.spec", "obstacles: nowhere.txt\n"),
             &Overrides::default(),
-            Path::new("."),
+            &SideFiles::new(std::path::Path::new("."), &[], u64::MAX),
         )
         .unwrap_err();
         assert!(e.contains("nowhere.txt"), "{e}");
-        let e = Obcheck::configure(&Spec::parse("o.spec", ""), &Overrides::default(), Path::new("."))
-            .unwrap_err();
+        let here = SideFiles::new(std::path::Path::new("."), &[], u64::MAX);
+        let e = Obcheck::configure(&Spec::parse("o.spec", ""), &Overrides::default(), &here).unwrap_err();
         assert!(e.contains("obstacles"), "{e}");
     }
 

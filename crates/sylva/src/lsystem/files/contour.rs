@@ -38,6 +38,7 @@
 //! that does not match, a contour of zero length).
 
 use super::TextFile;
+use crate::input::excerpt;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use glam::{DVec2, DVec3};
 
@@ -166,12 +167,16 @@ pub fn parse(name: &str, text: &str) -> Result<Contour, Box<LsystemError>> {
                 return Err(unsupported(
                     at0,
                     first.len(),
-                    &format!("contour format `{first}` (cver 1 1 to 1 3)"),
+                    &format!("contour format `{}` (cver 1 1 to 1 3)", excerpt(first)),
                 ))
             }
         },
         ["cver", ..] => {
-            return Err(unsupported(at0, first.len(), &format!("contour format `{first}` (cver 1 1 to 1 3)")))
+            return Err(unsupported(
+                at0,
+                first.len(),
+                &format!("contour format `{}` (cver 1 1 to 1 3)", excerpt(first)),
+            ))
         }
         _ => {
             return Err(unsupported(
@@ -212,7 +217,7 @@ pub fn parse(name: &str, text: &str) -> Result<Contour, Box<LsystemError>> {
             "type" => {
                 let t = value.split_whitespace().next().unwrap_or("");
                 let bad = || {
-                    err(vat, value.len().max(1), &format!("contour type `{value}`: expected `or`, `oe`, `cr` or `ce` (`open` or `closed` in cver 1 1)"))
+                    err(vat, value.len().max(1), &format!("contour type `{}`: expected `or`, `oe`, `cr` or `ce` (`open` or `closed` in cver 1 1)", excerpt(value)))
                 };
                 if minor == 1 {
                     closed = Some(match t {
@@ -242,9 +247,15 @@ pub fn parse(name: &str, text: &str) -> Result<Contour, Box<LsystemError>> {
                 _ => return Err(err(vat, value.len().max(1), "`samples:` needs a positive whole number")),
             },
             "background" | "markers" => {
-                return Err(unsupported(at, body.len(), &format!("the contour header key `{}`", key.trim())))
+                return Err(unsupported(
+                    at,
+                    body.len(),
+                    &format!("the contour header key `{}`", excerpt(key.trim())),
+                ))
             }
-            other => return Err(err(at, body.len(), &format!("unknown contour header key `{other}`"))),
+            other => {
+                return Err(err(at, body.len(), &format!("unknown contour header key `{}`", excerpt(other))))
+            }
         }
         k += 1;
     }

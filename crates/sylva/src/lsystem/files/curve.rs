@@ -29,6 +29,7 @@
 //! generalized cylinder section) do not change these values.
 
 use super::TextFile;
+use crate::input::excerpt;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use glam::DVec3;
 
@@ -90,7 +91,7 @@ pub fn parse(name: &str, text: &str) -> Result<Curve, Box<LsystemError>> {
                     let mut e = src.error(
                         at,
                         line.trim_end().len(),
-                        &format!("unsupported: curve type `{}` (only `bspline`)", value.trim()),
+                        &format!("unsupported: curve type `{}` (only `bspline`)", excerpt(value.trim())),
                         "here",
                     );
                     e.kind = ErrorKind::Unsupported;

@@ -41,6 +41,7 @@
 //! required (cpfg's rule); multiplicities must be 1 to 16 and `samples` at most 65536.
 
 use super::{number, tokens, TextFile};
+use crate::input::excerpt;
 use crate::lsystem::source::LsystemError;
 
 /// The most samples a function may ask for.
@@ -271,7 +272,12 @@ fn parse_count(
     let toks = tokens(value, at, char::is_whitespace);
     match toks.first() {
         Some((o, t)) => t.parse::<u64>().map_err(|_| {
-            file.error(*o, t.len(), &format!("invalid {what}: expected a whole number, found `{t}`"), "here")
+            file.error(
+                *o,
+                t.len(),
+                &format!("invalid {what}: expected a whole number, found `{}`", excerpt(t)),
+                "here",
+            )
         }),
         None => Err(file.error(at, 1, &format!("`{what}:` needs a whole number"), "value missing")),
     }
@@ -300,7 +306,7 @@ fn parse_one(file: &TextFile, lines: &mut Lines) -> Result<Function, Box<Lsystem
             return Err(file.error(
                 at,
                 first.len(),
-                &format!("unsupported function format `{}` (sylva reads `fver 1 1`)", first.trim()),
+                &format!("unsupported function format `{}` (sylva reads `fver 1 1`)", excerpt(first.trim())),
                 "version",
             ));
         }
@@ -374,7 +380,7 @@ fn parse_one(file: &TextFile, lines: &mut Lines) -> Result<Function, Box<Lsystem
         let coord = |i: usize| -> Result<f64, Box<LsystemError>> {
             let (o, t) = toks[i];
             number(t).ok_or_else(|| {
-                file.error(o, t.len(), &format!("expected a number, found `{t}`"), "not a number")
+                file.error(o, t.len(), &format!("expected a number, found `{}`", excerpt(t)), "not a number")
             })
         };
         let (x, y) = (coord(0)?, coord(1)?);
@@ -386,7 +392,7 @@ fn parse_one(file: &TextFile, lines: &mut Lines) -> Result<Function, Box<Lsystem
                     return Err(file.error(
                         *o,
                         t.len(),
-                        &format!("the multiplicity must be 1 to 16, found `{t}`"),
+                        &format!("the multiplicity must be 1 to 16, found `{}`", excerpt(t)),
                         "multiplicity",
                     ));
                 }

@@ -52,6 +52,19 @@
 //! Everything found but not used (the animation file, contour files, viewing keys,
 //! missing files) is listed in [`ModelFolder::ignored`]. Paths in
 //! the view file and in `specifications` are relative to the folder.
+//!
+//! # Confinement (issue 39)
+//!
+//! Model folders are shared and downloaded, so the files they name are read only from
+//! inside the folder: every name in `specifications` (`.v`, `-e`, `-m`, `-M`), in the
+//! view file (`function:`, `function set:`, `surface:`, `line:`, `contour:`,
+//! `curve:`) and in the `.e` file (its spec file) must resolve, as the system resolves
+//! it (symbolic links and `..` included), inside the model folder or a folder of the
+//! recipe's `generator.allow_paths` ([`crate::input::SideFiles`]). Anything else is an
+//! error naming the entry, where it is written (`plant.v:7: \`function:\``), the
+//! resolved path and the key; so is a named file that is not a regular file or is over
+//! `input.max_bytes`. Names and text from these files are quoted in notes and
+//! messages clipped to [`crate::input::MAX_EXCERPT`] characters.
 
 pub mod colormap;
 pub mod contour;
@@ -60,6 +73,7 @@ pub mod func;
 pub mod surface;
 pub mod view;
 
+use crate::input::SideFiles;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use colormap::ColorMap;
 use func::Function;
@@ -112,16 +126,33 @@ pub struct ModelFolder {
 }
 
 /// Finds and reads the view, function, surface and colour files of the cpfg model
-/// folder that holds `lsystem_path` (see the [module documentation](self) for how).
+/// folder that holds `lsystem_path` (see the [module documentation](self) for how),
+/// confined to that folder with the default input limit: [`load_folder_in`] with
+/// [`SideFiles::new`]`(folder, &[], DEFAULT_MAX_BYTES)`.
 ///
 /// Errors: a file that exists but cannot be read ([`crate::Error::Read`]) or does not
 /// parse ([`crate::Error::Lsystem`], located in that file). Missing optional files are
 /// not errors; they are listed in [`ModelFolder::ignored`].
 pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
-    let dir = match lsystem_path.parent() {
+    let side = SideFiles::new(&folder_of(lsystem_path), &[], crate::input::DEFAULT_MAX_BYTES);
+    load_folder_in(lsystem_path, &side)
+}
+
+/// The folder of a model file (`.` for a bare file name).
+pub fn folder_of(lsystem_path: &Path) -> PathBuf {
+    match lsystem_path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
-    };
+    }
+}
+
+/// [`load_folder`] reading through `side`: every file the folder's `specifications`,
+/// view and `.e` files name must resolve inside `side`'s folders (symbolic links
+/// included) and be a regular file within its input limit. A file that breaks that is
+/// an error whose [`crate::input::is_refusal`] is true, naming the entry, the file and
+/// line that names it, the resolved path and the key `generator.allow_paths`.
+pub fn load_folder_in(lsystem_path: &Path, side: &SideFiles) -> Result<ModelFolder, crate::Error> {
+    let dir = side.dir().to_path_buf();
     let lsystem_name = lsystem_path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let stem = lsystem_path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let mut folder = ModelFolder {
@@ -141,89 +172,100 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
         ignored: Vec::new(),
     };
     let listing = list_dir(&dir);
+    // Names from the folder's files are quoted clipped (they are not the user's).
+    let q = crate::input::excerpt;
 
     // 1. The cpfg command line of `specifications`, if it names this L-system.
-    let spec_path = dir.join("specifications");
-    let command = if spec_path.is_file() {
-        let text = read_text(&spec_path)?;
+    let spec_path = side.resolve("specifications", "the model folder's `specifications`")?;
+    let command = if spec_path.exists() {
+        let text = side.read_text(&spec_path, "the model folder's `specifications`")?;
         find_cpfg_command(&text, &lsystem_name)
     } else {
         None
     };
+    let at_spec = |opt: &str, line: usize| format!("specifications:{line}: `{opt}`");
 
-    let view_name: Option<String>;
-    let mut colour_files: Vec<(usize, String, bool)> = Vec::new(); // (base, file, is_material)
+    let view_name: Option<(String, String)>; // (file, where it is named)
+    let mut colour_files: Vec<(usize, String, bool, String)> = Vec::new(); // (base, file, is_material, where)
     if let Some(cmd) = &command {
-        view_name = cmd.view.clone();
+        view_name = cmd.view.clone().map(|v| (v, at_spec("cpfg … file.v", cmd.line)));
         for (base, file) in &cmd.maps {
-            colour_files.push((*base, file.clone(), false));
+            colour_files.push((*base, file.clone(), false, at_spec("-m", cmd.line)));
         }
         if let Some(m) = &cmd.materials {
-            colour_files.push((0, m.clone(), true));
+            colour_files.push((0, m.clone(), true, at_spec("-M", cmd.line)));
         }
         for other in &cmd.other_files {
-            folder.ignored.push(format!("{other} (named on the cpfg command line; not used)"));
+            folder.ignored.push(format!("{} (named on the cpfg command line; not used)", q(other)));
         }
         if let Some(e) = &cmd.environment {
-            let path = dir.join(e);
-            if path.is_file() {
-                let text = read_text(&path)?;
+            let at = at_spec("-e", cmd.line);
+            let path = side.resolve(e, &at)?;
+            if path.exists() {
+                let text = side.read_text(&path, &at)?;
                 folder.environment_program = environment_program(&text);
                 folder.environment_spec =
-                    crate::lsystem::environment::spec_file(&dir, e, &text, &mut folder.ignored);
+                    crate::lsystem::environment::spec_file_in(side, e, &text, &mut folder.ignored)?;
                 if folder.environment_program.is_none() {
-                    folder.ignored.push(format!("{e}: no `executable:` line, so no environmental program"));
+                    folder
+                        .ignored
+                        .push(format!("{}: no `executable:` line, so no environmental program", q(e)));
                 }
             } else {
-                folder.ignored.push(format!("missing environment file {e} (its program is unknown)"));
+                folder.ignored.push(format!("missing environment file {} (its program is unknown)", q(e)));
             }
             folder.environment_file = Some(path);
         }
     } else {
-        view_name = pick(&listing, &stem, "v");
+        view_name = pick(&listing, &stem, "v").map(|v| (v, "the model folder".to_string()));
         if view_name.is_none() && listing.iter().any(|f| has_ext(f, "v")) {
-            folder.ignored.push(format!("several .v files and none named {stem}.v: no view file chosen"));
+            folder
+                .ignored
+                .push(format!("several .v files and none named {}.v: no view file chosen", q(&stem)));
         }
         if let Some(m) = pick(&listing, &stem, "map") {
-            colour_files.push((0, m, false));
+            colour_files.push((0, m, false, "the model folder".into()));
         } else if let Some(m) = pick(&listing, &stem, "mat") {
-            colour_files.push((0, m, true));
+            colour_files.push((0, m, true, "the model folder".into()));
         }
     }
 
     // 2. The view file.
-    if let Some(v) = view_name {
-        let path = dir.join(&v);
-        if path.is_file() {
-            let text = read_text(&path)?;
+    if let Some((v, at)) = view_name {
+        let path = side.resolve(&v, &at)?;
+        if path.exists() {
+            let text = side.read_text(&path, &at)?;
             let view = view::parse(&display_name(&path), &text)?;
             for key in &view.ignored {
-                folder.ignored.push(format!("{v}: {key}"));
+                folder.ignored.push(format!("{}: {key}", q(&v)));
             }
             folder.view = Some(view);
             folder.view_file = Some(path);
         } else {
-            folder.ignored.push(format!("missing view file {v}"));
+            folder.ignored.push(format!("missing view file {}", q(&v)));
         }
     }
+    let view_shown = folder.view_file.as_deref().map(display_name).unwrap_or_default();
+    let at_view = |key: &str, line: usize| format!("{view_shown}:{line}: `{key}:`");
 
     // 3. Functions.
     let listed = folder.view.as_ref().map(|v| !v.functions.is_empty()).unwrap_or(false);
     if listed {
         let refs = folder.view.as_ref().map(|v| v.functions.clone()).unwrap_or_default();
         for r in refs {
-            let path = dir.join(&r.file);
+            let at = at_view(if r.is_set { "function set" } else { "function" }, r.line);
+            let path = side.resolve(&r.file, &at)?;
             if r.is_set {
                 folder.functions.clear();
-                if path.is_file() {
-                    let text = read_text(&path)?;
+                if path.exists() {
+                    let text = side.read_text(&path, &at)?;
                     let set = func::parse_set(&display_name(&path), &text)?;
                     folder.functions.extend(set.functions);
                 } else {
-                    folder.ignored.push(format!("missing function set {}", r.file));
+                    folder.ignored.push(format!("missing function set {}", q(&r.file)));
                 }
-            } else if path.is_file() {
-                let text = read_text(&path)?;
+            } else if path.exists() {
+                let text = side.read_text(&path, &at)?;
                 let mut f = func::parse(&display_name(&path), &text)?;
                 if f.format == func::FunctionFormat::Range {
                     f.set_samples(r.samples);
@@ -233,7 +275,7 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
             } else {
                 folder.ignored.push(format!(
                     "missing function file {} (function {} is y = 0, as in cpfg)",
-                    r.file,
+                    q(&r.file),
                     folder.functions.len() + 1
                 ));
                 folder.functions.push((file_stem(&r.file), Function::cpfg_default()));
@@ -242,14 +284,14 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
     } else {
         for f in listing.iter().filter(|f| has_ext(f, "func")) {
             let path = dir.join(f);
-            let text = read_text(&path)?;
+            let text = side.read_text(&path, "the model folder")?;
             let fun = func::parse(&display_name(&path), &text)?;
             let name = fun.name.clone().unwrap_or_else(|| file_stem(f));
             folder.functions.push((name, fun));
         }
         for f in listing.iter().filter(|f| has_ext(f, "fset")) {
             let path = dir.join(f);
-            let text = read_text(&path)?;
+            let text = side.read_text(&path, "the model folder")?;
             let set = func::parse_set(&display_name(&path), &text)?;
             folder.functions.extend(set.functions);
         }
@@ -258,38 +300,43 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
     // 3b. Curves (`curve:` lines), for curveX/Y/Z and curveGAL.
     let curve_refs = folder.view.as_ref().map(|v| v.curves.clone()).unwrap_or_default();
     for r in curve_refs {
-        let path = dir.join(&r.file);
-        if path.is_file() {
-            let text = read_text(&path)?;
+        let at = at_view("curve", r.line);
+        let path = side.resolve(&r.file, &at)?;
+        if path.exists() {
+            let text = side.read_text(&path, &at)?;
             let c = curve::parse(&display_name(&path), &text)?;
             folder.curves.push((file_stem(&r.file), c));
         } else {
-            folder.ignored.push(format!("missing curve file {} (curve {})", r.file, folder.curves.len() + 1));
+            folder.ignored.push(format!(
+                "missing curve file {} (curve {})",
+                q(&r.file),
+                folder.curves.len() + 1
+            ));
         }
     }
 
     // 3c. Contours (`contour:` lines), for `@#(id)`: a missing or bad file is recorded
     // as an error that selecting the contour raises.
     let contour_refs = folder.view.as_ref().map(|v| v.contours.clone()).unwrap_or_default();
-    let view_name = folder.view_file.as_deref().map(display_name).unwrap_or_default();
     for r in contour_refs {
         let seen = |id: i32| {
             folder.contours.iter().any(|(i, _)| *i == id)
                 || folder.contour_errors.iter().any(|(i, _)| *i == id)
         };
         if seen(r.id) {
-            folder.ignored.push(format!("contour id {} used twice: {} ignored", r.id, r.file));
+            folder.ignored.push(format!("contour id {} used twice: {} ignored", r.id, q(&r.file)));
             continue;
         }
-        let path = dir.join(&r.file);
-        let read = if path.is_file() {
-            let text = read_text(&path)?;
+        let at = at_view("contour", r.line);
+        let path = side.resolve(&r.file, &at)?;
+        let read = if path.exists() {
+            let text = side.read_text(&path, &at)?;
             contour::parse(&display_name(&path), &text).map_err(|e| e.message)
         } else {
             Err(format!(
-                "{view_name}: `contour: {} {}`: the contour file {} does not exist",
+                "{view_shown}: `contour: {} {}`: the contour file {} does not exist",
                 r.id,
-                r.file,
+                q(&r.file),
                 path.display()
             ))
         };
@@ -311,28 +358,28 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
     for r in surface_refs {
         let id = r.id.to_string();
         if folder.surfaces.iter().any(|(n, _)| *n == id) {
-            folder.ignored.push(format!("surface id {id} used twice: {} ignored, as in cpfg", r.file));
+            folder.ignored.push(format!("surface id {id} used twice: {} ignored, as in cpfg", q(&r.file)));
             continue;
         }
-        let path = dir.join(&r.file);
-        if path.is_file() {
-            let text = read_text(&path)?;
+        let at = at_view("surface", r.line);
+        let path = side.resolve(&r.file, &at)?;
+        if path.exists() {
+            let text = side.read_text(&path, &at)?;
             let s = surface::parse(&display_name(&path), &text)?;
             folder.surfaces.push((id, s));
         } else {
-            folder.ignored.push(format!("missing surface file {} (surface {id})", r.file));
+            folder.ignored.push(format!("missing surface file {} (surface {id})", q(&r.file)));
         }
     }
 
     // 5. Colour maps and materials.
-    for (base, file, is_material) in colour_files {
-        let path = dir.join(&file);
-        if !path.is_file() {
-            folder.ignored.push(format!("missing colour file {file}"));
+    for (base, file, is_material, at) in colour_files {
+        let path = side.resolve(&file, &at)?;
+        if !path.exists() {
+            folder.ignored.push(format!("missing colour file {}", q(&file)));
             continue;
         }
-        let bytes =
-            std::fs::read(&path).map_err(|source| crate::Error::Read { path: path.clone(), source })?;
+        let bytes = side.read(&path, &at)?;
         let parsed = if is_material { colormap::parse_materials(&bytes) } else { colormap::parse(&bytes) };
         let map = parsed.map_err(|why| plain_error(&display_name(&path), &why))?;
         match folder.colormap.as_mut() {
@@ -351,6 +398,8 @@ pub fn load_folder(lsystem_path: &Path) -> Result<ModelFolder, crate::Error> {
 /// The parts of a `cpfg …` command line that matter here.
 #[derive(Debug, Clone, Default, PartialEq)]
 struct CpfgCommand {
+    /// The line of `specifications` it is on, from 1.
+    line: usize,
     lsystem: Option<String>,
     view: Option<String>,
     /// Colour maps with the colour index they start at.
@@ -372,12 +421,12 @@ fn environment_program(text: &str) -> Option<String> {
 /// Parses the `cpfg …` lines of a vlab `specifications` file and returns the first
 /// whose `.l` argument is `lsystem` (compared by file name).
 fn find_cpfg_command(spec: &str, lsystem: &str) -> Option<CpfgCommand> {
-    for line in spec.lines() {
+    for (n, line) in spec.lines().enumerate() {
         let words: Vec<&str> = line.split_whitespace().collect();
         let Some(at) = words.iter().position(|w| *w == "cpfg" || w.ends_with("/cpfg")) else {
             continue;
         };
-        let mut cmd = CpfgCommand::default();
+        let mut cmd = CpfgCommand { line: n + 1, ..CpfgCommand::default() };
         let mut k = at + 1;
         while k < words.len() {
             let w = words[k];
@@ -466,13 +515,6 @@ fn file_stem(file: &str) -> String {
 
 fn display_name(path: &Path) -> String {
     path.display().to_string()
-}
-
-/// Reads a text file; invalid UTF-8 (Latin-1 comments) is replaced, not an error.
-fn read_text(path: &Path) -> Result<String, crate::Error> {
-    let bytes =
-        std::fs::read(path).map_err(|source| crate::Error::Read { path: path.to_path_buf(), source })?;
-    Ok(String::from_utf8_lossy(&bytes).into_owned())
 }
 
 /// An [`LsystemError`] with no place in a file (for binary files).

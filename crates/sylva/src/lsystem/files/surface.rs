@@ -62,6 +62,7 @@
 
 use super::{number, tokens, TextFile};
 use crate::geometry::{FaceVarying, Mesh};
+use crate::input::excerpt;
 use crate::lsystem::source::LsystemError;
 use glam::{Vec2, Vec3};
 
@@ -248,10 +249,14 @@ impl Surface {
             for (n, name) in p.neighbours.iter().enumerate() {
                 let Some(name) = name else { continue };
                 match self.patches.iter().find(|q| q.name == *name) {
-                    None => out.push(format!("{}: no neighbour patch {name}", p.name)),
+                    None => out.push(format!("{}: no neighbour patch {}", excerpt(&p.name), excerpt(name))),
                     Some(q) => {
                         if q.neighbours[7 - n].as_deref() != Some(p.name.as_str()) {
-                            out.push(format!("{}: neighbour {name} does not name it back", p.name));
+                            out.push(format!(
+                                "{}: neighbour {} does not name it back",
+                                excerpt(&p.name),
+                                excerpt(name)
+                            ));
                         }
                     }
                 }
@@ -434,7 +439,7 @@ impl<'a> Cursor<'a> {
     fn fail(&self, what: &str) -> Box<LsystemError> {
         let (at, len) = self.here();
         let found = match self.peek() {
-            Some(t) => format!("found `{t}`"),
+            Some(t) => format!("found `{}`", excerpt(t)),
             None => "the file ends".to_string(),
         };
         self.file.error(at, len, &format!("expected {what}, {found}"), &format!("expected {what}"))

@@ -46,6 +46,7 @@
 //! Defaults match cpfg's `InitializeParameters`.
 
 use super::{number, strip_comments, tokens, TextFile};
+use crate::input::excerpt;
 use crate::lsystem::source::LsystemError;
 
 /// How `F` segments are drawn (cpfg `line style:`).
@@ -147,6 +148,8 @@ pub struct ContourRef {
     pub id: i32,
     /// The contour file (`*.con`), relative to the folder.
     pub file: String,
+    /// 1-based line in the view file.
+    pub line: usize,
 }
 
 /// The parsed view file. Defaults are cpfg's.
@@ -243,7 +246,11 @@ impl<'a> Line<'a> {
         self.file.error(
             at,
             tok.len(),
-            &format!("invalid value for `{}:`: expected {what}, found `{tok}`", self.key),
+            &format!(
+                "invalid value for `{}:`: expected {what}, found `{}`",
+                excerpt(&self.key),
+                excerpt(tok)
+            ),
             &format!("expected {what}"),
         )
     }
@@ -392,11 +399,11 @@ pub fn parse(name: &str, text: &str) -> Result<View, Box<LsystemError>> {
             continue;
         }
         if trimmed.starts_with('#') {
-            view.ignored.push(format!("line {line_no}: preprocessor line `{trimmed}`"));
+            view.ignored.push(format!("line {line_no}: preprocessor line `{}`", excerpt(trimmed)));
             continue;
         }
         let Some(colon) = line.find(':') else {
-            view.ignored.push(format!("line {line_no}: `{trimmed}` (no key)"));
+            view.ignored.push(format!("line {line_no}: `{}` (no key)", excerpt(trimmed)));
             continue;
         };
         let key: String = line[..colon].split_whitespace().collect::<Vec<_>>().join(" ").to_ascii_lowercase();
@@ -442,7 +449,8 @@ pub fn parse(name: &str, text: &str) -> Result<View, Box<LsystemError>> {
                     "cylinder" | "3" => view.line_style = LineStyle::Cylinder,
                     // cpfg keeps the previous style (models write `wireframe` here).
                     _ => view.ignored.push(format!(
-                        "line {line_no}: line style `{word}` (unknown; the previous style is kept)"
+                        "line {line_no}: line style `{}` (unknown; the previous style is kept)",
+                        excerpt(word)
                     )),
                 }
             }
@@ -456,7 +464,7 @@ pub fn parse(name: &str, text: &str) -> Result<View, Box<LsystemError>> {
             "contour" => {
                 let id = l.int(0)?;
                 let file = l.word(1)?.to_string();
-                view.contours.push(ContourRef { id, file });
+                view.contours.push(ContourRef { id, file, line: line_no });
             }
             "initial scale" => {
                 let s = l.number(0)?;
@@ -511,7 +519,7 @@ pub fn parse(name: &str, text: &str) -> Result<View, Box<LsystemError>> {
                 let file = l.word(0)?.to_string();
                 view.functions.push(FunctionRef { file, samples: None, is_set: true, line: line_no });
             }
-            _ => view.ignored.push(format!("line {line_no}: {key}")),
+            _ => view.ignored.push(format!("line {line_no}: {}", excerpt(&key))),
         }
     }
     Ok(view)
