@@ -651,22 +651,25 @@ fn main() -> ExitCode {
 /// caught, silently, and the plain message, its causes and its help are printed
 /// instead: printing an error never panics.
 fn report(e: &miette::Report) {
+    eprintln!("{}", render_report(e));
+}
+
+/// The text [`report`] prints: miette's rendering, or the plain fallback.
+fn render_report(e: &miette::Report) -> String {
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
     let rendered = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| format!("{e:?}")));
     std::panic::set_hook(hook);
-    match rendered {
-        Ok(text) => eprintln!("{text}"),
-        Err(_) => {
-            eprintln!("Error: {e}");
-            for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
-            if let Some(help) = e.help() {
-                eprintln!("  help: {help}");
-            }
+    rendered.unwrap_or_else(|_| {
+        let mut text = format!("Error: {e}");
+        for cause in e.chain().skip(1) {
+            text.push_str(&format!("\n  caused by: {cause}"));
         }
-    }
+        if let Some(help) = e.help() {
+            text.push_str(&format!("\n  help: {help}"));
+        }
+        text
+    })
 }
 
 /// Starts the engine's worker threads before any work, so a `RAYON_NUM_THREADS` above
@@ -915,4 +918,50 @@ fn derive(what: &str, iterations: Option<u32>, seed: Option<u64>, sets: &[String
     writeln!(stdout).into_diagnostic()?;
     stdout.flush().into_diagnostic()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod report_tests {
+    use super::render_report;
+    use miette::{Diagnostic, MietteError, SourceCode, SourceSpan, SpanContents};
+
+    /// Source code whose every read panics, as miette's renderer did on long lines.
+    #[derive(Debug)]
+    struct Exploding;
+
+    impl SourceCode for Exploding {
+        fn read_span<'a>(
+            &'a self,
+            _: &SourceSpan,
+            _: usize,
+            _: usize,
+        ) -> Result<Box<dyn SpanContents<'a> + 'a>, MietteError> {
+            panic!("Formatting argument out of range")
+        }
+    }
+
+    #[derive(Debug, Diagnostic)]
+    #[diagnostic(help("fix it"))]
+    struct Bad {
+        #[source_code]
+        src: Exploding,
+        #[label("here")]
+        span: SourceSpan,
+    }
+
+    impl std::fmt::Display for Bad {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("t.l:1:70000: bad")
+        }
+    }
+
+    impl std::error::Error for Bad {}
+
+    #[test]
+    fn a_renderer_panic_falls_back_to_the_plain_message() {
+        let e = miette::Report::new(Bad { src: Exploding, span: SourceSpan::new(0.into(), 1) });
+        let text = render_report(&e);
+        assert!(text.starts_with("Error: t.l:1:70000: bad"), "{text}");
+        assert!(text.contains("help: fix it"), "{text}");
+    }
 }

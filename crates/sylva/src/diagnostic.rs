@@ -12,8 +12,10 @@
 //! miette's header and gutter name the place in the file, and a line of any length
 //! renders (miette's graphical handler panics on a column past 65,535, issue 39, and
 //! would print the whole line). Messages quote pieces of the input through [`quote`],
-//! which clips them to [`QUOTE_CHARS`] characters, and the whole message is clipped to
-//! [`MAX_MESSAGE_CHARS`].
+//! which clips them to [`QUOTE_CHARS`] characters; as a safety net the constructors
+//! clip every piece a message quotes (between backticks or double quotes) to
+//! [`MAX_QUOTED_CHARS`] ([`clip_quoted_to`]; generous, for paths), and the whole message
+//! to [`MAX_MESSAGE_CHARS`].
 
 use miette::{MietteError, MietteSpanContents, SourceCode, SourceSpan, SpanContents};
 use std::borrow::Cow;
@@ -33,6 +35,10 @@ pub const EXCERPT_SPAN_LINES: usize = 4;
 
 /// The most characters of a piece of input (a token, a value) a message quotes.
 pub const QUOTE_CHARS: usize = 80;
+
+/// The most characters of any piece a located error's message quotes (between backticks
+/// or double quotes): a safety net behind [`quote`], long enough for file paths.
+pub const MAX_QUOTED_CHARS: usize = 4 * QUOTE_CHARS;
 
 /// The most characters of a located error's message and label; longer ones are clipped
 /// with an ellipsis.
@@ -103,7 +109,7 @@ impl LsystemError {
         let (source_code, span) = Excerpt::new(name, text, at, len);
         Box::new(LsystemError {
             kind,
-            message: format!("{name}:{line}:{col}: {}", clip(what, MAX_MESSAGE_CHARS)),
+            message: format!("{name}:{line}:{col}: {}", clip_quoted_to(what, MAX_QUOTED_CHARS)),
             source_code,
             span: Some(span),
             label: clip(label, MAX_MESSAGE_CHARS).into_owned(),
@@ -115,7 +121,7 @@ impl LsystemError {
     pub fn nowhere(kind: ErrorKind, name: &str, what: &str) -> Box<Self> {
         Box::new(LsystemError {
             kind,
-            message: format!("{name}: {}", clip(what, MAX_MESSAGE_CHARS)),
+            message: format!("{name}: {}", clip_quoted_to(what, MAX_QUOTED_CHARS)),
             source_code: Excerpt::empty(name),
             span: None,
             label: String::new(),
@@ -316,6 +322,11 @@ impl SourceCode for Excerpt {
 /// quotes — between `"` or `` ` `` — clipped to [`QUOTE_CHARS`] characters, and the
 /// whole to [`MAX_MESSAGE_CHARS`]: those messages quote the offending value whole.
 pub fn clip_quoted(msg: &str) -> Cow<'_, str> {
+    clip_quoted_to(msg, QUOTE_CHARS)
+}
+
+/// [`clip_quoted`] with pieces clipped to `max` characters.
+pub fn clip_quoted_to(msg: &str, max: usize) -> Cow<'_, str> {
     let mut out = String::with_capacity(msg.len().min(MAX_MESSAGE_CHARS));
     let mut chars = msg.chars();
     let mut changed = false;
@@ -324,7 +335,7 @@ pub fn clip_quoted(msg: &str) -> Cow<'_, str> {
         if !matches!(c, '"' | '`') {
             continue;
         }
-        // Inside a quoted piece: keep QUOTE_CHARS characters of it, then skip to its end.
+        // Inside a quoted piece: keep `max` characters of it, then skip to its end.
         let mut kept = 0;
         let mut escaped = false;
         for d in chars.by_ref() {
@@ -335,9 +346,9 @@ pub fn clip_quoted(msg: &str) -> Cow<'_, str> {
                 break;
             }
             kept += 1;
-            if kept <= QUOTE_CHARS {
+            if kept <= max {
                 out.push(d);
-            } else if kept == QUOTE_CHARS + 1 {
+            } else if kept == max + 1 {
                 out.push('…');
                 changed = true;
             }

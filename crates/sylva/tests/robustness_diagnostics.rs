@@ -95,6 +95,25 @@ fn item01_lsystem_error_on_a_long_line() {
 }
 
 #[test]
+fn item01_lsystem_messages_quote_long_tokens_clipped() {
+    let long = "x".repeat(LINE);
+    let mut errors = 0;
+    for text in [
+        format!("Lsystem: 1\nAxiom: A({long})\nA(x) --> A({long})\nendlsystem\n"),
+        format!("Lsystem: 1\n{long}: 5\nAxiom: A\nendlsystem\n"),
+        format!("Lsystem: 1\nAxiom: A(1,,{long})\nendlsystem\n"),
+        format!("#define {long} (\nLsystem: 1\nAxiom: A\nendlsystem\n"),
+    ] {
+        let Err(e) = LSystem::parse("q.l", &text, &[]) else { continue };
+        errors += 1;
+        // `undefined name `xxx…``: the constructor's safety net clips the quoted name.
+        assert!(e.message.len() < 1000, "{} bytes: {}", e.message.len(), &e.message[..300]);
+        short_report(&*e);
+    }
+    assert!(errors >= 3, "{errors} of the inputs failed");
+}
+
+#[test]
 fn item01_lst_error_on_a_long_line() {
     let ops = "MovRel3f(0,0,0) ".repeat(COL / 16);
     let before = ops.len();
