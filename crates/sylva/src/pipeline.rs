@@ -932,7 +932,10 @@ pub fn check_degenerate(recipe: &Recipe, skeleton: &Skeleton) -> Result<()> {
         || recipe.mesh.clears_nodes(n)
         || matches!(method, "sweep" | "hull" | "quad");
     let internodes = skeleton.parent.iter().filter(|&&p| p != crate::skeleton::NO_PARENT).count();
-    let d = skeleton.degeneracy(if searching { Degeneracy::crowded_limit(internodes) } else { 0 });
+    let d = crate::fit::degenerate::degeneracy(
+        skeleton,
+        if searching { Degeneracy::crowded_limit(internodes) } else { 0 },
+    );
     let what = format!("the skeleton of recipe `{}`", recipe.name);
     let radius_key = match &recipe.generator {
         Generator::Lsystem(_) => "`generator.width` (or the model's own width changes)",

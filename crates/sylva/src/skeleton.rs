@@ -442,7 +442,7 @@ pub const CROWDED_MIN_PAIRS: u64 = 1_000_000;
 /// ([`Degeneracy::crowded`]; none of the presets has any).
 pub const PILED_ZERO_LENGTH: usize = 64;
 
-/// Degenerate geometry of a skeleton (issue 39), found by [`Skeleton::degeneracy`]
+/// Degenerate geometry of a skeleton (issue 39), found by `fit::degenerate::degeneracy`
 /// before the stages whose collision searches it would make quadratic (the joint
 /// meshers' repairs, `mesh.decollide`, `mesh.clear`): zero-length and reversing
 /// internodes, coincident nodes, and radii absurd for the lengths. Internodes are named
@@ -465,7 +465,7 @@ pub struct Degeneracy {
     /// The diagonal of the nodes' bounding box.
     pub size: f64,
     /// Pairs of internodes whose capsules' boxes overlap (the candidate pairs of every
-    /// collision search), counted up to the limit [`Skeleton::degeneracy`] was given.
+    /// collision search), counted up to the limit `fit::degenerate::degeneracy` was given.
     pub pairs: u64,
     /// The internode whose box overlaps the most others among those counted, and how many.
     pub busiest: Option<(u32, u64)>,
@@ -493,79 +493,6 @@ impl Degeneracy {
     pub fn crowded(&self) -> bool {
         self.pairs > Self::crowded_limit(self.internodes)
             || (self.zero_length > PILED_ZERO_LENGTH && self.zero_length * 4 > self.internodes)
-    }
-}
-
-impl Skeleton {
-    /// Finds the skeleton's degenerate geometry ([`Degeneracy`]): one linear pass, plus,
-    /// when `pair_limit` > 0, a count of the internode pairs whose capsule boxes (padded
-    /// by the larger end radius) overlap, which stops once it is over `pair_limit` (so
-    /// its cost is bounded by the limit and the node count, not by the pairs).
-    pub fn degeneracy(&self, pair_limit: u64) -> Degeneracy {
-        use crate::mesh::check::{build_bvh, query, Aabb};
-        let n = self.len();
-        let mut d = Degeneracy::default();
-        if n == 0 {
-            return d;
-        }
-        let (mut lo, mut hi) = (self.position[0], self.position[0]);
-        for i in 0..n {
-            lo = lo.min(self.position[i]);
-            hi = hi.max(self.position[i]);
-            if d.max_radius.is_none_or(|(_, r)| self.radius[i] > r) {
-                d.max_radius = Some((i as u32, self.radius[i]));
-            }
-            let p = self.parent[i];
-            if p == NO_PARENT {
-                continue;
-            }
-            d.internodes += 1;
-            let (a, b) = (self.position[p as usize].as_dvec3(), self.position[i].as_dvec3());
-            let v = b - a;
-            let tiny = 1e-6 * a.abs().max_element().max(b.abs().max_element()) + 1e-12;
-            if v.length() <= tiny {
-                d.zero_length += 1;
-                d.first_zero_length.get_or_insert(i as u32);
-                continue;
-            }
-            let g = self.parent[p as usize];
-            if g != NO_PARENT {
-                let u = a - self.position[g as usize].as_dvec3();
-                let (lu, lv) = (u.length(), v.length());
-                if lu > tiny && u.dot(v) < -0.999 * lu * lv {
-                    d.reversing += 1;
-                    d.first_reversing.get_or_insert(i as u32);
-                }
-            }
-        }
-        d.size = hi.as_dvec3().distance(lo.as_dvec3());
-        if pair_limit == 0 || d.internodes < 2 {
-            return d;
-        }
-        let seg: Vec<usize> = (0..n).filter(|&i| self.parent[i] != NO_PARENT).collect();
-        let boxes: Vec<Aabb> = seg
-            .iter()
-            .map(|&i| {
-                let p = self.parent[i] as usize;
-                let r = self.radius[i].max(self.radius[p]) as f64;
-                let (a, b) = (self.position[p].as_dvec3(), self.position[i].as_dvec3());
-                Aabb { lo: a.min(b) - r, hi: a.max(b) + r }
-            })
-            .collect();
-        let mut order: Vec<u32> = (0..seg.len() as u32).collect();
-        let nodes = build_bvh(&boxes, &mut order);
-        for (k, b) in boxes.iter().enumerate() {
-            let mine = query(&nodes, &order, b).into_iter().filter(|&o| o > k && boxes[o].overlaps(b)).count()
-                as u64;
-            d.pairs += mine;
-            if d.busiest.is_none_or(|(_, m)| mine > m) {
-                d.busiest = Some((seg[k] as u32, mine));
-            }
-            if d.pairs > pair_limit {
-                break;
-            }
-        }
-        d
     }
 }
 

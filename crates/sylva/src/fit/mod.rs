@@ -10,6 +10,8 @@
 //!
 //! - [`overlap`]: Skeleton → Skeleton. Optional (`mesh.prune_overlaps`): cuts off every
 //!   branch that passes through another with its subtree (seed 002 §4.2, property 17).
+//! - [`degenerate`]: finds zero-length, reversing and piled-up internodes before the
+//!   searches above (issue 39).
 //! - [`leaves`]: adds leaf organs by branch level or on terminal apices (`[leaves]
 //!   place`, seed 002 §4.2, property 18).
 //!
@@ -21,5 +23,6 @@
 
 pub mod clear;
 pub mod decollide;
+pub mod degenerate;
 pub mod leaves;
 pub mod overlap;

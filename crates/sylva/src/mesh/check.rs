@@ -138,7 +138,10 @@ pub struct MeshReport {
     /// (one primitive drawn twice, a copied triangle). They are reported here and left
     /// out of the self-intersection search (a copy would pair with everything its
     /// original does, and coincident copies make the search quadratic). A back face (the
-    /// same corners in reverse order, a leaf card's) is not a duplicate.
+    /// same corners in reverse order, a leaf card's) is not a duplicate. Looked for only
+    /// with the self-intersection search ([`CheckOptions::self_intersections`]) and
+    /// reported as a note ([`MeshReport::notes`]), not a problem: coincident copies
+    /// (a model that draws one branch twice) do not cross each other.
     pub duplicate_faces: Vec<usize>,
     /// Number of duplicate faces.
     pub duplicate_face_count: usize,
@@ -164,7 +167,6 @@ impl MeshReport {
             && self.flipped_edge_count == 0
             && self.degenerate_face_count == 0
             && self.unused_vertices == 0
-            && self.duplicate_face_count == 0
             && self.intersection_count.unwrap_or(0) == 0
             && !self.search_stopped
     }
@@ -216,6 +218,20 @@ impl MeshReport {
         )
     }
 
+    /// What the check noticed that does not make the mesh invalid: duplicate faces.
+    pub fn notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.duplicate_face_count > 0 {
+            out.push(format!(
+                "{} duplicate face(s) (the same corners in the same order as an earlier face; \
+                 coincident copies, left out of the self-intersection search){}",
+                self.duplicate_face_count,
+                listed(&self.duplicate_faces, "faces")
+            ));
+        }
+        out
+    }
+
     /// [`MeshReport::problems`] without self-intersections: what is wrong with the
     /// mesh's structure (references, finiteness, manifoldness, orientation, degenerate
     /// faces, unused vertices), for callers that judge intersections separately.
@@ -244,11 +260,6 @@ impl MeshReport {
             listed(&self.flipped_edges, "edges"),
         );
         add(self.degenerate_face_count, "degenerate face(s)", listed(&self.degenerate_faces, "faces"));
-        add(
-            self.duplicate_face_count,
-            "duplicate face(s) (the same corners in the same order as an earlier face; not searched for intersections)",
-            listed(&self.duplicate_faces, "faces"),
-        );
         add(self.unused_vertices, "vertex(es) used by no face", String::new());
         out
     }
@@ -278,6 +289,9 @@ impl fmt::Display for MeshReport {
                 self.triangles
             )?,
             None => writeln!(f, "self-intersections not tested")?,
+        }
+        for n in self.notes() {
+            writeln!(f, "note: {n}")?;
         }
         let problems = self.problems();
         if problems.is_empty() {
@@ -466,7 +480,10 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
             }
         }
     }
-    for f in duplicate_faces(mesh, &searched) {
+    // Duplicates are coincident geometry, like intersections: looked for only with the
+    // self-intersection search, which they would otherwise make quadratic.
+    let duplicates = if opts.self_intersections { duplicate_faces(mesh, &searched) } else { Vec::new() };
+    for f in duplicates {
         searched[f] = false;
         r.duplicate_face_count += 1;
         if r.duplicate_faces.len() < max {
