@@ -37,8 +37,10 @@ pub enum Error {
         /// What is wrong.
         why: String,
     },
-    /// A recipe problem (unknown key, bad value, unknown preset).
-    #[error("recipe: {0}")]
+    /// A recipe problem (unknown key, bad value, unknown preset). Its display clips every
+    /// quoted piece of the message (a `--set` value quoted whole by one of the many
+    /// checks) to [`crate::diagnostic::MAX_QUOTED_CHARS`] characters.
+    #[error("recipe: {}", crate::diagnostic::clip_quoted_to(.0, crate::diagnostic::MAX_QUOTED_CHARS))]
     #[diagnostic(help("run `sylva presets` for preset names; docs/recipe.md lists every key"))]
     Recipe(String),
     /// An L-system parse or evaluation error, with its source excerpt.
