@@ -231,3 +231,19 @@ fn item15_float_iterations_names_the_key_and_the_type() {
     let e = recipe::load("lsys-binary-tree", &[set]).expect_err("an angle is a number");
     assert!(e.to_string().contains("`generator.angle`"), "{e}");
 }
+
+/// Item 1 on the OBJ reader (found by the campaign's long-line class): a 200,000-character
+/// bad `f` line made a message as long as the line; it is clipped now.
+#[test]
+fn item01_obj_error_on_a_long_line_is_clipped() {
+    let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 ");
+    text.push_str(&"q".repeat(200_000));
+    text.push('\n');
+    let e = sylva::mesh::obj_read::parse_obj(&text).expect_err("a bad index is an error");
+    if let sylva::mesh::obj_read::ObjError::Parse { message, .. } = &e {
+        assert!(message.len() > 100_000, "the input quoted in the message is what gets clipped");
+    }
+    let shown = e.to_string();
+    assert!(shown.starts_with("line 4:"), "{}", &shown[..shown.len().min(200)]);
+    assert!(shown.len() < 4096, "a message of {} bytes", shown.len());
+}

@@ -47,7 +47,11 @@ pub enum ObjError {
         source: std::io::Error,
     },
     /// A malformed statement.
-    #[error("{}line {line}: {message}", path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default())]
+    #[error(
+        "{}line {line}: {}",
+        path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default(),
+        crate::diagnostic::clip(&crate::diagnostic::clip_quoted(message), crate::diagnostic::MAX_MESSAGE_CHARS)
+    )]
     Parse {
         /// The file, when reading from one.
         path: Option<PathBuf>,
