@@ -48,10 +48,6 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::R
     Ok(())
 }
 
-/// Reads a whole text file, naming the file in the error.
-pub fn read_to_string(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| Error::Read { path: path.to_path_buf(), source })
-}
 
 /// Checks, before any work, that `path` can be written as an output: it names a file
 /// (not `dir/` or `..`), its folder exists, is a folder and is writable, and `path`
