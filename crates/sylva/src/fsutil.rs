@@ -48,7 +48,6 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::R
     Ok(())
 }
 
-
 /// Checks, before any work, that `path` can be written as an output: it names a file
 /// (not `dir/` or `..`), its folder exists, is a folder and is writable, and `path`
 /// itself is not a folder or a special file (a device, a FIFO, a socket). The error is
