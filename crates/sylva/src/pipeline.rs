@@ -515,6 +515,7 @@ fn finish(
         Some(refined) => refined,
         None => refine_bark(recipe, fitted.control)?,
     };
+    check_mesh_memory(recipe, crate::mesh::memory::mesh_bytes(&bark), "")?;
     for (root, outcome) in sunk.iter().zip(crate::mesh::ground::cut_base(&mut bark, sunk)) {
         use crate::mesh::ground::CutOutcome;
         let why = match outcome {
@@ -894,6 +895,7 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
             why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
     }
+    check_mesh_memory(&loaded.recipe, mesh_lower_bound(&loaded.recipe, &skeleton)?, "at least")?;
     // The roots sink for a flat base before the fitting stage meshes the skeleton, and
     // come back up once the model is built.
     let sunk = sink(&loaded.recipe, &mut skeleton);
@@ -912,6 +914,41 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     wind_stage(&loaded.recipe, &mut model, &mut report);
     model.provenance = provenance(&loaded.recipe);
     Ok(Grown { skeleton, model, report })
+}
+
+/// [`crate::mesh::memory::lower_bound_bytes`] of the bark the recipe's mesher makes of
+/// `skeleton` (rings of `mesh.sides` for the tube and hull meshers, of 4 for the others).
+fn mesh_lower_bound(recipe: &Recipe, skeleton: &Skeleton) -> Result<u128> {
+    use crate::mesh::Mesher;
+    let sides = match recipe.mesh.mesher()? {
+        Mesher::Tube(o) => o.sides,
+        Mesher::Hull(o) => o.sides,
+        _ => 4,
+    };
+    let internodes = skeleton.parent.iter().filter(|&&p| p != crate::skeleton::NO_PARENT).count();
+    Ok(crate::mesh::memory::lower_bound_bytes(internodes, sides))
+}
+
+/// Refuses a bark mesh of `bytes` bytes (`qualifier`: "at least" for the estimate made
+/// before meshing) whose estimated downstream peak is over `mesh.max_memory`.
+fn check_mesh_memory(recipe: &Recipe, bytes: u128, qualifier: &str) -> Result<()> {
+    let peak = crate::mesh::memory::downstream_peak(bytes, &recipe.textures);
+    if peak <= recipe.mesh.max_memory as u128 {
+        return Ok(());
+    }
+    let size_key = match &recipe.generator {
+        Generator::Lsystem(_) => "fewer derivation steps (`generator.iterations`, `-n`)",
+        Generator::Import(_) => "a smaller skeleton",
+        _ => "a smaller tree (the generator's level and branch counts)",
+    };
+    let qualifier = if qualifier.is_empty() { String::new() } else { format!("{qualifier} ") };
+    Err(Error::Recipe(format!(
+        "`mesh.max_memory`: the bark mesh of recipe `{}` takes {qualifier}{bytes} bytes and the stages after \
+         meshing (the flat-base cut, the exporters, the preview) would need about {peak} bytes, more than the \
+         memory budget of {} bytes (use {size_key}, fewer `mesh.sides` or `refine.levels`, or raise the \
+         budget with --set mesh.max_memory=N if the machine has the memory)",
+        recipe.name, recipe.mesh.max_memory
+    )))
 }
 
 /// Rejects degenerate geometry before the expensive stages (issue 39): a radius over

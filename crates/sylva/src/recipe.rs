@@ -611,6 +611,22 @@ pub struct MeshSection {
     /// bytes).
     #[serde(default, skip_serializing_if = "is_default_leaf")]
     pub leaf: crate::mesh::leaf::LeafOptions,
+    /// Memory budget of the mesh stage in bytes (issue 39): the peak of the stages
+    /// after meshing, estimated from the bark mesh ([`crate::mesh::memory`]), checked
+    /// before meshing (from a lower bound) and after it (from the mesh). Left out of
+    /// written metadata at its default ([`crate::mesh::memory::DEFAULT_MAX_MEMORY`],
+    /// 4 GiB).
+    #[serde(default = "default_mesh_max_memory", skip_serializing_if = "is_default_mesh_max_memory")]
+    pub max_memory: u64,
+}
+
+fn default_mesh_max_memory() -> u64 {
+    crate::mesh::memory::DEFAULT_MAX_MEMORY
+}
+
+/// Whether `n` is the default `mesh.max_memory` (left out of written metadata).
+fn is_default_mesh_max_memory(n: &u64) -> bool {
+    *n == crate::mesh::memory::DEFAULT_MAX_MEMORY
 }
 
 impl MeshSection {
@@ -707,6 +723,7 @@ impl Default for MeshSection {
             sweep: SweepOptions::default(),
             quad: QuadOptions::default(),
             leaf: Default::default(),
+            max_memory: default_mesh_max_memory(),
         }
     }
 }
@@ -1136,6 +1153,7 @@ const SKIPPED_AT_DEFAULT: &[&str] = &[
     "generator.max_nodes",
     "refine.max_faces",
     "refine.max_memory",
+    "mesh.max_memory",
     "mesh.quad.max_repair_work",
     "fit.clear.max_work",
     "wind",
@@ -1387,6 +1405,12 @@ impl Recipe {
             return bad(
                 "refine.max_faces",
                 format!("must be in 1..={REFINE_MAX_FACES_LIMIT}, got {}", self.refine.max_faces),
+            );
+        }
+        if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&self.mesh.max_memory) {
+            return bad(
+                "mesh.max_memory",
+                format!("must be in 1..={REFINE_MAX_MEMORY_LIMIT} bytes, got {}", self.mesh.max_memory),
             );
         }
         if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&self.refine.max_memory) {

@@ -378,3 +378,53 @@ fn item_7_repeated_copies_are_reported_and_searched_once() {
     two_sided.append(&back);
     assert_eq!(check_mesh(&two_sided, &CheckOptions::default()).duplicate_face_count, 0);
 }
+
+/// Issue 39, the campaign's abort (`lsys-honda-a -n 19` under 6 GB): the mesh stage's
+/// estimate ([`sylva::mesh::memory::DOWNSTREAM_FACTOR`] times the bark's bytes) bounds
+/// the measured peak of growing and exporting a tree, and is not far above it, on a
+/// bare binary tree and on a leafy Weber–Penn tree.
+#[test]
+fn mesh_stage_memory_estimate_bounds_grow_and_export() {
+    let _one = lock();
+    let cases = [("lsys-honda-a", Some(14)), ("wp-quaking-aspen", None), ("lsys-binary-tree", None)];
+    for (what, n) in cases {
+        let sets: Vec<_> =
+            n.map(|n| ("generator.iterations".to_string(), toml::Value::Integer(n))).into_iter().collect();
+        let loaded = sylva::recipe::load(what, &sets).unwrap();
+        let (peak, bark) = measure(|| {
+            let grown = sylva::pipeline::grow(&loaded).unwrap();
+            let glb = sylva::export::gltf::to_glb(&grown.model).unwrap();
+            assert!(!glb.is_empty());
+            let bark = grown.model.parts.iter().find(|p| p.name == "bark").unwrap();
+            sylva::mesh::memory::mesh_bytes(&bark.mesh)
+        });
+        let estimate = sylva::mesh::memory::downstream_peak(bark, &loaded.recipe.textures);
+        eprintln!("{what}: bark {bark} bytes, measured peak {peak}, ratio {:.2}", peak as f64 / bark as f64);
+        assert!(
+            peak as u128 <= estimate,
+            "{what}: peak {peak} over the estimate {estimate} (bark {bark} bytes)"
+        );
+        assert!(estimate <= 3 * peak as u128, "{what}: estimate {estimate} over 3 × the peak {peak}");
+    }
+}
+
+/// The mesh stage's budget stops a skeleton too large for it before meshing, with an
+/// error naming `mesh.max_memory` and what to lower; a raised budget lets it through.
+#[test]
+fn mesh_stage_memory_budget_is_checked_before_meshing() {
+    let _one = lock();
+    let sets = [
+        ("generator.iterations".to_string(), toml::Value::Integer(10)),
+        ("mesh.max_memory".to_string(), toml::Value::Integer(100_000)),
+    ];
+    let loaded = sylva::recipe::load("lsys-honda-a", &sets).unwrap();
+    let (peak, r) = measure(|| sylva::pipeline::grow(&loaded));
+    let msg = r.err().expect("a 1,000-internode tree in 100 kB").to_string();
+    assert!(
+        msg.contains("mesh.max_memory") && msg.contains("at least") && msg.contains("generator.iterations"),
+        "{msg}"
+    );
+    assert!(peak < 50 << 20, "{peak} bytes allocated before the error");
+    let ok = sylva::recipe::load("lsys-honda-a", &sets[..1]).unwrap();
+    assert!(sylva::pipeline::grow(&ok).is_ok());
+}

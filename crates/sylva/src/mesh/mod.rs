@@ -9,6 +9,7 @@ pub mod check;
 pub mod ground;
 pub mod hull;
 pub mod leaf;
+pub mod memory;
 pub mod obj_read;
 pub mod organs;
 pub mod quad;
