@@ -419,7 +419,10 @@ fn mesh_stage_memory_budget_is_checked_before_meshing() {
     ];
     let loaded = sylva::recipe::load("lsys-honda-a", &sets).unwrap();
     let (peak, r) = measure(|| sylva::pipeline::grow(&loaded));
-    let msg = r.err().expect("a 1,000-internode tree in 100 kB").to_string();
+    let msg = match r {
+        Ok(_) => panic!("a 1,000-internode tree in 100 kB"),
+        Err(e) => e.to_string(),
+    };
     assert!(
         msg.contains("mesh.max_memory") && msg.contains("at least") && msg.contains("generator.iterations"),
         "{msg}"
