@@ -1,4 +1,4 @@
-//! `sylva curves`: draw a magnetic-curves composition (seed 004 ch. 7, issue 8; the
+//! `sylva curves`: draw a magnetic-curves composition (Xu2015 ch. 7, issue 8; the
 //! engine is `sylva::curves`) to SVG or PNG, or export its 3D curves as a tube mesh.
 //!
 //! ```text

@@ -32,7 +32,7 @@ enum Command {
     Render(RenderArgs),
     /// List every embedded preset with a one-line description.
     Presets,
-    /// Render a magnetic-curves composition (seed 004 ch. 7) to SVG or PNG.
+    /// Render a magnetic-curves composition (Xu2015 ch. 7) to SVG or PNG.
     Curves(curves_cmd::CurvesArgs),
     /// Subdivide a control mesh (OBJ) with Loop or Catmull–Clark.
     Subdivide(subdivide::SubdivideArgs),

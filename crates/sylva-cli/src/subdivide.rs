@@ -36,7 +36,7 @@ pub struct SubdivideArgs {
     pub creasing: Option<CreasingArg>,
     /// Where boundary vertices go: `bspline` (the rim refines as a cubic B-spline, its
     /// single-face corners pinned; OpenSubdiv's `interpolateboundary 1`), `edge-only`
-    /// (`interpolateboundary 2`) or `fixed` (seed 000's rule: every boundary vertex stays
+    /// (`interpolateboundary 2`) or `fixed` (Pieterse2012's rule: every boundary vertex stays
     /// put, so the rim stays the control polygon). Default: the OBJ's `interpolateboundary`
     /// tag, else `bspline`.
     #[arg(long, value_enum)]
@@ -48,12 +48,12 @@ pub struct SubdivideArgs {
     /// identical for any count).
     #[arg(long, value_parser = crate::whole_in::<usize>(1, refine::MAX_THREADS as u64))]
     pub threads: Option<usize>,
-    /// Adaptive Loop refinement instead of uniform (seed 001): `flatness=RAD,size=AREA`
+    /// Adaptive Loop refinement instead of uniform (MacMurchy2004): `flatness=RAD,size=AREA`
     /// (flatness in radians, or degrees with a `deg` suffix; size = smallest triangle
     /// area to split). `-n` is the deepest level. Output is crack-free.
     #[arg(long, value_name = "flatness=F,size=S", value_parser = parse_adaptive)]
     pub adaptive: Option<AdaptiveArg>,
-    /// Tessellate the (subdivided) mesh with PN triangles / PN quads (seed 003): `standard`
+    /// Tessellate the (subdivided) mesh with PN triangles / PN quads (Skjermo2008): `standard`
     /// (⅓ edge rule) or `rounder` (½ rule). Use `-n 0` or `-n 1` before PN.
     #[arg(long, value_enum, value_name = "RULE")]
     pub pn: Option<PnArg>,
@@ -66,7 +66,7 @@ pub struct SubdivideArgs {
     /// Normal interpolation across PN patches.
     #[arg(long, value_enum, default_value_t = PnNormalsArg::Quadratic)]
     pub pn_normals: PnNormalsArg,
-    /// Fractal noise after every uniform level (seed 001 §6.5): `k=K,h=H,bias=B` and
+    /// Fractal noise after every uniform level (MacMurchy2004 §6.5): `k=K,h=H,bias=B` and
     /// optionally `l=LACUNARITY` (default 2), `top=T` (feature size at the top of the mesh;
     /// t falls from 1 at the base, default 0.25; 1 = uniform), `seed=N`. K is a fraction of
     /// the bounding-box diagonal.
@@ -110,7 +110,7 @@ pub enum BoundaryArg {
     Bspline,
     /// Cubic B-spline rim, nothing pinned.
     EdgeOnly,
-    /// Every boundary vertex stays put (seed 000 `Fixed`).
+    /// Every boundary vertex stays put (Pieterse2012 `Fixed`).
     Fixed,
 }
 

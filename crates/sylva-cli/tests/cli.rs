@@ -389,7 +389,7 @@ fn obj_counts(p: &Path) -> (usize, usize) {
 
 #[test]
 fn quad_cage_of_a_chain_and_a_fork_is_the_seeds_own() {
-    // Spec 003 properties 3–4: with no support rings and no elbow rings, an unbranched
+    // Skjermo2008-spec properties 3–4: with no support rings and no elbow rings, an unbranched
     // chain of k segments gives V = 4(k+1), F = 4k+2; one fork with two leaf children
     // gives V = 20, F = 18. Set through the CLI's `--set` keys of `[mesh.quad]`.
     let d = tempdir("quad-cage");
@@ -488,7 +488,7 @@ fn subdivide_outputs_are_golden() {
     assert!(wrong.is_empty(), "subdivide outputs changed:\n{}", wrong.join("\n"));
 }
 
-/// `sylva subdivide --boundary fixed` (seed 000 property 17): the open grid's rim stays
+/// `sylva subdivide --boundary fixed` (Pieterse2012 property 17): the open grid's rim stays
 /// its control square under Loop; the default B-spline rim pulls the edge midpoints in.
 #[test]
 fn subdivide_boundary_fixed_keeps_the_rim() {

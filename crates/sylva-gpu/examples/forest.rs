@@ -1,4 +1,4 @@
-//! Seed 003's forest scene (D Fig. 14: 20 trees of 2 species, Black Tupelo and Quaking
+//! Skjermo2008's forest scene (D Fig. 14: 20 trees of 2 species, Black Tupelo and Quaking
 //! Aspen) drawn with the GPU branch deformer (`BranchRenderer`), lit and bark-textured,
 //! with GPU wind stepping every frame, into an offscreen 1920 × 1080 target with 4×
 //! MSAA; prints frames per second (issue 25's benchmark).

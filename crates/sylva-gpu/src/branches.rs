@@ -1,5 +1,5 @@
-//! Drawing a model's branches with the GPU deformer (issue 25 item 1; seed 003 D §2.3
-//! and §4, spec 003 §3): [`BranchRenderer`] keeps the branch records, their control
+//! Drawing a model's branches with the GPU deformer (issue 25 item 1; Skjermo2008 D §2.3
+//! and §4, Skjermo2008-spec §3): [`BranchRenderer`] keeps the branch records, their control
 //! points (its own rest pose, or [`GpuWind`]'s storage buffer, so wind moves what is drawn
 //! with no CPU round trip) and ONE vertex buffer of (v, θ, uv) grids for every level of
 //! detail ([`sylva::deform::Grids`]), and draws one indexed, instanced draw per level

@@ -1,4 +1,4 @@
-// Drawing deformed branches (seed 003 D §2.3–§4, issue 25 item 1): LOD selection by
+// Drawing deformed branches (Skjermo2008 D §2.3–§4, issue 25 item 1): LOD selection by
 // projected size (compute) and the instanced vertex shader over the shared (v, θ) grid
 // buffer, Lambert + hemispherical ambient shading with bark UVs (θ/2π, arc length /
 // circumference). src/branches.rs prepends the shared deformer functions of deform.wgsl

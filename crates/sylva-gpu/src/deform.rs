@@ -1,4 +1,4 @@
-//! The GPU branch deformer (issue 25 item 1; seed 003 D §2–§3.5, spec 003 §3 and §10
+//! The GPU branch deformer (issue 25 item 1; Skjermo2008 D §2–§3.5, Skjermo2008-spec §3 and §10
 //! property 19): `deform.wgsl` ports the engine's CPU reference [`sylva::deform`] line for
 //! line, and [`GpuDeformer`] runs it as a compute pass over a list of (branch, v, θ)
 //! samples, reading the positions and normals back: what the property 19 test compares

@@ -1,4 +1,4 @@
-// The GPU branch deformer (seed 003 D §2–§3.5 as spec 003 §3 corrects it; issue 25 item
+// The GPU branch deformer (Skjermo2008 D §2–§3.5 as Skjermo2008-spec §3 corrects it; issue 25 item
 // 1): a line-for-line port of the engine's CPU reference `sylva::deform`
 // (crates/sylva/src/deform.rs), in the same f32 operations and order. `deform_at` turns
 // a grid sample (v, θ) of one branch record into the surface point and its outward unit
@@ -139,7 +139,7 @@ fn lobes_dtheta(depth: f32, count: f32, fade: f32, v: f32, theta: f32) -> f32 {
     return depth * count * cos(count * theta) * (1.0 - v * fade);
 }
 
-// R(v, θ), R_v, R_θ (D Eqs. 2–5, 10, 11 with spec 003's errata).
+// R(v, θ), R_v, R_θ (D Eqs. 2–5, 10, 11 with Skjermo2008-spec's errata).
 fn radius_at(b: BranchRecord, v: f32, theta: f32) -> Radius {
     let ft = taper(b.radius, b.tip_radius, b.taper, v);
     let ff = flare(b.flare, b.flare_mode, v);
@@ -175,7 +175,7 @@ fn fallback_axis(l: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0, 0.0, 1.0);
 }
 
-// Sloan's moving frame (D Eq. 8) with spec 003's normalisations and fallbacks.
+// Sloan's moving frame (D Eq. 8) with Skjermo2008-spec's normalisations and fallbacks.
 fn sloan_frames(p: Cubic, o: vec3<f32>) -> Handles {
     let l0 = unit_or(p.p1 - p.p0, unit_or(p.p3 - p.p0, vec3<f32>(1.0, 0.0, 0.0)));
     let l1 = unit_or(p.p2 - p.p1, l0);
@@ -221,7 +221,7 @@ fn handle_blend(x0: vec3<f32>, x1: vec3<f32>, x2: vec3<f32>, u: f32) -> vec3<f32
 }
 
 // The surface point X(v, θ) = Q(v, sin θ R, cos θ R) and its outward unit normal
-// normalize(X_θ × X_v), the centreline tangent where that vanishes (D §3.4–3.5, spec 003
+// normalize(X_θ × X_v), the centreline tangent where that vanishes (D §3.4–3.5, Skjermo2008-spec
 // errata 4–6): `BranchDeformer::evaluate`.
 fn deform_at(rec: BranchRecord, p: Cubic, v: f32, theta: f32) -> Surface {
     let h = sloan_frames(p, rec.parent_dir);

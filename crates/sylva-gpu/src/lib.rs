@@ -1,4 +1,4 @@
-//! sylva's real-time half on wgpu (issue 25; seeds 002 and 003, spec 003 §3–§5): what
+//! sylva's real-time half on wgpu (issue 25; McLoughlin2021 and Skjermo2008, Skjermo2008-spec §3–§5): what
 //! the engine computes on the CPU, computed on a GPU (or Mesa's software Vulkan) with
 //! WGSL compute shaders, agreeing with the engine's CPU reference within stated
 //! tolerances.

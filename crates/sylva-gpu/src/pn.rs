@@ -1,4 +1,4 @@
-//! GPU PN tessellation (issue 25 item 3; seed 003 Th §3.3.1, §4.4; spec 003 §5,
+//! GPU PN tessellation (issue 25 item 3; Skjermo2008 Th §3.3.1, §4.4; Skjermo2008-spec §5,
 //! properties 25–28): PN triangles and PN quads of a coarse cage evaluated by WGSL compute
 //! shaders (`pn.wgsl`) over an instanced (u, v) patch grid, with the engine's rules
 //! ([`sylva::refine::pn`]): the ⅓ or ½ edge rule, zero-twist or Theyer (diagonal) quad

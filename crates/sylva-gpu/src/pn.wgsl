@@ -1,4 +1,4 @@
-// PN triangles and PN quads on the GPU (spec 003 §5, Th Eqs. 3.1–3.2, Figs. 3.8–3.9):
+// PN triangles and PN quads on the GPU (Skjermo2008-spec §5, Th Eqs. 3.1–3.2, Figs. 3.8–3.9):
 // the same control-point and normal rules as the engine's CPU `sylva::refine::pn`
 // (crates/sylva/src/refine/pn.rs), in the same f32 arithmetic order. See src/pn.rs for
 // the host side.

@@ -1,4 +1,4 @@
-//! GPU wind (issue 25 item 2; seed 003 Th §3.2.1 and §4.3; spec 003 §4, properties 20–24):
+//! GPU wind (issue 25 item 2; Skjermo2008 Th §3.2.1 and §4.3; Skjermo2008-spec §4, properties 20–24):
 //! the engine's [`WindRig`] stepped by a WGSL compute shader (`wind.wgsl`), control
 //! points kept in a storage buffer the branch deformer will read.
 //!

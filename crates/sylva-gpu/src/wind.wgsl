@@ -1,4 +1,4 @@
-// GPU wind: one step of spec 003 §4's recommended formulation for a range of branches,
+// GPU wind: one step of Skjermo2008-spec §4's recommended formulation for a range of branches,
 // exactly as the engine's CPU `sylva::wind::WindRig::step` does it (crates/sylva/src/wind/mod.rs),
 // in f32. See src/wind.rs for the host side.
 //

@@ -1,5 +1,5 @@
 //! The GPU branch deformer against the engine's CPU reference `sylva::deform` (issue 25
-//! item 1; spec 003 §10 property 19: "WGSL output matches the Rust reference (1e-4)"),
+//! item 1; Skjermo2008-spec §10 property 19: "WGSL output matches the Rust reference (1e-4)"),
 //! through both WGSL paths: the compute sample pass (`GpuDeformer`) and the drawing
 //! vertex shader (`BranchRenderer::capture`, which draws each vertex of an instanced grid
 //! as a point into float targets). Positions must agree within 1e-4 of the branch's base

@@ -1,7 +1,7 @@
 //! GPU PN tessellation against the engine's CPU `refine::pn` (issue 25 acceptance:
 //! "patches sharing an edge give bit-identical boundary points on the GPU (property 27);
-//! grid vertex counts follow property 28; GPU output within 1e-5 of `refine::pn`"; spec
-//! 003 §5, §10 properties 25–28). GPU tests skip with a printed reason where no adapter
+//! grid vertex counts follow property 28; GPU output within 1e-5 of `refine::pn`"; Skjermo2008-spec
+//! §5, §10 properties 25–28). GPU tests skip with a printed reason where no adapter
 //! exists, unless `SYLVA_REQUIRE_GPU=1`.
 
 use glam::Vec3;

@@ -1,4 +1,4 @@
-//! The GPU renderer (issue 25 item 4; seed 003 §4, spec 003 §10): pictures not empty and
+//! The GPU renderer (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10): pictures not empty and
 //! matching the CPU preview's silhouette, MSAA edges, alpha-cut leaves, GPU skinning
 //! against `sylva::wind::posed`, instanced forests with one draw per (level, part,
 //! material), determinism. Each test skips with a printed reason where no adapter exists,

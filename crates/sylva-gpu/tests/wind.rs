@@ -1,6 +1,6 @@
 //! GPU wind against the engine's CPU wind (issue 25 acceptance: "after 1,000 steps of
 //! `storm` the GPU control points equal the CPU wind module's within 1e-4 relative, in
-//! both lag modes; properties 20–24 hold on the GPU"; spec 003 §4, §10). Each test skips
+//! both lag modes; properties 20–24 hold on the GPU"; Skjermo2008-spec §4, §10). Each test skips
 //! with a printed reason where no adapter exists, unless `SYLVA_REQUIRE_GPU=1`.
 
 use glam::{DVec2, DVec3, Vec3};

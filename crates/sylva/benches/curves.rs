@@ -1,4 +1,4 @@
-//! Magnetic curves against seed 004 Table 7.1 (issue 8: "at least 20× faster than the
+//! Magnetic curves against Xu2015 Table 7.1 (issue 8: "at least 20× faster than the
 //! seed's times"): each composition of the table, generated from its preset and
 //! rendered at the preset's output size (600 px wide), as PNG (rasterize + encode) and
 //! as SVG text. No file I/O.

@@ -2,7 +2,7 @@
 //! `tube`, `hull` and `quad` on the same deterministic ~10 k-node tree (3 children per
 //! branch, 8 levels, 3 internodes per branch, wobbling directions and tapering radii).
 //!
-//! Also the seed 000 experiment (its Fig. 5.x timing): hull joint construction time
+//! Also the Pieterse2012 experiment (its Fig. 5.x timing): hull joint construction time
 //! versus the number of branches meeting at one joint, 2 to 200 (a trunk and `n`
 //! children on a Fibonacci sphere), whose log–log slope the bench prints.
 //!

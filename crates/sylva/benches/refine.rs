@@ -9,7 +9,7 @@
 //! OpenSubdiv on the same meshes.
 //!
 //! The `adaptive` group (issue 4 item 6; `cargo bench -p sylva --bench refine -- adaptive`)
-//! compares adaptive Loop refinement (seed 001's flatness 0.25 rad, size 2e-5) with uniform
+//! compares adaptive Loop refinement (MacMurchy2004's flatness 0.25 rad, size 2e-5) with uniform
 //! Loop refinement to the same deepest level on a tree control mesh — the bark of
 //! `lsys-honda-a` (40,944 triangles, with UVs) — one thread, positions + UVs and the output
 //! mesh in both cases. Reference (spec anchors): OpenSubdiv 3.6 `Far`, one

@@ -1,4 +1,4 @@
-//! Times MGV least-cost-path trees at the sizes of seed 004 Table 6.2 (graph nodes /
+//! Times MGV least-cost-path trees at the sizes of Xu2015 Table 6.2 (graph nodes /
 //! endpoints: 150 k / 7.5 k, 600 k / 19 k, 200 k / 4 k): graph, paths (Dijkstra and
 //! endpoints), thickness + skeleton, total; best and median of `runs` runs, with the
 //! process CPU time (user + system, all threads) next to the wall time.

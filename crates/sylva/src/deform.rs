@@ -1,6 +1,6 @@
-//! The GPU branch deformer's CPU reference (issue 25, item 1): seed 003 D §2–§3.5
-//! (Skjermo's 2006 vertex-shader deformer) as spec 003 §3 corrects it, with the checks of
-//! spec 003 §10, properties 12–19. `docs/deformer.md` has the formulas and the table of
+//! The GPU branch deformer's CPU reference (issue 25, item 1): Skjermo2008 D §2–§3.5
+//! (Skjermo's 2006 vertex-shader deformer) as Skjermo2008-spec §3 corrects it, with the checks of
+//! Skjermo2008-spec §10, properties 12–19. `docs/deformer.md` has the formulas and the table of
 //! tests; the GPU crate ports this file line for line to WGSL and must match it within
 //! 10⁻⁴ of the branch radius (property 19).
 //!
@@ -286,7 +286,7 @@ impl Vector for DVec3 {
 // ---------------------------------------------------------------------------------------
 // The branch record.
 
-/// Which flare formula (spec 003 §3, "Flare").
+/// Which flare formula (Skjermo2008-spec §3, "Flare").
 #[repr(u32)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum FlareMode {
@@ -350,7 +350,7 @@ pub struct BranchRecord {
     /// Number of lobes l_n around the branch.
     pub lobe_count: f32,
     /// Lobe fade toward the tip l_t: lobes scale by `1 − v l_t` (0 full lobes at the
-    /// tip, 1 none; the seed's text says the opposite of its formula, spec 003 §3).
+    /// tip, 1 none; the seed's text says the opposite of its formula, Skjermo2008-spec §3).
     pub lobe_fade: f32,
     /// Branch order (0 for a trunk), for per-level materials; the deformer ignores it.
     pub order: u32,
@@ -720,7 +720,7 @@ pub struct Handles<V> {
     pub fallback: bool,
 }
 
-/// Sloan's frame (D Eq. 8) with spec 003's normalisations:
+/// Sloan's frame (D Eq. 8) with Skjermo2008-spec's normalisations:
 /// `Lᵢ = normalize(Pᵢ₊₁ − Pᵢ)`, `S₀ = normalize(L₀ × O)`, `T₀ = S₀ × L₀`,
 /// `T₁ = normalize(S₀ × L₁)`, `S₁ = L₁ × T₁`, `T₂ = normalize(S₁ × L₂)`, `S₂ = L₂ × T₂`.
 /// Degenerate cases never give NaN: O ∥ L₀ (within [`PARALLEL_SQ`]) or O = 0 uses
@@ -834,7 +834,7 @@ impl<V: Vector> BranchDeformer<V> {
     }
 
     /// The surface point at (v, θ) with its tangents and outward normal (D §3.4–3.5 as
-    /// corrected by spec 003 §3, errata 4–6).
+    /// corrected by Skjermo2008-spec §3, errata 4–6).
     pub fn evaluate(&self, v: V::S, theta: V::S) -> SurfacePoint<V> {
         let zero = V::S::of(0.0);
         let rad = radius(&self.record, v, theta);

@@ -1,6 +1,6 @@
 //! Located errors: what went wrong, where (file:line:column with an excerpt of the
 //! text) and how to fix it. Plain data below every stage: the L-system language
-//! (seed 001 §4.3, seed 002 §2), the LST and `.str` readers (seed 000 §4.1.5) and the
+//! (MacMurchy2004 §4.3, McLoughlin2021 §2), the LST and `.str` readers (Pieterse2012 §4.1.5) and the
 //! crate's [`crate::Error`] all carry these, so none of them depends on another for it.
 //!
 //! Every located error is built by [`LsystemError::located`] (or

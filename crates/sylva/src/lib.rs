@@ -10,7 +10,7 @@
 //! The engine crate: pure Rust, no GPU and no CLI dependencies. Every stage is a plain
 //! function from data to data:
 //!
-//! - [`lsystem`]: the cpfg-compatible L-system language (seed 002 §2, ABOP), derivation
+//! - [`lsystem`]: the cpfg-compatible L-system language (McLoughlin2021 §2, ABOP), derivation
 //!   and the 3D turtle that writes a [`Skeleton`];
 //! - [`skeleton`]: the parent-first branching skeleton;
 //! - [`geometry`] and [`model`]: the plain data every stage shares (meshes; models with

@@ -4,7 +4,7 @@
 //! Parts (a mesh with a material each, a material per face where a part mixes them,
 //! extra per-vertex channels, skin weights), organ shapes and their instances, an
 //! optional rig, LOD levels and the branch curves (a cubic Bézier chain per axis, the
-//! input of seed 003's GPU deformer, spec 003 §3). Each type says which stage fills it.
+//! input of Skjermo2008's GPU deformer, Skjermo2008-spec §3). Each type says which stage fills it.
 
 use crate::geometry::Mesh;
 use crate::skeleton::{Skeleton, NO_PARENT};
@@ -295,7 +295,7 @@ impl CurveSegment {
     }
 }
 
-/// One axis of the tree as a chain of cubic Bézier segments (seed 003's deformer input).
+/// One axis of the tree as a chain of cubic Bézier segments (Skjermo2008's deformer input).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BranchCurve {
     /// The segments, base to tip; each starts where the previous one ends.

@@ -443,7 +443,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                     step: g.step,
                     width: g.width,
                     max_nodes: g.max_nodes,
-                    // cpfg's frame (seed 001 property 10): H = +Y, L = −X, U = +Z.
+                    // cpfg's frame (MacMurchy2004 property 10): H = +Y, L = −X, U = +Z.
                     left: lsystem::turtle::CPFG_LEFT,
                     ..Default::default()
                 };
@@ -850,7 +850,7 @@ pub fn wind_stage(recipe: &Recipe, model: &mut Model, report: &mut Report) {
     report.wind_time = t.elapsed();
 }
 
-/// The optional skeleton passes of seed 002 §4.2 before fitting: overlap pruning
+/// The optional skeleton passes of McLoughlin2021 §4.2 before fitting: overlap pruning
 /// (`mesh.prune_overlaps`, [`crate::fit::overlap`]) and then leaves by level
 /// (`[leaves] place`, [`crate::fit::leaves`]), so pruned branches get no leaves.
 pub fn shape_stage(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report) -> Result<()> {

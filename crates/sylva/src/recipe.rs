@@ -85,7 +85,7 @@ impl InputSection {
     }
 }
 
-/// `[wind]`: the wind of seed 003 (spec 003 §4) as a skinned rig with a looping clip and
+/// `[wind]`: the wind of Skjermo2008 (Skjermo2008-spec §4) as a skinned rig with a looping clip and
 /// per-vertex shader channels. `preset = "none"` (the default) writes no rig.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -283,7 +283,7 @@ pub struct LeavesSection {
     /// Leaf normals: `flat` (each leaf's own) or `crown` (bent toward the crown's outward
     /// direction for soft canopy shading, [`crate::mesh::cards::bend_toward_crown`]).
     pub normals: String,
-    /// Add leaves to the skeleton ([`crate::fit::leaves`], seed 002 §4.2): `level` (on
+    /// Add leaves to the skeleton ([`crate::fit::leaves`], McLoughlin2021 §4.2): `level` (on
     /// every internode of level ≥ `start_level`) or `terminal` (Bloomenthal's
     /// configurations on terminal apices). Unset: only the generator's own leaves.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -414,14 +414,14 @@ fn default_seed() -> u64 {
 pub enum Generator {
     /// A cpfg-syntax L-system interpreted by the 3D turtle.
     Lsystem(LsystemGenerator),
-    /// A skeleton read from a file: LST (seed 000), a CPFG turtle string `.str` (seed
-    /// 001, interpreted by the turtle) or a sylva JSON skeleton.
+    /// A skeleton read from a file: LST (Pieterse2012), a CPFG turtle string `.str` (MacMurchy2004,
+    /// interpreted by the turtle) or a sylva JSON skeleton.
     Import(ImportGenerator),
     /// Weber & Penn 1995 parametric trees (`docs/weber-penn.md`).
     WeberPenn(Box<crate::grow::weber_penn::WeberPennParams>),
     /// Space colonization, Runions, Lane & Prusinkiewicz 2007 (`docs/colonize.md`).
     SpaceColonization(crate::grow::colonize::ColonizeParams),
-    /// Least-cost-path trees, MIG and MGV (seed 004; `docs/least-cost.md`).
+    /// Least-cost-path trees, MIG and MGV (Xu2015; `docs/least-cost.md`).
     LeastCost(Box<crate::grow::least_cost::LeastCostParams>),
 }
 
@@ -588,7 +588,7 @@ pub struct MeshSection {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear: Option<bool>,
     /// Cut off every branch that passes through another, with its whole subtree, before
-    /// meshing ([`crate::fit::overlap`], seed 002 §4.2: the higher level goes). Unset:
+    /// meshing ([`crate::fit::overlap`], McLoughlin2021 §4.2: the higher level goes). Unset:
     /// off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prune_overlaps: Option<bool>,
@@ -606,7 +606,7 @@ pub struct MeshSection {
     /// `[mesh.quad]`: the quad mesher's options.
     #[serde(default)]
     pub quad: QuadOptions,
-    /// `[mesh.leaf]`: the leaf mesher's options (seed 001's leaf mode, `/L`). Left out
+    /// `[mesh.leaf]`: the leaf mesher's options (MacMurchy2004's leaf mode, `/L`). Left out
     /// of written metadata at its defaults (so the files of other meshers keep their
     /// bytes).
     #[serde(default, skip_serializing_if = "is_default_leaf")]
@@ -756,8 +756,8 @@ pub struct RefineSection {
     #[serde(default)]
     pub limit: bool,
     /// Where the mesh's boundary vertices go (open bases and tips): `auto` (the mesher's
-    /// own rule: `fixed` for `hull`, seed 000's default; `bspline` for the others), `fixed`
-    /// (every boundary vertex stays put, so the rim stays the control polygon; spec 000
+    /// own rule: `fixed` for `hull`, Pieterse2012's default; `bspline` for the others), `fixed`
+    /// (every boundary vertex stays put, so the rim stays the control polygon; Pieterse2012-spec
     /// §2.8), `bspline` (the rim refines as a cubic B-spline, `1/8, 3/4, 1/8`, with
     /// single-face corners pinned) or `edge-only` (B-spline, nothing pinned).
     #[serde(default = "default_boundary", skip_serializing_if = "is_default_boundary")]
@@ -1299,7 +1299,7 @@ impl Recipe {
     }
 
     /// The boundary rule `[refine] boundary` names (`auto`: [`BoundaryInterpolation::Fixed`]
-    /// for the hull mesher, seed 000's default, else the B-spline rim).
+    /// for the hull mesher, Pieterse2012's default, else the B-spline rim).
     ///
     /// [`BoundaryInterpolation::Fixed`]: crate::refine::BoundaryInterpolation::Fixed
     pub fn refine_boundary(&self) -> Result<crate::refine::BoundaryInterpolation> {

@@ -5,7 +5,7 @@
 //! internode; a root node is the start point of an axis with no parent. Organs (leaves,
 //! flowers, polygons) are a separate list of placed instances.
 //!
-//! Seed 002 §2 (apex pre-order, "every child's base equals its parent's tip") and the
+//! McLoughlin2021 §2 (apex pre-order, "every child's base equals its parent's tip") and the
 //! architecture's core types define this shape.
 
 use glam::{DVec3, Vec3};

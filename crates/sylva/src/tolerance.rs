@@ -6,7 +6,7 @@
 //! the size of what is tested: a mesh's bounding-box diagonal or a skeleton's extent.
 //! Shape tests (a sliver) are scale-free ratios. The joint meshers' radius floor is the
 //! one absolute length: below it their junction boxes, hull loops and hexagon templates
-//! stop being resolvable in `f32` for trees of ordinary size (seed 000 §2.1, seed 003
+//! stop being resolvable in `f32` for trees of ordinary size (Pieterse2012 §2.1, Skjermo2008
 //! §2.2).
 
 use glam::Vec3;

@@ -56,8 +56,8 @@ fn lpfg_models_are_unsupported_and_say_so() {
     }
 }
 
-/// Seed 001 property 10: a `.str` string starts in cpfg's frame, H = +Y, L = −X,
-/// U = +Z, so `F(1)+(90)F(1)` ends at (−1, 1, 0) (L-systems keep seed 002's frame,
+/// MacMurchy2004 property 10: a `.str` string starts in cpfg's frame, H = +Y, L = −X,
+/// U = +Z, so `F(1)+(90)F(1)` ends at (−1, 1, 0) (L-systems keep McLoughlin2021's frame,
 /// L = +Z, where it ends at (0, 1, 1)).
 #[test]
 fn str_strings_start_in_cpfgs_frame() {

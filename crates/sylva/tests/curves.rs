@@ -1,4 +1,4 @@
-//! Magnetic curves (seed 004 ch. 7, issue 8): the physics acceptance properties, space
+//! Magnetic curves (Xu2015 ch. 7, issue 8): the physics acceptance properties, space
 //! filling invariants, branching, mirroring, 3D and on-sphere curves, every preset
 //! rendered to SVG and PNG, and preset loading errors.
 

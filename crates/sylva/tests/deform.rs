@@ -1,4 +1,4 @@
-//! The branch deformer's CPU reference (issue 25, item 1): spec 003 §10 properties 12–18
+//! The branch deformer's CPU reference (issue 25, item 1): Skjermo2008-spec §10 properties 12–18
 //! and the first half of 19 on hundreds of seeded random branches (joint angles below
 //! 90°, every shape term), derivatives against central finite differences in `f64`
 //! (the same generic code the `f32` path runs), and the records of grown trees.

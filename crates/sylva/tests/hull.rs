@@ -1,4 +1,4 @@
-//! The hull mesher (seed 000, spec 000 §2.3–2.7 and §7): trimming, simplification,
+//! The hull mesher (Pieterse2012, Pieterse2012-spec §2.3–2.7 and §7): trimming, simplification,
 //! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
 //! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
 
@@ -119,7 +119,7 @@ fn y_fork() -> Skeleton {
 }
 
 // ---------------------------------------------------------------------------------------
-// Spec 000 §7 properties
+// Pieterse2012-spec §7 properties
 
 /// Property 4: trimming offsets (special cases, symmetry, continuity, tightness).
 #[test]
@@ -817,7 +817,7 @@ fn a_collapse_does_not_straighten_a_bend() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Truncated cones (issue 26: spec 000 §2.1, §2.5)
+// Truncated cones (issue 26: Pieterse2012-spec §2.1, §2.5)
 
 /// Volume of a truncated cone of height `h` and end radii `r0`, `r1`.
 fn frustum_volume(h: f64, r0: f64, r1: f64) -> f64 {
@@ -894,7 +894,7 @@ fn bad_start_radii_are_errors() {
     sk.validate().unwrap();
 }
 
-/// Spec 000 property 17 through the pipeline: a hull mesh left open at its base and tips
+/// Pieterse2012-spec property 17 through the pipeline: a hull mesh left open at its base and tips
 /// (`mesh.tips = "open"`) and Loop-refined keeps its rims on the control mesh's rims
 /// (`refine.boundary = "auto"` is `Fixed` for hull); with `bspline` the rims move off.
 #[test]

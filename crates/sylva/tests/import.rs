@@ -1,6 +1,6 @@
-//! Skeleton import and export: the LST format of seed 000 (§4.1.5–4.1.6, Table 4.2;
+//! Skeleton import and export: the LST format of Pieterse2012 (§4.1.5–4.1.6, Table 4.2;
 //! `spec/000-hull-joints-loop.md` §2.1–2.2 and properties 1–3, 22), CPFG `.str` turtle
-//! strings (seed 001 §A.4) and sylva's JSON skeleton (`docs/formats.md`).
+//! strings (MacMurchy2004 §A.4) and sylva's JSON skeleton (`docs/formats.md`).
 
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
@@ -42,7 +42,7 @@ fn honda_tree(steps: u32) -> Skeleton {
 // ---------------------------------------------------------------------------------
 // LST: the seed's sample
 
-/// Spec 000 property 1: 6 cylinders + 1 bridge, root axis (−sin 0.3, cos 0.3, 0), root
+/// Pieterse2012-spec property 1: 6 cylinders + 1 bridge, root axis (−sin 0.3, cos 0.3, 0), root
 /// end ≈ (−2.9552, 9.5534, 0), first child axis (sin 0.7, cos 0.7, 0).
 #[test]
 fn sample_lst_property_1() {
@@ -73,7 +73,7 @@ fn sample_lst_property_1() {
     sk.validate().unwrap();
 }
 
-/// Spec 000 property 3: every non-root branch starts exactly at its parent's end (after
+/// Pieterse2012-spec property 3: every non-root branch starts exactly at its parent's end (after
 /// the gap policy); property 22: the same file gives the same skeleton, bit for bit.
 #[test]
 fn sample_lst_branches_connect_and_parse_deterministically() {
@@ -115,7 +115,7 @@ fn verbatim_sample_reports_the_extraction_noise() {
     assert!(e.message.starts_with("verbatim.lst:13:1: unknown LST operation `MovRel3t`"), "{}", e.message);
 }
 
-/// Spec 000 property 2 / assumption A3: rotations compose in the local frame
+/// Pieterse2012-spec property 2 / assumption A3: rotations compose in the local frame
 /// (R ← R·Rot): Rz(90°) then Rx(90°) sends the cylinder axis Y to +Z (pre-multiplying
 /// would give −X). Angles are radians, moves are in the rotated frame.
 #[test]

@@ -1,5 +1,5 @@
-//! Seed 001's leaf mode (`/L`, `mesh.method = "leaf"`, issue 26): the leaf mesher of
-//! `crates/sylva/src/mesh/leaf.rs` checked against spec 001 §7 properties 1–5, 21, 22
+//! MacMurchy2004's leaf mode (`/L`, `mesh.method = "leaf"`, issue 26): the leaf mesher of
+//! `crates/sylva/src/mesh/leaf.rs` checked against MacMurchy2004-spec §7 properties 1–5, 21, 22
 //! and 24, with compound leaves (junctions of 2 and 3 children), Loop refinement of the
 //! midrib and tip creases, and a `.str` leaf grown end to end to an OBJ file.
 

@@ -1,4 +1,4 @@
-//! Least-cost-path trees (seed 004, spec 004 §8): graph properties against brute-force
+//! Least-cost-path trees (Xu2015, Xu2015-spec §8): graph properties against brute-force
 //! oracles, Dijkstra against Bellman–Ford, MGV rules, thickness, determinism, graph
 //! reuse and the mig-/mgv- presets.
 
@@ -318,7 +318,7 @@ fn lazy_mgv_weights_are_in_range_and_the_search_is_exact_for_them() {
             let e = g.position[v as usize] - g.position[u as usize];
             let w = c.weight(&g, u, v, 0);
             assert!(w >= 0.0 && w <= 2.0 * e.length() + 1e-6);
-            // Dijkstra optimality for the self-consistent weights (spec 004 §8.7).
+            // Dijkstra optimality for the self-consistent weights (Xu2015-spec §8.7).
             assert!(s.dist[v as usize] <= s.dist[u as usize] + w + 1e-4);
         }
         assert!((c.guide[u as usize].length() - 1.0).abs() < 1e-5);
@@ -1189,7 +1189,7 @@ fn shortfall_warnings(t: &lc::LeastCostTree) -> Vec<String> {
     t.report.warnings.iter().filter(|w| w.starts_with("MGV iteration")).cloned().collect()
 }
 
-/// Issue 26 (seed 004): an MGV tree that gets fewer endpoints than it asks for says so:
+/// Issue 26 (Xu2015): an MGV tree that gets fewer endpoints than it asks for says so:
 /// a warning naming the iteration, both counts, why (the surface ring, the crown, the
 /// spacing) and the keys to change; asking for what it got warns of nothing.
 #[test]
@@ -1274,7 +1274,7 @@ fn surface_like() -> MgvIteration {
     MgvIteration { endpoints: "surface".into(), rotation: fork_rotation(), ..Default::default() }
 }
 
-/// Issue 26 (seed 004, Table 6.1 f, Fig. 6.9; spec 004 §2.6, §8 property 14): `mgv-f`
+/// Issue 26 (Xu2015, Table 6.1 f, Fig. 6.9; Xu2015-spec §2.6, §8 property 14): `mgv-f`
 /// selects endpoints higher than their source where that filters. In iteration 1 the only
 /// source is the root, below the whole crown, so the filter changes nothing there; in
 /// iterations 2–4 every endpoint lies above the tree node its branch starts from, while

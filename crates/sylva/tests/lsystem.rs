@@ -1,4 +1,4 @@
-//! Acceptance tests of the L-system core against seed 002's properties
+//! Acceptance tests of the L-system core against McLoughlin2021's properties
 //! (`spec/002-parametric-lsystem-trees.md` §7), run on the embedded presets.
 
 use glam::DVec3;
@@ -89,7 +89,7 @@ fn snowflake_is_closed_with_equal_segments() {
     }
 }
 
-/// (tree, L-system rule count, Algorithm 3 count) from spec 002 §3.
+/// (tree, L-system rule count, Algorithm 3 count) from McLoughlin2021-spec §3.
 const COUNTS: [(&str, usize, usize); 9] = [
     ("a", 1023, 1023),
     ("b", 2223, 3983),
@@ -207,7 +207,7 @@ fn stochastic_preset_depends_on_seed_only() {
     assert_ne!(a, derived_text("lsys-abop-stochastic", &["seed=2"]));
 }
 
-/// Seed 002 property 17 on the Honda trees a–i: after `prune_overlaps` no two
+/// McLoughlin2021 property 17 on the Honda trees a–i: after `prune_overlaps` no two
 /// non-adjacent internodes overlap, every pruned branch's whole subtree is gone (the
 /// node count drops by exactly the sizes of the pruned subtrees) and the pipeline's
 /// `mesh.prune_overlaps` gives the same skeleton.
@@ -263,7 +263,7 @@ fn honda_trees_prune_overlapping_branches_with_their_subtrees() {
     assert!(pruned_trees > 0, "some Honda tree must have overlapping branches to test this");
 }
 
-/// Seed 002 property 18: with `leaves.place = "level"` leaves appear only on internodes
+/// McLoughlin2021 property 18: with `leaves.place = "level"` leaves appear only on internodes
 /// of level ≥ `leaves.start_level`; with `terminal` (Bloomenthal) only on terminal
 /// apices; the grown tree has a leaf part.
 #[test]

@@ -1,4 +1,4 @@
-//! PN triangles and PN quads (`sylva::refine::pn`, seed 003 §3.3.1, spec 003 §5 and test
+//! PN triangles and PN quads (`sylva::refine::pn`, Skjermo2008 §3.3.1, Skjermo2008-spec §5 and test
 //! 25): patches interpolate their corners and corner normals, Eq. 3.1/3.2 control points lie
 //! in the corner's tangent plane, a flat patch with matching normals stays flat, and
 //! neighbouring patches share identical edge vertices (no cracks).
@@ -60,7 +60,7 @@ fn topology(m: &Mesh) -> Topology {
 
 #[test]
 fn control_points_lie_in_the_tangent_plane() {
-    // Spec 003 test 25: (C − Pᵢ)·Nᵢ = 0 for Eq. 3.1 and Eq. 3.2.
+    // Skjermo2008-spec test 25: (C − Pᵢ)·Nᵢ = 0 for Eq. 3.1 and Eq. 3.2.
     let (pi, pj) = (Vec3::new(0.3, -1.0, 2.0), Vec3::new(1.7, 0.4, 1.1));
     let ni = Vec3::new(0.2, 0.9, -0.3).normalize();
     for rule in [EdgeRule::Standard, EdgeRule::Rounder] {

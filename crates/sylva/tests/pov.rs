@@ -1,4 +1,4 @@
-//! POV-Ray output (issue 26, seed 001 §A.3–A.4): `-o plant.pov` writes a scene and one
+//! POV-Ray output (issue 26, MacMurchy2004 §A.3–A.4): `-o plant.pov` writes a scene and one
 //! `mesh2` include per part, with normals and UVs, that POV-Ray 3.7 renders.
 //!
 //! The render check needs `povray` on PATH (Debian `povray`); without it the test says

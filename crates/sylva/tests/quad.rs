@@ -1,4 +1,4 @@
-//! The quad mesher (seed 003 junction paper, spec 003 §2 and §10 properties 1–4, 7, 9,
+//! The quad mesher (Skjermo2008 junction paper, Skjermo2008-spec §2 and §10 properties 1–4, 7, 9,
 //! 11): all-quad closed 2-manifold cages on the seed's cases and on hard cases, every
 //! embedded preset, Catmull–Clark refinement staying manifold, and a property test over
 //! random skeletons.
@@ -97,7 +97,7 @@ fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
     assert!(uv.values.iter().all(|v| v.is_finite() && v.x >= 0.0 && v.x <= 1.0 && v.y >= 0.0));
     let fine = catmull_clark(&q.mesh, 1);
     let tf = check(&format!("{name} CC 1"), &fine);
-    // Spec 003 property 11: V′ = V + E + F, still closed and all-quad.
+    // Skjermo2008-spec property 11: V′ = V + E + F, still closed and all-quad.
     assert_eq!(tf.vertices, t.vertices + t.edges + t.faces, "{name}: V' = V + E + F");
     assert_eq!(tf.faces, 4 * t.faces);
     assert!(fine.signed_volume() > 0.0, "{name}: refined volume");
@@ -117,7 +117,7 @@ fn y_fork() -> Skeleton {
 }
 
 // ---------------------------------------------------------------------------------------
-// The seed's counts (spec 003 §10 properties 2–4)
+// The seed's counts (Skjermo2008-spec §10 properties 2–4)
 
 #[test]
 fn unbranched_chain_has_4_k_plus_1_vertices() {
@@ -195,7 +195,7 @@ fn support_rings_hold_bends_under_refinement() {
     }
 }
 
-/// Issue 26 (seed 003): a support ring keeps its end ring's corner orientation. Seen
+/// Issue 26 (Skjermo2008): a support ring keeps its end ring's corner orientation. Seen
 /// along the internode, each support-ring corner points where the end ring's corner of
 /// the same index does, also where the bend turns out of the plane of the previous one
 /// (projecting the end ring's up vector instead left them 4.7°–9.6° off at 46°–67°).
@@ -279,7 +279,7 @@ fn fork_and_backward_counts() {
     }
 }
 
-/// Spec 003 property 6: the case table.
+/// Skjermo2008-spec property 6: the case table.
 #[test]
 fn case_selection() {
     for (angle, kids, want) in [
@@ -674,7 +674,7 @@ fn intersecting_faces(m: &Mesh) -> Vec<(usize, usize)> {
     out
 }
 
-/// Spec 003 property 10: forks that follow Da Vinci/Murray (α = 3, Murray's angles for
+/// Skjermo2008-spec property 10: forks that follow Da Vinci/Murray (α = 3, Murray's angles for
 /// each child) with children longer than their box give a cage whose non-adjacent faces
 /// do not intersect.
 #[test]
@@ -712,7 +712,7 @@ fn murray_forks_do_not_self_intersect() {
     assert!(!intersecting_faces(&quad_mesh(&s, &QuadOptions::default()).unwrap().mesh).is_empty());
 }
 
-/// Spec 003 property 5: children in non-increasing diameter order, the first child's
+/// Skjermo2008-spec property 5: children in non-increasing diameter order, the first child's
 /// subtree finished before any sibling (seen in the vertex order: the first child's end
 /// ring comes before the second child's).
 #[test]

@@ -1,4 +1,4 @@
-//! Properties of the subdivision engine (`sylva::refine`) from specs 000, 001 and 003:
+//! Properties of the subdivision engine (`sylva::refine`) from Pieterse2012-spec, MacMurchy2004-spec and Skjermo2008-spec:
 //! counts, closedness, convex hull, crease curves, sharpness decay, analytic limit
 //! surfaces, face-varying seams and determinism across thread counts.
 
@@ -214,7 +214,7 @@ fn catmull_clark_counts_per_level() {
     for l in 2..5 {
         assert_eq!(refine(&m, Scheme::CatmullClark, l).face_count(), 8 * 4usize.pow(l - 1));
     }
-    // Seed 003 §10.11: V' = V + E + F on a closed quad mesh.
+    // Skjermo2008 §10.11: V' = V + E + F on a closed quad mesh.
     let c = cube();
     let r = refine(&c, Scheme::CatmullClark, 1);
     assert_eq!(r.vertex_count(), 8 + 12 + 6);
@@ -285,7 +285,7 @@ fn creases_must_be_edges_and_sharpness_valid() {
 
 #[test]
 fn refined_vertices_stay_in_the_convex_hull() {
-    // Tetrahedron: inside all four face planes (spec 001 §7.7: positive weights).
+    // Tetrahedron: inside all four face planes (MacMurchy2004-spec §7.7: positive weights).
     let t = tetrahedron();
     let planes: Vec<(Vec3, f32)> = (0..4)
         .map(|f| {
@@ -351,13 +351,13 @@ fn boundary_refines_as_cubic_bspline_curve() {
     }
 }
 
-/// Spec 000 property 17: with the `Fixed` rule every level-0 boundary vertex keeps its
+/// Pieterse2012-spec property 17: with the `Fixed` rule every level-0 boundary vertex keeps its
 /// exact position and every new boundary vertex lies on the control rim (the polyline of
 /// the control boundary), at every level and at the limit; the B-spline rule moves them.
 #[test]
 fn fixed_boundary_keeps_the_control_rim() {
     use sylva::refine::BoundaryInterpolation;
-    // An open square tube (s = 4, seed 000's loop) of 3 segments, Loop triangles.
+    // An open square tube (s = 4, Pieterse2012's loop) of 3 segments, Loop triangles.
     let (s, rings) = (4u32, 4u32);
     let pos: Vec<Vec3> = (0..rings)
         .flat_map(|j| (0..s).map(move |i| (i, j)))
@@ -504,7 +504,7 @@ fn sharpness_s_uses_sharp_masks_for_s_levels() {
 
 #[test]
 fn tip_sharpness_pins_a_vertex_for_t_levels() {
-    // Seed 001 §2.10: "a tip with sharpness t stays fixed for t levels".
+    // MacMurchy2004 §2.10: "a tip with sharpness t stays fixed for t levels".
     let m = octahedron();
     let tip = [Corner { vertex: 4, sharpness: 2.0 }];
     let at = |l: u32| {
@@ -636,7 +636,7 @@ fn loop_limit_matches_quartic_box_spline() {
 
 #[test]
 fn limit_is_level_independent_and_normals_point_outward() {
-    // Spec 001 §7.26: a vertex has the same limit position at level n and n + 1.
+    // MacMurchy2004-spec §7.26: a vertex has the same limit position at level n and n + 1.
     for (m, scheme) in
         [(cube(), Scheme::CatmullClark), (octahedron(), Scheme::Loop), (torus(6, 4, true), Scheme::Loop)]
     {

@@ -1,6 +1,6 @@
-//! Adaptive Loop refinement (`sylva::refine::adaptive`, seed 001 §A.3, spec 001 §2.11 and
-//! test 27) and fractal noise between levels (`sylva::refine::noise`, seed 001 §6.5, spec
-//! 001 §2.13 and test 25): conforming output (no cracks, no T-junctions), flat regions
+//! Adaptive Loop refinement (`sylva::refine::adaptive`, MacMurchy2004 §A.3, MacMurchy2004-spec §2.11 and
+//! test 27) and fractal noise between levels (`sylva::refine::noise`, MacMurchy2004 §6.5, MacMurchy2004-spec
+//! §2.13 and test 25): conforming output (no cracks, no T-junctions), flat regions
 //! stay coarse, Loop positions where refined, fewer triangles than uniform refinement at
 //! the same maximum error on a tree mesh; noise determinism and amplitude per level.
 
@@ -298,7 +298,7 @@ fn crack_check_detects_a_t_junction() {
 
 #[test]
 fn infinite_flatness_or_huge_size_means_no_refinement() {
-    // Spec 001 test 27.
+    // MacMurchy2004-spec test 27.
     let m = stretched_octahedron();
     for opts in [
         AdaptiveOptions { flatness: f32::INFINITY, min_area: 0.0, ..Default::default() },
@@ -397,7 +397,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert_eq!(adaptive_loop(&Mesh::new(), &[], &AdaptiveOptions::default()).unwrap().face_count(), 0);
 }
 
-/// Seed 001 / issue 4: fewer triangles than uniform refinement at the same maximum error
+/// MacMurchy2004 / issue 4: fewer triangles than uniform refinement at the same maximum error
 /// on a tree mesh. Error: the largest distance from the limit surface (sampled at the
 /// limit positions of uniform level N + 1) to the approximating triangles.
 #[test]
@@ -466,7 +466,7 @@ fn bench_adaptive_vs_uniform() {
 
 #[test]
 fn bias_function_properties() {
-    // Spec 001 test 25.
+    // MacMurchy2004-spec test 25.
     for b in [0.05, 0.25, 0.5, 0.75, 0.95] {
         assert_eq!(bias(b, 0.0), 0.0);
         assert_eq!(bias(b, 1.0), 1.0);

@@ -1,6 +1,6 @@
-//! The sweep mesher (seed 001 §5.2–§5.5.3, spec 001 §2.2–§2.8): Eq 5.1/5.2 values and
+//! The sweep mesher (MacMurchy2004 §5.2–§5.5.3, MacMurchy2004-spec §2.2–§2.8): Eq 5.1/5.2 values and
 //! guards, and the control mesh of hand-made skeletons (chain, forks, whorls, the
-//! awkward cases) checked with `sylva::mesh::check` (spec 001 §7 properties 1, 3–5,
+//! awkward cases) checked with `sylva::mesh::check` (MacMurchy2004-spec §7 properties 1, 3–5,
 //! 12–16, 18–19, 23), plus a property test over random skeletons.
 
 use glam::{DVec3, Vec3};
@@ -576,7 +576,7 @@ fn per_vertex_uv(m: &Mesh) -> Vec<Option<glam::Vec2>> {
     out.iter().zip(split).map(|(t, s)| if s { None } else { *t }).collect()
 }
 
-/// Spec 001 property 23: the seed's stem UVs. `u` alternates 0/1 around every ring (each
+/// MacMurchy2004-spec property 23: the seed's stem UVs. `u` alternates 0/1 around every ring (each
 /// stem edge spans [0, 1]) and every ring vertex has one UV (no seam), through chains,
 /// junctions (coplanar, general, with an extra ring) and tips.
 #[test]
@@ -646,7 +646,7 @@ fn texel_v_keeps_texels_square() {
     assert!(vmax > 35.0, "v at the tips {vmax}");
 }
 
-/// Spec 001 property 23, Tile V: `v` restarts at every internode (0 at its start ring,
+/// MacMurchy2004-spec property 23, Tile V: `v` restarts at every internode (0 at its start ring,
 /// 1 at its end ring); without it, `v` is the path length over the longest path.
 #[test]
 fn tile_v_restarts_per_internode() {
@@ -1029,7 +1029,7 @@ fn a_general_junction_that_folds_under_subdivision_falls_back() {
     assert!(level2(&unchecked.mesh).intersection_count.unwrap() > 0);
 }
 
-/// An LST `Cylinder(0.5, 0.1, 4)` is a truncated cone (issue 26, spec 000 §2.1): the
+/// An LST `Cylinder(0.5, 0.1, 4)` is a truncated cone (issue 26, Pieterse2012-spec §2.1): the
 /// closed sweep (capped base, pruned flat tip) has the volume of the hexagonal frustum
 /// within 5 % (a prism of the end radius has under a tenth of it), and its rings have
 /// radius 0.5 at the base and 0.1 at the tip.

@@ -1,4 +1,4 @@
-//! The orbit camera of the GPU renderer (issue 25 item 4; seed 003 §4, spec 003 §10):
+//! The orbit camera of the GPU renderer (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10):
 //! `orbit:AZ,EL` around the model, placed and fitted exactly as the CPU preview
 //! ([`sylva::preview`]) places and fits its camera, so a GPU picture and a CPU preview
 //! of the same view have the same silhouette.

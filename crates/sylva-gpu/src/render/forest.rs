@@ -1,4 +1,4 @@
-//! Many trees at once (issue 25 item 4; seed 002 §4.2, the multi-tree slowdown; seed 003
+//! Many trees at once (issue 25 item 4; McLoughlin2021 §4.2, the multi-tree slowdown; Skjermo2008
 //! §4): a seeded grid of instance transforms with yaw, scale and position jitter, and the
 //! per-frame choice of each instance's level of detail by its projected size, bucketed so
 //! the renderer issues one instanced draw per (level, part, material) for all trees.

@@ -1,4 +1,4 @@
-//! The model's parts as GPU vertex and index streams (issue 25 item 4; seed 003 §4):
+//! The model's parts as GPU vertex and index streams (issue 25 item 4; Skjermo2008 §4):
 //! each part's faces fan-triangulated from their first corner (as the CPU preview does),
 //! corners with the same (position, normal, UV) shared, triangles grouped by material,
 //! with the skin's joints and weights per vertex for GPU skinning.

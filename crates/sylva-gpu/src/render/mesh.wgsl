@@ -1,4 +1,4 @@
-// sylva-gpu's mesh pipeline (issue 25 item 4; seed 003 §4, spec 003 §10): instanced,
+// sylva-gpu's mesh pipeline (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10): instanced,
 // GPU-skinned trees with a directional light and a sky/ground ambient, colour maps and
 // alpha-cut leaves; plus the background gradient. Shares group(0) binding(0) (`Frame`)
 // with the branch deformer's renderer.

@@ -1,4 +1,4 @@
-//! The GPU renderer (issue 25 item 4; seed 003 §4, spec 003 §10; seed 002 §4.2 for the
+//! The GPU renderer (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10; McLoughlin2021 §4.2 for the
 //! multi-tree slowdown it answers): draws an engine [`Model`] offscreen into an RGBA
 //! image.
 //!

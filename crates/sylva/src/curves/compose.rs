@@ -1,6 +1,6 @@
 //! Compositions of magnetic curves: the `[curves]` table of a `kind = "curves"` preset,
 //! its layers, and the builders that turn each layer into curves of a [`Drawing`]
-//! (seed 004 §7.2–§7.3: Figs. 7.1–7.7, 7.9, 7.10, 7.13, 7.14; spec 004 §3.7).
+//! (Xu2015 §7.2–§7.3: Figs. 7.1–7.7, 7.9, 7.10, 7.13, 7.14; Xu2015-spec §3.7).
 //!
 //! A composition is a canvas (y up, drawing units ≈ pixels), a default [`StyleSpec`] and
 //! a list of layers drawn in order:

@@ -1,6 +1,6 @@
 //! Space-filling magnetic curves: an occupancy grid, the parent-cell rule and the
-//! `(T, α)` ladder of retries, inside a bounded region (seed 004 §7.2.4, Figs. 7.4,
-//! 7.5, 7.7; spec 004 §3.5).
+//! `(T, α)` ladder of retries, inside a bounded region (Xu2015 §7.2.4, Figs. 7.4,
+//! 7.5, 7.7; Xu2015-spec §3.5).
 //!
 //! # The algorithm
 //!
@@ -21,7 +21,7 @@
 //! - its **parent**'s: allowed while the particle is peeling off the parent — during
 //!   its first `peel` units of arc from the release point; afterwards touching the
 //!   parent again is a crossing (the seed allows parent cells everywhere, which lets a
-//!   child cross its parent far from the release point; spec 004 §8 item 21 forbids
+//!   child cross its parent far from the release point; Xu2015-spec §8 item 21 forbids
 //!   that). The allowance is counted from the release, not from the last parent cell
 //!   touched: a child running alongside its parent touches its cells every step and
 //!   would otherwise never count as peeled off (it crossed its parent 26–58 units past
@@ -37,7 +37,7 @@
 //!
 //! A particle also stops, keeping its curve, before a step that would leave the region,
 //! and before its radius of curvature falls below `min_radius` (spiral tips cannot
-//! tighten below the grid's resolution, spec 004 §3.5). A curve shorter than
+//! tighten below the grid's resolution, Xu2015-spec §3.5). A curve shorter than
 //! `min_length` counts as a failed rung.
 //!
 //! Guarantees (tested in `tests/curves.rs`): no cell is traversed by two curves unless

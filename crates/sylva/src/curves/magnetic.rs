@@ -1,5 +1,5 @@
 //! Magnetic curves: a charged particle traced in the plane under the Lorentz force
-//! `F = q v × B` with `B = B_z ẑ` (seed 004 §7.2.1–§7.2.3; spec 004 §3.1–§3.4).
+//! `F = q v × B` with `B = B_z ẑ` (Xu2015 §7.2.1–§7.2.3; Xu2015-spec §3.1–§3.4).
 //!
 //! # Dynamics and the integrator
 //!
@@ -20,7 +20,7 @@
 //! `√(1 + (ω·dt)²)`, so circles spiral outwards. [`Integrator::Renormalized`] is Euler
 //! with `|v|` reset after each step (first order, no drift in speed).
 //!
-//! Defaults follow spec 004 §3.1: `m = |v| = B = dt = 1`, in pixel units, so a curve of
+//! Defaults follow Xu2015-spec §3.1: `m = |v| = B = dt = 1`, in pixel units, so a curve of
 //! duration `T` is about `T` pixels long.
 //!
 //! # Charge profiles
@@ -67,7 +67,7 @@ pub enum Integrator {
     Renormalized,
 }
 
-/// A charge profile `q(t)` on `t ∈ [0, duration]` (seed 004 Fig. 7.1, §7.2.4).
+/// A charge profile `q(t)` on `t ∈ [0, duration]` (Xu2015 Fig. 7.1, §7.2.4).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Profile {
     /// `q(t) = q`.
@@ -348,7 +348,7 @@ pub struct TraceOptions {
     pub integrator: Integrator,
     /// Stop when the radius of curvature `|v|/|ω|` falls below this (0: never). Spiral
     /// tips in a space-filling occupancy grid stop before they tighten below one cell
-    /// (spec 004 §3.5).
+    /// (Xu2015-spec §3.5).
     pub min_radius: f64,
 }
 

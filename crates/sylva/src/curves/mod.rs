@@ -1,6 +1,6 @@
 //! Magnetic curves: stylised, spiralling abstract trees and ornaments drawn by charged
-//! particles moving through a magnetic field (seed 004 ch. 7, "Abstract Tree Modeling
-//! with Magnetic Curves"; spec 004 §3).
+//! particles moving through a magnetic field (Xu2015 ch. 7, "Abstract Tree Modeling
+//! with Magnetic Curves"; Xu2015-spec §3).
 //!
 //! ```text
 //!  preset (TOML, kind = "curves") ─► Composition ─► layers ─► Drawing ─► Picture ─► .svg / .png

@@ -1,5 +1,5 @@
 //! Seeded Perlin gradient noise in 2D and 3D, for the spatially varying magnetic fields
-//! of seed 004 §7.2.4 (Fig. 7.5: `B_z = 0.5·(1 + noise(x/50, y/50))`) and for the 3D
+//! of Xu2015 §7.2.4 (Fig. 7.5: `B_z = 0.5·(1 + noise(x/50, y/50))`) and for the 3D
 //! and on-surface fields that go beyond the seed.
 //!
 //! This is Ken Perlin's "improved noise" (SIGGRAPH 2002): a permutation table of 256

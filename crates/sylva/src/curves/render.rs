@@ -1,8 +1,8 @@
 //! Rendering magnetic curves: tapered strokes with outlines and per-curve or per-point
 //! colours, turned into filled polygons that both the SVG writer
 //! ([`crate::curves::svg`]) and the anti-aliased PNG rasterizer (`tiny-skia`) draw
-//! (seed 004 §7.3: "each curve has a thickness and the outer contour has a different
-//! colour"; spec 004 §3.8).
+//! (Xu2015 §7.3: "each curve has a thickness and the outer contour has a different
+//! colour"; Xu2015-spec §3.8).
 //!
 //! # From curves to shapes
 //!

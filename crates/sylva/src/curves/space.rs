@@ -1,4 +1,4 @@
-//! Beyond the seed (seed 004 §8.1, "the idea of magnetic curves extends
+//! Beyond the seed (Xu2015 §8.1, "the idea of magnetic curves extends
 //! straightforwardly to three dimensions … and to create 2D curves on the surfaces of
 //! complex structures"): magnetic curves in 3D with a vector field **B**, branching
 //! 3D curves turned into a [`Skeleton`] so they mesh, refine and export like any tree,

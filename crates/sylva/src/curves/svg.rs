@@ -1,6 +1,6 @@
 //! SVG output for 2D drawings: every filled shape of a [`Picture`] becomes one
 //! `<path>` (vector paths, not pixels), painted in order over an optional background
-//! rectangle. Used by the magnetic curves of seed 004 ch. 7 ([`crate::curves`]).
+//! rectangle. Used by the magnetic curves of Xu2015 ch. 7 ([`crate::curves`]).
 //!
 //! The document's `viewBox` is the picture in drawing units (y down); `width` and
 //! `height` give the displayed size in pixels. Coordinates are written with two

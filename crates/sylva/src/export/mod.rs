@@ -1,6 +1,6 @@
 //! Model exporters: glTF 2.0 (binary `.glb` and self-contained `.gltf`), Wavefront OBJ +
 //! MTL, binary little-endian PLY and POV-Ray 3.7 (a `.pov` scene and one `.inc` per
-//! mesh, seed 001 §A.3–A.4).
+//! mesh, MacMurchy2004 §A.3–A.4).
 //!
 //! [`write()`] picks the format from the file extension ([`Format::from_path`]), checks
 //! every part's mesh ([`crate::Mesh::validate`]) so that no NaN or bad index reaches a

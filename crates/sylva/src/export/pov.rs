@@ -1,4 +1,4 @@
-//! POV-Ray 3.7 writer (seed 001 §7.1 and §A.3–A.4; spec 001 §1 item 5): one include
+//! POV-Ray 3.7 writer (MacMurchy2004 §7.1 and §A.3–A.4; MacMurchy2004-spec §1 item 5): one include
 //! file per mesh plus a scene that renders as it is.
 //!
 //! `-o plant.pov` writes, beside it, `plant_<part>.inc` for every part with faces (the

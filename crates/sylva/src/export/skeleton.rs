@@ -1,4 +1,4 @@
-//! Skeleton files: LST (seed 000 §4.1.5, Table 4.2) and sylva's JSON skeleton.
+//! Skeleton files: LST (Pieterse2012 §4.1.5, Table 4.2) and sylva's JSON skeleton.
 //!
 //! - [`to_lst`] writes an LST file that [`crate::import::lst::parse`] reads back to the
 //!   same skeleton (positions and radii within 1e-6 relative, same parents). It replays

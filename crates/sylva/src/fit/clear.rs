@@ -2,8 +2,8 @@
 //! still crosses itself, and meshes again (beyond the seeds; issue 5's acceptance).
 //!
 //! [`decollide`](crate::fit::decollide) keeps the internode capsules apart, but a
-//! surface is not its capsules: junction boxes and blends stand out of them (seed 003's
-//! boxes of Eq. 4 length, seed 001's Eq. 5.1 offsets, seed 000's trimmed joints) and a
+//! surface is not its capsules: junction boxes and blends stand out of them (Skjermo2008's
+//! boxes of Eq. 4 length, MacMurchy2004's Eq. 5.1 offsets, Pieterse2012's trimmed joints) and a
 //! tube of short internodes folds at its bends. Where the level-`levels` refinement of
 //! the control mesh (the level the acceptance checks, 2 by default) still crosses
 //! itself, this pass finds the internodes the crossing faces lie on and thins them:

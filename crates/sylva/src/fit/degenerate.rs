@@ -1,7 +1,7 @@
 //! Degenerate skeleton geometry (issue 39): zero-length and reversing internodes, radii
 //! absurd against the skeleton's size, and a bounded count of overlapping internode
 //! capsules, found before the collision searches of [`super::decollide`],
-//! [`super::clear`] and the junction meshers (seed 000 §2.1 and seed 003 §2.1 assume a
+//! [`super::clear`] and the junction meshers (Pieterse2012 §2.1 and Skjermo2008 §2.1 assume a
 //! collision-free skeleton) so a pile of coincident nodes fails with a message instead
 //! of running for minutes. Lives here, not in `skeleton`, because it uses the mesh
 //! checker's BVH.

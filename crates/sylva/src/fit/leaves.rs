@@ -1,5 +1,5 @@
-//! Leaves by level: leaf organs placed on a finished skeleton by branch level (seed 002
-//! §4.2, issue 3 "Leaves", as spec 002 §5 distils it; property 18), for generators whose
+//! Leaves by level: leaf organs placed on a finished skeleton by branch level (McLoughlin2021
+//! §4.2, issue 3 "Leaves", as McLoughlin2021-spec §5 distils it; property 18), for generators whose
 //! grammar draws no leaves of its own (the Honda trees a–i).
 //!
 //! Two placements:

@@ -1,5 +1,5 @@
 //! Overlap pruning: branches that pass through each other are cut off with their whole
-//! subtree (seed 002 §4.2, issue 4 "Overlap not handled", as spec 002 §5 distils it, with
+//! subtree (McLoughlin2021 §4.2, issue 4 "Overlap not handled", as McLoughlin2021-spec §5 distils it, with
 //! its engine refinements; property 17).
 //!
 //! The seed's proposal: compute each cylinder's space from its end points and widths; on

@@ -2,7 +2,7 @@
 //! parameters: Weber–Penn parametric trees and space colonization.
 //!
 //! - [`weber_penn`]: Weber & Penn 1995 parametric trees (stems, splits, leaves, pruning).
-//! - [`least_cost`]: least-cost-path trees, MIG and MGV (seed 004 Chs. 3–6).
+//! - [`least_cost`]: least-cost-path trees, MIG and MGV (Xu2015 Chs. 3–6).
 
 pub mod colonize;
 pub mod least_cost;

@@ -1,5 +1,5 @@
 //! Weber–Penn parametric trees: Weber & Penn 1995, "Creation and Rendering of Realistic
-//! Trees" (SIGGRAPH '95, pp. 119–128), issue 6 item 1. Seed 003 §B (the GPU branch
+//! Trees" (SIGGRAPH '95, pp. 119–128), issue 6 item 1. Skjermo2008 §B (the GPU branch
 //! deformer) consumes the per-stem cubic Bézier curves and taper/flare/lobe parameters
 //! this module records.
 //!
@@ -244,7 +244,7 @@ impl BezierSegment {
 }
 
 /// One stem (or one split clone of a stem) as the paper defines it, with its curve and
-/// the shape parameters a parametric branch mesher (seed 003 §B) needs.
+/// the shape parameters a parametric branch mesher (Skjermo2008 §B) needs.
 ///
 /// A split stem is recorded as several `Stem`s: the original (`clone_of == None`), which
 /// runs from the stem's base to its tip, and one per clone, which runs from its split

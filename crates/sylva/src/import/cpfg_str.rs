@@ -1,6 +1,6 @@
 //! CPFG turtle string files (`.str`): a derived module string written out as text
-//! (seed 001 §4.3 "turtle string", §A.4 "Salad takes as input string (".str") files,
-//! which are text files containing turtle commands"; spec 001 §1, §2.1).
+//! (MacMurchy2004 §4.3 "turtle string", §A.4 "Salad takes as input string (".str") files,
+//! which are text files containing turtle commands"; MacMurchy2004-spec §1, §2.1).
 //!
 //! cpfg writes these with *Save string*: modules back to back, parameters in
 //! parentheses printed with `%g` and separated by commas (`F(1)+(30)[-(30)F(0.5)]A(1,2)`),

@@ -1,5 +1,5 @@
-//! LST skeleton files (seed 000 §4.1.5 "LST file format", Table 4.2, and §4.1.6 "LST
-//! Parser and Graph construction"; spec 000 §2.1–2.2).
+//! LST skeleton files (Pieterse2012 §4.1.5 "LST file format", Table 4.2, and §4.1.6 "LST
+//! Parser and Graph construction"; Pieterse2012-spec §2.1–2.2).
 //!
 //! An LST file is a depth-first walk of a tree written by an L-system compiler: a header
 //! line `LST <version>` followed by turtle operations. Table 4.2 lists all of them:
@@ -12,7 +12,7 @@
 //! | `RotRel3f(angle, x, y, z)` | turn by `angle` **radians**, right-handed, about the axis (x, y, z) **of the current frame**: R ← R·Rot(axis/‖axis‖, angle) |
 //! | `Cylinder(r0, r1, length)` | a truncated cone from p along R·(0, 1, 0): radius r0 at its base, r1 at its top; the turtle does **not** move |
 //!
-//! **Conventions** (the seed leaves these open; spec 000 §2.1 assumptions A1–A5):
+//! **Conventions** (the seed leaves these open; Pieterse2012-spec §2.1 assumptions A1–A5):
 //!
 //! - **Units**: LST lengths and radii are metres times [`LstOptions::scale`] (default 1).
 //!   The frame is sylva's: +Y up, right-handed. The turtle starts at the origin with
@@ -44,7 +44,7 @@
 //!    root made earlier at the same place (one of the 64 most recent roots), so
 //!    `SB() … EB() SB() … EB()` from one point is one plant; else a **new root** node at
 //!    the cylinder's base with radius r0: the first one always, further ones only under
-//!    [`GapPolicy::NewRoot`] (spec 000 §2.2: a second root is an error);
+//!    [`GapPolicy::NewRoot`] (Pieterse2012-spec §2.2: a second root is an error);
 //! 4. anywhere else is a **gap**, handled by [`LstOptions::gap`]: a bridging internode
 //!    from the current node to the cylinder's base (radius r0 there, the default,
 //!    "lenient"), an error ("strict"), or a new root.
@@ -66,7 +66,7 @@ use glam::{DMat3, DVec3};
 
 type LResult<T> = Result<T, Box<LsystemError>>;
 
-/// What to do when a cylinder starts away from the current node (spec 000 §2.2).
+/// What to do when a cylinder starts away from the current node (Pieterse2012-spec §2.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum GapPolicy {
     /// Insert a bridging internode from the current node to the cylinder's base, with

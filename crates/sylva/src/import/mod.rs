@@ -2,13 +2,13 @@
 //! read back for checking ([`gltf_read`]).
 //!
 //! ```text
-//!  .lst text ──► lst::parse ──────────────► Skeleton          (seed 000 §4.1.5–4.1.6)
+//!  .lst text ──► lst::parse ──────────────► Skeleton          (Pieterse2012 §4.1.5–4.1.6)
 //!  .skel.json ─► skel_json::from_json ─────► Skeleton          (sylva's own format)
 //!  .str text ──► cpfg_str::parse ─► (Symbols, ModuleString) ─► lsystem::interpret ─► Skeleton
-//!                                                              (seed 001 §4.3, §A.4)
+//!                                                              (MacMurchy2004 §4.3, §A.4)
 //! ```
 //!
-//! - [`lst`]: the LST skeleton format of seed 000 (Table 4.2: `SB`, `EB`, `MovRel3f`,
+//! - [`lst`]: the LST skeleton format of Pieterse2012 (Table 4.2: `SB`, `EB`, `MovRel3f`,
 //!   `RotRel3f`, `Cylinder`), with every convention the seed leaves open stated in the
 //!   module docs and in `docs/formats.md`;
 //! - [`skel_json`]: sylva's JSON skeleton, the exact round trip of every field;

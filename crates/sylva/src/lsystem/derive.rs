@@ -5,7 +5,7 @@
 //! holds; modules without a matching production are copied. Stochastic productions
 //! (a probability after the successor) are chosen among all matching stochastic
 //! productions of the module, weighted by their probabilities, with draws from the
-//! recipe's seed. Seed 002 §2 (D0L and parametric L-systems), ABOP ch. 1.
+//! recipe's seed. McLoughlin2021 §2 (D0L and parametric L-systems), ABOP ch. 1.
 //!
 //! A module budget is enforced while writing each step, so an exploding grammar stops
 //! with a clear message instead of running out of memory.

@@ -15,7 +15,7 @@
 //! parameters or global variables (`x = e;`, `a[i][j] = e;`, `+= -= *= /=`),
 //! `if (c) s else s`, `while (c) s`, `do s while (c);`, expression statements and
 //! `array name[n][m] = { ... };` declarations (collected beforehand by the parser).
-//! Seed 002 §2.4 (parametric productions) and ABOP ch. 1.10 define the use.
+//! McLoughlin2021 §2.4 (parametric productions) and ABOP ch. 1.10 define the use.
 
 use super::source::{ErrorKind, LsystemError, Source};
 use rand::{RngExt, SeedableRng};
@@ -620,7 +620,7 @@ impl Evaluator {
     }
 }
 
-/// `a^b` with 0^0 = 1 (seed 002 test 15 needs 0⁰ = 1; Rust's powf agrees).
+/// `a^b` with 0^0 = 1 (McLoughlin2021 test 15 needs 0⁰ = 1; Rust's powf agrees).
 fn pow(a: f64, b: f64) -> f64 {
     if b == 0.5 {
         a.sqrt()

@@ -6,7 +6,7 @@
 //!          ─► turtle (3D, ABOP conventions) ─► Skeleton
 //! ```
 //!
-//! Seed 002 §2 (D0L and parametric L-systems, the Honda tree family) and §4 (turtle
+//! McLoughlin2021 §2 (D0L and parametric L-systems, the Honda tree family) and §4 (turtle
 //! conventions). The language reference is `docs/lsystem.md`.
 
 pub mod derive;

@@ -23,7 +23,7 @@
 //! following lines until a blank line, a keyword or the next production. `*` as a
 //! condition means "none"; `*` as a successor is the empty string. Variables assigned in
 //! statement blocks are global, as in cpfg; assignments to a production's parameters are
-//! local to that application. Seed 002 §2 gives the grammars this must read; ABOP ch. 1
+//! local to that application. McLoughlin2021 §2 gives the grammars this must read; ABOP ch. 1
 //! and the cpfg manual give the syntax.
 
 use super::expr::{compile, compile_block, declared_names, Evaluator, Expr, Globals, Scope};

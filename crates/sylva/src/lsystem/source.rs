@@ -2,7 +2,7 @@
 //! every later L-system stage reads (`parse`, `expr`, `derive`, `turtle`), with a map
 //! from each of its bytes back to the file and byte it came from, so every error points
 //! at the line and column the user wrote, in the right file. The preprocessor that
-//! builds it is [`super::preprocess`]; seed 001 §4.3 (cpfg's files), seed 002 §2.
+//! builds it is [`super::preprocess`]; MacMurchy2004 §4.3 (cpfg's files), McLoughlin2021 §2.
 
 use std::collections::HashMap;
 use std::sync::Arc;

@@ -1,5 +1,5 @@
 //! The module string: the plain data that derivation (`derive`) writes and the turtle
-//! (`turtle`) reads, stored flat (seed 002 §2; seed 001 §4.3). Imports no other stage,
+//! (`turtle`) reads, stored flat (McLoughlin2021 §2; MacMurchy2004 §4.3). Imports no other stage,
 //! so the two can depend on it without depending on each other.
 
 /// Bytes a module takes in a [`ModuleString`] without its parameters: its symbol (2)

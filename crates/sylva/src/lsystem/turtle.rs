@@ -1,9 +1,9 @@
-//! The 3D turtle (ABOP ch. 1.5, seed 002 §4): interprets a module string into a
+//! The 3D turtle (ABOP ch. 1.5, McLoughlin2021 §4): interprets a module string into a
 //! [`Skeleton`].
 //!
-//! **Conventions** (seed 002 §4 "Decision"). The turtle frame is heading H, left L and
+//! **Conventions** (McLoughlin2021 §4 "Decision"). The turtle frame is heading H, left L and
 //! up U with H × L = U, starting at H = +Y, L = +Z, U = +X (right-handed, Y up);
-//! cpfg `.str` strings start in cpfg's frame instead, H = +Y, L = −X, U = +Z (seed 001
+//! cpfg `.str` strings start in cpfg's frame instead, H = +Y, L = −X, U = +Z (MacMurchy2004
 //! property 10; [`TurtleOptions::left`]).
 //! Positive angles rotate right-handed about the named axis, in degrees:
 //!
@@ -18,7 +18,7 @@
 //! | `\|` | about U by 180° | turn around |
 //! | `$` | — | roll so L is horizontal: L = (Y × H)/‖Y × H‖, U = H × L |
 //!
-//! So a tree whose rolls are all 0° or 180° lies in the y–z plane (seed 002 test 11).
+//! So a tree whose rolls are all 0° or 180° lies in the y–z plane (McLoughlin2021 test 11).
 //! `F(l)`/`G(l)` move by l (default: the step) and draw an internode; `f(l)`/`g(l)` move
 //! without drawing. `!(w)` sets the line width, which is a **diameter**: skeleton radii
 //! are width / 2. `!` and `#` without a parameter multiply / divide the width by the
@@ -112,8 +112,8 @@ pub struct TurtleOptions {
     /// is allocated; default [`crate::skeleton::DEFAULT_MAX_NODES`].
     pub max_nodes: usize,
     /// The initial left vector L (the heading starts at +Y, and U = H × L): +Z for
-    /// L-systems (seed 002's convention, the default), [`CPFG_LEFT`] = −X for cpfg's
-    /// `.str` strings (seed 001 property 10: H = +Y, L = −X, U = +Z). Any vector
+    /// L-systems (McLoughlin2021's convention, the default), [`CPFG_LEFT`] = −X for cpfg's
+    /// `.str` strings (MacMurchy2004 property 10: H = +Y, L = −X, U = +Z). Any vector
     /// perpendicular to +Y; others fall back to +Z.
     pub left: [f64; 3],
     /// The contours `@#(id)` selects for generalized cylinders (cpfg view file
@@ -162,7 +162,7 @@ impl TurtleContour {
     }
 }
 
-/// cpfg's initial left vector, −X (seed 001 property 10), used for `.str` input.
+/// cpfg's initial left vector, −X (MacMurchy2004 property 10), used for `.str` input.
 pub const CPFG_LEFT: [f64; 3] = [-1.0, 0.0, 0.0];
 
 impl Default for TurtleOptions {

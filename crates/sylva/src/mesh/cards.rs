@@ -6,7 +6,7 @@
 //! atlas cell, so the drawn outline keeps the leaf's proportions. UVs run base→tip along
 //! +v ([`AtlasCell::base`] → [`AtlasCell::tip`]).
 //!
-//! Seed 002 §3 / anchors (ez-tree, SpeedTree): alpha-cut leaf cards.
+//! McLoughlin2021 §3 / anchors (ez-tree, SpeedTree): alpha-cut leaf cards.
 
 use crate::geometry::{FaceVarying, Mesh};
 use crate::skeleton::{Organ, OrganKind, Skeleton};

@@ -1,7 +1,7 @@
 //! The mesh checker: is a control cage or a refined surface a valid 2-manifold?
 //!
 //! Issue 5 ("a mesh checker used by tests and by `sylva check`") for the meshers of
-//! seeds 000 (hull joints), 001 (sweeps) and 003 (quad boxes), and for any OBJ or glTF
+//! Pieterse2012 (hull joints), MacMurchy2004 (sweeps) and Skjermo2008 (quad boxes), and for any OBJ or glTF
 //! file. [`check_mesh`] reports, for any polygon mesh:
 //!
 //! - **references**: face indices out of range, faces with fewer than 3 corners or a

@@ -1,10 +1,10 @@
 //! The hull mesher: one watertight triangle control mesh for a whole [`Skeleton`], with
 //! convex-hull joints at every branching node, ready for Loop subdivision.
 //!
-//! This implements seed 000 ("Yggdrasil") §4.1.3–§4.1.4 (branch trimming and graph
+//! This implements Pieterse2012 ("Yggdrasil") §4.1.3–§4.1.4 (branch trimming and graph
 //! simplification), §4.2.2 (branch segments, Algorithm 1), §4.2.3 with its convex-hull
 //! subsection printed as "4.3.3.2" (joints, Algorithms 3–4) and §4.3.2–§4.3.3 (UVs), as
-//! pinned down by spec 000 §2.3–§2.7. The Loop step (§4.4) is
+//! pinned down by Pieterse2012-spec §2.3–§2.7. The Loop step (§4.4) is
 //! [`crate::refine::subdivide`], run by the caller.
 //!
 //! # Pipeline
@@ -12,19 +12,19 @@
 //! 1. **Branch graph.** Every internode (a node with a parent) is a *branch*: a straight
 //!    truncated cone from its parent node to its node, radius `r_node` at the end and at
 //!    the start the internode's explicit start radius ([`Skeleton::start_radius()`]: an
-//!    LST `Cylinder(r0, r1, len)` keeps r0 there, spec 000 §2.1), or where it has none
+//!    LST `Cylinder(r0, r1, len)` keeps r0 there, Pieterse2012-spec §2.1), or where it has none
 //!    `min(r_parent, r_node)` (the tube mesher's convention for laterals). The loops of
-//!    §4.2.2 interpolate the radius linearly between the two (spec 000 §2.5).
+//!    §4.2.2 interpolate the radius linearly between the two (Pieterse2012-spec §2.5).
 //!    Every node where two or more branches meet is a *joint*. Zero-length internodes
 //!    are collapsed first (zero-length tips are dropped and reported).
-//! 2. **Trimming** (seed 000 §4.1.3; spec 000 §2.3). At a joint O every branch has an
+//! 2. **Trimming** (Pieterse2012 §4.1.3; Pieterse2012-spec §2.3). At a joint O every branch has an
 //!    outward unit axis (the parent's is negated) and its radius at O. For each pair the
 //!    offsets come from the actual geometry — the furthest point of the intersection of
 //!    two solid half-infinite cylinders ([`pair_offsets`]): acute
 //!    `offA = rA·cot α + rB·csc α`, obtuse `offA = min(rB·sin α, rA·tan(π − α))`,
 //!    `α = π` → 0, `cos α > 1 − ε` → *aligned* (no solution; the joint fails). A branch's
 //!    offset is the maximum over its partners, times `1 + margin`.
-//! 3. **Simplification** (seed 000 §4.1.4; spec 000 §2.4). In parent-first (depth-first)
+//! 3. **Simplification** (Pieterse2012 §4.1.4; Pieterse2012-spec §2.4). In parent-first (depth-first)
 //!    order, a branch whose two offsets cross (`start + end ≥ length`) is collapsed: its
 //!    children re-attach to its parent and start at the parent's end. End points never
 //!    move. The merged joint and the moved children are re-trimmed at once; passes repeat
@@ -34,12 +34,12 @@
 //!    collapse would move a child's axis more than [`HullOptions::max_straightening`]
 //!    of its radius away from the collapsed node and run that child's tube, straight
 //!    across the bend, through another live branch.
-//! 4. **Branch segments** (seed 000 §4.2.2, Algorithm 1). `N = round(L / (f·π·r̄))`,
+//! 4. **Branch segments** (Pieterse2012 §4.2.2, Algorithm 1). `N = round(L / (f·π·r̄))`,
 //!    clamped to `1..=max_segments`, with `L` the trimmed length and `r̄` the mean of
 //!    the trimmed end radii; `N + 1` loops of `sides` vertices at angles `2πj/s` in a
 //!    rotation-minimizing frame (the root's from the skeleton's `up`, each child's the
 //!    minimal rotation of its parent's); faces `(A, B, C)`, `(B, D, C)`.
-//! 5. **Joints** (seed 000 §4.2.3; spec 000 §2.6). Two branches (a bend): a band of `2s`
+//! 5. **Joints** (Pieterse2012 §4.2.3; Pieterse2012-spec §2.6). Two branches (a bend): a band of `2s`
 //!    triangles pairing loop vertex `j` with `j`. Three or more (or two stems from a
 //!    root): every loop vertex is centrally projected from O onto the unit sphere, each
 //!    loop a small circle about its axis, shrunk if needed so no two circles' caps
@@ -58,7 +58,7 @@
 //!    the hull and is closed by a flat fan facing `−m` (the joint is a dome on a flat
 //!    base at the node; without it the hull of loops in one narrow cone is a thin lens
 //!    whose two sides cross once the loops are moved back from the sphere).
-//! 6. **UVs** (seed 000 §4.3.2–4.3.3). Branches: `u = j/s` (the wrap column `u = 1`),
+//! 6. **UVs** (Pieterse2012 §4.3.2–4.3.3). Branches: `u = j/s` (the wrap column `u = 1`),
 //!    `v = v₀ + i/2`. A branch that continues its parent through a band starts at the
 //!    parent's last `v` plus the band's length in the same unit, so chains of internodes
 //!    are one seamless chart; other branches start at `v₀ = 0`. Hull joints: each face
@@ -88,7 +88,7 @@ use std::ops::Range;
 
 const NONE: u32 = u32::MAX;
 
-/// Options of [`hull_mesh`] (spec 000 §4 "User parameters").
+/// Options of [`hull_mesh`] (Pieterse2012-spec §4 "User parameters").
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HullOptions {
@@ -186,7 +186,7 @@ pub struct JointSpan {
     /// Its faces in [`HullMesh::mesh`] (for a fallback: its cap fans).
     pub faces: Range<u32>,
     /// Branches (their end nodes) detached from this joint because they were aligned
-    /// with another (seed 000 §4.1.3 case 3): each runs untrimmed to the node and is
+    /// with another (Pieterse2012 §4.1.3 case 3): each runs untrimmed to the node and is
     /// closed there by a fan. The joint is then listed in [`HullMesh::fallbacks`].
     pub detached: Vec<u32>,
 }
@@ -228,7 +228,7 @@ pub struct HullMesh {
     pub joints: Vec<JointSpan>,
     /// Every meshed branch, in node order.
     pub branches: Vec<BranchSpan>,
-    /// Nodes whose internode simplification collapsed (seed 000 §4.1.4).
+    /// Nodes whose internode simplification collapsed (Pieterse2012 §4.1.4).
     pub collapsed: Vec<u32>,
     /// Nodes whose branch (a root stem or a tip) was too short for its trims and could
     /// not collapse without moving an end point: its offsets were scaled down.
@@ -239,8 +239,8 @@ pub struct HullMesh {
     pub open_loops: usize,
 }
 
-/// Pairwise trimming offsets of two branches meeting at a joint O (seed 000 §4.1.3,
-/// derived as spec 000 §2.3 suggests): `a`, `b` are the outward unit axes, `ra`, `rb`
+/// Pairwise trimming offsets of two branches meeting at a joint O (Pieterse2012 §4.1.3,
+/// derived as Pieterse2012-spec §2.3 suggests): `a`, `b` are the outward unit axes, `ra`, `rb`
 /// the radii at O. Returns `(offA, offB)`: beyond `offA` along `a`, A's solid cylinder
 /// no longer meets B's; `None` when the axes are aligned (`a·b > 1 − eps`, seed case 3:
 /// no solution).
@@ -257,7 +257,7 @@ pub fn pair_offsets(a: DVec3, ra: f64, b: DVec3, rb: f64, eps: f64) -> Option<(f
         return Some((0.0, 0.0)); // straight continuation
     }
     if c > 0.0 {
-        // seed 000 §4.1.3 case 4 (acute)
+        // Pieterse2012 §4.1.3 case 4 (acute)
         Some(((ra * c + rb) / s, (rb * c + ra) / s))
     } else {
         // obtuse: the start of the other branch bounds the intersection
@@ -307,7 +307,7 @@ pub struct BranchGraph {
     pub aligned: Vec<u32>,
 }
 
-/// Trims and simplifies `skeleton` (seed 000 §4.1.3–4.1.4): the branch graph the mesher
+/// Trims and simplifies `skeleton` (Pieterse2012 §4.1.3–4.1.4): the branch graph the mesher
 /// builds its loops on. Errors only for invalid options or skeletons.
 pub fn simplify(skeleton: &Skeleton, opts: &HullOptions) -> Result<BranchGraph> {
     opts.check()?;
@@ -410,7 +410,7 @@ impl Work {
                 }
             }
         }
-        // Collapse crossing branches, parent-first, until stable (seed 000 §4.1.4).
+        // Collapse crossing branches, parent-first, until stable (Pieterse2012 §4.1.4).
         loop {
             let mut any = false;
             for b in 0..n {
@@ -580,7 +580,7 @@ impl Work {
         }
     }
 
-    /// Recomputes the offsets of every branch at joint `j` (seed 000 §4.1.3).
+    /// Recomputes the offsets of every branch at joint `j` (Pieterse2012 §4.1.3).
     fn retrim(&mut self, j: usize) {
         let mut inc: Vec<(usize, bool, DVec3, f64)> = Vec::with_capacity(self.out[j].len() + 1);
         if self.branch[j] {
@@ -776,7 +776,7 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
         for &c in &work.out[j] {
             loops.push(LoopRef { slot: slot[c as usize], at_end: false });
         }
-        // Aligned branches (seed 000 §4.1.3 case 3) cannot share a joint: the thinner of
+        // Aligned branches (Pieterse2012 §4.1.3 case 3) cannot share a joint: the thinner of
         // each aligned pair is detached (a child folding back into its parent always is)
         // and closed by a fan; the others still get their joint.
         let mut detached: Vec<LoopRef> = Vec::new();
@@ -1142,7 +1142,7 @@ fn root_base(sk: &Skeleton, j: usize, geo: &[Geo], loops: &[LoopRef]) -> Option<
     })
 }
 
-/// Builds a hull joint (seed 000 §4.2.3; spec 000 §2.6): loops centrally projected onto
+/// Builds a hull joint (Pieterse2012 §4.2.3; Pieterse2012-spec §2.6): loops centrally projected onto
 /// the unit sphere about the joint node, hull, caps removed, checked. `None` when the
 /// joint cannot be meshed this way.
 fn hull_joint(geo: &[Geo], loops: &[LoopRef], s: u32, eps: f64) -> Option<Vec<[(u32, u32); 3]>> {
@@ -1177,7 +1177,7 @@ pub(crate) struct CapLoop {
     pub at_end: bool,
 }
 
-/// The convex-hull joint of seed 000 §4.2.3 for any loops about one node, shared by the
+/// The convex-hull joint of Pieterse2012 §4.2.3 for any loops about one node, shared by the
 /// hull and the sweep meshers: every loop vertex is centrally projected onto the unit
 /// sphere (each loop a small circle about its axis, shrunk so that no two circles come
 /// closer than 20 % of their axes' angle), the exact hull of [`convex`] is built, the
@@ -1206,7 +1206,7 @@ pub(crate) fn cap_hull(loops: &[CapLoop], s: u32, eps: f64) -> Option<Vec<[(u32,
     for x in 0..k {
         for y in x + 1..k {
             if ax[x].dot(ax[y]) > 1.0 - eps {
-                return None; // aligned (seed 000 §4.1.3 case 3)
+                return None; // aligned (Pieterse2012 §4.1.3 case 3)
             }
         }
     }
@@ -1233,7 +1233,7 @@ pub(crate) fn cap_hull(loops: &[CapLoop], s: u32, eps: f64) -> Option<Vec<[(u32,
         }
     }
     let tris = convex::convex_hull(&pts).ok()?;
-    // Every point on the hull (spec 000 §2.6 step 4, property 13).
+    // Every point on the hull (Pieterse2012-spec §2.6 step 4, property 13).
     let mut used = vec![false; pts.len()];
     for t in &tris {
         for &v in t {
@@ -1349,7 +1349,7 @@ fn flip_slivers(faces: &mut [[u32; 3]], pos: &[Vec3]) {
     }
 }
 
-/// UV corners for a hull joint's faces by propagation (seed 000 §4.3.3): each face takes
+/// UV corners for a hull joint's faces by propagation (Pieterse2012 §4.3.3): each face takes
 /// its neighbour across its longest edge that has UVs (branch faces always do), copies
 /// the two shared corners and unfolds the third. New UV values are appended to `e`.
 fn joint_uvs(e: &mut Emit, geo: &[Geo], loops: &[LoopRef], faces: &[[u32; 3]], s: u32) -> Vec<[u32; 3]> {

@@ -1,7 +1,7 @@
 //! The leaf mesher ("Turtle Leaf", Salad's `/L`): a turtle skeleton becomes one open
 //! triangle surface per leaf, ready for Loop subdivision with a creased midrib, after
-//! seed 001 §5.4 (Figs 5.5, 5.6), §6.4.1–§6.4.2 (Figs 6.2, 6.3) and §A.3, as distilled
-//! by spec 001 §2.8, §2.9 and §2.12 (properties 1–5, 21, 22 and 24).
+//! MacMurchy2004 §5.4 (Figs 5.5, 5.6), §6.4.1–§6.4.2 (Figs 6.2, 6.3) and §A.3, as distilled
+//! by MacMurchy2004-spec §2.8, §2.9 and §2.12 (properties 1–5, 21, 22 and 24).
 //!
 //! # Construction
 //!
@@ -10,7 +10,7 @@
 //!    with several) is a *junction*, one child a *chain node*, none a *tip*.
 //! 2. **Frames.** Every internode has the turtle frame it was drawn with: heading `H`
 //!    (its direction), up `U` (the skeleton's per-node `up`, made perpendicular to
-//!    `H`) and left `L = U × H` (`H × L = U`, spec 001 §2.1).
+//!    `H`) and left `L = U × H` (`H × L = U`, MacMurchy2004-spec §2.1).
 //! 3. **Section** (§5.4, spec §2.9): open, 3 vertices across `L` — right margin
 //!    `c − r L`, midrib `c + midrib_depth · w · U`, left margin `c + r L` — with `r` the
 //!    skeleton radius and `w = 2r` the turtle width (the blade is as wide as the line
@@ -76,7 +76,7 @@ use glam::{DVec3, Vec2, Vec3};
 
 const NONE: u32 = u32::MAX;
 
-/// How the leaf mesher maps texture coordinates (spec 001 §2.12, Leaf tab "Use Cutout
+/// How the leaf mesher maps texture coordinates (MacMurchy2004-spec §2.12, Leaf tab "Use Cutout
 /// Texture Mapping").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -89,7 +89,7 @@ pub enum LeafMapping {
     Tiled,
 }
 
-/// Options of [`leaf_mesh`] (spec 001 §3 Leaf and SubD tabs, switches `/A /E /T`).
+/// Options of [`leaf_mesh`] (MacMurchy2004-spec §3 Leaf and SubD tabs, switches `/A /E /T`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LeafOptions {

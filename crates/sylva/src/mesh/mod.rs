@@ -1,5 +1,5 @@
-//! The meshers: skeleton → control cage (seeds 000, 001, 003 and the generalized
-//! cylinders of seed 002), plus the mesh checker and the organ mesher.
+//! The meshers: skeleton → control cage (Pieterse2012, MacMurchy2004, Skjermo2008 and the generalized
+//! cylinders of McLoughlin2021), plus the mesh checker and the organ mesher.
 //!
 //! The mesh type itself is [`crate::geometry::Mesh`] and the model the exporters write
 //! is [`crate::model::Model`]: plain data below every stage.
@@ -32,13 +32,13 @@ use crate::skeleton::Skeleton;
 pub enum Mesher {
     /// Generalized cylinders, one per axis (`mesh/tube.rs`).
     Tube(tube::TubeOptions),
-    /// Seed 000's convex-hull joints (`mesh/hull.rs`).
+    /// Pieterse2012's convex-hull joints (`mesh/hull.rs`).
     Hull(hull::HullOptions),
-    /// Seed 001's hexagonal sections and junction templates (`mesh/sweep.rs`).
+    /// MacMurchy2004's hexagonal sections and junction templates (`mesh/sweep.rs`).
     Sweep(sweep::SweepOptions),
-    /// Seed 003's SMART quad junction boxes (`mesh/quad.rs`).
+    /// Skjermo2008's SMART quad junction boxes (`mesh/quad.rs`).
     Quad(quad::QuadOptions),
-    /// Seed 001's leaf mode (`/L`): open, midrib-creased leaf surfaces (`mesh/leaf.rs`).
+    /// MacMurchy2004's leaf mode (`/L`): open, midrib-creased leaf surfaces (`mesh/leaf.rs`).
     Leaf(leaf::LeafOptions),
 }
 

@@ -2,7 +2,7 @@
 //!
 //! Reads `v x y z` (extra columns such as `w` or vertex colours are ignored), `vt u v`,
 //! `vn x y z` and `f` with every corner form (`v`, `v/vt`, `v//vn`, `v/vt/vn`; 1-based,
-//! negative indices count back from the latest element; 0 is an error) — spec 000 §3.
+//! negative indices count back from the latest element; 0 is an error) — Pieterse2012-spec §3.
 //! Subdivision tags follow OpenSubdiv's shape files (0-based vertex indices):
 //!
 //! ```text

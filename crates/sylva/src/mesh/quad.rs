@@ -1,9 +1,9 @@
 //! The quad mesher: one all-quad, watertight control cage for a whole [`Skeleton`], with
 //! SMART-style junction boxes at branching nodes, ready for Catmull–Clark subdivision.
 //!
-//! This implements seed 003's junction paper (Skjermo & Eidheim 2005, "Polygon mesh
-//! generation of branching structures", **J §3.2–§3.5**, Eq. 4) as pinned down by spec
-//! 003 §2. The Catmull–Clark step is [`crate::refine::subdivide`] with
+//! This implements Skjermo2008's junction paper (Skjermo & Eidheim 2005, "Polygon mesh
+//! generation of branching structures", **J §3.2–§3.5**, Eq. 4) as pinned down by Skjermo2008-spec
+//! §2. The Catmull–Clark step is [`crate::refine::subdivide`] with
 //! [`Scheme::CatmullClark`](crate::refine::Scheme::CatmullClark), run by the caller.
 //!
 //! # Sections and orientation
@@ -11,7 +11,7 @@
 //! Every cross-section is a **ring** of four vertices. A ring has a centre, a unit
 //! *normal* (the direction the tube leaves it in) and an *up* vector: corner 0 lies along
 //! up (J Fig. 1), corners 1–3 follow counter-clockwise about the normal. The corner
-//! distance from the centre is `ρ = cs_scale · r` (spec 003 §2: the literal reading is
+//! distance from the centre is `ρ = cs_scale · r` (Skjermo2008-spec §2: the literal reading is
 //! `ρ = d/2`; Catmull–Clark shrinks a 4-ring to ≈ 0.65ρ, so `cs_scale ≈ 1.5` restores the
 //! nominal radius). Between two rings `A → B` the band faces are
 //! `[A_k, A_k+1, B_k+1, B_k]`, counter-clockwise seen from outside (glTF's convention).
@@ -28,7 +28,7 @@
 //! * **(b) Normal connection** (J §3.3) — one child, `∠(d, d₀) < 90°`: the end ring lies in
 //!   the plane through `n` with normal `h = normalize(d + d₀)` (the half direction). Its
 //!   corners are the perpendicular square's corners projected along `d` onto that plane
-//!   (spec 003 §2's "better" tilt compensation: every corner stays on the parent tube,
+//!   (Skjermo2008-spec §2's "better" tilt compensation: every corner stays on the parent tube,
 //!   the up corner along the projected up). The child continues from it.
 //! * **(c) Connect backward** (J §3.4) — `∠(d, d₀) ≥ 90°` (any child count): a *middle*
 //!   ring at distance `d₁` (the first child's diameter) back from `n` and an *end* ring at
@@ -41,7 +41,7 @@
 //!   the first child's radius, perpendicular to `h`, at `E + h·(l + x)` with `l + x` from
 //!   Eq. 4 ([`box_length`]). The first child continues from `T`; the others are sorted
 //!   into the four side faces `[E_k, E_k+1, T_k+1, T_k]` by the largest dot product of
-//!   their direction with the face's outward normal (spec 003 §2 inference), keeping
+//!   their direction with the face's outward normal (Skjermo2008-spec §2 inference), keeping
 //!   diameter order. A used side face is the start ring of its child; its up vector runs
 //!   from the face centre to `E_k` (J Fig. 4). Unused sides are closed by their quad.
 //!
@@ -72,13 +72,13 @@
 //!   child pointing back (≥ 90°) gives the lead to a forward child at least 3/4 as thick —
 //!   otherwise a near-equal lateral turns the whole junction, the stem's continuation
 //!   included, into a backward box.
-//! * **Several children on one side** (spec 003 §2 inference): the side face is the end of
+//! * **Several children on one side** (Skjermo2008-spec §2 inference): the side face is the end of
 //!   a virtual zero-length segment and gets its own box (a *chained box*), recursively up
 //!   to [`QuadOptions::max_chain`] levels.
 //! * **Eq. 4** as printed, `√Σdᵢ²/cos h + tan h·d₁/2` over **all** children including the
 //!   first, with `h` half the angle between the box's base normal and the first child
 //!   ([`BoxLength::SumSquares`], default); [`BoxLength::FirstChild`] uses `n = d₁`.
-//! * **Root**: the root's start ring is capped (spec 003 §2, property 2). A root with
+//! * **Root**: the root's start ring is capped (Skjermo2008-spec §2, property 2). A root with
 //!   several children gets a box on its capped start ring.
 //! * **Child positions** are measured from the parent node, not from the box (J §3.5); a
 //!   child's tube runs from its start ring's centre to its node.
@@ -91,11 +91,11 @@
 //!   whose capped start ring sits at the parent node with radius
 //!   `min(ρ_parent, ρ_child)` (the tube mesher's lateral convention). Reported as
 //!   [`FallbackReason::Detached`] or [`FallbackReason::ChainLimit`].
-//! * A first child shorter than its box (spec 003 property 8): the box is shortened to end
+//! * A first child shorter than its box (Skjermo2008-spec property 8): the box is shortened to end
 //!   `2 · min_length · ρ` before the child's node, down to a quarter of its Eq. 4 length.
 //!   Reported as [`FallbackReason::ShortBox`].
 //! * A node that lies behind (or less than `min_length · ρ` in front of) its start ring —
-//!   a child shorter than its box (spec 003 property 8) or a sharp kink — is **short**:
+//!   a child shorter than its box (Skjermo2008-spec property 8) or a sharp kink — is **short**:
 //!   with one child the node is skipped (the tube runs on to the child), with several
 //!   the box sits directly on the start ring, a tip is extended to `min_length · ρ`.
 //!   Reported as [`FallbackReason::Short`] unless the internode itself is shorter than
@@ -167,7 +167,7 @@ const NONE: u32 = u32::MAX;
 /// axes (see [`FallbackReason::Separated`]).
 const GAP_MARGIN: f32 = 1.25;
 
-/// How the box length `l + x` of a junction is computed (seed 003, J Eq. 4; spec 003 §2).
+/// How the box length `l + x` of a junction is computed (Skjermo2008, J Eq. 4; Skjermo2008-spec §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BoxLength {
@@ -405,7 +405,7 @@ pub struct QuadMesh {
     pub repair_work: u64,
 }
 
-/// Box length `l + x` of a junction (seed 003, J Eq. 4): `diameters` are the children's
+/// Box length `l + x` of a junction (Skjermo2008, J Eq. 4): `diameters` are the children's
 /// diameters, first (largest) child first; `half_angle` is `h` in radians, clamped to
 /// `[0, π/4]` (the seed's range).
 pub fn box_length(rule: BoxLength, diameters: &[f32], half_angle: f32) -> f32 {
@@ -415,7 +415,7 @@ pub fn box_length(rule: BoxLength, diameters: &[f32], half_angle: f32) -> f32 {
         BoxLength::SumSquares => diameters.iter().map(|d| d * d).sum::<f32>().sqrt(),
         BoxLength::FirstChild => d1,
     };
-    // seed 003, Eq. 4
+    // Skjermo2008, Eq. 4
     n / h.cos() + h.tan() * d1 / 2.0
 }
 

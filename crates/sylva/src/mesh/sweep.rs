@@ -1,6 +1,6 @@
 //! The sweep mesher: a triangle control mesh for Loop subdivision made of hexagonal
 //! cross-sections swept along every internode and joined at branch points by junction
-//! templates, after seed 001 §5.2–§5.5.3 and §A.3 as distilled by spec 001 §2.2–§2.8.
+//! templates, after MacMurchy2004 §5.2–§5.5.3 and §A.3 as distilled by MacMurchy2004-spec §2.2–§2.8.
 //!
 //! # Construction
 //!
@@ -9,7 +9,7 @@
 //!    more children, or a root with several children. A *chain node* has a parent and
 //!    one child; a *tip* has none. No axis bookkeeping is needed: every internode is
 //!    swept on its own, and `v` comes from the path length (step 6).
-//! 2. **Segment-length adjustment** (seed 001 §5.2, Eq 5.1/5.2, [`pair_offsets`]). At a
+//! 2. **Segment-length adjustment** (MacMurchy2004 §5.2, Eq 5.1/5.2, [`pair_offsets`]). At a
 //!    junction every pair of branches (the trunk counts, with outward axis `−H`) gets
 //!    `d₁ = (r₂ + r₁ cos θ)/sin θ`, `d₂ = (r₁ + r₂ cos θ)/sin θ`; each branch keeps the
 //!    largest over its partners. Guards ([`guarded_offsets`]): `θ → π` skips the pair,
@@ -67,7 +67,7 @@
 //!    vertices (G9); each ring edge is used once (G2); the construction depends only on
 //!    geometry, so child order does not matter (G8).
 //!
-//!    **5b. General junction** (beyond the seed, spec 001 §5 "non-planar junctions …
+//!    **5b. General junction** (beyond the seed, MacMurchy2004-spec §5 "non-planar junctions …
 //!    a convex hull of the rings"). A junction whose axes leave the fitted plane by
 //!    more than [`SweepOptions::coplanar_deg`] (decussate pairs, ternary whorls), or
 //!    that has more than [`SweepOptions::max_children`] children, keeps its trunk ring
@@ -75,7 +75,7 @@
 //!    the rotation from the trunk heading to the child's. Every ring vertex is projected
 //!    centrally from the node onto the unit sphere, where each ring is a small circle
 //!    about its axis (shrunk so circles keep a 20 % gap), and the exact convex hull of
-//!    those points is built (the hull mesher's joint, `hull::cap_hull`, seed 000
+//!    those points is built (the hull mesher's joint, `hull::cap_hull`, Pieterse2012
 //!    §4.2.3); the faces inside a ring (4 per hexagon) are removed and the rest map back
 //!    to the ring vertices: `8(n + 1) − 4` triangles, no new vertices, each ring edge
 //!    once in its tube's orientation (checked; a junction whose hull fails a check falls
@@ -83,7 +83,7 @@
 //!    orientation for any number of children in any directions; the Eq 5.1 offsets
 //!    (pairwise, with the true 3D angles) keep the rings apart. Listed in
 //!    [`SweepMesh::general`].
-//! 6. **Asymmetric template** (§5.5.3, Figs 5.20–5.22; spec 001 §2.7). A child whose
+//! 6. **Asymmetric template** (§5.5.3, Figs 5.20–5.22; MacMurchy2004-spec §2.7). A child whose
 //!    radius `r` is ≤ 1/3 of its largest partner's (tolerance 1e-6 relative, so exactly
 //!    1/3 counts) is *thin*; its junction is listed in [`SweepMesh::asymmetric`]. The
 //!    seed's templates "add a ring of vertices near the base of the smaller branch" and
@@ -125,7 +125,7 @@
 //!    [`SweepTips::Pruned`] a flat fan of 4 triangles whose ring edges are infinitely
 //!    sharp creases (Cap Front off: "pruned"). Bases: open (one 6-edge boundary loop
 //!    per root) or, with [`SweepOptions::caps`], the same creased flat fan ("Cap Back").
-//! 9. **UVs** (§6.3, spec 001 §2.12). `u`: by default the seed's reflected mapping,
+//! 9. **UVs** (§6.3, MacMurchy2004-spec §2.12). `u`: by default the seed's reflected mapping,
 //!    0, 1, 0, 1, 0, 1 around each ring ([`UMapping::Reflected`]): every stem edge
 //!    spans `[0, 1]` and there is no seam; a strip carries the parity from its start
 //!    ring to its end ring through the twist offset, and a junction's child rings take
@@ -159,7 +159,7 @@ const NONE: u32 = u32::MAX;
 /// Vertices per ring (the seed's hexagon).
 pub const SIDES: usize = 6;
 
-/// Options of [`sweep_mesh`] (spec 001 §3 "Sweep tab").
+/// Options of [`sweep_mesh`] (MacMurchy2004-spec §3 "Sweep tab").
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SweepOptions {
@@ -181,7 +181,7 @@ pub struct SweepOptions {
     /// (default true).
     pub general_junctions: bool,
     /// Radius of the asymmetric template's extra ring divided by the thin child's
-    /// radius (default 1.75, the middle of spec 001 §2.7's 1.5–2 r); the ring sits
+    /// radius (default 1.75, the middle of MacMurchy2004-spec §2.7's 1.5–2 r); the ring sits
     /// where the child's template ring would be and the child's own ring one extra-ring
     /// radius further out. 0 disables the extra ring (asymmetric junctions are then
     /// meshed symmetrically); otherwise in 1..=3.
@@ -228,7 +228,7 @@ pub struct SweepOptions {
     pub bend_rings: bool,
 }
 
-/// How the sweep mesher ends a tip (seed 001 §A.3, spec 001 §2.8).
+/// How the sweep mesher ends a tip (MacMurchy2004 §A.3, MacMurchy2004-spec §2.8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SweepTips {
@@ -242,7 +242,7 @@ pub enum SweepTips {
     Pruned,
 }
 
-/// How `u` runs around the sweep mesher's hexagonal rings (spec 001 §2.12).
+/// How `u` runs around the sweep mesher's hexagonal rings (MacMurchy2004-spec §2.12).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum UMapping {
@@ -362,16 +362,16 @@ pub struct SweepMesh {
     pub face_owner: Vec<[u32; 2]>,
 }
 
-/// Seed 001, Eq. 5.1 and 5.2: the offsets `(d₁, d₂)` of two branches of radii `r1`,
+/// MacMurchy2004, Eq. 5.1 and 5.2: the offsets `(d₁, d₂)` of two branches of radii `r1`,
 /// `r2` whose axes meet at angle `theta` (radians, in `(0, π)`). Not guarded: `θ = 0`
 /// divides by zero; use [`guarded_offsets`] for meshing.
 pub fn pair_offsets(r1: f64, r2: f64, theta: f64) -> (f64, f64) {
     let (s, c) = theta.sin_cos();
-    // seed 001, Eq. 5.1 and Eq. 5.2
+    // MacMurchy2004, Eq. 5.1 and Eq. 5.2
     ((r2 + r1 * c) / s, (r1 + r2 * c) / s)
 }
 
-/// [`pair_offsets`] with the spec 001 §2.2 guards: `None` for a straight continuation
+/// [`pair_offsets`] with the MacMurchy2004-spec §2.2 guards: `None` for a straight continuation
 /// (`θ` within 1e-3 of π, the pair is skipped); otherwise `(d₁, d₂, clamped)` with each
 /// offset at least the minimum gap `0.25 r` and at most `max1` / `max2` (`clamped` says a
 /// maximum applied, as it does when `θ → 0`). Always finite and non-negative for finite
@@ -866,7 +866,7 @@ impl Plan {
                 self.node(j, opts);
             }
         }
-        // Both ends of an internode share 90% of its length (spec 001 §2.2 guard). A thin
+        // Both ends of an internode share 90% of its length (MacMurchy2004-spec §2.2 guard). A thin
         // child without room for its extra ring loses it first (symmetric template).
         for c in 0..n {
             let sum = self.off_start[c] + self.off_end[c];
@@ -927,7 +927,7 @@ impl Plan {
             maxes.push(0.9 * self.len[c as usize]);
         }
         let k = axes.len();
-        // Asymmetric rule (seed 001 §5.5.3): a child whose radius is ≤ ratio × its
+        // Asymmetric rule (MacMurchy2004 §5.5.3): a child whose radius is ≤ ratio × its
         // largest partner's is thin; it gets the extra ring, which its partners must clear.
         let junction = kids.len() >= 2;
         let thin: Vec<bool> = (0..k)
@@ -993,7 +993,7 @@ impl Plan {
         if !junction {
             return;
         }
-        // Branching plane (spec 001 §2.3): least-variance normal, toward the node's up.
+        // Branching plane (MacMurchy2004-spec §2.3): least-variance normal, toward the node's up.
         let mut n = fit_normal(&axes);
         let mut force = aligned;
         if n == DVec3::ZERO {

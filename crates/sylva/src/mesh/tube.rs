@@ -1,7 +1,7 @@
 //! The tube mesher: generalized cylinders around the axes of a [`Skeleton`].
 //!
-//! This is the baseline "cylinder model" that seeds 001 and 002 compare against, with
-//! the tube features seed 002 §4.2 plans but never builds: per-node widths (tapered
+//! This is the baseline "cylinder model" that MacMurchy2004 and McLoughlin2021 compare against, with
+//! the tube features McLoughlin2021 §4.2 plans but never builds: per-node widths (tapered
 //! tubes), a user-set side count, and texture coordinates with vertical segmentation so
 //! square bark texels do not stretch.
 //!

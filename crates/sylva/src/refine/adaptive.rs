@@ -1,7 +1,7 @@
 //! Adaptive Loop refinement with crack-free (red–green) transitions between levels
-//! (seed 001 §A.3 and §8.2, spec 001 §2.11; issue 4 item 6).
+//! (MacMurchy2004 §A.3 and §8.2, MacMurchy2004-spec §2.11; issue 4 item 6).
 //!
-//! Seed 001's Salad refines a triangle only where the surface bends — the **flatness
+//! MacMurchy2004's Salad refines a triangle only where the surface bends — the **flatness
 //! tolerance**, the dihedral angle (radians) between two adjacent triangles, or on creases
 //! and boundaries the turn between two consecutive sharp edges — and only while the
 //! triangle is larger than the **size tolerance** (world-space area). The seed leaves
@@ -46,7 +46,7 @@ use std::collections::HashMap;
 pub struct AdaptiveOptions {
     /// The deepest level any triangle may reach.
     pub max_levels: u32,
-    /// Flatness tolerance in **radians** (seed 001: "the dihedral angle between adjacent
+    /// Flatness tolerance in **radians** (MacMurchy2004: "the dihedral angle between adjacent
     /// triangles"): a triangle is split when the angle between its normal and a
     /// neighbour's exceeds it, or, across a crease or boundary edge, when the turn between
     /// that edge and the next sharp edge does. `f32::INFINITY` never refines.
@@ -62,7 +62,7 @@ pub struct AdaptiveOptions {
 }
 
 impl Default for AdaptiveOptions {
-    /// Seed 001's Fig A.5 values (flatness 0.25 rad, size 0.0001) and 4 levels at most.
+    /// MacMurchy2004's Fig A.5 values (flatness 0.25 rad, size 0.0001) and 4 levels at most.
     fn default() -> Self {
         AdaptiveOptions {
             max_levels: 4,

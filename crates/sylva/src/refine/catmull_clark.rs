@@ -1,4 +1,4 @@
-//! Catmull–Clark subdivision (seed 003 §5: "coarse watertight mesh → Catmull–Clark steps";
+//! Catmull–Clark subdivision (Skjermo2008 §5: "coarse watertight mesh → Catmull–Clark steps";
 //! the junction mesher's all-quad cages are its control meshes).
 //!
 //! One step turns every n-gon into n quads. Child vertices are numbered vertex points
@@ -204,7 +204,7 @@ pub(crate) fn interpolate<T: Primvar>(
 }
 
 /// Linear interpolation (every edge and vertex sharp): face centroids, edge midpoints,
-/// vertices kept. Used for face-varying data interpolated linearly (seed 000 §2.9).
+/// vertices kept. Used for face-varying data interpolated linearly (Pieterse2012 §2.9).
 pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
     let nv = p.num_verts as usize;
     let nf = p.num_faces as usize;

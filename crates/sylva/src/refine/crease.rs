@@ -2,15 +2,15 @@
 //! fractional blending of masks (DeRose–Kass–Truong 1998 as OpenSubdiv's `Sdc::Crease`
 //! implements it).
 //!
-//! Seed 001 §2.10: "an integer sharpness s means sharp masks for s iterations, then smooth
+//! MacMurchy2004 §2.10: "an integer sharpness s means sharp masks for s iterations, then smooth
 //! ones"; vertex rules follow Hoppe et al. 1994 by the number of sharp incident edges
 //! (0–1 smooth or dart, 2 crease, ≥ 3 corner) and "a sharp tip is a corner while its
 //! sharpness is > 0". Fractional sharpness blends the sharp and smooth masks by the
-//! fractional part in the last sharp level. Boundaries follow the crease rule (seed 000
-//! §2.8 `BSpline`, seed 001 "boundary and crease masks"): boundary edges are infinitely
+//! fractional part in the last sharp level. Boundaries follow the crease rule (Pieterse2012
+//! §2.8 `BSpline`, MacMurchy2004 "boundary and crease masks"): boundary edges are infinitely
 //! sharp, and with [`BoundaryInterpolation::EdgeAndCorner`] a boundary vertex with a
-//! single face is an infinitely sharp corner; with [`BoundaryInterpolation::Fixed`] (seed
-//! 000 §2.8 `Fixed`) every boundary vertex is one.
+//! single face is an infinitely sharp corner; with [`BoundaryInterpolation::Fixed`] (Pieterse2012
+//! §2.8 `Fixed`) every boundary vertex is one.
 //!
 //! Sharpness is an `f32`; values ≥ [`INFINITE`] (10, OpenSubdiv's convention) never decay.
 //! The features of a level ([`Features`]: sharp edges, sharp vertices, boundary edges) are
@@ -23,7 +23,7 @@ use super::{BoundaryInterpolation, CreasingMethod};
 /// `Crease::SHARPNESS_INFINITE`).
 pub const INFINITE: f32 = 10.0;
 
-/// An infinitely sharp or semi-sharp vertex ("corner" tag; seed 001's tip sharpness).
+/// An infinitely sharp or semi-sharp vertex ("corner" tag; MacMurchy2004's tip sharpness).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Corner {
     /// The vertex.
@@ -291,7 +291,7 @@ pub(crate) fn refine_features(
         };
         let mut special =
             VertexSpecial { vertex: g.vertex, w_vertex: 0.0, pair: [g.vertex; 2], w_pair: 0.0, smooth: 0.0 };
-        // seed 001 §2.10: crease mask 1/8, 3/4, 1/8; corner keeps the vertex. Parent and
+        // MacMurchy2004 §2.10: crease mask 1/8, 3/4, 1/8; corner keeps the vertex. Parent and
         // child crease never both apply with different ends (child sharp edges are a
         // subset of the parent's, and two crease rules are the same rule).
         let apply = |rule: Rule, ends: [u32; 2], weight: f32, sp: &mut VertexSpecial| match rule {

@@ -1,8 +1,8 @@
 //! Face-varying refinement: UVs (or any per-corner data) with exact seams.
 //!
-//! Seed 000 §4.4.3 (spec 000 §2.9) interpolates UVs linearly per face and notes that
+//! Pieterse2012 §4.4.3 (Pieterse2012-spec §2.9) interpolates UVs linearly per face and notes that
 //! "better: apply Loop masks to UVs inside each UV chart, treating UV seams as
-//! boundaries"; seed 001 §6.3 (spec 001 §2.12) reports that smoothly subdivided UVs
+//! boundaries"; MacMurchy2004 §6.3 (MacMurchy2004-spec §2.12) reports that smoothly subdivided UVs
 //! "shrink away from the texture borders". Both are solved the OpenSubdiv way: a
 //! face-varying channel gets its own topology whose vertices are the (vertex, value, fan)
 //! triples — corners around a mesh vertex are merged across an edge only when both faces

@@ -1,9 +1,9 @@
-//! Limit positions and exact limit normals ("move to limit surface", seed 001 §A.3 /
-//! spec 001 §2.11).
+//! Limit positions and exact limit normals ("move to limit surface", MacMurchy2004 §A.3 /
+//! MacMurchy2004-spec §2.11).
 //!
 //! Limit position masks (Hoppe et al. 1994; Halstead, Kass & DeRose 1993):
 //! - Loop, smooth vertex of valence n: `(1 − nχ) v + χ Σ qᵢ`, `χ = 1/(n + 3/(8β(n)))`,
-//!   i.e. spec 001's `(ω v + Σ qⱼ)/(ω + n)` with `ω = 3/(8β)` (½ and 1/12 at n = 6);
+//!   i.e. MacMurchy2004-spec's `(ω v + Σ qⱼ)/(ω + n)` with `ω = 3/(8β)` (½ and 1/12 at n = 6);
 //! - Catmull–Clark, smooth vertex of valence n in a quad mesh:
 //!   `(n² v + 4 Σ eᵢ + Σ dᵢ) / (n(n + 5))` with eᵢ the edge neighbours and dᵢ the
 //!   diagonal vertices (4/9, 1/9, 1/36 at n = 4 — the bicubic B-spline at a knot);
@@ -15,7 +15,7 @@
 //! face weights `(cos(2πi/n) + cos(2π(i+1)/n))/(4λ − 1)`; on crease and boundary sectors
 //! the cross-tangent masks of Biermann, Levin & Zorin 2000 as OpenSubdiv applies them).
 //! Normals are `t₁ × t₂` for counter-clockwise rings, so they point to the front (outward
-//! on a closed, consistently oriented mesh; seed 001 notes Salad's point inward).
+//! on a closed, consistently oriented mesh; MacMurchy2004 notes Salad's point inward).
 //! Normals are face-varying: one value per smooth vertex and one per *sector* (the faces
 //! between two consecutive sharp edges) on creases, corners and boundaries, so a sharp
 //! crease keeps a distinct normal on each side.

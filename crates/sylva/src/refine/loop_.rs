@@ -1,5 +1,5 @@
-//! Loop subdivision of triangle meshes (seed 000 §4.4.2 / spec 000 §2.8; seed 001 §3.3 /
-//! spec 001 §2.10).
+//! Loop subdivision of triangle meshes (Pieterse2012 §4.4.2 / Pieterse2012-spec §2.8; MacMurchy2004 §3.3 /
+//! MacMurchy2004-spec §2.10).
 //!
 //! One step splits every triangle into three corner triangles and a centre triangle:
 //! `F' = 4F`, `V' = V + E`, `E' = 2E + 3F`. Child vertices are the vertex points (`v`,
@@ -8,12 +8,12 @@
 //! becomes `4f: (v₀, m₀, m₂)`, `4f+1: (m₀, v₁, m₁)`, `4f+2: (m₂, m₁, v₂)`,
 //! `4f+3: (m₀, m₁, m₂)`.
 //!
-//! Masks (spec 000 §2.8, spec 001 §2.10):
+//! Masks (Pieterse2012-spec §2.8, MacMurchy2004-spec §2.10):
 //! - odd, interior edge `(a, b)` with opposite vertices `c, d`: `3/8 (a + b) + 1/8 (c + d)`;
 //!   boundary or sharp edge: `(a + b)/2`;
 //! - even, valence n: `(1 − nβ) v + β Σ qᵢ` with
-//!   `β(n) = (1/n)(5/8 − (3/8 + ¼ cos(2π/n))²)` — seed 000 prints `sin`; the erratum in
-//!   spec 000 §2.8 restores `cos`, giving β(3) = 3/16, β(4) = 31/256, β(6) = 1/16;
+//!   `β(n) = (1/n)(5/8 − (3/8 + ¼ cos(2π/n))²)` — Pieterse2012 prints `sin`; the erratum in
+//!   Pieterse2012-spec §2.8 restores `cos`, giving β(3) = 3/16, β(4) = 31/256, β(6) = 1/16;
 //! - crease and boundary vertices: `1/8, 3/4, 1/8` ([`super::crease`]).
 
 use super::crease::Rules;
@@ -21,7 +21,7 @@ use super::topology::{Detail, Topology, NONE};
 use super::{assume_init_mut, fill, fill_chunks, try_with_capacity, try_zeroed, Primvar, RefineError};
 use std::mem::MaybeUninit;
 
-/// Loop's vertex weight β(n) for valence `n` (spec 000 §2.8 with the cos erratum):
+/// Loop's vertex weight β(n) for valence `n` (Pieterse2012-spec §2.8 with the cos erratum):
 /// `β(n) = (1/n)(5/8 − (3/8 + ¼ cos(2π/n))²)`. β(3) = 3/16, β(6) = 1/16.
 pub fn beta(n: usize) -> f64 {
     match n {
@@ -236,7 +236,7 @@ pub(crate) fn interpolate<T: Primvar>(
     super::apply_vertex_specials(rules, src, vv);
 }
 
-/// Linear interpolation: edge midpoints, vertices kept (seed 000 §2.9's linear UVs).
+/// Linear interpolation: edge midpoints, vertices kept (Pieterse2012 §2.9's linear UVs).
 pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
     let nv = p.num_verts as usize;
     let (vv, ep) = dst.split_at_mut(nv);

@@ -16,12 +16,12 @@
 //! (architecture: "Refiner"). Face-varying channels get their own topology
 //! ([`FaceVaryingRefiner`]) whose seams are boundaries, so seams stay exact.
 //!
-//! Schemes: [`loop_`] (seed 000 §4.4, seed 001 §3.3; spec 000 §2.8, spec 001 §2.10) and
-//! [`catmull_clark`] (seed 003 §5; spec 003 §5). Creases, corners and boundaries:
-//! [`crease`] (DeRose–Kass–Truong / OpenSubdiv rules, seed 001 §2.10). Limit surface:
-//! [`limit`] (seed 001 §2.11 "move to limit surface"). Adaptive Loop refinement:
-//! [`adaptive`] (seed 001 §A.3). PN triangles and quads: [`pn`] (seed 003 §3.3.1).
-//! Fractal noise between levels: [`noise`] (seed 001 §6.5).
+//! Schemes: [`loop_`] (Pieterse2012 §4.4, MacMurchy2004 §3.3; Pieterse2012-spec §2.8, MacMurchy2004-spec §2.10) and
+//! [`catmull_clark`] (Skjermo2008 §5; Skjermo2008-spec §5). Creases, corners and boundaries:
+//! [`crease`] (DeRose–Kass–Truong / OpenSubdiv rules, MacMurchy2004 §2.10). Limit surface:
+//! [`limit`] (MacMurchy2004 §2.11 "move to limit surface"). Adaptive Loop refinement:
+//! [`adaptive`] (MacMurchy2004 §A.3). PN triangles and quads: [`pn`] (Skjermo2008 §3.3.1).
+//! Fractal noise between levels: [`noise`] (MacMurchy2004 §6.5).
 //!
 //! Every level is computed in parallel with rayon over child elements, each child value
 //! written by exactly one task with a fixed summation order, so the output is
@@ -205,15 +205,15 @@ pub enum RefineError {
 /// The subdivision scheme.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Scheme {
-    /// Loop's scheme for triangle meshes (seeds 000 and 001).
+    /// Loop's scheme for triangle meshes (Pieterse2012 and MacMurchy2004).
     Loop,
-    /// Catmull–Clark for any polygons; the first level makes quads (seed 003).
+    /// Catmull–Clark for any polygons; the first level makes quads (Skjermo2008).
     #[default]
     CatmullClark,
 }
 
-/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`, plus seed
-/// 000's `Fixed` rule). Boundary edges are always infinitely sharp, so a new boundary
+/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`, plus Pieterse2012's
+/// `Fixed` rule). Boundary edges are always infinitely sharp, so a new boundary
 /// vertex is the midpoint of its edge; the rules differ in where an existing boundary
 /// vertex goes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -221,12 +221,12 @@ pub enum BoundaryInterpolation {
     /// Boundary edges sharp; a vertex with a single face follows the crease rule too.
     EdgeOnly,
     /// Boundary edges sharp, and vertices with a single face are corners (they stay put);
-    /// the rest of the rim follows the cubic B-spline curve rule `1/8, 3/4, 1/8` (spec 000
+    /// the rest of the rim follows the cubic B-spline curve rule `1/8, 3/4, 1/8` (Pieterse2012-spec
     /// §2.8 `BSpline`: a smooth rim that shrinks slightly).
     #[default]
     EdgeAndCorner,
-    /// Every boundary vertex is a corner and keeps its position (spec 000 §2.8 `Fixed`,
-    /// property 17: "base and tips remain fixed", seed 000 §4.4.1). With boundary edges
+    /// Every boundary vertex is a corner and keeps its position (Pieterse2012-spec §2.8 `Fixed`,
+    /// property 17: "base and tips remain fixed", Pieterse2012 §4.4.1). With boundary edges
     /// split at their midpoints, the refined rim is exactly the control polygon (a square
     /// for a 4-sided loop), at every level and at the limit.
     Fixed,
@@ -257,13 +257,13 @@ pub enum CreasingMethod {
 /// are pinned in every mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FvarInterpolation {
-    /// Linear everywhere: face centroids and edge midpoints of the UV polygons (seed 000
+    /// Linear everywhere: face centroids and edge midpoints of the UV polygons (Pieterse2012
     /// §2.9; OpenSubdiv `FVAR_LINEAR_ALL`). UVs never shrink, seams are exact.
     #[default]
     Linear,
     /// Smooth inside each UV chart; every chart-boundary vertex is pinned, so seams and
     /// borders stay the linear UV polyline (OpenSubdiv `FVAR_LINEAR_BOUNDARIES`). Removes
-    /// the UV shrinkage seed 001 §6.3 reports.
+    /// the UV shrinkage MacMurchy2004 §6.3 reports.
     Boundaries,
     /// Smooth inside; chart boundaries are B-spline curves. Pinned: chart corners (a
     /// boundary vertex with one face in its chart) and every value of a vertex where three
@@ -280,7 +280,7 @@ pub enum FvarInterpolation {
     CornersOnly,
     /// Smooth everywhere: chart boundaries are B-spline curves and no chart corner is
     /// pinned; only mesh corners and tagged corners stay put (OpenSubdiv
-    /// `FVAR_LINEAR_NONE`). UVs shrink at chart corners (seed 001 §6.3).
+    /// `FVAR_LINEAR_NONE`). UVs shrink at chart corners (MacMurchy2004 §6.3).
     Smooth,
 }
 
@@ -721,7 +721,7 @@ impl Refiner {
         FaceVaryingRefiner::new(self, indices, interpolation)
     }
 
-    /// Pushes finest-level values to their limit positions (seed 001 §2.11; needs
+    /// Pushes finest-level values to their limit positions (MacMurchy2004 §2.11; needs
     /// [`RefineOptions::full_last_level`]).
     pub fn limit<T: Primvar>(&self, finest: &[T]) -> Result<Vec<T>, RefineError> {
         let level = self.levels.last().expect("level 0 always exists");

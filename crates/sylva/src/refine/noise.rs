@@ -1,7 +1,7 @@
-//! Fractal noise displacement between subdivision levels (seed 001 §6.5 "Fractal Noise",
-//! Figs 6.7–6.8; spec 001 §2.13; issue 4 item 8).
+//! Fractal noise displacement between subdivision levels (MacMurchy2004 §6.5 "Fractal Noise",
+//! Figs 6.7–6.8; MacMurchy2004-spec §2.13; issue 4 item 8).
 //!
-//! Seed 001 adapts Miller's method to Loop subdivision: after each subdivision step `i`
+//! MacMurchy2004 adapts Miller's method to Loop subdivision: after each subdivision step `i`
 //! (the coarse mesh, `i = 0`, is never perturbed) every vertex moves along its normal by
 //! a Gaussian amount with standard deviation
 //!
@@ -14,7 +14,7 @@
 //! the base of the tree, smaller on younger branches; `b = 0.5` is linear, a result of 0
 //! means no noise). The seed does not say how `t` is obtained; [`FeatureSize`] offers a
 //! constant, a fall-off with height, or values given per control vertex (for instance
-//! multiplied by the child/parent radius ratio at each branching, spec 001's inference),
+//! multiplied by the child/parent radius ratio at each branching, MacMurchy2004-spec's inference),
 //! which are refined with the mesh.
 //!
 //! The random numbers come from a `Pcg64` seeded from `(seed, level)` and are drawn in
@@ -44,7 +44,7 @@ pub enum FeatureSize {
     PerVertex(Vec<f32>),
 }
 
-/// Noise parameters (seed 001 §6.5).
+/// Noise parameters (MacMurchy2004 §6.5).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NoiseOptions {
     /// Scale `k` in the mesh's units (metres): the standard deviation at `i = 0`.
@@ -240,7 +240,7 @@ pub fn displace(mesh: &mut Mesh, level: u32, opts: &NoiseOptions, seed: u64) -> 
 }
 
 /// [`subdivide`](super::subdivide) with fractal noise applied after every level
-/// (levels `1 … N`, seed 001 §6.5), then the optional limit projection and UVs as in
+/// (levels `1 … N`, MacMurchy2004 §6.5), then the optional limit projection and UVs as in
 /// `subdivide`. With `noise.k == 0` the result equals `subdivide`'s exactly.
 pub fn subdivide_with_noise(
     mesh: &Mesh,

@@ -1,6 +1,6 @@
 //! PN triangles and PN quads: point-normal cubic Bézier patches tessellated on the CPU
-//! (seed 003 §3.3.1 "PN-Triangle and PN-Quad tessellation", Th Eqs. 3.1–3.2, Figs 3.8–3.18;
-//! spec 003 §5; issue 4 item 7).
+//! (Skjermo2008 §3.3.1 "PN-Triangle and PN-Quad tessellation", Th Eqs. 3.1–3.2, Figs 3.8–3.18;
+//! Skjermo2008-spec §5; issue 4 item 7).
 //!
 //! Every face becomes a cubic Bézier patch built from its corners and their normals only
 //! (the method is local):
@@ -14,7 +14,7 @@
 //! - **PN quads** (Theyer 2003; Th Fig. 3.9 naming `Pᵢⱼ`): the four inner points either
 //!   assume **zero twist**, `P₁₁ = P₀₁ + P₁₀ − P₀₀` (the seed's variant, poor), or follow
 //!   **Theyer**: Eq. 3.1 along the diagonals, `P₁₁ = (2P₀₀ + P₃₃ − ((P₃₃ − P₀₀)·N₀₀)N₀₀)/3`
-//!   (default). Whether the ½ rule applies to diagonals is unstated (spec 003 §5): it is
+//!   (default). Whether the ½ rule applies to diagonals is unstated (Skjermo2008-spec §5): it is
 //!   its own option, [`PnOptions::diagonal_rule`].
 //! - **Normals** are interpolated separately, linearly or quadratically (Vlachos: the
 //!   mid-edge normal is the average of the end normals reflected across the plane

@@ -2,7 +2,7 @@
 //! vertex rings, built once from an indexed [`Mesh`](crate::Mesh) and then split level
 //! by level without any hashing or sorting.
 //!
-//! Seed 000 §3 asks for a "fully cross-linked graph" rebuilt after each step; this is its
+//! Pieterse2012 §3 asks for a "fully cross-linked graph" rebuilt after each step; this is its
 //! compact, OpenSubdiv-style form (Vtr levels). Everything is indexed by **corners**: corner
 //! `c` is the `c`-th entry of the face-vertex list, and its *outgoing* edge runs from its
 //! vertex to the next corner's vertex. An edge stores the (at most two) corners whose

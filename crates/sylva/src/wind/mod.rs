@@ -1,4 +1,4 @@
-//! Wind on the branch curves (issue 24, seed 003 Th §3.2.1 and §4.3; spec 003 §4, the
+//! Wind on the branch curves (issue 24, Skjermo2008 Th §3.2.1 and §4.3; Skjermo2008-spec §4, the
 //! recommended formulation, properties 20–24).
 //!
 //! The tree is a hierarchy of cubic Bézier branches ([`WindRig`], one per segment of

@@ -262,7 +262,7 @@ pub fn corpus(cpfg_models: usize) -> Corpus {
     c
 }
 
-/// The seed 000 sample (Fig. 4.6) shape.
+/// The Pieterse2012 sample (Fig. 4.6) shape.
 pub const LST_SAMPLE: &str =
     "LST 0.1\nCylinder(0.5, 0.4, 5)\nMovRel3f(0, 5, 0)\nSB()\nRotRel3f(0.5, 0, 0, 1)\n\
 Cylinder(0.3, 0.2, 3)\nMovRel3f(0, 3, 0)\nSB()\nRotRel3f(-0.6, 1, 0, 0)\nCylinder(0.1, 0.05, 1)\nEB()\nEB()\n\

@@ -1,4 +1,4 @@
-//! BCM — the construction method (seed 004 §3.3.1, Figs. 3.3–3.10; spec 004 §2.4), the
+//! BCM — the construction method (Xu2015 §3.3.1, Figs. 3.3–3.10; Xu2015-spec §2.4), the
 //! least-cost-path system the thesis starts from, kept as a recipe method for comparison
 //! with MIG and MGV (`method = "bcm"`).
 //!
@@ -16,7 +16,7 @@
 //!    surface (`shell`, 0 = 3·spacing), as MIG's level 1; the union of their paths is
 //!    the first tree.
 //! 4. **Later rounds** (`bcm.rounds` in all). The weights of edges between two tree
-//!    sites are multiplied by `bcm.cheapen` (the seed leaves the factor open; spec 004
+//!    sites are multiplied by `bcm.cheapen` (the seed leaves the factor open; Xu2015-spec
 //!    §2.4 asks for it to be exposed; an edge is cheapened again in every later round,
 //!    so older paths become cheaper still), `bcm.later_endpoints` new endpoints are drawn
 //!    from the sites not on the tree within `bcm.near` lattice steps of it and farther

@@ -1,5 +1,5 @@
-//! Multi-root forests on one graph (issue 7; seed 004 §3.1's multi-source Dijkstra,
-//! spec 004 §2.4): `generator.roots = [[x, y, z], …]` grows several trees in one graph
+//! Multi-root forests on one graph (issue 7; Xu2015 §3.1's multi-source Dijkstra,
+//! Xu2015-spec §2.4): `generator.roots = [[x, y, z], …]` grows several trees in one graph
 //! whose least-cost paths compete.
 //!
 //! - **Graph.** The Poisson nodes are thrown with the first root as a node (as for a

@@ -1,10 +1,10 @@
 //! Graphs for least-cost-path trees: volumes, Poisson-disc nodes, Yao-k edges, lattices
-//! and the graph file format (seed 004 §3.2, §4.2 and Fig. 4.2 steps 1A–1H; spec 004
+//! and the graph file format (Xu2015 §3.2, §4.2 and Fig. 4.2 steps 1A–1H; Xu2015-spec
 //! §2.1–§2.2).
 //!
 //! # Volumes
 //!
-//! A [`Volume`] is a union of [`Primitive`]s (seed 004 §4.4.1): boxes, spheres,
+//! A [`Volume`] is a union of [`Primitive`]s (Xu2015 §4.4.1): boxes, spheres,
 //! hemispheres, sphere portions (spherical sectors: apex at `center`, half-angle about
 //! `axis`), cylinders, cones, ellipsoids and half-ellipsoids, each with its own axis
 //! (a tilted trunk is a cylinder with a tilted axis, Fig. 4.5). Each primitive has an
@@ -47,7 +47,7 @@
 //! out-degree is at most `k` and the in-degree is unbounded.
 //!
 //! - **3D** (`k = 8·m`, m = 1..4; Yao-8 by default): the octant of `d = q − p` by the
-//!   signs of `(d.x, d.y, d.z)`, a zero component counting as positive (spec 004 §2.2);
+//!   signs of `(d.x, d.y, d.z)`, a zero component counting as positive (Xu2015-spec §2.2);
 //!   for `m > 1` each octant is split into `m` equal azimuthal wedges of the angle
 //!   `atan2(|d.z|, |d.x|) ∈ [0, π/2]`.
 //! - **2D** (`3 ≤ k ≤ 32`): sector `j` holds the angles `atan2(d.y, d.x) ∈

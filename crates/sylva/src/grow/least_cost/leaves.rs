@@ -1,4 +1,4 @@
-//! Leaves of least-cost-path trees (seed 004 §4.5; spec 004 §2.8): organs placed at the
+//! Leaves of least-cost-path trees (Xu2015 §4.5; Xu2015-spec §2.8): organs placed at the
 //! tips of the finished skeleton, after the path union is built and thickened.
 //!
 //! - `leaf`: "randomly rotated polygons of varied size centred at endpoints" — each leaf

@@ -1,4 +1,4 @@
-//! MGV — modified guiding vectors (seed 004 Ch. 5; spec 004 §2.6): one Yao graph whose
+//! MGV — modified guiding vectors (Xu2015 Ch. 5; Xu2015-spec §2.6): one Yao graph whose
 //! edge weights follow guiding vectors that Dijkstra sets lazily, over several
 //! iterations that each grow the tree from the whole current tree.
 //!
@@ -9,7 +9,7 @@
 //! `h = 0`), and `u`'s out-edges then weigh `d_E·(1 − ê_E·v̂_u)`
 //! ([`paths::mgv_weight`](super::paths::mgv_weight)). Sources keep their guides.
 //!
-//! **Rotation axis** (spec 004 §2.6, §7.2): `axis = normalize(up × ê_{p→u})` (the edge
+//! **Rotation axis** (Xu2015-spec §2.6, §7.2): `axis = normalize(up × ê_{p→u})` (the edge
 //! form of §5.3.1; `generator.axis = "edge"`, the default) and Rodrigues' formula in
 //! `f64`. A positive α tilts a vertical guide towards the edge's horizontal direction and
 //! turns a horizontal guide downward (Fig. 5.4). When `|up × ê| < 1e-6` (a vertical
@@ -293,7 +293,7 @@ use super::finite;
 /// Which axis form to try first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AxisRule {
-    /// `up × ê` first (spec 004's recommendation).
+    /// `up × ê` first (Xu2015-spec's recommendation).
     Edge,
     /// `up × parent guide` first (§5.2.2).
     Guide,
@@ -332,13 +332,13 @@ pub fn rotate_guide(
 
 /// Eq. 5.2: `α = θ·√(β/π)` (radians in, radians out).
 pub fn eq52(theta: f64, beta: f64) -> f64 {
-    // seed 004, Eq. 5.2
+    // Xu2015, Eq. 5.2
     theta * (beta.clamp(0.0, std::f64::consts::PI) / std::f64::consts::PI).sqrt()
 }
 
 /// Eq. 5.1: `α₁` while `h ≤ h₀`, else `α₂`.
 pub fn eq51(alpha1: f64, alpha2: f64, h0: u32, h: u32) -> f64 {
-    // seed 004, Eq. 5.1
+    // Xu2015, Eq. 5.1
     if h <= h0 {
         alpha1
     } else {

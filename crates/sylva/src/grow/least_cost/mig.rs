@@ -1,4 +1,4 @@
-//! MIG — multiple independent graphs (seed 004 Ch. 4, `maketree` of Fig. 4.2; spec 004
+//! MIG — multiple independent graphs (Xu2015 Ch. 4, `maketree` of Fig. 4.2; Xu2015-spec
 //! §2.5).
 //!
 //! 1. **Level 1.** A Yao graph of `nodes` nodes fills the user volume (steps 1A–1H,
@@ -12,7 +12,7 @@
 //!    (k) Poisson nodes with `e` as the first node, in the sector `{p : |p − e| ≤ r ∧
 //!    ∠(p − e, v_g) ≤ α}` (`shape = "sector"`) or the solid cone of height `r` and
 //!    half-angle α (`shape = "cone"`), where `v_g = (e − R)/|e − R|` points away from
-//!    the root `R` of `e`'s own graph (step 4B; spec 004 §7.1). `direction = "down"` /
+//!    the root `R` of `e`'s own graph (step 4B; Xu2015-spec §7.1). `direction = "down"` /
 //!    `"up"` fixes `v_g` vertical (tree g); `rotate` turns `v_g` downward by that many
 //!    degrees about `up × v_g` (negative = upward; the willow of Fig. 4.13). The radius
 //!    is `r_l = sub_radius·shrink^(l−2)`; subgraph spacing comes from the region's

@@ -1,4 +1,4 @@
-//! Least-cost-path trees (seed 004, Chs. 3–6; spec 004 §2.1–§2.8): a tree is the union
+//! Least-cost-path trees (Xu2015, Chs. 3–6; Xu2015-spec §2.1–§2.8): a tree is the union
 //! of least-cost paths from a root to chosen endpoints in a graph filling a volume.
 //!
 //! ```text
@@ -20,7 +20,7 @@
 //! - [`paths`]: multi-source Dijkstra, BCM / MIG / MGV weights.
 //! - [`leaves`]: leaves or needles at the tips (§4.5).
 //!
-//! # Thickness (§4.3, Fig. 6.2; spec 004 §2.7)
+//! # Thickness (§4.3, Fig. 6.2; Xu2015-spec §2.7)
 //!
 //! Every leaf of the final path union is a tip. `power` (the seed's rule): `s(n)` is
 //! the summed segment length from `n` out to its **farthest** descendant tip (the
@@ -111,7 +111,7 @@ pub struct LeastCostParams {
     pub refine: Option<refine::RefineParams>,
     /// MGV: the iterations (§5.2.4).
     pub iterations: Vec<mgv::MgvIteration>,
-    /// MGV: rotation axis: `edge` (spec 004's recommendation, §5.3.1) or `guide`
+    /// MGV: rotation axis: `edge` (Xu2015-spec's recommendation, §5.3.1) or `guide`
     /// (§5.2.2's `up × parent guide`).
     pub axis: String,
     /// MGV: weight floor `ε·d_E` (0 = the seed's weights).
@@ -432,7 +432,7 @@ impl PathTree {
             }
             r
         } else {
-            // seed 004, §4.3: w = s^ζ (scaled by c, floored at w_min)
+            // Xu2015, §4.3: w = s^ζ (scaled by c, floored at w_min)
             reach.iter().map(|&s| (p.radius_scale * s.powf(p.zeta)).max(p.min_radius)).collect()
         }
     }

@@ -1,6 +1,6 @@
 //! Least-cost paths: multi-source Dijkstra over out-edges with lazily computed weights,
-//! and the edge weights of the three systems (seed 004 §3.1, §3.3.1, §4.2, §5.2.2;
-//! spec 004 §2.3–§2.4).
+//! and the edge weights of the three systems (Xu2015 §3.1, §3.3.1, §4.2, §5.2.2;
+//! Xu2015-spec §2.3–§2.4).
 //!
 //! The search keeps `dist`, `parent`, `hops` (edges from the source) and `source` (the
 //! source a node's path starts at) per node. A [`Costs`] implementation is told when a
@@ -403,7 +403,7 @@ impl QuadHeap {
 }
 
 /// BCM global variation (§3.3.1, Fig. 3.8): `W = 1 + v^β` per edge with `v` uniform in
-/// `(lo, range)`; `lo = 0`, `range = 100` by default (spec 004 §7.3).
+/// `(lo, range)`; `lo = 0`, `range = 100` by default (Xu2015-spec §7.3).
 pub fn bcm_random_weights(g: &Graph, beta: f64, lo: f64, range: f64, seed: u64) -> Vec<f32> {
     let mut rng = Pcg64::seed_from_u64(seed ^ 0x6263_6d5f_7765_6967);
     (0..g.edge_count())
@@ -462,7 +462,7 @@ pub fn mgv_weight(e: Vec3, guide: Vec3, epsilon: f32) -> f32 {
     if d <= 0.0 {
         return 0.0;
     }
-    // seed 004, §5.2.2: d_E (1 − e_E · v_E)
+    // Xu2015, §5.2.2: d_E (1 − e_E · v_E)
     let c = (e.dot(guide) / d).clamp(-1.0, 1.0);
     d * (1.0 - c) + epsilon * d
 }

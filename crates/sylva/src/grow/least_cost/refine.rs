@@ -1,4 +1,4 @@
-//! MIG refinement volumes (seed 004 §4.4.1, Figs. 4.8–4.9; spec 004 §2.5
+//! MIG refinement volumes (Xu2015 §4.4.1, Figs. 4.8–4.9; Xu2015-spec §2.5
 //! "Refinement"): the level-1 graph of a MIG tree fills spheres and cones instead of
 //! the coarse user volume, so the crown breaks up into distinct clusters.
 //!

@@ -1,5 +1,5 @@
-//! A robust 3D convex hull for the hull mesher's joints (seed 000 §4.2.3, printed as
-//! "4.3.3.2 Convex Hull Construction – Randomized Incremental Algorithm"; spec 000 §2.6
+//! A robust 3D convex hull for the hull mesher's joints (Pieterse2012 §4.2.3, printed as
+//! "4.3.3.2 Convex Hull Construction – Randomized Incremental Algorithm"; Pieterse2012-spec §2.6
 //! step 4).
 //!
 //! The algorithm is the seed's incremental one (Clarkson–Shor): a tetrahedron from four
