@@ -20,6 +20,10 @@
 //! - [`export`]: glTF 2.0 (`.glb`, `.gltf`), OBJ + MTL and binary PLY writers;
 //! - [`preview`]: a CPU rasterizer that renders a model to a PNG;
 //! - [`recipe`] and [`presets`]: TOML recipes and the embedded preset library.
+//!
+//! Works are cited by the keys of `docs/references.md` (Pieterse2012, MacMurchy2004,
+//! McLoughlin2021, Skjermo2008, Xu2015 and their `-spec` distillations, ABOP, …); "issue N"
+//! is the project's issue tracker (`git log --grep "issue N"` finds the change).
 
 #![warn(missing_docs)]
 
