@@ -54,6 +54,10 @@ pub enum Error {
     /// An invalid skeleton.
     #[error("invalid skeleton: {0}")]
     Skeleton(#[from] crate::skeleton::SkeletonError),
+    /// The computation was cancelled through its [`crate::cancel::Cancel`] token (a
+    /// front end dropped a stale regeneration); nothing it made is kept.
+    #[error("cancelled")]
+    Cancelled,
 }
 
 /// The engine's result type.

@@ -28,6 +28,7 @@
 #![warn(missing_docs)]
 
 pub mod animation;
+pub mod cancel;
 pub mod curves;
 pub mod deform;
 pub mod diagnostic;
@@ -56,4 +57,5 @@ pub mod wind;
 pub use error::{Error, Result};
 pub use geometry::Mesh;
 pub use model::{Material, Model, Part};
+pub use pipeline::session;
 pub use skeleton::{Skeleton, NO_PARENT};

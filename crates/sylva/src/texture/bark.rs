@@ -165,7 +165,14 @@ pub fn bark_maps(style: BarkStyle, size: u32, seed: u64) -> BarkMaps {
     let inv = 1.0 / w as f32;
     // Height, colour shift and roughness per pixel, rows top to bottom (t = 1 − y).
     let mut fields = vec![(0.0f32, 0.0f32, 0.0f32); w * w];
+    // A cancelled drawing ([`crate::cancel`]) skips its remaining rows: its maps are
+    // partial and the caller drops them.
+    let token = crate::cancel::current();
+    let stop = || token.as_ref().is_some_and(crate::cancel::Cancel::is_cancelled);
     fields.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        if stop() {
+            return;
+        }
         let t = 1.0 - (y as f32 + 0.5) * inv;
         for (x, px) in row.iter_mut().enumerate() {
             *px = sample(style, &n, (x as f32 + 0.5) * inv, t);
@@ -184,6 +191,9 @@ pub fn bark_maps(style: BarkStyle, size: u32, seed: u64) -> BarkMaps {
         .zip(orm.data.par_chunks_mut(3 * w))
         .enumerate()
         .for_each(|(y, ((a, nm), o))| {
+            if stop() {
+                return;
+            }
             for x in 0..w {
                 let (h, c, rough) = fields[y * w + x];
                 let (lo, hi) = if h < 0.5 { (pal[0], pal[1]) } else { (pal[1], pal[2]) };

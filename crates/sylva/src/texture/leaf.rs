@@ -259,6 +259,10 @@ pub fn leaf_atlas(size: u32, colour: [f32; 3], seed: u64) -> LeafAtlas {
     // The cells are the layout's; only the drawing happens here.
     let cells = atlas_layout(size).cells;
     for (k, &shape) in LeafShape::ALL.iter().enumerate() {
+        // A cancelled drawing ([`crate::cancel`]) stops between cells; the caller drops it.
+        if crate::cancel::cancelled() {
+            break;
+        }
         let (col, row) = (k as u32 % cols, k as u32 / cols);
         let (w, h) = (cw as f32, ch as f32);
         let bl = blades(shape, w, h);

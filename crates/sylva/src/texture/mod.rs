@@ -13,8 +13,11 @@
 //!   base at the bottom and tip at the top (UV base→tip along +v).
 
 pub mod bark;
+pub mod cache;
 pub mod leaf;
 pub mod noise;
+
+pub use cache::TextureCache;
 
 use crate::error::{Error, Result};
 

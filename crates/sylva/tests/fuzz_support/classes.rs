@@ -966,6 +966,10 @@ pub fn materialize(c: &Case, dir: &Path) -> std::io::Result<Built> {
     std::fs::create_dir_all(&model)?;
     for (name, e) in &m.entries {
         let p = model.join(name);
+        // A name listed twice: the later entry replaces the earlier one.
+        if std::fs::symlink_metadata(&p).is_ok() {
+            std::fs::remove_file(&p)?;
+        }
         match e {
             Entry::File(b) => {
                 let text = String::from_utf8_lossy(b)

@@ -3,6 +3,8 @@
 //! Pure data in, data out: reading the recipe's model files goes through
 //! [`Loaded::read`]; writing outputs is the caller's (the CLI's) job.
 
+pub mod session;
+
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
 use crate::input::SideFiles;
@@ -56,6 +58,9 @@ pub struct Report {
     /// `mesh.quad.max_repair_work` (shared by every meshing of the run but the LOD
     /// levels').
     pub repair_work: u64,
+    /// Wall time of each stage the last run computed, by stage name
+    /// ([`crate::session::Stage::name`]); stages a session kept are not listed.
+    pub stage_times: Vec<(&'static str, Duration)>,
 }
 
 /// The products of a run.
@@ -321,6 +326,7 @@ pub fn turtle_options(g: &LsystemGenerator, folder: Option<&ModelFolder>) -> Tur
 }
 
 /// A generated skeleton and the named surfaces its organs may use.
+#[derive(Debug, Clone)]
 pub struct Generated {
     /// The skeleton.
     pub skeleton: Skeleton,
@@ -496,10 +502,8 @@ fn mesh_sunk(
     surfaces: &HashMap<String, Mesh>,
     report: &mut Report,
 ) -> Result<Model> {
-    let t = Instant::now();
-    let control = control_mesh(recipe, skeleton, report)?;
-    report.mesh_time = t.elapsed();
-    finish(recipe, Fitted { control, refined: None }, skeleton, sunk, surfaces, report)
+    let fitted = mesh_fitted(recipe, skeleton, report)?;
+    finish(recipe, fitted, skeleton, sunk, surfaces, report)
 }
 
 /// Refines the bark's control mesh and adds the leaves: the model.
@@ -511,6 +515,21 @@ fn finish(
     surfaces: &HashMap<String, Mesh>,
     report: &mut Report,
 ) -> Result<Model> {
+    let bark = bark_stage(recipe, fitted, sunk, report)?;
+    let (mut model, card_nodes) = assemble_stage(recipe, bark, skeleton, surfaces, report);
+    dress_stage(recipe, &mut model, &card_nodes, &mut crate::texture::TextureCache::default(), report)?;
+    Ok(model)
+}
+
+/// The bark stage: refines the fitted control mesh as `[refine]` says (unless the
+/// fitting already did), checks `mesh.max_memory`, cuts the flat base at the sunk roots
+/// and scales the UVs by `textures.scale`.
+pub(crate) fn bark_stage(
+    recipe: &Recipe,
+    fitted: Fitted,
+    sunk: &[SunkRoot],
+    report: &mut Report,
+) -> Result<Mesh> {
     let mut bark = match fitted.refined {
         Some(refined) => refined,
         None => refine_bark(recipe, fitted.control)?,
@@ -533,6 +552,18 @@ fn finish(
             uv.values.iter_mut().for_each(|t| *t *= recipe.textures.scale);
         }
     }
+    Ok(bark)
+}
+
+/// The assembly stage: the bark (or leaf-mode leaf) part, the organs' meshes and the leaf
+/// cards, untextured. Returns the model and the skeleton node of each leaf card.
+pub(crate) fn assemble_stage(
+    recipe: &Recipe,
+    bark: Mesh,
+    skeleton: &Skeleton,
+    surfaces: &HashMap<String, Mesh>,
+    report: &mut Report,
+) -> (Model, Vec<u32>) {
     // The skeleton node of each leaf card, for instancing.
     let mut card_nodes = Vec::new();
     // Leaf mode (`mesh.method = "leaf"`) makes a leaf surface, not bark.
@@ -580,23 +611,34 @@ fn finish(
             }
         }
     }
-    let mut model = Model { parts, ..Default::default() };
-    texture_model(recipe, &mut model);
+    (Model { parts, ..Default::default() }, card_nodes)
+}
+
+/// The dressing stage: textures from `cache` (drawn once per style, size and seed),
+/// instancing of the leaf cards, and the report's triangle and vertex counts.
+pub(crate) fn dress_stage(
+    recipe: &Recipe,
+    model: &mut Model,
+    card_nodes: &[u32],
+    cache: &mut crate::texture::TextureCache,
+    report: &mut Report,
+) -> Result<()> {
+    texture_model(recipe, model, cache);
     if recipe.leaves.mode == "instanced" {
         // The textured cards become one card shape and an instance per card, each on the
         // skeleton node of its first leaf.
-        model.instance_cards("leaf_cards", &card_nodes)?;
+        model.instance_cards("leaf_cards", card_nodes)?;
     }
     // Counted as drawn: every instance's shape once per instance.
     let drawn = model.flattened();
     report.triangles = drawn.triangle_count();
     report.vertices = drawn.vertex_count();
-    Ok(model)
+    Ok(())
 }
 
 /// The recipe as TOML for the file's metadata, without where the output goes (the same
 /// tree written to two names is the same file).
-fn provenance(recipe: &Recipe) -> Option<crate::model::Provenance> {
+pub(crate) fn provenance(recipe: &Recipe) -> Option<crate::model::Provenance> {
     let mut value = toml::Value::try_from(recipe).ok()?;
     if let Some(out) = value.get_mut("output").and_then(|o| o.as_table_mut()) {
         out.remove("file");
@@ -609,9 +651,9 @@ fn provenance(recipe: &Recipe) -> Option<crate::model::Provenance> {
 /// The texture stage (issue 23): draws the bark maps (and the leaf atlas when the model
 /// has leaf cards) from the recipe's seed and points the materials at them. Nothing is
 /// drawn for `output.textures = "none"`.
-fn texture_model(recipe: &Recipe, model: &mut Model) {
+fn texture_model(recipe: &Recipe, model: &mut Model, cache: &mut crate::texture::TextureCache) {
     use crate::model::ModelImage;
-    use crate::texture::{bark, leaf};
+    use crate::texture::bark;
     if recipe.output.textures == "none" {
         return;
     }
@@ -627,9 +669,9 @@ fn texture_model(recipe: &Recipe, model: &mut Model) {
         let c = crate::model::Material::leaf().base_color;
         [c[0], c[1], c[2]]
     };
-    let (maps, atlas) = rayon::join(
-        || has_bark.then(|| bark::bark_maps(style, recipe.textures.bark_size, recipe.seed)),
-        || cards.map(|_| leaf::leaf_atlas(recipe.textures.atlas_size, colour, recipe.seed)),
+    let (maps, atlas) = cache.get(
+        has_bark.then_some((style, recipe.textures.bark_size, recipe.seed)),
+        cards.map(|_| (recipe.textures.atlas_size, colour, recipe.seed)),
     );
     if let Some(maps) = maps {
         let first = model.images.len() as u32;
@@ -746,6 +788,7 @@ pub fn decollide_skeleton(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut
 
 /// A control mesh the fitting stage already made, with its refinement when that is the
 /// one `[refine]` asks for.
+#[derive(Debug, Clone)]
 pub struct Fitted {
     /// The bark's control mesh of the skeleton the fitting left.
     pub control: Mesh,
@@ -873,16 +916,29 @@ pub fn shape_stage(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report
     Ok(())
 }
 
-/// Runs the whole pipeline of a loaded recipe.
+/// Runs the whole pipeline of a loaded recipe: a [`crate::session::Session`] that keeps
+/// no stage, run once.
 pub fn grow(loaded: &Loaded) -> Result<Grown> {
-    let mut report = Report::default();
-    let Generated { mut skeleton, surfaces, curves } = skeleton(loaded, &mut report)?;
-    shape_stage(&loaded.recipe, &mut skeleton, &mut report)?;
+    let mut session = crate::session::Session::new(loaded.clone()).keep_stages(false);
+    session.run()?;
+    Ok(session.into_tree().expect("a successful run leaves a tree"))
+}
+
+/// The fitting stage on the generated `skeleton`: overlap pruning and leaf placement
+/// ([`shape_stage`]), the degeneracy and memory checks, de-collision, the flat base's
+/// sinking and the mesh-checked clearing. Returns the sunk roots and the clearing's
+/// last meshing, when it is the skeleton's.
+pub(crate) fn fit_stage(
+    recipe: &Recipe,
+    skeleton: &mut Skeleton,
+    report: &mut Report,
+) -> Result<(Vec<SunkRoot>, Option<Fitted>)> {
+    shape_stage(recipe, skeleton, report)?;
     report.skeleton = skeleton.stats();
-    check_degenerate(&loaded.recipe, &skeleton)?;
-    if loaded.recipe.mesh.decollides_nodes(skeleton.len()) {
-        decollide_skeleton(&loaded.recipe, &mut skeleton, &mut report)?;
-    } else if loaded.recipe.mesh.decollides() {
+    check_degenerate(recipe, skeleton)?;
+    if recipe.mesh.decollides_nodes(skeleton.len()) {
+        decollide_skeleton(recipe, skeleton, report)?;
+    } else if recipe.mesh.decollides() {
         report.warnings.push(format!(
             "decollide skipped: {} skeleton nodes is over the automatic limit of {} (the pass would take many seconds); set mesh.decollide = true to run it",
             skeleton.len(),
@@ -891,29 +947,29 @@ pub fn grow(loaded: &Loaded) -> Result<Grown> {
     }
     if report.skeleton.segments == 0 && skeleton.organs.is_empty() {
         return Err(Error::InvalidGeometry {
-            what: format!("recipe `{}`", loaded.recipe.name),
+            what: format!("recipe `{}`", recipe.name),
             why: "the generator drew nothing (no `F` and no organ in the interpreted string)".into(),
         });
     }
-    check_mesh_memory(&loaded.recipe, mesh_lower_bound(&loaded.recipe, &skeleton)?, "at least")?;
+    check_mesh_memory(recipe, mesh_lower_bound(recipe, skeleton)?, "at least")?;
     // The roots sink for a flat base before the fitting stage meshes the skeleton, and
     // come back up once the model is built.
-    let sunk = sink(&loaded.recipe, &mut skeleton);
-    let cleared = if loaded.recipe.mesh.clears_nodes(skeleton.len()) {
-        clear_skeleton(&loaded.recipe, &mut skeleton, &mut report)?
+    let sunk = sink(recipe, skeleton);
+    let cleared = if recipe.mesh.clears_nodes(skeleton.len()) {
+        clear_skeleton(recipe, skeleton, report)?
     } else {
         None
     };
-    let mut model = match cleared {
-        Some(fitted) => finish(&loaded.recipe, fitted, &skeleton, &sunk, &surfaces, &mut report)?,
-        None => mesh_sunk(&loaded.recipe, &skeleton, &sunk, &surfaces, &mut report)?,
-    };
-    crate::mesh::ground::restore_roots(&mut skeleton, &sunk);
-    model.curves = curves.unwrap_or_else(|| BranchCurves::fit(&skeleton));
-    lod_stage(loaded, &skeleton, &surfaces, &mut model, &mut report)?;
-    wind_stage(&loaded.recipe, &mut model, &mut report);
-    model.provenance = provenance(&loaded.recipe);
-    Ok(Grown { skeleton, model, report })
+    Ok((sunk, cleared))
+}
+
+/// The bark's control mesh of a fitted skeleton (the clearing did not leave one), with
+/// its meshing time in `report`.
+pub(crate) fn mesh_fitted(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Fitted> {
+    let t = Instant::now();
+    let control = control_mesh(recipe, skeleton, report)?;
+    report.mesh_time = t.elapsed();
+    Ok(Fitted { control, refined: None })
 }
 
 /// [`crate::mesh::memory::lower_bound_bytes`] of the bark the recipe's mesher makes of

@@ -1,0 +1,109 @@
+//! Cancellation: a shared flag a front end sets to drop a stale computation, and the
+//! checkpoints the long stages call between units of work.
+//!
+//! A [`Cancel`] token is cheap to clone and to check. The session installs its token on
+//! the thread that runs the pipeline ([`scope`]); deep loops (derivation steps, meshing
+//! axes, texture rows, refinement levels, LOD levels) call [`cancelled`] or [`check`]
+//! without a token in their signature, and parallel loops capture [`current`] before
+//! they fork. A stage that stops early returns a partial result the session never
+//! keeps: it checks the token after every stage and returns [`Error::Cancelled`].
+
+use crate::error::{Error, Result};
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A cancellation flag shared between a front end and a running computation.
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A token not cancelled.
+    pub fn new() -> Cancel {
+        Cancel::default()
+    }
+
+    /// Asks the computation to stop at its next checkpoint. Safe from any thread.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Clears the request (the session does this when an update starts).
+    pub fn reset(&self) {
+        self.0.store(false, Ordering::Relaxed);
+    }
+
+    /// Whether [`Cancel::cancel`] was called since the last [`Cancel::reset`].
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+
+    /// `Err(Error::Cancelled)` once cancelled.
+    pub fn check(&self) -> Result<()> {
+        if self.is_cancelled() {
+            Err(Error::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+thread_local! {
+    static CURRENT: RefCell<Option<Cancel>> = const { RefCell::new(None) };
+}
+
+/// Runs `f` with `token` installed as this thread's token (the previous one is restored
+/// afterwards, also when `f` unwinds).
+pub fn scope<R>(token: &Cancel, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<Cancel>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let previous = self.0.take();
+            CURRENT.with(|c| *c.borrow_mut() = previous);
+        }
+    }
+    let _restore = Restore(CURRENT.with(|c| c.borrow_mut().replace(token.clone())));
+    f()
+}
+
+/// This thread's token, for a parallel loop to capture before it forks.
+pub fn current() -> Option<Cancel> {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
+/// Whether this thread's token (if any) is cancelled.
+pub fn cancelled() -> bool {
+    CURRENT.with(|c| c.borrow().as_ref().is_some_and(Cancel::is_cancelled))
+}
+
+/// `Err(Error::Cancelled)` when this thread's token is cancelled.
+pub fn check() -> Result<()> {
+    if cancelled() {
+        Err(Error::Cancelled)
+    } else {
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_scope_installs_and_restores_the_token() {
+        let outer = Cancel::new();
+        let inner = Cancel::new();
+        inner.cancel();
+        assert!(!cancelled());
+        scope(&outer, || {
+            assert!(!cancelled());
+            scope(&inner, || assert!(matches!(check(), Err(Error::Cancelled))));
+            assert!(check().is_ok());
+            outer.cancel();
+            assert!(cancelled() && current().is_some_and(|c| c.is_cancelled()));
+        });
+        assert!(current().is_none() && !cancelled());
+        outer.reset();
+        assert!(outer.check().is_ok());
+    }
+}

@@ -1,0 +1,495 @@
+//! Sessions: a recipe plus the result of every stage, so a changed recipe recomputes only
+//! from the first stage whose inputs changed (architecture: "Session").
+//!
+//! ```text
+//!  Generate ─► Fit ─► Bark ─► Assemble ─► Dress ─► Lod ─► Wind ─► Tree
+//!  generator   shape,  mesher,  organs,     textures  LOD     rig, clip,
+//!  seed,input  decollide, refine, leaf cards (cached)  chain   provenance
+//!              clear    cut
+//! ```
+//!
+//! Each stage keeps its result with the recipe it was made from; [`Stage::same_inputs`]
+//! says which settings it reads, so a leaf or wind change never regrows the skeleton and
+//! the bark maps are drawn once per style, size and seed ([`crate::texture::TextureCache`]).
+//! A [`Cancel`] token is checked between stages and inside the long ones
+//! ([`crate::cancel`]); a progress callback hears each stage start and end.
+//! [`crate::pipeline::grow`] is the one-shot path over a session that keeps nothing.
+
+use crate::cancel::Cancel;
+use crate::error::{Error, Result};
+use crate::geometry::Mesh;
+use crate::mesh::ground::SunkRoot;
+use crate::model::{BranchCurves, Model};
+use crate::pipeline::{self, Fitted, Generated, Grown, Report};
+use crate::recipe::{Loaded, Recipe};
+use crate::skeleton::Skeleton;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A stage of the pipeline, in the order they run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Stage {
+    /// The generator: L-system derivation and turtle, Weber–Penn, colonization,
+    /// least-cost paths or an imported skeleton.
+    Generate,
+    /// The skeleton passes: overlap pruning, leaf placement, degeneracy checks,
+    /// de-collision, the flat base's sinking and the mesh-checked clearing.
+    Fit,
+    /// The mesher's cage, its subdivision and the flat-base cut.
+    Bark,
+    /// The model's parts: bark, organs and leaf cards, untextured.
+    Assemble,
+    /// Textures (from the cache), card instancing and the drawn counts.
+    Dress,
+    /// The branch curves and the LOD chain.
+    Lod,
+    /// The wind rig and clip, and the recipe written into the model.
+    Wind,
+}
+
+impl Stage {
+    /// Every stage, in order.
+    pub const ALL: [Stage; 7] =
+        [Stage::Generate, Stage::Fit, Stage::Bark, Stage::Assemble, Stage::Dress, Stage::Lod, Stage::Wind];
+
+    /// The stage's name in reports (`generate`, `fit`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Generate => "generate",
+            Stage::Fit => "fit",
+            Stage::Bark => "bark",
+            Stage::Assemble => "assemble",
+            Stage::Dress => "dress",
+            Stage::Lod => "lod",
+            Stage::Wind => "wind",
+        }
+    }
+
+    /// Whether the settings this stage reads are the same in `a` and `b` (the stages
+    /// before it aside: a stage also reruns whenever one before it reran). Erring on the
+    /// side of rerunning: a section is compared whole when the stage reads part of it.
+    pub fn same_inputs(self, a: &Recipe, b: &Recipe) -> bool {
+        match self {
+            Stage::Generate => a.generator == b.generator && a.seed == b.seed && a.input == b.input,
+            Stage::Fit => {
+                let (la, lb) = (&a.leaves, &b.leaves);
+                a.mesh == b.mesh
+                    && a.fit == b.fit
+                    && a.refine == b.refine
+                    && a.seed == b.seed
+                    && a.textures.bark_size == b.textures.bark_size
+                    && a.textures.atlas_size == b.textures.atlas_size
+                    && (&la.place, la.start_level, la.per_node, la.size)
+                        == (&lb.place, lb.start_level, lb.per_node, lb.size)
+            }
+            Stage::Bark => {
+                a.mesh == b.mesh
+                    && a.refine == b.refine
+                    && a.textures.scale == b.textures.scale
+                    && a.textures.bark_size == b.textures.bark_size
+                    && a.textures.atlas_size == b.textures.atlas_size
+            }
+            Stage::Assemble => {
+                a.leaves == b.leaves
+                    && a.mesh == b.mesh
+                    && a.textures.atlas_size == b.textures.atlas_size
+                    && a.output.textures == b.output.textures
+            }
+            Stage::Dress => {
+                a.leaves == b.leaves
+                    && a.textures == b.textures
+                    && a.output.textures == b.output.textures
+                    && a.seed == b.seed
+            }
+            Stage::Lod => {
+                a.lod == b.lod
+                    && a.mesh == b.mesh
+                    && a.refine == b.refine
+                    && a.leaves == b.leaves
+                    && a.textures == b.textures
+                    && a.output.textures == b.output.textures
+            }
+            // The provenance is the whole recipe: the last stage reruns on any change.
+            Stage::Wind => a == b,
+        }
+    }
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A progress callback: the stage and how far it is, 0 at its start and 1 at its end.
+pub type Progress = Box<dyn FnMut(Stage, f32) + Send>;
+
+struct Generate {
+    generated: Generated,
+    report: Report,
+}
+
+struct Fit {
+    /// The fitted skeleton, roots sunk for the flat base.
+    skeleton: Skeleton,
+    sunk: Vec<SunkRoot>,
+    cleared: Option<Fitted>,
+    report: Report,
+}
+
+struct Bark {
+    bark: Mesh,
+    report: Report,
+}
+
+struct Assemble {
+    model: Model,
+    card_nodes: Vec<u32>,
+    report: Report,
+}
+
+struct Dress {
+    model: Model,
+    report: Report,
+}
+
+struct Lod {
+    /// The fitted skeleton with its roots back in place.
+    skeleton: Skeleton,
+    model: Model,
+    report: Report,
+}
+
+/// One stage's kept result and the recipe it was made from.
+struct Kept<T> {
+    recipe: Recipe,
+    value: Arc<T>,
+}
+
+/// The kept results, one slot per stage.
+#[derive(Default)]
+struct Cache {
+    generate: Option<Kept<Generate>>,
+    fit: Option<Kept<Fit>>,
+    bark: Option<Kept<Bark>>,
+    assemble: Option<Kept<Assemble>>,
+    dress: Option<Kept<Dress>>,
+    lod: Option<Kept<Lod>>,
+}
+
+impl Cache {
+    /// The recipe stage `s`'s kept result was made from, if it has one.
+    fn recipe(&self, s: Stage) -> Option<&Recipe> {
+        match s {
+            Stage::Generate => self.generate.as_ref().map(|k| &k.recipe),
+            Stage::Fit => self.fit.as_ref().map(|k| &k.recipe),
+            Stage::Bark => self.bark.as_ref().map(|k| &k.recipe),
+            Stage::Assemble => self.assemble.as_ref().map(|k| &k.recipe),
+            Stage::Dress => self.dress.as_ref().map(|k| &k.recipe),
+            Stage::Lod => self.lod.as_ref().map(|k| &k.recipe),
+            Stage::Wind => None,
+        }
+    }
+
+    /// Drops the results of `from` and every later stage.
+    fn drop_from(&mut self, from: Stage) {
+        for s in Stage::ALL.into_iter().filter(|&s| s >= from) {
+            match s {
+                Stage::Generate => self.generate = None,
+                Stage::Fit => self.fit = None,
+                Stage::Bark => self.bark = None,
+                Stage::Assemble => self.assemble = None,
+                Stage::Dress => self.dress = None,
+                Stage::Lod => self.lod = None,
+                Stage::Wind => {}
+            }
+        }
+    }
+}
+
+/// A recipe and the result of each stage of its pipeline.
+///
+/// ```
+/// use sylva::session::{Session, Stage};
+/// let mut session = Session::new(sylva::recipe::load("lsys-binary-tree", &[])?);
+/// session.run()?;
+/// let mut recipe = session.recipe().clone();
+/// recipe.leaves.alpha_cutoff = 0.3;
+/// session.update(recipe)?;
+/// assert!(!session.last_run().contains(&Stage::Generate));
+/// # Ok::<(), sylva::Error>(())
+/// ```
+pub struct Session {
+    loaded: Loaded,
+    retain: bool,
+    cache: Cache,
+    textures: crate::texture::TextureCache,
+    tree: Option<Grown>,
+    last_run: Vec<Stage>,
+    progress: Option<Progress>,
+}
+
+impl Session {
+    /// A session for `loaded` (nothing computed yet: call [`Session::run`]). It keeps
+    /// every stage's result, about five copies of the bark mesh in memory;
+    /// [`Session::keep_stages`] turns that off.
+    pub fn new(loaded: Loaded) -> Session {
+        Session {
+            loaded,
+            retain: true,
+            cache: Cache::default(),
+            textures: Default::default(),
+            tree: None,
+            last_run: Vec::new(),
+            progress: None,
+        }
+    }
+
+    /// Whether the session keeps each stage's result for the next update (default true).
+    /// Without, an update recomputes everything but holds one copy of each product, as
+    /// the one-shot [`crate::pipeline::grow`] does.
+    pub fn keep_stages(mut self, keep: bool) -> Session {
+        self.retain = keep;
+        if !keep {
+            self.cache = Cache::default();
+        }
+        self
+    }
+
+    /// Calls `progress` as each stage starts (0) and ends (1).
+    pub fn on_progress(&mut self, progress: impl FnMut(Stage, f32) + Send + 'static) {
+        self.progress = Some(Box::new(progress));
+    }
+
+    /// The recipe of the last update (or of [`Session::new`]).
+    pub fn recipe(&self) -> &Recipe {
+        &self.loaded.recipe
+    }
+
+    /// The recipe with its origin (where its model files are read from).
+    pub fn loaded(&self) -> &Loaded {
+        &self.loaded
+    }
+
+    /// The tree of the last successful update.
+    pub fn tree(&self) -> Option<&Grown> {
+        self.tree.as_ref()
+    }
+
+    /// The tree of the last successful update, out of the session.
+    pub fn into_tree(self) -> Option<Grown> {
+        self.tree
+    }
+
+    /// The stages the last update ran (the others were kept).
+    pub fn last_run(&self) -> &[Stage] {
+        &self.last_run
+    }
+
+    /// Texture sets drawn over the session's life (each style, size and seed once).
+    pub fn textures_drawn(&self) -> usize {
+        self.textures.drawn()
+    }
+
+    /// Forgets the results of `from` and every later stage, so the next update reruns
+    /// them: for a change the recipe does not show (a model file edited on disk).
+    pub fn invalidate(&mut self, from: Stage) {
+        self.cache.drop_from(from);
+        self.tree = None;
+    }
+
+    /// Computes the tree of the current recipe (only what is not kept yet).
+    pub fn run(&mut self) -> Result<&Grown> {
+        self.run_with(&Cancel::new())
+    }
+
+    /// [`Session::run`] that stops with [`Error::Cancelled`] once `cancel` is set.
+    pub fn run_with(&mut self, cancel: &Cancel) -> Result<&Grown> {
+        let recipe = self.loaded.recipe.clone();
+        self.update_with(recipe, cancel)
+    }
+
+    /// Makes `recipe` the session's recipe (checked first: an invalid recipe is an
+    /// error and changes nothing) and recomputes from the first stage whose inputs
+    /// changed.
+    pub fn update(&mut self, recipe: Recipe) -> Result<&Grown> {
+        self.update_with(recipe, &Cancel::new())
+    }
+
+    /// [`Session::update`] that stops with [`Error::Cancelled`] once `cancel` is set
+    /// (checked between stages and inside the long ones; a front end cancels a stale
+    /// update from another thread). A cancelled or failed update keeps the stages it
+    /// finished and drops the rest; the session's recipe is then the new one.
+    pub fn update_with(&mut self, recipe: Recipe, cancel: &Cancel) -> Result<&Grown> {
+        recipe.check()?;
+        let first = Stage::ALL
+            .into_iter()
+            .find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, &recipe)))
+            .unwrap_or(Stage::Wind);
+        let unchanged = first == Stage::Wind && self.loaded.recipe == recipe && self.tree.is_some();
+        self.loaded.recipe = recipe;
+        self.last_run.clear();
+        if unchanged {
+            return Ok(self.tree.as_ref().expect("checked above"));
+        }
+        self.cache.drop_from(first);
+        self.tree = None;
+        let result = crate::cancel::scope(cancel, || self.compute(first, cancel));
+        match result {
+            Ok(tree) => Ok(self.tree.insert(tree)),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Runs stage `s` if it is at or after `first` (timed, with progress and a
+    /// cancellation check after it); `Ok(None)` when it is kept.
+    fn stage<T>(
+        &mut self,
+        s: Stage,
+        first: Stage,
+        cancel: &Cancel,
+        times: &mut Vec<(Stage, Duration)>,
+        f: impl FnOnce(&mut Self) -> Result<T>,
+    ) -> Result<Option<T>> {
+        if s < first {
+            return Ok(None);
+        }
+        cancel.check()?;
+        if let Some(p) = self.progress.as_mut() {
+            p(s, 0.0);
+        }
+        let t = Instant::now();
+        let value = f(self)?;
+        cancel.check()?;
+        times.push((s, t.elapsed()));
+        self.last_run.push(s);
+        if let Some(p) = self.progress.as_mut() {
+            p(s, 1.0);
+        }
+        Ok(Some(value))
+    }
+
+    fn compute(&mut self, first: Stage, cancel: &Cancel) -> Result<Grown> {
+        let recipe = self.loaded.recipe.clone();
+        let mut times = Vec::new();
+
+        let generate = match self.stage(Stage::Generate, first, cancel, &mut times, |me| {
+            let mut report = Report::default();
+            let generated = pipeline::skeleton(&me.loaded, &mut report)?;
+            Ok(Generate { generated, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.generate),
+            None => kept(&self.cache.generate)?,
+        };
+
+        let fit = match self.stage(Stage::Fit, first, cancel, &mut times, |_| {
+            let mut report = generate.report.clone();
+            let mut skeleton = generate.generated.skeleton.clone();
+            let (sunk, cleared) = pipeline::fit_stage(&recipe, &mut skeleton, &mut report)?;
+            Ok(Fit { skeleton, sunk, cleared, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.fit),
+            None => kept(&self.cache.fit)?,
+        };
+
+        let bark = match self.stage(Stage::Bark, first, cancel, &mut times, |_| {
+            let mut report = fit.report.clone();
+            let fitted = match &fit.cleared {
+                Some(f) => f.clone(),
+                None => pipeline::mesh_fitted(&recipe, &fit.skeleton, &mut report)?,
+            };
+            let bark = pipeline::bark_stage(&recipe, fitted, &fit.sunk, &mut report)?;
+            Ok(Bark { bark, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.bark),
+            None => kept(&self.cache.bark)?,
+        };
+
+        let (generate_ref, fit_ref, recipe_ref) = (&generate, &fit, &recipe);
+        let assemble = match self.stage(Stage::Assemble, first, cancel, &mut times, move |_| {
+            let mut report = bark.report.clone();
+            let mesh = take(bark, |b| b.bark, |b| b.bark.clone());
+            let (model, card_nodes) = pipeline::assemble_stage(
+                recipe_ref,
+                mesh,
+                &fit_ref.skeleton,
+                &generate_ref.generated.surfaces,
+                &mut report,
+            );
+            Ok(Assemble { model, card_nodes, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.assemble),
+            None => kept(&self.cache.assemble)?,
+        };
+
+        let dress = match self.stage(Stage::Dress, first, cancel, &mut times, move |me| {
+            let mut report = assemble.report.clone();
+            let card_nodes = assemble.card_nodes.clone();
+            let mut model = take(assemble, |a| a.model, |a| a.model.clone());
+            pipeline::dress_stage(recipe_ref, &mut model, &card_nodes, &mut me.textures, &mut report)?;
+            Ok(Dress { model, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.dress),
+            None => kept(&self.cache.dress)?,
+        };
+
+        let lod = match self.stage(Stage::Lod, first, cancel, &mut times, move |me| {
+            let mut report = dress.report.clone();
+            let mut skeleton = fit_ref.skeleton.clone();
+            crate::mesh::ground::restore_roots(&mut skeleton, &fit_ref.sunk);
+            let mut model = take(dress, |d| d.model, |d| d.model.clone());
+            model.curves =
+                generate_ref.generated.curves.clone().unwrap_or_else(|| BranchCurves::fit(&skeleton));
+            let loaded = Loaded { recipe: recipe_ref.clone(), origin: me.loaded.origin.clone() };
+            pipeline::lod_stage(
+                &loaded,
+                &skeleton,
+                &generate_ref.generated.surfaces,
+                &mut model,
+                &mut report,
+            )?;
+            Ok(Lod { skeleton, model, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.lod),
+            None => kept(&self.cache.lod)?,
+        };
+
+        let mut tree = self
+            .stage(Stage::Wind, first, cancel, &mut times, move |_| {
+                let mut report = lod.report.clone();
+                let (skeleton, mut model) =
+                    take(lod, |l| (l.skeleton, l.model), |l| (l.skeleton.clone(), l.model.clone()));
+                pipeline::wind_stage(recipe_ref, &mut model, &mut report);
+                model.provenance = pipeline::provenance(recipe_ref);
+                Ok(Grown { skeleton, model, report })
+            })?
+            .expect("the last stage always runs");
+        tree.report.stage_times = times.into_iter().map(|(s, t)| (s.name(), t)).collect();
+        Ok(tree)
+    }
+
+    /// Keeps `value` in its slot when the session keeps stages; returns it shared.
+    fn keep<T>(&mut self, value: T, slot: impl FnOnce(&mut Cache) -> &mut Option<Kept<T>>) -> Arc<T> {
+        let value = Arc::new(value);
+        if self.retain {
+            *slot(&mut self.cache) = Some(Kept { recipe: self.loaded.recipe.clone(), value: value.clone() });
+        }
+        value
+    }
+}
+
+/// A kept stage result (a stage after the first to rerun always has one).
+fn kept<T>(slot: &Option<Kept<T>>) -> Result<Arc<T>> {
+    slot.as_ref()
+        .map(|k| k.value.clone())
+        .ok_or_else(|| Error::Recipe("internal: a session stage lost its result".into()))
+}
+
+/// The part of a stage result the next stage consumes: moved out when nothing else holds
+/// the result (a session that keeps no stages), else cloned.
+fn take<T, U>(value: Arc<T>, into: impl FnOnce(T) -> U, clone: impl FnOnce(&T) -> U) -> U {
+    match Arc::try_unwrap(value) {
+        Ok(v) => into(v),
+        Err(shared) => clone(&shared),
+    }
+}
