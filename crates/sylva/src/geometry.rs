@@ -10,6 +10,10 @@
 
 use glam::{Vec2, Vec3};
 
+/// "No element": the index every stage uses for a missing vertex, face, node or edge
+/// (`u32::MAX`, never a valid index of a mesh with `u32` indices).
+pub const NONE: u32 = u32::MAX;
+
 /// The point at parameter `t` in \[0, 1\] of the cubic Bézier curve with control points
 /// `p` (Bernstein form). Weber–Penn's stems and the model's branch curves both use it.
 pub fn cubic_bezier(p: &[Vec3; 4], t: f32) -> Vec3 {

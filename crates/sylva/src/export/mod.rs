@@ -495,7 +495,7 @@ fn validate_io(model: &Model) -> std::io::Result<()> {
 }
 
 /// Marks a missing face-varying index in a [`VertexKey`].
-pub const NONE: u32 = u32::MAX;
+pub use crate::geometry::NONE;
 
 /// What makes an output vertex: a position index and the corner's UV and normal
 /// indices ([`NONE`] when the mesh lacks that channel).

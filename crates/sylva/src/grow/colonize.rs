@@ -729,7 +729,7 @@ pub fn grow_with(
     Ok(ColonizeTree { skeleton, remaining, report })
 }
 
-const NONE: u32 = u32::MAX;
+use crate::geometry::NONE;
 /// The k-d tree is rebuilt from the live points when more than 1/REBUILD of its points are dead.
 const REBUILD: usize = 4;
 

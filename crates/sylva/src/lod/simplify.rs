@@ -97,7 +97,7 @@ pub fn simplify(mesh: &Mesh, target: usize, what: &str) -> Result<(Mesh, Method)
 /// The triangle mesh of `indices` over vertices `keys` of `mesh`, with positions, UVs
 /// and normals numbered in order of first use (meshoptimizer's vertex-fetch order).
 fn rebuild(mesh: &Mesh, keys: &[[u32; 3]], indices: &[u32]) -> Mesh {
-    const NONE: u32 = u32::MAX;
+    use crate::geometry::NONE;
     let mut out = Mesh::new();
     let mut map = [vec![NONE; mesh.positions.len()], Vec::new(), Vec::new()];
     let mut uvs = mesh.uvs.as_ref().map(|c| {

@@ -120,7 +120,7 @@ fn bracket_partners(
     open: Option<u16>,
     close: Option<u16>,
 ) -> Result<Vec<u32>, OutOfMemory> {
-    const NONE: u32 = u32::MAX;
+    use crate::geometry::NONE;
     let mut out = Vec::new();
     try_room(&mut out, m.len(), m.len())?;
     out.resize(m.len(), NONE);

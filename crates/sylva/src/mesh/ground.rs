@@ -121,8 +121,8 @@ fn edge_key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-/// No face (as a [`Face`]'s parent).
-const NONE: u32 = u32::MAX;
+// No face (as a [`Face`]'s parent).
+use crate::geometry::NONE;
 
 /// One face of [`Cutter`]'s arena: an original face, a piece a cut left of one, or a fan
 /// triangle of a filled cut.

@@ -68,13 +68,12 @@
 //! Deterministic; bad options or a bad skeleton give an error, never a panic or NaN.
 
 use crate::error::{Error, Result};
+use crate::geometry::NONE;
 use crate::geometry::{Crease, FaceVarying, Mesh};
 use crate::mesh::sweep::{collapse_short, guarded_offsets, perpendicular, unit_or, Collapsed};
 use crate::refine::Corner;
 use crate::skeleton::Skeleton;
 use glam::{DVec3, Vec2, Vec3};
-
-const NONE: u32 = u32::MAX;
 
 /// How the leaf mesher maps texture coordinates (MacMurchy2004-spec §2.12, Leaf tab "Use Cutout
 /// Texture Mapping").

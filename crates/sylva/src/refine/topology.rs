@@ -18,7 +18,7 @@
 use super::RefineError;
 
 /// "No element": the missing second face of a boundary edge.
-pub const NONE: u32 = u32::MAX;
+pub use crate::geometry::NONE;
 
 /// How much adjacency a refined level needs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
