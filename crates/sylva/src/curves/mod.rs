@@ -4,7 +4,7 @@
 //!
 //! ```text
 //!  preset (TOML, kind = "curves") ─► Composition ─► layers ─► Drawing ─► Picture ─► .svg / .png
-//!   load_preset (+ --set)            compose.rs     magnetic.rs (trace, branching)   render.rs
+//!   load_preset (+ --set)            compose/       magnetic.rs (trace, branching)   render.rs
 //!                                                   fill.rs (occupancy, ladder)      svg.rs
 //!                                                   noise.rs (Perlin fields)
 //!                                                   space.rs (3D, sphere) ─► Skeleton ─► tube mesh ─► .glb …
