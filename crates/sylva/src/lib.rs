@@ -27,7 +27,6 @@
 
 #![warn(missing_docs)]
 
-pub mod animation;
 pub mod cancel;
 pub mod curves;
 pub mod deform;
@@ -55,6 +54,7 @@ pub mod tolerance;
 pub mod wind;
 
 pub use error::{Error, Result};
+pub use preview::animation;
 pub use geometry::Mesh;
 pub use model::{Material, Model, Part};
 pub use pipeline::session;
