@@ -1,6 +1,6 @@
 // The GPU branch deformer (Skjermo2008 D §2–§3.5 as Skjermo2008-spec §3 corrects it; issue 25 item
 // 1): a line-for-line port of the engine's CPU reference `sylva::deform`
-// (crates/sylva/src/deform.rs), in the same f32 operations and order. `deform_at` turns
+// (crates/sylva/src/mesh/deform/), in the same f32 operations and order. `deform_at` turns
 // a grid sample (v, θ) of one branch record into the surface point and its outward unit
 // normal; the compute entry point below the marker writes it for a list of samples (the
 // property 19 test), and `branches.wgsl`'s vertex shader calls the same function for

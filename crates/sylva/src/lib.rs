@@ -29,7 +29,6 @@
 
 pub mod cancel;
 pub mod curves;
-pub mod deform;
 pub mod diagnostic;
 pub mod error;
 pub mod export;
@@ -56,6 +55,7 @@ pub mod wind;
 pub use error::{Error, Result};
 pub use preview::animation;
 pub use geometry::Mesh;
+pub use mesh::deform;
 pub use model::{Material, Model, Part};
 pub use pipeline::session;
 pub use skeleton::{Skeleton, NO_PARENT};

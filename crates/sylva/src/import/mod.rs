@@ -22,6 +22,7 @@
 pub mod cpfg_str;
 pub mod gltf_read;
 pub mod lst;
+pub mod obj;
 pub mod skel_json;
 
 use crate::error::{Error, Result};

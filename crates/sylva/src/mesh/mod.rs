@@ -6,15 +6,18 @@
 
 pub mod cards;
 pub mod check;
+pub mod deform;
 pub mod ground;
 pub mod hull;
 pub mod leaf;
 pub mod memory;
-pub mod obj_read;
 pub mod organs;
 pub mod quad;
 pub mod sweep;
 pub mod tube;
+
+/// The OBJ reader, now [`crate::import::obj`]; this path keeps working.
+pub use crate::import::obj as obj_read;
 
 use crate::error::Result;
 use crate::geometry::Mesh;
@@ -32,11 +35,11 @@ use crate::skeleton::Skeleton;
 pub enum Mesher {
     /// Generalized cylinders, one per axis (`mesh/tube.rs`).
     Tube(tube::TubeOptions),
-    /// Pieterse2012's convex-hull joints (`mesh/hull.rs`).
+    /// Pieterse2012's convex-hull joints (`mesh/hull/`).
     Hull(hull::HullOptions),
-    /// MacMurchy2004's hexagonal sections and junction templates (`mesh/sweep.rs`).
+    /// MacMurchy2004's hexagonal sections and junction templates (`mesh/sweep/`).
     Sweep(sweep::SweepOptions),
-    /// Skjermo2008's SMART quad junction boxes (`mesh/quad.rs`).
+    /// Skjermo2008's SMART quad junction boxes (`mesh/quad/`).
     Quad(quad::QuadOptions),
     /// MacMurchy2004's leaf mode (`/L`): open, midrib-creased leaf surfaces (`mesh/leaf.rs`).
     Leaf(leaf::LeafOptions),
