@@ -3,7 +3,7 @@
 //!
 //! ```text
 //!  volume ─► Poisson nodes ─► Yao-k graph ─► weights ─► Dijkstra ─► endpoints ─► path union
-//!            (graph.rs)        (graph.rs)     (paths.rs)  (paths.rs)  (mig.rs / mgv.rs)
+//!          (graph/sample.rs)  (graph/yao.rs)  (paths.rs)  (paths.rs)  (mig.rs / mgv.rs)
 //!  path union ─► thickness w = c·s^ζ or pipe model ─► smoothing ─► Skeleton (parent-first)
 //! ```
 //!
