@@ -37,7 +37,7 @@ pub struct Layers {
 
 /// The screen axes (right, up) of a view from `toward` (a unit vector from the scene
 /// toward the viewer): right is horizontal, up is as close to +Y as right allows; a view
-/// straight down (or up) takes +X as right. The same frame as [`render`]'s camera.
+/// straight down (or up) takes +X as right. The same frame as [`render`](super::render)'s camera.
 pub fn view_basis(toward: Vec3) -> (Vec3, Vec3) {
     let fwd = -toward;
     let right = fwd.cross(Vec3::Y).normalize_or(Vec3::X);
@@ -47,11 +47,11 @@ pub fn view_basis(toward: Vec3) -> (Vec3, Vec3) {
 /// Renders `parts` (their colour maps from `images`, indexed by
 /// [`crate::model::MaterialMaps`]) orthographically from each of `views` into
 /// `size × size` [`Layers`], with `supersample²` samples per pixel. Coverage follows
-/// [`render`]'s rules (top-left fill, triangles thinner than a sample drawn as
+/// [`render`](super::render)'s rules (top-left fill, triangles thinner than a sample drawn as
 /// hairlines, the alpha cut of colour-mapped materials), except that the back faces of
 /// single-sided materials are culled as a glTF viewer culls them; there is no lighting. Views are
 /// drawn in parallel; the result is deterministic. Instanced organs must be flattened
-/// by the caller ([`Model::flattened`]).
+/// by the caller ([`Model::flattened`](crate::model::Model::flattened)).
 ///
 /// Errors: [`Error::InvalidGeometry`] for a size outside `1..=8192`, `supersample`
 /// outside `1..=4`, a view with a non-finite centre, a direction that is not a unit

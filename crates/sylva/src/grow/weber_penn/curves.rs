@@ -23,7 +23,7 @@ impl BezierSegment {
 }
 
 /// The tree's stems as the model's branch curves: each stem record's own Bézier chain,
-/// with radii from [`Stem::radius_at`] at the knots (distance along the stem measured by
+/// with radii from [`Stem::radius_at`](super::Stem::radius_at) at the knots (distance along the stem measured by
 /// the chords between knots, from the record's start). The parent of a record is its
 /// `parent_stem`.
 pub fn branch_curves(tree: &WeberPennTree) -> BranchCurves {

@@ -115,7 +115,7 @@ pub struct WeberPennReport {
 /// A grown Weber–Penn tree.
 #[derive(Debug, Clone)]
 pub struct WeberPennTree {
-    /// The skeleton, with leaves as [`OrganKind::Polygon`] organs.
+    /// The skeleton, with leaves as [`OrganKind::Polygon`](crate::skeleton::OrganKind::Polygon) organs.
     pub skeleton: Skeleton,
     /// Every stem record in creation order (parents before children, originals before
     /// their clones).

@@ -42,7 +42,7 @@ pub const NORMAL_SQ: f32 = 1e-10;
 pub const LN_100: f32 = 4.605_170_2;
 /// The Weber–Penn flare is exactly 1 from `v = FLARE_END` on (`y = max(0, 1 − 8v)`).
 pub const FLARE_END: f32 = 0.125;
-/// [`BranchRecord::axis`] of a record that did not come from [`BranchCurves`].
+/// [`BranchRecord::axis`] of a record that did not come from [`BranchCurves`](crate::model::BranchCurves).
 pub const NO_AXIS: u32 = u32::MAX;
 /// The default LOD grids as (rings, sides), finest first: each coarser level's (v, θ)
 /// samples are a subset of the finer ones', so shared samples deform to the same point.

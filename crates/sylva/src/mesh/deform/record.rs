@@ -60,7 +60,7 @@ pub struct BranchRecord {
     /// Flare f ≥ 0 (seed examples 0, 0.1, 0.33).
     pub flare: f32,
     /// Unit direction O of the parent at the branching point (D §2.4); zero or parallel to
-    /// P₁ − P₀ takes [`fallback_axis`].
+    /// P₁ − P₀ takes [`fallback_axis`](super::fallback_axis).
     pub parent_dir: Vec3,
     /// Which flare formula.
     pub flare_mode: FlareMode,
@@ -77,7 +77,7 @@ pub struct BranchRecord {
     pub lobe_fade: f32,
     /// Branch order (0 for a trunk), for per-level materials; the deformer ignores it.
     pub order: u32,
-    /// Index of the axis in [`BranchCurves::axes`], or [`NO_AXIS`].
+    /// Index of the axis in [`BranchCurves::axes`](crate::model::BranchCurves::axes), or [`NO_AXIS`].
     pub axis: u32,
     /// Index of the segment on its axis.
     pub segment: u32,
