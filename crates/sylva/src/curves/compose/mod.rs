@@ -2,30 +2,12 @@
 //! its layers, and the builders that turn each layer into curves of a [`Drawing`]
 //! (Xu2015 §7.2–§7.3: Figs. 7.1–7.7, 7.9, 7.10, 7.13, 7.14; Xu2015-spec §3.7).
 //!
-//! A composition is a canvas (y up, drawing units ≈ pixels), a default [`StyleSpec`] and
-//! a list of layers drawn in order:
-//!
-//! | `type` | what it draws | seed |
-//! |---|---|---|
-//! | `particles` | listed particles, each optionally branching (children at equal intervals) | Figs. 7.1, 7.2, 7.9 |
-//! | `grid` | one spiral per `(T, α)` cell, centred in its cell | Fig. 7.3 |
-//! | `fill` | space filling with an occupancy grid and the `(T, α)` ladder | Figs. 7.4–7.7 |
-//! | `hair` | strands released along a drawn hairline | Figs. 7.10, 7.12 |
-//! | `fire` | chained particles cut where `v_x` changes sign (flame tips) | Fig. 7.13 |
-//! | `meander` | one particle bouncing in a region, a new colour per re-entry | Fig. 7.14 |
-//! | `lines` | drawn polylines (a face, a window frame) | — |
-//! | `space` | 3D magnetic curves (a vector field **B**), drawn in projection | §8.1 |
-//! | `sphere` | curves traced on a sphere's surface (B normal to it, from 3D noise) | §8.1 |
-//!
-//! Every layer may set `style` (merged over the composition's), `field` (uniform or
-//! Perlin) and `mirror = true` (append the reflection about the canvas's vertical
-//! centre line: the window frames). Unknown keys are errors naming the key.
-//!
-//! Thickness: a curve's width tapers linearly from `width · child_width^depth` to
-//! `taper` times that; a branch starts at its parent's width at the release point and
-//! blends to its own width over `join` widths with a smoothstep, so branches join
-//! their parents without a step (§8.1 future work: "thickness as it relates to
-//! branching").
+//! A composition is a canvas (y up, drawing units ≈ pixels), a default style and a list
+//! of layers drawn in order (`particles`, `grid`, `fill`, `hair`, `fire`, `meander`,
+//! `lines`, `space`, `sphere`): `spec.rs` reads them (unknown keys are errors naming the
+//! key), `layers.rs` builds each, `style.rs` gives the curves their tapered widths and
+//! colours. `docs/curves.md` ("Layers", "Rendering") has every key and the width rule at
+//! branchings (§8.1 future work).
 
 use crate::error::{Error, Result};
 use glam::DVec2;
