@@ -184,3 +184,28 @@ fn item6_sweep_on_near_coincident_nodes_ends() {
     );
     ends_well("sweep, near-coincident", r, &["degenerate geometry", "budget"]);
 }
+
+/// The acceptance campaign's slowest runs (stop 39): 528 nodes of radius 1e30 spaced
+/// 1.9e27 apart along a line with a few side branches, grown with the sweep mesher and
+/// the clearing: every capsule holds 500 internodes, 117,010 overlapping pairs, and the
+/// de-collision took 11.7 s resolving them (the crowded floor was 10⁶ pairs). Now the
+/// pile is refused before the searches, naming the radii and the way out.
+#[test]
+fn huge_radii_over_a_long_line_are_refused_as_crowded() {
+    let n = 528;
+    let nodes: Vec<([f64; 3], f64, Option<usize>)> = (0..n)
+        .map(|i| {
+            let parent = (i > 0).then(|| if i % 10 == 0 { i / 2 } else { i - 1 });
+            ([0.0, i as f64 * 1e30 / n as f64, (i % 10 == 0) as u8 as f64 * 1e27], 1e30, parent)
+        })
+        .collect();
+    let text = hostile::skel_json(&nodes);
+    let r = grow_file("huge.skel.json", &text, &["mesh.method=\"sweep\"", "mesh.clear=true"]);
+    let e = match r {
+        Ok(_) => panic!("a pile of 1e30 capsules grew"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("degenerate geometry") && e.contains("overlap in more than"), "{e}");
+    // The tube mesher does not search: the same skeleton meshes.
+    ends_well("huge, tube", grow_file("huge.skel.json", &text, &["mesh.method=\"tube\""]), &[]);
+}

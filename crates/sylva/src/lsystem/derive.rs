@@ -386,6 +386,11 @@ impl LSystem {
             queries(&mut cur, &mut ev)?;
             let mut next = ModuleString::new();
             for step in 1..=opts.steps {
+                // A cancelled session ([`crate::cancel`]) stops between steps; it drops the
+                // partial string.
+                if crate::cancel::cancelled() {
+                    break;
+                }
                 ev.charge(STEP_WORK, 0)
                     .map_err(|e| self.eval_error(e, &format!("starting step {step}"), None))?;
                 self.run_block(&self.start_each, &mut ev, "the StartEach: block")?;
