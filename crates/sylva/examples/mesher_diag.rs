@@ -145,7 +145,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The mesher's options as the pipeline builds them from `[mesh]` and `[mesh.<method>]`.
     let (mut hull_opts, mut sweep_opts, mut quad_opts) =
         (HullOptions::default(), SweepOptions::default(), QuadOptions::default());
-    match recipe.mesh.mesher()? {
+    match recipe.mesh.mesher() {
         Mesher::Hull(o) => hull_opts = o,
         Mesher::Sweep(o) => sweep_opts = o,
         Mesher::Quad(o) => quad_opts = o,

@@ -5,8 +5,24 @@
 //! Unknown keys are errors that name the key with its full path: the recipe is
 //! deserialized, serialized back, and any input key missing from the round trip is
 //! reported.
+//!
+//! Every mode is a type ([`modes`]): `mesh.method` is a [`MeshMethod`], `output.textures`
+//! an [`crate::export::TextureMode`], and so on, written as the same names. A recipe is
+//! made by [`Recipe::preset`], [`Recipe::from_toml`], [`Recipe::from_file`],
+//! [`Recipe::default`], the typed `with_*` builders and [`Recipe::set`] (the CLI's
+//! `--set`), all through [`Recipe::check`] ([`build`]); [`Loaded`] adds where its files
+//! come from, a model folder, the embedded presets or memory
+//! ([`Loaded::from_lsystem_source`]).
+
+pub mod build;
+pub mod modes;
+
+pub use modes::{
+    LeafMode, LeafNormals, MeshBase, MeshMethod, RefineBoundary, RefineScheme, ViewFiles, WindPreset,
+};
 
 use crate::error::{Error, Result};
+use crate::export::{Compression, InstancingFallback, LodLayout, TextureMode};
 use crate::fit::clear::ClearOptions;
 use crate::fit::decollide::DecollideOptions;
 use crate::mesh::hull::HullOptions;
@@ -91,7 +107,7 @@ impl InputSection {
 #[serde(default, deny_unknown_fields)]
 pub struct WindSection {
     /// `none` (no wind data), `calm`, `breeze` or `storm`.
-    pub preset: String,
+    pub preset: WindPreset,
     /// Multiplier of the preset's mean wind, `0..=100`.
     pub strength: f64,
     /// Direction the wind blows toward, degrees about +y (0 = +x, 90 = +z).
@@ -118,7 +134,7 @@ pub struct WindSection {
 impl Default for WindSection {
     fn default() -> Self {
         WindSection {
-            preset: "none".into(),
+            preset: WindPreset::None,
             strength: 1.0,
             direction: 0.0,
             gustiness: 1.0,
@@ -141,15 +157,12 @@ impl WindSection {
 
     /// Whether the model gets a rig, clip and wind channels.
     pub fn enabled(&self) -> bool {
-        self.preset != "none"
+        self.preset != WindPreset::None
     }
 
     /// Checks the keys; errors name them.
     pub fn check(&self) -> Result<()> {
         let bad = |k: &str, why: String| Err(Error::Recipe(format!("`wind.{k}` {why}")));
-        if !["none", "calm", "breeze", "storm"].contains(&self.preset.as_str()) {
-            return bad("preset", format!("is `{}`; use none, calm, breeze or storm", self.preset));
-        }
         for (k, v) in
             [("strength", self.strength), ("gustiness", self.gustiness), ("turbulence", self.turbulence)]
         {
@@ -183,7 +196,7 @@ impl WindSection {
 
     /// The wind module's options this table gives (`None` for `preset = "none"`).
     pub fn options(&self) -> Option<crate::wind::WindOptions> {
-        let mut w = crate::wind::WindOptions::preset(&self.preset)?;
+        let mut w = self.preset.options()?;
         let preset_dir = w.mean.try_normalize().map_or(0.0, |d| d.y.atan2(d.x).to_degrees());
         let turn = glam::DMat2::from_angle((self.direction - preset_dir).to_radians());
         w.mean = turn * w.mean * self.strength;
@@ -268,11 +281,13 @@ pub const LOD_BUDGETS: std::ops::RangeInclusive<u32> = 12..=10_000_000;
 #[serde(default, deny_unknown_fields)]
 pub struct LeavesSection {
     /// `cards` (a textured, alpha-cut quad per leaf, from the leaf atlas; the default for
-    /// games) or `geometry` (the leaf polygons as the generator drew them).
-    pub mode: String,
-    /// The atlas shape the cards show: `auto` (ovate, or the preset's), `ovate`,
+    /// games), `instanced` (the cards as one shape and an instance per card) or
+    /// `geometry` (the leaf polygons as the generator drew them).
+    pub mode: LeafMode,
+    /// The atlas shape the cards show: `auto` (`None`: ovate, or the preset's), `ovate`,
     /// `lanceolate`, `lobed`, `compound`, `needles` or `cluster`.
-    pub shape: String,
+    #[serde(with = "crate::texture::auto")]
+    pub shape: Option<crate::texture::leaf::LeafShape>,
     /// Alpha cut-off of the cards (glTF `alphaCutoff`), in (0, 1).
     pub alpha_cutoff: f32,
     /// Leaves per card, `0..=64`: 1 is a card per leaf, more groups the leaves of a twig
@@ -282,12 +297,13 @@ pub struct LeavesSection {
     pub per_card: u32,
     /// Leaf normals: `flat` (each leaf's own) or `crown` (bent toward the crown's outward
     /// direction for soft canopy shading, [`crate::mesh::cards::bend_toward_crown`]).
-    pub normals: String,
+    pub normals: LeafNormals,
     /// Add leaves to the skeleton ([`crate::fit::leaves`], McLoughlin2021 §4.2): `level` (on
     /// every internode of level ≥ `start_level`) or `terminal` (Bloomenthal's
-    /// configurations on terminal apices). Unset: only the generator's own leaves.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub place: Option<String>,
+    /// configurations on terminal apices). Unset (or `none`): only the generator's own
+    /// leaves.
+    #[serde(skip_serializing_if = "Option::is_none", deserialize_with = "place_or_none")]
+    pub place: Option<crate::fit::leaves::Placement>,
     /// Lowest branch level that gets leaves with `place = "level"` (unset: the two
     /// highest levels).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -311,18 +327,31 @@ impl LeavesSection {
         if let Some(size) = self.size.filter(|s| !(s.is_finite() && *s >= 0.0)) {
             return Err(Error::Recipe(format!("`leaves.size` must be a finite length ≥ 0, got {size}")));
         }
-        let placement = match self.place.as_deref() {
-            None | Some("none") => return Ok(None),
-            Some("level") => Placement::Level,
-            Some("terminal") => Placement::Terminal,
-            Some(p) => {
-                return Err(Error::Recipe(format!("`leaves.place` is `{p}`; use none, level or terminal")))
-            }
-        };
+        let Some(placement) = self.place else { return Ok(None) };
         let per_node = self.per_node.unwrap_or(if placement == Placement::Level { 2 } else { 5 });
         let size = self.size.unwrap_or(0.0);
         Ok(Some(LeafPlacement { placement, start_level: self.start_level, per_node, size, seed }))
     }
+}
+
+/// `leaves.place`: `none` (or no key) is `None`, `level` and `terminal` the placements.
+fn place_or_none<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<crate::fit::leaves::Placement>, D::Error> {
+    use crate::fit::leaves::Placement;
+    /// The names `leaves.place` takes.
+    #[derive(Deserialize)]
+    #[serde(rename_all = "lowercase")]
+    enum Place {
+        None,
+        Level,
+        Terminal,
+    }
+    Ok(match Place::deserialize(d)? {
+        Place::None => None,
+        Place::Level => Some(Placement::Level),
+        Place::Terminal => Some(Placement::Terminal),
+    })
 }
 
 /// Above this many card leaves `leaves.per_card = 0` groups leaves onto twig cards.
@@ -331,11 +360,11 @@ pub const AUTO_CLUSTER_LEAVES: usize = 4000;
 impl Default for LeavesSection {
     fn default() -> Self {
         LeavesSection {
-            mode: "cards".into(),
-            shape: "auto".into(),
+            mode: LeafMode::Cards,
+            shape: None,
             alpha_cutoff: 0.5,
             per_card: 0,
-            normals: "flat".into(),
+            normals: LeafNormals::Flat,
             place: None,
             start_level: None,
             per_node: None,
@@ -347,27 +376,11 @@ impl Default for LeavesSection {
 impl LeavesSection {
     /// Checks the keys; errors name them.
     pub fn check(&self) -> Result<()> {
-        if !["cards", "instanced", "geometry"].contains(&self.mode.as_str()) {
-            return Err(Error::Recipe(format!(
-                "`leaves.mode` is `{}`; use cards, instanced or geometry",
-                self.mode
-            )));
-        }
-        if self.shape != "auto" && crate::texture::leaf::LeafShape::from_name(&self.shape).is_none() {
-            return Err(Error::Recipe(format!(
-                "`leaves.shape` is `{}`; use auto, {}",
-                self.shape,
-                crate::texture::leaf::LeafShape::NAMES.join(", ")
-            )));
-        }
         if !(self.alpha_cutoff > 0.0 && self.alpha_cutoff < 1.0) {
             return Err(Error::Recipe(format!(
                 "`leaves.alpha_cutoff` must be in (0, 1), got {}",
                 self.alpha_cutoff
             )));
-        }
-        if !["flat", "crown"].contains(&self.normals.as_str()) {
-            return Err(Error::Recipe(format!("`leaves.normals` is `{}`; use flat or crown", self.normals)));
         }
         if self.per_card > 64 {
             return Err(Error::Recipe(format!("`leaves.per_card` must be in 0..=64, got {}", self.per_card)));
@@ -399,8 +412,7 @@ impl LeavesSection {
 
     /// The shape the cards show (`auto` is ovate).
     pub fn leaf_shape(&self) -> crate::texture::leaf::LeafShape {
-        crate::texture::leaf::LeafShape::from_name(&self.shape)
-            .unwrap_or(crate::texture::leaf::LeafShape::Ovate)
+        self.shape.unwrap_or(crate::texture::leaf::LeafShape::Ovate)
     }
 }
 
@@ -431,8 +443,8 @@ pub struct ImportGenerator {
     /// The `.lst`, `.str` or `.json` file, relative to the recipe.
     pub file: String,
     /// LST gaps between a cylinder and the current node: `bridge`, `strict` or `new-root`.
-    #[serde(default = "default_gap")]
-    pub gap: String,
+    #[serde(default)]
+    pub gap: crate::import::lst::GapPolicy,
     /// Turtle angle for `.str` files, degrees.
     #[serde(default = "default_angle")]
     pub angle: f64,
@@ -456,10 +468,6 @@ fn default_max_nodes() -> usize {
 /// metadata, so files keep their old form).
 fn is_default_max_nodes(n: &usize) -> bool {
     *n == crate::skeleton::DEFAULT_MAX_NODES
-}
-
-fn default_gap() -> String {
-    "bridge".into()
 }
 
 /// `generator.type = "lsystem"`.
@@ -494,8 +502,8 @@ pub struct LsystemGenerator {
     pub define: BTreeMap<String, toml::Value>,
     /// cpfg model folder files (view `.v`, functions, surfaces): `auto` reads them from
     /// the L-system's folder (files on disk only), `none` ignores them.
-    #[serde(default = "default_view")]
-    pub view: String,
+    #[serde(default)]
+    pub view: ViewFiles,
     /// The environmental program that answers the model's `?E` modules
     /// (`[generator.environment]`); without it, the model folder's `.e` file names it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -539,10 +547,6 @@ pub struct EnvironmentConfig {
     pub obstacles: Option<String>,
 }
 
-fn default_view() -> String {
-    "auto".into()
-}
-
 fn default_angle() -> f64 {
     45.0
 }
@@ -562,20 +566,21 @@ fn default_budget() -> usize {
 /// `[mesh]`: how the skeleton becomes a surface.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MeshSection {
-    /// Mesher: `tube` (generalized cylinders).
-    #[serde(default = "default_method")]
-    pub method: String,
+    /// Mesher: `tube` (generalized cylinders, the default), `hull`, `sweep`, `quad` or
+    /// `leaf`.
+    #[serde(default)]
+    pub method: MeshMethod,
     /// Vertices per ring.
     #[serde(default = "default_sides")]
     pub sides: u32,
     /// Branch ends: `round`, `flat` or `open`.
-    #[serde(default = "default_tips")]
-    pub tips: String,
+    #[serde(default)]
+    pub tips: TipStyle,
     /// The trunk's base: `flat` (cut at the root's height and closed flat, so the tree
     /// stands on flat ground with every mesher; [`crate::mesh::ground`]) or `round` (each
     /// mesher's own end).
-    #[serde(default = "default_base")]
-    pub base: String,
+    #[serde(default)]
+    pub base: MeshBase,
     /// Pull apart branches that pass through each other before meshing
     /// ([`crate::fit::decollide`]). Unset: on for the joint meshers (`hull`, `sweep`,
     /// `quad`) on skeletons of up to [`DECOLLIDE_AUTO_NODES`] nodes, off for `tube`
@@ -631,35 +636,30 @@ fn is_default_mesh_max_memory(n: &u64) -> bool {
 
 impl MeshSection {
     /// The mesher `method` names, with its `[mesh.<method>]` options and the shared
-    /// `sides` and `tips` applied. Errors: an unknown method.
-    pub fn mesher(&self) -> Result<Mesher> {
-        let open = self.tips == "open";
-        Ok(match self.method.as_str() {
-            "tube" => Mesher::Tube(TubeOptions {
-                sides: self.sides,
-                tips: match self.tips.as_str() {
-                    "flat" => TipStyle::Flat,
-                    "open" => TipStyle::Open,
-                    _ => TipStyle::Round,
-                },
-                ..self.tube.clone()
-            }),
-            "hull" => Mesher::Hull(HullOptions { sides: self.sides, caps: !open, ..self.hull.clone() }),
+    /// `sides` and `tips` applied.
+    pub fn mesher(&self) -> Mesher {
+        self.mesher_for(self.method)
+    }
+
+    /// [`MeshSection::mesher`] for `method` instead of `self.method`.
+    pub fn mesher_for(&self, method: MeshMethod) -> Mesher {
+        let open = self.tips == TipStyle::Open;
+        match method {
+            MeshMethod::Tube => {
+                Mesher::Tube(TubeOptions { sides: self.sides, tips: self.tips, ..self.tube.clone() })
+            }
+            MeshMethod::Hull => {
+                Mesher::Hull(HullOptions { sides: self.sides, caps: !open, ..self.hull.clone() })
+            }
             // `mesh.tips = "flat"` is the seed's Cap Front off: pruned, creased flat tips.
-            "sweep" => Mesher::Sweep(SweepOptions {
+            MeshMethod::Sweep => Mesher::Sweep(SweepOptions {
                 caps: !open,
-                tips: if self.tips == "flat" { SweepTips::Pruned } else { SweepTips::Cone },
+                tips: if self.tips == TipStyle::Flat { SweepTips::Pruned } else { SweepTips::Cone },
                 ..self.sweep.clone()
             }),
-            "quad" => Mesher::Quad(self.quad.clone()),
-            "leaf" => Mesher::Leaf(self.leaf.clone()),
-            m => {
-                return Err(Error::Recipe(format!(
-                    "`mesh.method` is `{m}`; known methods: {}",
-                    Mesher::NAMES.join(", ")
-                )))
-            }
-        })
+            MeshMethod::Quad => Mesher::Quad(self.quad.clone()),
+            MeshMethod::Leaf => Mesher::Leaf(self.leaf.clone()),
+        }
     }
 
     /// Whether the pipeline de-collides the skeleton: `decollide` when set, else true
@@ -668,7 +668,7 @@ impl MeshSection {
     /// `tube`, whose child tubes start inside their parents by design anyway.
     pub fn decollides(&self) -> bool {
         // A leaf is one open sheet: nothing to pull apart.
-        self.decollide.unwrap_or(!matches!(self.method.as_str(), "tube" | "leaf"))
+        self.decollide.unwrap_or(self.method.joins())
     }
 
     /// Whether the pipeline de-collides a skeleton of `nodes` nodes: as
@@ -686,8 +686,7 @@ impl MeshSection {
     /// nodes: `clear` when set (never for `tube`, whose child tubes start inside their
     /// parents by design), else whenever it de-collides the skeleton.
     pub fn clears_nodes(&self, nodes: usize) -> bool {
-        !matches!(self.method.as_str(), "tube" | "leaf")
-            && self.clear.unwrap_or_else(|| self.decollides_nodes(nodes))
+        self.method.joins() && self.clear.unwrap_or_else(|| self.decollides_nodes(nodes))
     }
 }
 
@@ -695,26 +694,17 @@ impl MeshSection {
 /// trees of 100 k nodes take 15–20 s in the pass on a 2-core machine).
 pub const DECOLLIDE_AUTO_NODES: usize = 50_000;
 
-fn default_method() -> String {
-    "tube".into()
-}
 fn default_sides() -> u32 {
     8
-}
-fn default_tips() -> String {
-    "round".into()
-}
-fn default_base() -> String {
-    "flat".into()
 }
 
 impl Default for MeshSection {
     fn default() -> Self {
         MeshSection {
-            method: default_method(),
+            method: MeshMethod::Tube,
             sides: default_sides(),
-            tips: default_tips(),
-            base: default_base(),
+            tips: TipStyle::Round,
+            base: MeshBase::Flat,
             decollide: None,
             clear: None,
             prune_overlaps: None,
@@ -747,8 +737,8 @@ pub struct FitSection {
 pub struct RefineSection {
     /// `auto` (the mesher's own scheme: Catmull–Clark for `quad`, Loop for the
     /// others), `none`, `loop` (triangle meshes) or `catmull-clark`.
-    #[serde(default = "default_scheme")]
-    pub scheme: String,
+    #[serde(default)]
+    pub scheme: RefineScheme,
     /// Subdivision levels (each multiplies the face count by 4).
     #[serde(default)]
     pub levels: u32,
@@ -760,8 +750,8 @@ pub struct RefineSection {
     /// (every boundary vertex stays put, so the rim stays the control polygon; Pieterse2012-spec
     /// §2.8), `bspline` (the rim refines as a cubic B-spline, `1/8, 3/4, 1/8`, with
     /// single-face corners pinned) or `edge-only` (B-spline, nothing pinned).
-    #[serde(default = "default_boundary", skip_serializing_if = "is_default_boundary")]
-    pub boundary: String,
+    #[serde(default, skip_serializing_if = "is_default_boundary")]
+    pub boundary: RefineBoundary,
     /// Face budget of the subdivision (issue 27): a refinement that would make more
     /// faces is an error naming this key, checked before anything is allocated. Left
     /// out of written metadata at its default ([`DEFAULT_REFINE_MAX_FACES`]).
@@ -804,34 +794,26 @@ fn is_default_refine_max_faces(n: &usize) -> bool {
     *n == DEFAULT_REFINE_MAX_FACES
 }
 
-fn default_scheme() -> String {
-    "auto".into()
-}
-
 /// Whether `o` is the default `[mesh.leaf]` table (left out of written metadata).
 fn is_default_leaf(o: &crate::mesh::leaf::LeafOptions) -> bool {
     *o == crate::mesh::leaf::LeafOptions::default()
 }
 
-fn default_boundary() -> String {
-    "auto".into()
-}
-
 /// Whether `b` is the default `refine.boundary` (left out of written metadata, so the
 /// recipes written before the key existed read back the same).
-fn is_default_boundary(b: &str) -> bool {
-    b == "auto"
+fn is_default_boundary(b: &RefineBoundary) -> bool {
+    *b == RefineBoundary::Auto
 }
 
 impl Default for RefineSection {
     fn default() -> Self {
         RefineSection {
-            scheme: default_scheme(),
+            scheme: RefineScheme::Auto,
             levels: 0,
             limit: false,
             max_faces: DEFAULT_REFINE_MAX_FACES,
             max_memory: default_refine_max_memory(),
-            boundary: default_boundary(),
+            boundary: RefineBoundary::Auto,
         }
     }
 }
@@ -849,23 +831,25 @@ pub struct OutputSection {
     #[serde(default = "default_preview_size")]
     pub preview_size: u32,
     /// Where textures go: `embed` (in the `.glb`/`.gltf`), `files` (PNGs beside the
-    /// model) or `none` (flat colours). OBJ always writes files unless `none`.
-    #[serde(default = "default_textures")]
-    pub textures: String,
+    /// model) or `none` (flat colours). OBJ always writes files unless `none`. (The
+    /// recipe's [`TextureMode::Files`] has an empty prefix: [`OutputSection::export_options`]
+    /// names the files after the model.)
+    #[serde(default)]
+    pub textures: TextureMode,
     /// What glTF readers without `EXT_mesh_gpu_instancing` get where leaves are
     /// instanced: `none` (the instances; such a reader draws one leaf) or `merged` (every
     /// leaf merged into one mesh, no extension).
-    #[serde(default = "default_none", skip_serializing_if = "is_none_name")]
-    pub instancing_fallback: String,
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub instancing_fallback: InstancingFallback,
     /// glTF compression: `none`, `quantize` (`KHR_mesh_quantization`) or `meshopt`
     /// (quantized, then `EXT_meshopt_compression`); both extensions are required.
-    #[serde(default = "default_none", skip_serializing_if = "is_none_name")]
-    pub compress: String,
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub compress: Compression,
     /// glTF levels of detail: `msft` (the coarser levels are nodes outside the scene that
     /// LOD0's `MSFT_lod` names; plain viewers show LOD0) or `scene` (every level a node
     /// of the scene, named `_LOD0 … _LODn` for engines that group by name).
-    #[serde(default = "default_msft", skip_serializing_if = "is_msft")]
-    pub lod_layout: String,
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub lod_layout: LodLayout,
     /// Also write the wind channels packed into `COLOR_0` / `TEXCOORD_1` (docs/wind.md);
     /// readers that apply vertex colours then tint the model.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -873,67 +857,24 @@ pub struct OutputSection {
 }
 
 impl OutputSection {
-    /// The writer's options this table gives for a model written to `path`; an unknown
-    /// value is [`Error::Recipe`] naming the key.
+    /// The writer's options this table gives for a model written to `path` (texture
+    /// files named after the model's stem). Every value is valid by its type, so this
+    /// does not fail today; the `Result` is kept for callers.
     pub fn export_options(&self, path: &std::path::Path) -> Result<crate::export::ExportOptions> {
         Ok(crate::export::ExportOptions {
-            textures: crate::export::TextureMode::for_output(&self.textures, path)?,
-            instancing_fallback: self.instancing_fallback()?,
-            compress: self.compression()?,
-            lod_layout: self.lod_layout()?,
+            textures: self.textures.for_path(path),
+            instancing_fallback: self.instancing_fallback,
+            compress: self.compress,
+            lod_layout: self.lod_layout,
             wind_colors: self.wind_colors,
         })
     }
-
-    /// `lod_layout` parsed; an unknown name is an error naming the key.
-    fn lod_layout(&self) -> Result<crate::export::LodLayout> {
-        use crate::export::LodLayout;
-        match self.lod_layout.as_str() {
-            "msft" => Ok(LodLayout::Msft),
-            "scene" => Ok(LodLayout::Scene),
-            v => Err(Error::Recipe(format!("`output.lod_layout` is `{v}`; use msft or scene"))),
-        }
-    }
-
-    /// `instancing_fallback` parsed; an unknown name is an error naming the key.
-    fn instancing_fallback(&self) -> Result<crate::export::InstancingFallback> {
-        use crate::export::InstancingFallback;
-        let v = &self.instancing_fallback;
-        InstancingFallback::from_name(v).ok_or_else(|| {
-            Error::Recipe(format!("`output.instancing_fallback` is `{v}`; use {}", InstancingFallback::NAMES))
-        })
-    }
-
-    /// `compress` parsed; an unknown name is an error naming the key.
-    fn compression(&self) -> Result<crate::export::Compression> {
-        use crate::export::Compression;
-        let v = &self.compress;
-        Compression::from_name(v)
-            .ok_or_else(|| Error::Recipe(format!("`output.compress` is `{v}`; use {}", Compression::NAMES)))
-    }
 }
 
-fn default_none() -> String {
-    "none".into()
-}
-
-fn default_msft() -> String {
-    "msft".into()
-}
-
-/// Whether `s` is `msft` (`output.lod_layout` at its default).
-fn is_msft(s: &str) -> bool {
-    s == "msft"
-}
-
-/// Whether `s` is `none` (an `[output]` key at its default is left out of the recipe
-/// written to a file's metadata).
-fn is_none_name(s: &str) -> bool {
-    s == "none"
-}
-
-fn default_textures() -> String {
-    "embed".into()
+/// Whether `v` is its type's default (an `[output]` key at its default is left out of
+/// the recipe written to a file's metadata).
+fn is_default<T: Default + PartialEq>(v: &T) -> bool {
+    *v == T::default()
 }
 
 fn default_file() -> String {
@@ -949,10 +890,10 @@ impl Default for OutputSection {
             file: default_file(),
             preview: None,
             preview_size: default_preview_size(),
-            textures: default_textures(),
-            instancing_fallback: default_none(),
-            compress: default_none(),
-            lod_layout: default_msft(),
+            textures: TextureMode::Embed,
+            instancing_fallback: InstancingFallback::None,
+            compress: Compression::None,
+            lod_layout: LodLayout::Msft,
             wind_colors: false,
         }
     }
@@ -965,6 +906,11 @@ pub enum Origin {
     Preset(String),
     /// A file on disk: files resolve relative to this folder.
     Folder(PathBuf),
+    /// Memory: the recipe's files (the L-system, `.str` strings, `#include`d files) by
+    /// the names the recipe gives them ([`Loaded::from_lsystem_source`],
+    /// [`Loaded::with_files`]). Nothing is read from disk; `.lst` and `.json` imports and
+    /// a model folder's view and function files need a [`Origin::Folder`].
+    Memory(BTreeMap<String, String>),
 }
 
 /// A recipe together with its origin.
@@ -977,8 +923,8 @@ pub struct Loaded {
 }
 
 impl Loaded {
-    /// Reads a file the recipe names, from the embedded presets or from disk. Returns
-    /// the display name used in messages and the text.
+    /// Reads a file the recipe names, from the embedded presets, from disk or from
+    /// memory. Returns the display name used in messages and the text.
     pub fn read(&self, file: &str) -> Result<(String, String)> {
         match &self.origin {
             Origin::Preset(name) => match crate::presets::file(file) {
@@ -990,6 +936,18 @@ impl Loaded {
                 let text = crate::input::read_input_to_string(&path, self.recipe.input.max_bytes)?;
                 Ok((path.display().to_string(), text))
             }
+            Origin::Memory(files) => match files.get(file) {
+                Some(text) => Ok((file.to_string(), text.clone())),
+                None => Err(Error::Recipe(format!(
+                    "the recipe names `{}`, which is not among the files given in memory ({})",
+                    crate::diagnostic::quote(file),
+                    files
+                        .keys()
+                        .map(|k| format!("`{}`", crate::diagnostic::quote(k)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))),
+            },
         }
     }
 }
@@ -1067,6 +1025,14 @@ pub fn from_table(mut table: toml::Table, sets: &[(String, toml::Value)]) -> Res
                 if let Some((inner, w)) = table.get("generator").and_then(generator_key_error) {
                     (path, why) = (format!("generator.{inner}"), w);
                 }
+            }
+            // A mode's unknown name: `` `leaves.mode` is `x`; use cards, instanced or geometry ``.
+            if let Some(hint) = modes::variant_hint(&why).filter(|_| path != ".") {
+                if path == "generator" {
+                    path = "generator.type".into(); // the tag names no known generator
+                }
+                let hint = crate::diagnostic::clip_quoted(&hint);
+                return Error::Recipe(format!("`{}` {hint}", crate::diagnostic::quote(&path)));
             }
             let why = type_hint(&crate::diagnostic::clip_quoted(&why));
             if path == "." {
@@ -1284,37 +1250,27 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
 impl Recipe {
     /// The scheme `[refine]` subdivides the bark with: `None` for `scheme = "none"`;
     /// `auto` is the mesher's ([`Mesher::scheme`]).
-    pub fn refine_scheme(&self) -> Result<Option<Scheme>> {
-        Ok(match self.refine.scheme.as_str() {
-            "none" => None,
-            "loop" => Some(Scheme::Loop),
-            "catmull-clark" => Some(Scheme::CatmullClark),
-            "auto" => Some(self.mesh.mesher()?.scheme()),
-            s => {
-                return Err(Error::Recipe(format!(
-                    "`refine.scheme` is `{s}`; use auto, none, loop or catmull-clark"
-                )))
-            }
-        })
+    pub fn refine_scheme(&self) -> Option<Scheme> {
+        match self.refine.scheme {
+            RefineScheme::None => None,
+            RefineScheme::Loop => Some(Scheme::Loop),
+            RefineScheme::CatmullClark => Some(Scheme::CatmullClark),
+            RefineScheme::Auto => Some(self.mesh.mesher().scheme()),
+        }
     }
 
     /// The boundary rule `[refine] boundary` names (`auto`: [`BoundaryInterpolation::Fixed`]
     /// for the hull mesher, Pieterse2012's default, else the B-spline rim).
     ///
     /// [`BoundaryInterpolation::Fixed`]: crate::refine::BoundaryInterpolation::Fixed
-    pub fn refine_boundary(&self) -> Result<crate::refine::BoundaryInterpolation> {
+    pub fn refine_boundary(&self) -> crate::refine::BoundaryInterpolation {
         use crate::refine::BoundaryInterpolation as B;
-        Ok(match self.refine.boundary.as_str() {
-            "auto" if self.mesh.method == "hull" => B::Fixed,
-            "auto" | "bspline" => B::EdgeAndCorner,
-            "fixed" => B::Fixed,
-            "edge-only" => B::EdgeOnly,
-            b => {
-                return Err(Error::Recipe(format!(
-                    "`refine.boundary` is `{b}`; use auto, fixed, bspline or edge-only"
-                )))
-            }
-        })
+        match self.refine.boundary {
+            RefineBoundary::Auto if self.mesh.method == MeshMethod::Hull => B::Fixed,
+            RefineBoundary::Auto | RefineBoundary::Bspline => B::EdgeAndCorner,
+            RefineBoundary::Fixed => B::Fixed,
+            RefineBoundary::EdgeOnly => B::EdgeOnly,
+        }
     }
 
     /// Checks value ranges that serde cannot express.
@@ -1337,9 +1293,6 @@ impl Recipe {
                 }
                 if g.width < 0.0 {
                     return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
-                }
-                if !["auto", "none"].contains(&g.view.as_str()) {
-                    return bad("generator.view", format!("is `{}`; use auto or none", g.view));
                 }
                 if g.max_modules == 0 {
                     return bad("generator.max_modules", "must be at least 1".into());
@@ -1364,9 +1317,6 @@ impl Recipe {
             Generator::WeberPenn(g) => g.validate()?,
             Generator::LeastCost(g) => g.validate()?,
             Generator::Import(g) => {
-                if !["bridge", "strict", "new-root"].contains(&g.gap.as_str()) {
-                    return bad("generator.gap", format!("is `{}`; use bridge, strict or new-root", g.gap));
-                }
                 for (k, v) in
                     [("generator.angle", g.angle), ("generator.step", g.step), ("generator.width", g.width)]
                 {
@@ -1386,15 +1336,13 @@ impl Recipe {
         if !(3..=1024).contains(&self.mesh.sides) {
             return bad("mesh.sides", format!("must be in 3..=1024, got {}", self.mesh.sides));
         }
-        self.mesh.mesher()?.check()?;
+        self.mesh.mesher().check()?;
         // The other meshers' tables too: a bad value is a mistake even where unused.
-        for method in Mesher::NAMES {
-            MeshSection { method: method.to_string(), ..self.mesh.clone() }.mesher()?.check()?;
+        for &method in MeshMethod::ALL {
+            self.mesh.mesher_for(method).check()?;
         }
         self.fit.decollide.check()?;
         self.fit.clear.check()?;
-        self.refine_scheme()?;
-        self.refine_boundary()?;
         if self.refine.levels > 6 {
             return bad(
                 "refine.levels",
@@ -1423,21 +1371,6 @@ impl Recipe {
         self.leaves.check()?;
         self.wind.check()?;
         self.lod.check()?;
-        if !["embed", "files", "none"].contains(&self.output.textures.as_str()) {
-            return bad(
-                "output.textures",
-                format!("is `{}`; use embed, files or none", self.output.textures),
-            );
-        }
-        self.output.instancing_fallback()?;
-        self.output.compression()?;
-        self.output.lod_layout()?;
-        if !["round", "flat", "open"].contains(&self.mesh.tips.as_str()) {
-            return bad("mesh.tips", format!("is `{}`; use round, flat or open", self.mesh.tips));
-        }
-        if !["flat", "round"].contains(&self.mesh.base.as_str()) {
-            return bad("mesh.base", format!("is `{}`; use flat or round", self.mesh.base));
-        }
         if !(1..=8192).contains(&self.output.preview_size) {
             return bad(
                 "output.preview_size",

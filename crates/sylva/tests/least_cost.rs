@@ -365,7 +365,7 @@ fn early_stopped_searches_match_the_full_search_where_it_matters() {
 
 fn mgv_params(iters: Vec<MgvIteration>) -> LeastCostParams {
     LeastCostParams {
-        method: "mgv".into(),
+        method: lc::Method::Mgv,
         nodes: 6000,
         volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [4.0, 4.0, 4.0] }],
         iterations: iters,
@@ -501,7 +501,7 @@ fn trees_are_deterministic_in_the_seed() {
     assert_eq!(a.skeleton, b.skeleton);
     assert_ne!(a.skeleton, c.skeleton);
     let m = LeastCostParams {
-        method: "mig".into(),
+        method: lc::Method::Mig,
         nodes: 3000,
         endpoints: 6,
         sub_nodes: 80,
@@ -690,7 +690,7 @@ fn mig_level_one_endpoints_lie_in_the_shell_under_the_surface() {
     let sphere = Primitive::Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 };
     let tips_sdf = |shell: f64| -> Vec<f64> {
         let p = LeastCostParams {
-            method: "mig".into(),
+            method: lc::Method::Mig,
             nodes: 3000,
             endpoints: 40,
             shell,
@@ -717,7 +717,7 @@ fn mig_level_one_endpoints_lie_in_the_shell_under_the_surface() {
 
 fn bcm_params(rounds: u32) -> LeastCostParams {
     LeastCostParams {
-        method: "bcm".into(),
+        method: lc::Method::Bcm,
         spacing: 0.25,
         nodes: 3000,
         endpoints: 6,
@@ -797,7 +797,7 @@ use sylva::grow::least_cost::refine::{self, RefineParams, SHARED};
 
 fn refine_params(quota: usize) -> LeastCostParams {
     LeastCostParams {
-        method: "mig".into(),
+        method: lc::Method::Mig,
         nodes: 5000,
         endpoints: 20,
         sub_nodes: 60,
@@ -1085,7 +1085,7 @@ fn forests_are_deterministic_skeletons_with_one_root_per_tree() {
     assert!(b.report.warnings.iter().any(|w| w.contains("won no endpoint")), "{:?}", b.report.warnings);
     // MIG forests: every level-1 endpoint below its nearest root; then the subgraphs.
     let m = LeastCostParams {
-        method: "mig".into(),
+        method: lc::Method::Mig,
         nodes: 4000,
         endpoints: 12,
         sub_nodes: 50,
@@ -1131,8 +1131,13 @@ fn leaves_and_needles_sit_at_the_tips() {
             .collect()
     };
     assert!(tips.len() > 5);
-    let leaf =
-        LeafParams { kind: "leaf".into(), count: 3, size: 0.2, size_variation: 0.25, ..Default::default() };
+    let leaf = LeafParams {
+        kind: lc::leaves::LeafKind::Leaf,
+        count: 3,
+        size: 0.2,
+        size_variation: 0.25,
+        ..Default::default()
+    };
     let p = LeastCostParams { leaves: leaf.clone(), ..base.clone() };
     let t = grow(&p, 4);
     assert_eq!(t.skeleton.len(), bare.skeleton.len(), "leaves do not change the skeleton");
@@ -1157,8 +1162,13 @@ fn leaves_and_needles_sit_at_the_tips() {
     assert!(headings.length() / (t.skeleton.organs.len() as f64) < 0.3, "{headings}");
     assert_eq!(grow(&p, 4).skeleton.organs, t.skeleton.organs, "deterministic");
     // Needles: polygons from the tip within `spread` of +Y.
-    let needles =
-        LeafParams { kind: "needles".into(), count: 5, size: 0.1, spread: 30.0, ..Default::default() };
+    let needles = LeafParams {
+        kind: lc::leaves::LeafKind::Needles,
+        count: 5,
+        size: 0.1,
+        spread: 30.0,
+        ..Default::default()
+    };
     let n = grow(&LeastCostParams { leaves: needles, ..base.clone() }, 4);
     assert_eq!(n.skeleton.organs.len(), 5 * tips.len());
     for o in &n.skeleton.organs {

@@ -94,7 +94,8 @@ impl Format {
     }
 }
 
-/// Where a model's textures go (`output.textures`).
+/// Where a model's textures go (`output.textures`: `embed`, `files` or `none`; serde
+/// writes and reads those names, a read [`TextureMode::Files`] has an empty prefix).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub enum TextureMode {
     /// Inside the file: PNG buffer views in `.glb`, data URIs in `.gltf`. OBJ cannot
@@ -111,19 +112,78 @@ pub enum TextureMode {
 }
 
 impl TextureMode {
+    /// The recipe names, in the order of the variants.
+    pub const NAMES: &'static [&'static str] = &["embed", "files", "none"];
+
+    /// The mode's `output.textures` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            TextureMode::Embed => "embed",
+            TextureMode::Files { .. } => "files",
+            TextureMode::None => "none",
+        }
+    }
+
+    /// The mode called `name` (a [`TextureMode::Files`] with an empty prefix).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "embed" => Some(TextureMode::Embed),
+            "files" => Some(TextureMode::Files { prefix: String::new() }),
+            "none" => Some(TextureMode::None),
+            _ => None,
+        }
+    }
+
+    /// This mode for a model at `path`: [`TextureMode::Files`] gets the prefix of the
+    /// model's stem and `_`.
+    pub fn for_path(&self, path: &Path) -> TextureMode {
+        match self {
+            TextureMode::Files { .. } => {
+                let stem = path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "tree".into());
+                TextureMode::Files { prefix: format!("{stem}_") }
+            }
+            t => t.clone(),
+        }
+    }
+
     /// The mode for `output.textures` (`embed`, `files`, `none`) and a model at `path`.
     pub fn for_output(name: &str, path: &Path) -> Result<TextureMode> {
-        let stem =
-            path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "tree".into());
-        Ok(match name {
-            "embed" => TextureMode::Embed,
-            "files" => TextureMode::Files { prefix: format!("{stem}_") },
-            "none" => TextureMode::None,
-            other => {
-                return Err(Error::Recipe(format!(
-                    "`output.textures` is `{other}`; use embed, files or none"
-                )))
-            }
+        match TextureMode::from_name(name) {
+            Some(t) => Ok(t.for_path(path)),
+            None => Err(Error::Recipe(format!("`output.textures` is `{name}`; use embed, files or none"))),
+        }
+    }
+}
+
+impl std::fmt::Display for TextureMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl serde::Serialize for TextureMode {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for TextureMode {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        /// The names `output.textures` takes.
+        #[derive(serde::Deserialize)]
+        #[serde(rename_all = "lowercase")]
+        enum Name {
+            Embed,
+            Files,
+            None,
+        }
+        Ok(match Name::deserialize(d)? {
+            Name::Embed => TextureMode::Embed,
+            Name::Files => TextureMode::Files { prefix: String::new() },
+            Name::None => TextureMode::None,
         })
     }
 }
@@ -133,7 +193,8 @@ impl TextureMode {
 /// A node either carries the extension or not: a file cannot hold both the instanced
 /// leaves and merged copies without readers that support the extension drawing the
 /// leaves twice. So the choice is per file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum InstancingFallback {
     /// `none`: instances as `EXT_mesh_gpu_instancing` (in `extensionsUsed`, not required).
     /// A reader without the extension draws the shape once, at the node's transform,
@@ -160,7 +221,8 @@ impl InstancingFallback {
 }
 
 /// Compression of the glTF buffer (`output.compress`); OBJ and PLY ignore it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Compression {
     /// `none`: `FLOAT` attributes.
     #[default]
@@ -188,8 +250,9 @@ impl Compression {
     }
 }
 
-/// Where glTF puts the coarser levels of detail (`output.lod_layout`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Where glTF puts the coarser levels of detail (`output.lod_layout`: `msft` or `scene`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LodLayout {
     /// `msft`: LOD1…n are nodes outside the scene named by LOD0's `MSFT_lod` (with
     /// `MSFT_screencoverage` hints); plain viewers show LOD0 only.
@@ -269,7 +332,9 @@ pub fn stage_with_options(
     // PLY cannot refer to images; OBJ and POV-Ray cannot embed them, so they write files.
     let textures = match (format, textures) {
         (Format::Ply, _) => TextureMode::None,
-        (Format::Obj | Format::Pov, TextureMode::Embed) => TextureMode::for_output("files", path)?,
+        (Format::Obj | Format::Pov, TextureMode::Embed) => {
+            TextureMode::Files { prefix: String::new() }.for_path(path)
+        }
         (_, t) => t.clone(),
     };
     if let TextureMode::Files { prefix } = &textures {

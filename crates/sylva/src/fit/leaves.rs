@@ -25,8 +25,9 @@ use crate::skeleton::{Organ, OrganKind, Skeleton, NO_PARENT};
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 
-/// Where leaves go.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Where leaves go (`leaves.place`: `level` or `terminal`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Placement {
     /// On every internode of level ≥ `start_level`.
     Level,

@@ -66,8 +66,10 @@ use glam::{DMat3, DVec3};
 
 type LResult<T> = Result<T, Box<LsystemError>>;
 
-/// What to do when a cylinder starts away from the current node (Pieterse2012-spec §2.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// What to do when a cylinder starts away from the current node (Pieterse2012-spec §2.2;
+/// `generator.gap`: `bridge`, `strict` or `new-root`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum GapPolicy {
     /// Insert a bridging internode from the current node to the cylinder's base, with
     /// the cylinder's start radius at its end ("lenient", the default).

@@ -54,17 +54,22 @@ pub fn load_skeleton_with(path: &Path, opts: &lst::LstOptions) -> Result<Skeleto
 /// `input.max_bytes`) from a regular file ([`crate::input::read_input`]).
 pub fn load_skeleton_limited(path: &Path, opts: &lst::LstOptions, max_bytes: u64) -> Result<Skeleton> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let name = path.display().to_string();
+    if !matches!(ext.as_str(), "lst" | "json") {
+        return Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS });
+    }
+    let text = crate::input::read_input_to_string(path, max_bytes)?;
+    parse_skeleton(&path.display().to_string(), &text, opts)
+}
+
+/// A skeleton from the text of a file called `name` (`.lst` or sylva `.json`, by the
+/// extension of `name`), as [`load_skeleton_with`] reads it from disk; for files held in
+/// memory.
+pub fn parse_skeleton(name: &str, text: &str, opts: &lst::LstOptions) -> Result<Skeleton> {
+    let ext = Path::new(name).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
-        "lst" => {
-            let text = crate::input::read_input_to_string(path, max_bytes)?;
-            Ok(lst::parse(&name, &text, opts)?)
-        }
-        "json" => {
-            let text = crate::input::read_input_to_string(path, max_bytes)?;
-            skel_json::from_json_budget(&name, &text, opts.max_nodes)
-        }
-        _ => Err(Error::UnknownFormat { path: path.to_path_buf(), expected: SKELETON_EXTENSIONS }),
+        "lst" => Ok(lst::parse(name, text, opts)?),
+        "json" => skel_json::from_json_budget(name, text, opts.max_nodes),
+        _ => Err(Error::UnknownFormat { path: name.into(), expected: SKELETON_EXTENSIONS }),
     }
 }
 

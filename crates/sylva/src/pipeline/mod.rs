@@ -6,6 +6,7 @@
 pub mod session;
 
 use crate::error::{Error, Result};
+use crate::export::TextureMode;
 use crate::geometry::Mesh;
 use crate::input::SideFiles;
 use crate::lsystem::files::view::{LineStyle, MovementKind};
@@ -14,7 +15,9 @@ use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
 use crate::mesh::ground::SunkRoot;
 use crate::model::{BranchCurves, Material, Model, Part};
-use crate::recipe::{Generator, Loaded, LsystemGenerator, Origin, Recipe};
+use crate::recipe::{
+    Generator, LeafMode, LeafNormals, Loaded, LsystemGenerator, MeshBase, MeshMethod, Origin, Recipe,
+};
 use crate::skeleton::{Skeleton, SkeletonStats};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -114,12 +117,12 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     let dir = std::path::Path::new(&g.file).parent().map(|p| p.to_path_buf()).unwrap_or_default();
     let allow: Vec<std::path::PathBuf> = match &loaded.origin {
         Origin::Folder(d) => g.allow_paths.iter().map(|p| d.join(p)).collect(),
-        Origin::Preset(_) => Vec::new(),
+        Origin::Preset(_) | Origin::Memory(_) => Vec::new(),
     };
     let max_bytes = loaded.recipe.input.max_bytes;
     let include_files = match &loaded.origin {
         Origin::Folder(d) => Some(SideFiles::new(&d.join(&dir), &allow, max_bytes)),
-        Origin::Preset(_) => None,
+        Origin::Preset(_) | Origin::Memory(_) => None,
     };
     let resolve = |inc: &str| -> std::result::Result<(String, String), String> {
         let Some(side) = &include_files else {
@@ -138,8 +141,8 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     // The model folder's files are optional: a broken one is a warning, not an error;
     // a refused one (outside the folder, not a regular file, too large) is an error.
     let mut warnings = Vec::new();
-    let folder = match (&loaded.origin, g.view.as_str()) {
-        (Origin::Folder(d), "auto") => match load_folder_in(
+    let folder = match (&loaded.origin, g.view) {
+        (Origin::Folder(d), crate::recipe::ViewFiles::Auto) => match load_folder_in(
             &d.join(&g.file),
             &SideFiles::new(&folder_of(&d.join(&g.file)), &allow, max_bytes),
         ) {
@@ -411,7 +414,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
         Generator::LeastCost(p) => {
             let base = match &loaded.origin {
                 Origin::Folder(d) => Some(d.as_path()),
-                Origin::Preset(_) => None,
+                Origin::Preset(_) | Origin::Memory(_) => None,
             };
             let mut tree = crate::grow::least_cost::grow(p, loaded.recipe.seed, base)?;
             let r = &tree.report;
@@ -437,7 +440,7 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
             let t = Instant::now();
             let path = match &loaded.origin {
                 Origin::Folder(d) => d.join(&g.file),
-                Origin::Preset(_) => std::path::PathBuf::from(&g.file),
+                Origin::Preset(_) | Origin::Memory(_) => std::path::PathBuf::from(&g.file),
             };
             let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             let sk = if ext == "str" {
@@ -456,14 +459,17 @@ pub fn skeleton(loaded: &Loaded, report: &mut Report) -> Result<Generated> {
                 let source = lsystem::source::Source::new(&name, "", &[])?;
                 lsystem::interpret(&symbols, &string, &opts, &source)?
             } else {
-                let gap = match g.gap.as_str() {
-                    "strict" => crate::import::lst::GapPolicy::Strict,
-                    "new-root" => crate::import::lst::GapPolicy::NewRoot,
-                    _ => crate::import::lst::GapPolicy::Bridge,
+                let opts = crate::import::lst::LstOptions {
+                    gap: g.gap,
+                    max_nodes: g.max_nodes,
+                    ..Default::default()
                 };
-                let opts =
-                    crate::import::lst::LstOptions { gap, max_nodes: g.max_nodes, ..Default::default() };
-                crate::import::load_skeleton_limited(&path, &opts, loaded.recipe.input.max_bytes)?
+                if let Origin::Memory(_) = &loaded.origin {
+                    let (name, text) = loaded.read(&g.file)?;
+                    crate::import::parse_skeleton(&name, &text, &opts)?
+                } else {
+                    crate::import::load_skeleton_limited(&path, &opts, loaded.recipe.input.max_bytes)?
+                }
             };
             report.interpret_time = t.elapsed();
             Ok(Generated { skeleton: sk, surfaces: HashMap::new(), curves: None })
@@ -487,7 +493,7 @@ pub fn mesh(
 /// [`crate::mesh::ground`].
 fn sink(recipe: &Recipe, skeleton: &mut Skeleton) -> Vec<SunkRoot> {
     // A leaf (`mesh.method = "leaf"`) has no trunk to stand on: its base stays open.
-    if recipe.mesh.base == "flat" && recipe.mesh.method != "leaf" {
+    if recipe.mesh.base == MeshBase::Flat && recipe.mesh.method != MeshMethod::Leaf {
         crate::mesh::ground::sink_roots(skeleton)
     } else {
         Vec::new()
@@ -567,17 +573,19 @@ pub(crate) fn assemble_stage(
     // The skeleton node of each leaf card, for instancing.
     let mut card_nodes = Vec::new();
     // Leaf mode (`mesh.method = "leaf"`) makes a leaf surface, not bark.
-    let (name, material) =
-        if recipe.mesh.method == "leaf" { ("leaf", Material::leaf()) } else { ("bark", Material::bark()) };
+    let (name, material) = if recipe.mesh.method == MeshMethod::Leaf {
+        ("leaf", Material::leaf())
+    } else {
+        ("bark", Material::bark())
+    };
     let mut parts = vec![Part { name: name.into(), mesh: bark, material, ..Default::default() }];
     if !skeleton.organs.is_empty() {
         use crate::mesh::cards::{is_card_leaf, leaf_cards};
-        let cards =
-            ["cards", "instanced"].contains(&recipe.leaves.mode.as_str()) && recipe.output.textures != "none";
+        let cards = recipe.leaves.mode.cards() && recipe.output.textures != TextureMode::None;
         let keep = |o: &crate::skeleton::Organ| !(cards && is_card_leaf(o));
         let (mut leaves, missing) = crate::mesh::organs::organ_mesh_where(skeleton, surfaces, keep);
         report.missing_surfaces = missing;
-        let crown = recipe.leaves.normals == "crown";
+        let crown = recipe.leaves.normals == LeafNormals::Crown;
         if crown {
             crate::mesh::cards::bend_toward_crown(&mut leaves);
         }
@@ -597,7 +605,7 @@ pub(crate) fn assemble_stage(
             let (mut mesh, nodes) = leaf_cards(skeleton, atlas.cell(shape), per_card);
             card_nodes = nodes;
             // One shared instanced shape cannot hold per-card bent normals.
-            if crown && recipe.leaves.mode != "instanced" {
+            if crown && recipe.leaves.mode != LeafMode::Instanced {
                 crate::mesh::cards::bend_toward_crown(&mut mesh);
             }
             if mesh.face_count() > 0 {
@@ -624,7 +632,7 @@ pub(crate) fn dress_stage(
     report: &mut Report,
 ) -> Result<()> {
     texture_model(recipe, model, cache);
-    if recipe.leaves.mode == "instanced" {
+    if recipe.leaves.mode == LeafMode::Instanced {
         // The textured cards become one card shape and an instance per card, each on the
         // skeleton node of its first leaf.
         model.instance_cards("leaf_cards", card_nodes)?;
@@ -654,10 +662,10 @@ pub(crate) fn provenance(recipe: &Recipe) -> Option<crate::model::Provenance> {
 fn texture_model(recipe: &Recipe, model: &mut Model, cache: &mut crate::texture::TextureCache) {
     use crate::model::ModelImage;
     use crate::texture::bark;
-    if recipe.output.textures == "none" {
+    if recipe.output.textures == TextureMode::None {
         return;
     }
-    let style = bark::BarkStyle::from_name(&recipe.textures.bark).unwrap_or(match recipe.generator {
+    let style = recipe.textures.bark.unwrap_or(match recipe.generator {
         crate::recipe::Generator::LeastCost(_) => bark::BarkStyle::Smooth,
         _ => bark::BarkStyle::Furrowed,
     });
@@ -698,7 +706,7 @@ fn texture_model(recipe: &Recipe, model: &mut Model, cache: &mut crate::texture:
 /// The bark's control mesh of `skeleton` by the recipe's mesher (its warnings and axis
 /// count go to `report`).
 fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Result<Mesh> {
-    let mut mesher = recipe.mesh.mesher()?;
+    let mut mesher = recipe.mesh.mesher();
     if let crate::mesh::Mesher::Quad(q) = &mut mesher {
         // One repair budget for every meshing of the run (the clearing meshes once a
         // round): what is left of it, at least 1 (the smallest value the mesher takes;
@@ -725,7 +733,7 @@ fn control_mesh(recipe: &Recipe, skeleton: &Skeleton, report: &mut Report) -> Re
 /// Subdivides the bark control mesh as `[refine]` says (unchanged for `none` or 0 levels).
 fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
     use crate::refine::{subdivide, RefineOptions, SubdivideOptions};
-    let Some(scheme) = recipe.refine_scheme()? else { return Ok(mesh) };
+    let Some(scheme) = recipe.refine_scheme() else { return Ok(mesh) };
     if recipe.refine.levels == 0 && !recipe.refine.limit {
         return Ok(mesh);
     }
@@ -735,7 +743,7 @@ fn refine_bark(recipe: &Recipe, mesh: Mesh) -> Result<Mesh> {
             levels: recipe.refine.levels,
             max_faces: recipe.refine.max_faces,
             max_memory: recipe.refine.max_memory,
-            boundary: recipe.refine_boundary()?,
+            boundary: recipe.refine_boundary(),
             ..Default::default()
         },
         limit: recipe.refine.limit,
@@ -809,17 +817,17 @@ pub fn clear_skeleton(
 ) -> Result<Option<Fitted>> {
     use crate::fit::clear::{clear_crossings_refined, ClearOptions};
     use crate::refine::Scheme;
-    let (scheme, levels) = match recipe.refine_scheme()? {
+    let (scheme, levels) = match recipe.refine_scheme() {
         Some(scheme) => (scheme, recipe.refine.levels.min(3)),
         None => (Scheme::Loop, 0),
     };
     // The refinement searched stays within `[refine]`'s face budget too.
     let max_faces = recipe.fit.clear.max_faces.min(recipe.refine.max_faces);
     let opts =
-        ClearOptions { levels, max_faces, boundary: recipe.refine_boundary()?, ..recipe.fit.clear.clone() };
+        ClearOptions { levels, max_faces, boundary: recipe.refine_boundary(), ..recipe.fit.clear.clone() };
     // The clearing's refinement is the output's when it has the same scheme and levels
     // and no limit step (the same `subdivide` call, so the same bytes).
-    let reusable = recipe.refine_scheme()?.is_some()
+    let reusable = recipe.refine_scheme().is_some()
         && levels == recipe.refine.levels
         && levels > 0
         && !recipe.refine.limit;
@@ -976,7 +984,7 @@ pub(crate) fn mesh_fitted(recipe: &Recipe, skeleton: &Skeleton, report: &mut Rep
 /// `skeleton` (rings of `mesh.sides` for the tube and hull meshers, of 4 for the others).
 fn mesh_lower_bound(recipe: &Recipe, skeleton: &Skeleton) -> Result<u128> {
     use crate::mesh::Mesher;
-    let sides = match recipe.mesh.mesher()? {
+    let sides = match recipe.mesh.mesher() {
         Mesher::Tube(o) => o.sides,
         Mesher::Hull(o) => o.sides,
         _ => 4,
@@ -1020,10 +1028,8 @@ fn check_mesh_memory(recipe: &Recipe, bytes: u128, qualifier: &str) -> Result<()
 pub fn check_degenerate(recipe: &Recipe, skeleton: &Skeleton) -> Result<()> {
     use crate::skeleton::Degeneracy;
     let n = skeleton.len();
-    let method = recipe.mesh.method.as_str();
-    let searching = recipe.mesh.decollides_nodes(n)
-        || recipe.mesh.clears_nodes(n)
-        || matches!(method, "sweep" | "hull" | "quad");
+    let method = recipe.mesh.method;
+    let searching = recipe.mesh.decollides_nodes(n) || recipe.mesh.clears_nodes(n) || method.joins();
     let internodes = skeleton.parent.iter().filter(|&&p| p != crate::skeleton::NO_PARENT).count();
     let d = crate::fit::degenerate::degeneracy(
         skeleton,
@@ -1111,10 +1117,9 @@ pub fn lod_stage(
         return Ok(Vec::new());
     }
     recipe.lod.check()?;
-    let cards =
-        ["cards", "instanced"].contains(&recipe.leaves.mode.as_str()) && recipe.output.textures != "none";
+    let cards = recipe.leaves.mode.cards() && recipe.output.textures != TextureMode::None;
     let card_leaves = skeleton.organs.iter().filter(|o| is_card_leaf(o)).count();
-    let refine_levels = match recipe.refine_scheme()? {
+    let refine_levels = match recipe.refine_scheme() {
         Some(_) => recipe.refine.levels.min(6),
         None => 0,
     };
@@ -1136,8 +1141,8 @@ pub fn lod_stage(
             r.refine.levels = 0;
             r.refine.limit = false;
         }
-        r.output.textures = "none".into();
-        r.leaves.mode = "cards".into();
+        r.output.textures = TextureMode::None;
+        r.leaves.mode = LeafMode::Cards;
         // The cards are cut below; `mesh` makes the bark and any other organs.
         let mut bare = sk.clone();
         if cards {
@@ -1152,7 +1157,7 @@ pub fn lod_stage(
             let (per_card, shape) = leaves.cards(card_leaves);
             let atlas = crate::texture::leaf::atlas_layout(recipe.textures.atlas_size);
             let (mut m, _) = leaf_cards(sk, atlas.cell(shape), per_card);
-            if recipe.leaves.normals == "crown" {
+            if recipe.leaves.normals == LeafNormals::Crown {
                 bend_toward_crown(&mut m);
             }
             if m.face_count() > 0 {

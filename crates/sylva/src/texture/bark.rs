@@ -19,8 +19,9 @@ use super::noise::TileNoise;
 use super::{srgb_byte, to_byte, Image};
 use rayon::prelude::*;
 
-/// A bark style.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A bark style (`textures.bark`; serde uses the names of [`BarkStyle::NAMES`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum BarkStyle {
     /// Gentle mottling.
     Smooth,

@@ -14,8 +14,9 @@ use glam::Vec2;
 use rayon::prelude::*;
 use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
-/// A leaf shape of the atlas.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A leaf shape of the atlas (`leaves.shape`; serde uses the names of [`LeafShape::NAMES`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LeafShape {
     /// Egg-shaped, widest below the middle (aspen, beech, tupelo).
     Ovate,
@@ -297,10 +298,14 @@ pub fn leaf_atlas(size: u32, colour: [f32; 3], seed: u64) -> LeafAtlas {
         let (x0, y0) = ((col * cw) as usize, (row * ch) as usize);
         let width = size as usize;
         let flat = colour.map(|c| srgb_byte(c * 0.9));
+        let token = crate::cancel::current();
         let cell_rows: Vec<(usize, Vec<u8>)> = (0..ch as usize)
             .into_par_iter()
             .map(|y| {
                 let mut out = vec![0u8; 4 * cw as usize];
+                if token.as_ref().is_some_and(crate::cancel::Cancel::is_cancelled) {
+                    return (y, out);
+                }
                 for x in 0..cw as usize {
                     let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
                     let alpha = mask.pixel(x as u32, y as u32).map_or(0, |c| c.alpha());

@@ -136,8 +136,10 @@ pub struct TextureOptions {
     pub bark_size: u32,
     /// Edge of the square leaf atlas in pixels (16–4096; default 1024).
     pub atlas_size: u32,
-    /// Bark style: `auto` (the preset's), `smooth`, `furrowed`, `plated` or `birch`.
-    pub bark: String,
+    /// Bark style: `auto` (`None`: the generator's), `smooth`, `furrowed`, `plated` or
+    /// `birch`.
+    #[serde(with = "auto")]
+    pub bark: Option<bark::BarkStyle>,
     /// Bark texture repeats per unit of the meshers' bark UVs (0.01–100; default 1):
     /// 2 draws the pattern at half the size. The meshers' UVs keep square texels where
     /// they can (one unit of u around a branch), so this is the one knob per tree.
@@ -146,7 +148,7 @@ pub struct TextureOptions {
 
 impl Default for TextureOptions {
     fn default() -> Self {
-        TextureOptions { bark_size: 1024, atlas_size: 1024, bark: "auto".into(), scale: 1.0 }
+        TextureOptions { bark_size: 1024, atlas_size: 1024, bark: None, scale: 1.0 }
     }
 }
 
@@ -161,14 +163,45 @@ impl TextureOptions {
         if !(0.01..=100.0).contains(&self.scale) {
             return Err(Error::Recipe(format!("`textures.scale` must be in 0.01..=100, got {}", self.scale)));
         }
-        if self.bark != "auto" && bark::BarkStyle::from_name(&self.bark).is_none() {
-            return Err(Error::Recipe(format!(
-                "`textures.bark` is `{}`; use auto, {}",
-                self.bark,
-                bark::BarkStyle::NAMES.join(", ")
-            )));
-        }
         Ok(())
+    }
+}
+
+/// Serde of an optional mode written `auto` when unset (`leaves.shape`,
+/// `textures.bark`): `None` is `auto`, `Some(v)` is `v`'s name.
+pub mod auto {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Writes `auto` for `None`, else the value.
+    pub fn serialize<T: Serialize, S: Serializer>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            None => s.serialize_str("auto"),
+            Some(v) => v.serialize(s),
+        }
+    }
+
+    /// Reads `auto` as `None`, else the value; an unknown name lists `auto` with the
+    /// value's names.
+    pub fn deserialize<'de, T, D>(d: D) -> Result<Option<T>, D::Error>
+    where
+        T: Deserialize<'de>,
+        D: Deserializer<'de>,
+    {
+        use serde::de::{Error, IntoDeserializer};
+        let name = String::deserialize(d)?;
+        if name == "auto" {
+            return Ok(None);
+        }
+        let inner: serde::de::value::StringDeserializer<serde::de::value::Error> = name.into_deserializer();
+        T::deserialize(inner).map(Some).map_err(|e| {
+            let why = e.to_string();
+            D::Error::custom(match why.split_once("expected one of ") {
+                Some((head, list)) => format!("{head}expected one of `auto`, {list}"),
+                None => why
+                    .replacen(", expected `", ", expected one of `auto`, `", 1)
+                    .replacen("` or `", "`, `", 1),
+            })
+        })
     }
 }
 
@@ -213,7 +246,13 @@ mod tests {
         assert!(TextureOptions::default().check().is_ok());
         let e = TextureOptions { bark_size: 8, ..Default::default() }.check().unwrap_err();
         assert!(e.to_string().contains("textures.bark_size"), "{e}");
-        let e = TextureOptions { bark: "mossy".into(), ..Default::default() }.check().unwrap_err();
-        assert!(e.to_string().contains("textures.bark") && e.to_string().contains("furrowed"), "{e}");
+        let e = toml::from_str::<TextureOptions>("bark = \"mossy\"").unwrap_err().to_string();
+        assert!(e.contains("mossy") && e.contains("`auto`, `smooth`, `furrowed`"), "{e}");
+        let t: TextureOptions = toml::from_str("bark = \"birch\"").unwrap();
+        assert_eq!(t.bark, Some(bark::BarkStyle::Birch));
+        assert_eq!(
+            toml::to_string(&TextureOptions::default()).unwrap().lines().nth(2),
+            Some("bark = \"auto\"")
+        );
     }
 }

@@ -43,7 +43,7 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
     if p.roots.len() > MAX_ROOTS {
         return bad("roots", format!("has {} roots; at most {MAX_ROOTS}", p.roots.len()));
     }
-    if p.method == "bcm" {
+    if p.method == super::Method::Bcm {
         return bad("roots", "needs method = \"mgv\" or \"mig\" (BCM grows one tree)");
     }
     if p.root.is_some() {

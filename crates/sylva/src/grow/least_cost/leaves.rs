@@ -23,12 +23,35 @@ use std::f64::consts::TAU;
 /// Most leaf organs one tree may carry (all tips together).
 pub const MAX_LEAVES: usize = 2_000_000;
 
+/// `generator.leaves.kind` (serde: `none`, `leaf`, `needles`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LeafKind {
+    /// No leaves.
+    #[default]
+    None,
+    /// A leaf organ per tip.
+    Leaf,
+    /// Needles (quads) per tip.
+    Needles,
+}
+
+impl std::fmt::Display for LeafKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LeafKind::None => "none",
+            LeafKind::Leaf => "leaf",
+            LeafKind::Needles => "needles",
+        })
+    }
+}
+
 /// `[generator.leaves]` of a least-cost recipe.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LeafParams {
     /// `none` (default), `leaf` or `needles`.
-    pub kind: String,
+    pub kind: LeafKind,
     /// Organs per tip, 1..=64 (default 1).
     pub count: u32,
     /// Leaf length / needle length in metres (default 0.15).
@@ -42,16 +65,13 @@ pub struct LeafParams {
 
 impl Default for LeafParams {
     fn default() -> Self {
-        LeafParams { kind: "none".into(), count: 1, size: 0.15, size_variation: 0.3, spread: 60.0 }
+        LeafParams { kind: LeafKind::None, count: 1, size: 0.15, size_variation: 0.3, spread: 60.0 }
     }
 }
 
 impl LeafParams {
     /// Checks the keys; errors name them (`generator.leaves.size`).
     pub fn validate(&self) -> Result<()> {
-        if !["none", "leaf", "needles"].contains(&self.kind.as_str()) {
-            return bad("leaves.kind", format!("is `{}`; use none, leaf or needles", self.kind));
-        }
         if !(1..=64).contains(&self.count) {
             return bad("leaves.count", format!("must be in 1..=64, got {}", self.count));
         }
@@ -72,7 +92,7 @@ fn sphere(a: f64, b: f64) -> DVec3 {
 /// Adds the leaves `p` asks for at every tip (node without children) of `sk`; returns
 /// how many organs were placed. Errors when the count would exceed [`MAX_LEAVES`].
 pub fn place(p: &LeafParams, sk: &mut Skeleton, seed: u64) -> Result<usize> {
-    if p.kind == "none" {
+    if p.kind == LeafKind::None {
         return Ok(0);
     }
     let n = sk.len();
@@ -93,7 +113,7 @@ pub fn place(p: &LeafParams, sk: &mut Skeleton, seed: u64) -> Result<usize> {
         );
     }
     sk.organs.reserve(total);
-    let needles = p.kind == "needles";
+    let needles = p.kind == LeafKind::Needles;
     let cos_max = p.spread.to_radians().cos();
     for &t in &tips {
         let tip = sk.position[t].as_dvec3();

@@ -60,13 +60,36 @@ pub const MAX_NODES: usize = 5_000_000;
 /// The largest budget `generator.max_nodes` may set.
 pub const MAX_NODES_LIMIT: usize = 50_000_000;
 
+/// `generator.method` of a least-cost recipe (serde: `mig`, `mgv`, `bcm`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Multiple Interacting Graphs (Xu2015 Ch. 4).
+    Mig,
+    /// Multiple Guiding Vectors (Xu2015 Ch. 5).
+    #[default]
+    Mgv,
+    /// The basic cost model (Xu2015 §3.3.1), for comparison.
+    Bcm,
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Method::Mig => "mig",
+            Method::Mgv => "mgv",
+            Method::Bcm => "bcm",
+        })
+    }
+}
+
 /// Parameters of the least-cost-path generator: the `[generator]` keys of a recipe with
 /// `type = "least-cost"` (`docs/least-cost.md`). Lengths in metres, angles in degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LeastCostParams {
-    /// `mig` (Ch. 4), `mgv` (Ch. 5) or `bcm` (§3.3.1, for comparison).
-    pub method: String,
+    /// `mig` (Ch. 4), `mgv` (Ch. 5, the default) or `bcm` (§3.3.1, for comparison).
+    pub method: Method,
     /// 3 (trees) or 2 (flat trees in the z = 0 plane).
     pub dims: u8,
     /// Graph nodes `K` (MGV: the graph; MIG: the level-1 graph).
@@ -139,7 +162,7 @@ pub struct LeastCostParams {
 impl Default for LeastCostParams {
     fn default() -> Self {
         LeastCostParams {
-            method: "mgv".into(),
+            method: Method::Mgv,
             dims: 3,
             nodes: 30_000,
             spacing: 0.0,
@@ -195,9 +218,6 @@ pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
 impl LeastCostParams {
     /// Checks every parameter; errors name the key (`generator.zeta`).
     pub fn validate(&self) -> Result<()> {
-        if !["mig", "mgv", "bcm"].contains(&self.method.as_str()) {
-            return bad("method", format!("is `{}`; use mig, mgv or bcm", self.method));
-        }
         if self.dims != 2 && self.dims != 3 {
             return bad("dims", format!("must be 2 or 3, got {}", self.dims));
         }
@@ -248,10 +268,10 @@ impl LeastCostParams {
         if self.smooth_iterations > 100 {
             return bad("smooth_iterations", format!("must be at most 100, got {}", self.smooth_iterations));
         }
-        match self.method.as_str() {
-            "mig" => mig::validate(self),
-            "bcm" => bcm::validate(self),
-            _ => mgv::validate(self),
+        match self.method {
+            Method::Mig => mig::validate(self),
+            Method::Bcm => bcm::validate(self),
+            Method::Mgv => mgv::validate(self),
         }
     }
 
@@ -590,10 +610,10 @@ pub fn grow(p: &LeastCostParams, seed: u64, base: Option<&Path>) -> Result<Least
     let start = Instant::now();
     p.validate()?;
     let mut report = LeastCostReport::default();
-    let mut tree = match p.method.as_str() {
-        "mig" => mig::grow(p, seed, base, &mut report)?,
-        "bcm" => bcm::grow(p, seed, &mut report)?,
-        _ => mgv::grow(p, seed, base, &mut report)?,
+    let mut tree = match p.method {
+        Method::Mig => mig::grow(p, seed, base, &mut report)?,
+        Method::Bcm => bcm::grow(p, seed, &mut report)?,
+        Method::Mgv => mgv::grow(p, seed, base, &mut report)?,
     };
     let t = Instant::now();
     if tree.parent.iter().all(|&q| q == NONE) {

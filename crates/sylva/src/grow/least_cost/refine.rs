@@ -85,7 +85,7 @@ impl Default for RefineParams {
 impl RefineParams {
     /// Checks the keys; errors name them (`generator.refine.count`).
     pub fn validate(&self, p: &LeastCostParams) -> Result<()> {
-        if p.method != "mig" {
+        if p.method != super::Method::Mig {
             return bad("refine", format!("needs method = \"mig\", not `{}`", p.method));
         }
         if !p.graph_cache.is_empty() {
