@@ -66,6 +66,15 @@ pub fn scope<R>(token: &Cancel, f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// [`scope`] with `token` when there is one, else `f` as it is (for work handed to
+/// another thread with the token [`current`] gave).
+pub fn scope_opt<R>(token: Option<&Cancel>, f: impl FnOnce() -> R) -> R {
+    match token {
+        Some(t) => scope(t, f),
+        None => f(),
+    }
+}
+
 /// This thread's token, for a parallel loop to capture before it forks.
 pub fn current() -> Option<Cancel> {
     CURRENT.with(|c| c.borrow().clone())

@@ -41,9 +41,15 @@ impl TextureCache {
             .and_then(|k| self.atlas.iter().find(|(key, _)| same_atlas(key, &k)).map(|(_, a)| a.clone()));
         let draw_bark = bark.filter(|_| have_bark.is_none());
         let draw_atlas = atlas.filter(|_| have_atlas.is_none());
+        // The two drawings may run on other threads: they carry this thread's token.
+        let token = crate::cancel::current();
         let (new_bark, new_atlas) = rayon::join(
-            || draw_bark.map(|(style, size, seed)| bark_maps(style, size, seed)),
-            || draw_atlas.map(|(size, colour, seed)| leaf_atlas(size, colour, seed)),
+            || crate::cancel::scope_opt(token.as_ref(), || draw_bark.map(|(st, size, seed)| bark_maps(st, size, seed))),
+            || {
+                crate::cancel::scope_opt(token.as_ref(), || {
+                    draw_atlas.map(|(size, colour, seed)| leaf_atlas(size, colour, seed))
+                })
+            },
         );
         if crate::cancel::cancelled() {
             return (None, None);
