@@ -778,12 +778,7 @@ fn grow(args: GrowArgs) -> Result<()> {
     // temporary, and they replace the files of an earlier run together when all of them
     // were written (the model last), or not at all.
     let mut set = sylva::fsutil::OutputSet::new(&out);
-    if skeleton_out {
-        sylva::export::skeleton::stage(&grown.skeleton, &out, &mut set)?;
-    } else {
-        let opts = loaded.recipe.output.export_options(&out)?;
-        sylva::export::stage_with_options(&grown.model, &out, &opts, &mut set)?;
-    }
+    grown.stage(&out, &mut set)?;
     if let Some(p) = &preview {
         let size = loaded.recipe.output.preview_size;
         let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
@@ -799,77 +794,7 @@ fn grow(args: GrowArgs) -> Result<()> {
     }
     set.commit()?;
     if !args.quiet {
-        let r = &grown.report;
-        let s = &r.skeleton;
-        println!("{}: {}", loaded.recipe.name, loaded.recipe.description);
-        if r.summary.is_empty() {
-            println!(
-                "  derived {} steps, {} modules in {:.1} ms; turtle {:.1} ms; mesh {:.1} ms",
-                r.steps,
-                r.modules,
-                r.derive_time.as_secs_f64() * 1e3,
-                r.interpret_time.as_secs_f64() * 1e3,
-                r.mesh_time.as_secs_f64() * 1e3
-            );
-        } else {
-            println!("  {}; mesh {:.1} ms", r.summary, r.mesh_time.as_secs_f64() * 1e3);
-        }
-        println!(
-            "  skeleton: {} nodes, {} segments, {} tips, depth {}, max order {}, total length {:.3} m, height {:.3} m",
-            s.nodes,
-            s.segments,
-            s.tips,
-            s.depth,
-            s.max_order,
-            s.total_length,
-            s.bounds.1.y - s.bounds.0.y
-        );
-        if let Some(d) = &r.decollide {
-            println!(
-                "  decollide: {} skeleton collision(s), {} resolved, {} left ({} nodes thinned, {} branches moved, {} tips pulled back, {} stubs moved or bent, {} traded, {} rounds, {:.1} ms)",
-                d.before,
-                d.resolved(),
-                d.after,
-                d.thinned,
-                d.rotations,
-                d.retracted,
-                d.extended,
-                d.traded,
-                d.rounds,
-                d.elapsed.as_secs_f64() * 1e3
-            );
-        }
-        if let Some(c) = &r.clear {
-            match (c.before, c.after) {
-                (Some(before), Some(after)) => println!(
-                    "  clear: {before} crossing face pair(s) in the refined mesh, {}{after} left ({} nodes thinned, {} rounds, {:.1} ms)",
-                    if c.truncated { "at least " } else { "" },
-                    c.thinned,
-                    c.rounds,
-                    c.elapsed.as_secs_f64() * 1e3
-                ),
-                _ => println!("  clear: not searched (the refined mesh is too large; see the warning)"),
-            }
-        }
-        println!("  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices);
-        if r.joints > 0 {
-            let clip = grown.model.clip.as_ref().map_or(0.0, |c| c.duration());
-            println!(
-                "  wind: {} joints, {:.1} s clip, {:.1} ms",
-                r.joints,
-                clip,
-                r.wind_time.as_secs_f64() * 1e3
-            );
-        }
-        for (k, lod) in grown.model.lods.iter().enumerate() {
-            let tris: usize = lod.parts.iter().map(|p| p.mesh.triangle_count()).sum();
-            println!(
-                "  LOD{}: {} triangles, from {:.0} % of the view",
-                k + 1,
-                tris,
-                lod.screen_coverage * 100.0
-            );
-        }
+        print!("{grown}");
         println!("  wrote {}", out.display());
         if let Some(p) = &preview {
             println!("  wrote {}", p.display());

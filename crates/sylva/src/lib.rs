@@ -1,10 +1,13 @@
 //! # sylva — procedural trees and plants
 //!
 //! ```text
-//!  recipe ─► generator ─► Skeleton ─► fit ───────► mesher ───► Cage ─► refine ─► Model ─► export
-//!  (TOML)    lsystem, import,         decollide    tube, hull,          Loop, CC,         glb gltf
-//!            weber-penn, colonize,    clear        sweep, quad          limit, noise      obj ply
-//!            least-cost                                                                   preview
+//!  Recipe ─► Session: each stage's result kept, a change reruns from the first stage it touches
+//!   Generate ──► Fit ──────────► Bark ───────────► Assemble ───► Dress ───────► Lod ───► Wind ──► Tree
+//!   lsystem,     prune, leaves,   tube, hull,       bark part,    textures      LOD      rig,     .to_glb()
+//!   import,      decollide,       sweep, quad,      organs,       (cached),     chain,   clip,    .write(path):
+//!   weber-penn,  flat-base sink,  leaf; refine;     leaf cards    instancing    curves   metadata glb gltf obj
+//!   colonize,    clear            flat-base cut                                                  ply pov lst json
+//!   least-cost
 //! ```
 //!
 //! The engine crate: pure Rust, no GPU and no CLI dependencies. Every stage is a plain
@@ -24,6 +27,21 @@
 //! Works are cited by the keys of `docs/references.md` (Pieterse2012, MacMurchy2004,
 //! McLoughlin2021, Skjermo2008, Xu2015 and their `-spec` distillations, ABOP, …); "issue N"
 //! is the project's issue tracker (`git log --grep "issue N"` finds the change).
+//!
+//! The shortest embedding — a preset, the quad mesher, a grow, a `.glb` in memory
+//! (`tests/session.rs` checks the same bytes with the Khronos glTF validator):
+//!
+//! ```
+//! let set = sylva::recipe::parse_set("mesh.method=\"quad\"")?;
+//! let loaded = sylva::recipe::load("lsys-binary-tree", &[set])?;
+//! let tree = sylva::pipeline::grow(&loaded)?;
+//! let glb = tree.to_glb()?;
+//! assert_eq!(&glb[..4], b"glTF");
+//! # Ok::<(), sylva::Error>(())
+//! ```
+//!
+//! For a front end that changes settings live, [`Session`] keeps every stage's result
+//! and recomputes only what a change touches.
 
 #![warn(missing_docs)]
 
@@ -53,9 +71,12 @@ pub mod tolerance;
 pub mod wind;
 
 pub use error::{Error, Result};
-pub use preview::animation;
 pub use geometry::Mesh;
 pub use mesh::deform;
 pub use model::{Material, Model, Part};
 pub use pipeline::session;
+pub use pipeline::session::{Session, Stage};
+pub use pipeline::{Report, Tree};
+pub use preview::animation;
+pub use recipe::Recipe;
 pub use skeleton::{Skeleton, NO_PARENT};

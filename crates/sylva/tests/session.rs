@@ -2,6 +2,8 @@
 //! changed, and what it gives is byte for byte what a fresh grow of the same recipe
 //! gives; textures are drawn once per style, size and seed; cancellation and progress.
 
+mod common;
+
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use sylva::session::{Session, Stage};
@@ -168,4 +170,61 @@ fn cancelling_a_running_update_returns_soon() {
             Ok(()) => assert!(returned <= asked + Duration::from_millis(5)),
         }
     }
+}
+
+/// The lib.rs example (preset → quad mesher → grow → `.glb` bytes) gives a file the
+/// Khronos glTF validator accepts, and `Tree::write` writes the same bytes.
+#[test]
+fn the_crate_example_glb_is_valid() {
+    let set = sylva::recipe::parse_set("mesh.method=\"quad\"").unwrap();
+    let loaded = sylva::recipe::load("lsys-binary-tree", &[set]).unwrap();
+    let tree = sylva::pipeline::grow(&loaded).unwrap();
+    let glb = tree.to_glb().unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    let dir = std::env::temp_dir().join(format!("sylva-session-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("example.glb");
+    tree.write(&path).unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), glb);
+    common::gltf_validator::assert_valid_gltf(&[path.as_path()]);
+    // The summary every front end prints names the recipe and every stage's time.
+    let summary = tree.to_string();
+    assert!(summary.starts_with("lsys-binary-tree: "), "{summary}");
+    assert!(summary.contains("stages (ms): generate "), "{summary}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The cancellation latency on the aspen at delays across the whole update, printed
+/// (the figure in BENCHMARKS.md): `cargo test --release -p sylva --test session
+/// cancel_latency -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement: prints the latencies"]
+fn cancel_latency() {
+    let loaded = sylva::recipe::load("wp-quaking-aspen", &[]).unwrap();
+    eprint!("{}", sylva::pipeline::grow(&loaded).unwrap().report);
+    let mut worst = Duration::ZERO;
+    let mut all = Vec::new();
+    for delay_ms in (0..700).step_by(10) {
+        let token = sylva::cancel::Cancel::new();
+        let worker = {
+            let (loaded, token) = (loaded.clone(), token.clone());
+            std::thread::spawn(move || {
+                let r = Session::new(loaded).run_with(&token).map(|_| ());
+                (r, Instant::now())
+            })
+        };
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let asked = Instant::now();
+        token.cancel();
+        let (r, returned) = worker.join().unwrap();
+        if let Err(sylva::Error::Cancelled) = r {
+            let latency = returned.saturating_duration_since(asked);
+            all.push((delay_ms, latency));
+            worst = worst.max(latency);
+        }
+    }
+    for (d, l) in &all {
+        eprintln!("cancelled at {d} ms: returned after {:.1} ms", l.as_secs_f64() * 1e3);
+    }
+    eprintln!("{} cancelled updates, worst latency {:.1} ms", all.len(), worst.as_secs_f64() * 1e3);
 }

@@ -4,6 +4,7 @@
 //! [`Loaded::read`]; writing outputs is the caller's (the CLI's) job.
 
 pub mod session;
+mod tree;
 
 use crate::error::{Error, Result};
 use crate::export::TextureMode;
@@ -66,16 +67,22 @@ pub struct Report {
     pub stage_times: Vec<(&'static str, Duration)>,
 }
 
-/// The products of a run.
+/// The products of a run: the tree a recipe makes ([`Tree::to_glb`], [`Tree::write`],
+/// and a `Display` summary).
 #[derive(Debug, Clone)]
-pub struct Grown {
+pub struct Tree {
     /// The skeleton.
     pub skeleton: Skeleton,
     /// The meshed model.
     pub model: Model,
     /// What was built.
     pub report: Report,
+    /// The recipe it was made from.
+    pub recipe: Recipe,
 }
+
+/// The former name of [`Tree`].
+pub type Grown = Tree;
 
 /// The derived string of an L-system recipe, with its parsed L-system.
 pub struct Derived {
@@ -926,7 +933,7 @@ pub fn shape_stage(recipe: &Recipe, skeleton: &mut Skeleton, report: &mut Report
 
 /// Runs the whole pipeline of a loaded recipe: a [`crate::session::Session`] that keeps
 /// no stage, run once.
-pub fn grow(loaded: &Loaded) -> Result<Grown> {
+pub fn grow(loaded: &Loaded) -> Result<Tree> {
     let mut session = crate::session::Session::new(loaded.clone()).keep_stages(false);
     session.run()?;
     Ok(session.into_tree().expect("a successful run leaves a tree"))

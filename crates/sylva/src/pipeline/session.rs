@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::geometry::Mesh;
 use crate::mesh::ground::SunkRoot;
 use crate::model::{BranchCurves, Model};
-use crate::pipeline::{self, Fitted, Generated, Grown, Report};
+use crate::pipeline::{self, Fitted, Generated, Report, Tree};
 use crate::recipe::{Loaded, Recipe};
 use crate::skeleton::Skeleton;
 use std::sync::Arc;
@@ -224,7 +224,7 @@ pub struct Session {
     retain: bool,
     cache: Cache,
     textures: crate::texture::TextureCache,
-    tree: Option<Grown>,
+    tree: Option<Tree>,
     last_run: Vec<Stage>,
     progress: Option<Progress>,
 }
@@ -272,12 +272,12 @@ impl Session {
     }
 
     /// The tree of the last successful update.
-    pub fn tree(&self) -> Option<&Grown> {
+    pub fn tree(&self) -> Option<&Tree> {
         self.tree.as_ref()
     }
 
     /// The tree of the last successful update, out of the session.
-    pub fn into_tree(self) -> Option<Grown> {
+    pub fn into_tree(self) -> Option<Tree> {
         self.tree
     }
 
@@ -299,12 +299,12 @@ impl Session {
     }
 
     /// Computes the tree of the current recipe (only what is not kept yet).
-    pub fn run(&mut self) -> Result<&Grown> {
+    pub fn run(&mut self) -> Result<&Tree> {
         self.run_with(&Cancel::new())
     }
 
     /// [`Session::run`] that stops with [`Error::Cancelled`] once `cancel` is set.
-    pub fn run_with(&mut self, cancel: &Cancel) -> Result<&Grown> {
+    pub fn run_with(&mut self, cancel: &Cancel) -> Result<&Tree> {
         let recipe = self.loaded.recipe.clone();
         self.update_with(recipe, cancel)
     }
@@ -312,7 +312,7 @@ impl Session {
     /// Makes `recipe` the session's recipe (checked first: an invalid recipe is an
     /// error and changes nothing) and recomputes from the first stage whose inputs
     /// changed.
-    pub fn update(&mut self, recipe: Recipe) -> Result<&Grown> {
+    pub fn update(&mut self, recipe: Recipe) -> Result<&Tree> {
         self.update_with(recipe, &Cancel::new())
     }
 
@@ -320,7 +320,7 @@ impl Session {
     /// (checked between stages and inside the long ones; a front end cancels a stale
     /// update from another thread). A cancelled or failed update keeps the stages it
     /// finished and drops the rest; the session's recipe is then the new one.
-    pub fn update_with(&mut self, recipe: Recipe, cancel: &Cancel) -> Result<&Grown> {
+    pub fn update_with(&mut self, recipe: Recipe, cancel: &Cancel) -> Result<&Tree> {
         recipe.check()?;
         let first = Stage::ALL
             .into_iter()
@@ -369,7 +369,7 @@ impl Session {
         Ok(Some(value))
     }
 
-    fn compute(&mut self, first: Stage, cancel: &Cancel) -> Result<Grown> {
+    fn compute(&mut self, first: Stage, cancel: &Cancel) -> Result<Tree> {
         let recipe = self.loaded.recipe.clone();
         let mut times = Vec::new();
 
@@ -461,7 +461,7 @@ impl Session {
                     take(lod, |l| (l.skeleton, l.model), |l| (l.skeleton.clone(), l.model.clone()));
                 pipeline::wind_stage(recipe_ref, &mut model, &mut report);
                 model.provenance = pipeline::provenance(recipe_ref);
-                Ok(Grown { skeleton, model, report })
+                Ok(Tree { skeleton, model, report, recipe: recipe_ref.clone() })
             })?
             .expect("the last stage always runs");
         tree.report.stage_times = times.into_iter().map(|(s, t)| (s.name(), t)).collect();
