@@ -44,7 +44,11 @@ impl TextureCache {
         // The two drawings may run on other threads: they carry this thread's token.
         let token = crate::cancel::current();
         let (new_bark, new_atlas) = rayon::join(
-            || crate::cancel::scope_opt(token.as_ref(), || draw_bark.map(|(st, size, seed)| bark_maps(st, size, seed))),
+            || {
+                crate::cancel::scope_opt(token.as_ref(), || {
+                    draw_bark.map(|(st, size, seed)| bark_maps(st, size, seed))
+                })
+            },
             || {
                 crate::cancel::scope_opt(token.as_ref(), || {
                     draw_atlas.map(|(size, colour, seed)| leaf_atlas(size, colour, seed))
