@@ -9,8 +9,8 @@
 //! ([`Loaded::from_lsystem_source`]).
 
 use super::{
-    from_table, load, toml_error, Generator, LeafMode, Loaded, MeshMethod, Origin, Recipe, RefineScheme,
-    WindPreset,
+    from_table, load, read::toml_error, Generator, LeafMode, Loaded, MeshMethod, Origin, Recipe,
+    RefineScheme, WindPreset,
 };
 use crate::error::{Error, Result};
 use crate::export::TextureMode;
