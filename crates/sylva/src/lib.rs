@@ -2,11 +2,11 @@
 //!
 //! ```text
 //!  Recipe ─► Session: each stage's result kept, a change reruns from the first stage it touches
-//!   Generate ──► Fit ──────────► Bark ───────────► Assemble ───► Dress ───────► Lod ───► Wind ──► Tree
-//!   lsystem,     prune, leaves,   tube, hull,       bark part,    textures      LOD      rig,     .to_glb()
-//!   import,      decollide,       sweep, quad,      organs,       (cached),     chain,   clip,    .write(path):
-//!   weber-penn,  flat-base sink,  leaf; refine;     leaf cards    instancing    curves   metadata glb gltf obj
-//!   colonize,    clear            flat-base cut                                                  ply pov lst json
+//!   Generate ──► Fit ─────────► Bark ──────────► Assemble ──► Dress ──────► Lod ───► Rig ───► Clip ──► Tree
+//!   lsystem,     prune, leaves, tube, hull,      bark part,   textures     LOD      joints,  wind     .to_glb()
+//!   import,      decollide,     sweep, quad,     organs,      (cached),    chain,   skin     clip,    .write(path):
+//!   weber-penn,  flat-base      leaf; refine;    leaf cards   instancing   curves   weights  metadata glb gltf obj
+//!   colonize,    sink, clear    flat-base cut                                                         ply pov lst json
 //!   least-cost
 //! ```
 //!

@@ -56,8 +56,8 @@ fn weber_penn_changes_rerun_from_their_stage_and_match_a_fresh_grow() {
             (&["leaves.alpha_cutoff=0.3"], Stage::Assemble),
             (&["leaves.mode=\"geometry\""], Stage::Assemble),
             (&["leaves.normals=\"crown\""], Stage::Assemble),
-            (&["wind.preset=\"breeze\""], Stage::Wind),
-            (&["wind.preset=\"breeze\"", "wind.strength=2"], Stage::Wind),
+            (&["wind.preset=\"breeze\""], Stage::Rig),
+            (&["wind.preset=\"breeze\"", "wind.strength=2"], Stage::Rig),
             (&["textures.bark=\"plated\""], Stage::Dress),
             (&["textures.scale=2"], Stage::Bark),
             (&["output.textures=\"none\""], Stage::Assemble),
@@ -65,6 +65,22 @@ fn weber_penn_changes_rerun_from_their_stage_and_match_a_fresh_grow() {
             (&["mesh.sides=6"], Stage::Fit),
             (&["seed=5"], Stage::Generate),
             (&["generator.ratio=0.02"], Stage::Generate),
+        ],
+    );
+}
+
+#[test]
+fn wind_changes_rebake_the_clip_or_rerig() {
+    walk(
+        "wp-quaking-aspen",
+        &["generator.levels=2", "wind.preset=\"breeze\""],
+        &[
+            (&["wind.strength=2"], Stage::Clip),
+            (&["wind.direction=90", "wind.gustiness=0.5"], Stage::Clip),
+            (&["wind.preset=\"storm\""], Stage::Clip),
+            (&["wind.max_joints=8"], Stage::Rig),
+            (&["wind.leaf_flutter=0"], Stage::Rig),
+            (&["leaves.alpha_cutoff=0.3"], Stage::Assemble),
         ],
     );
 }

@@ -899,13 +899,40 @@ pub fn clear_skeleton(
 /// chosen from the branch curves, skin weights and wind channels on every part of every
 /// level, and a looping clip baked from the wind (see [`crate::wind`]).
 pub fn wind_stage(recipe: &Recipe, model: &mut Model, report: &mut Report) {
-    let Some(wind) = recipe.wind.options() else { return };
+    if let Some(plan) = rig_stage(recipe, model, report) {
+        clip_stage(recipe, &plan, model, report);
+    }
+}
+
+/// The rig half of [`wind_stage`]: joints from the branch curves within
+/// `wind.max_joints`, skin weights and wind channels (`wind.leaf_flutter`) on every
+/// part. Reads no other wind setting. `None` without wind.
+pub(crate) fn rig_stage(
+    recipe: &Recipe,
+    model: &mut Model,
+    report: &mut Report,
+) -> Option<crate::wind::JointPlan> {
+    recipe.wind.options()?;
     let t = Instant::now();
     let plan = crate::wind::JointPlan::new(&model.curves, recipe.wind.max_joints as usize);
     crate::wind::rig_model(model, &plan, recipe.wind.leaf_flutter as f32);
-    model.clip = Some(crate::wind::bake_clip(&plan, &wind, recipe.wind.clip_seconds, recipe.wind.fps));
     report.joints = plan.rig.joints.len();
     report.wind_time = t.elapsed();
+    Some(plan)
+}
+
+/// The clip half of [`wind_stage`]: the looping clip baked from the wind's preset,
+/// strength, direction, gusts and stiffness over the rig `plan`.
+pub(crate) fn clip_stage(
+    recipe: &Recipe,
+    plan: &crate::wind::JointPlan,
+    model: &mut Model,
+    report: &mut Report,
+) {
+    let Some(wind) = recipe.wind.options() else { return };
+    let t = Instant::now();
+    model.clip = Some(crate::wind::bake_clip(plan, &wind, recipe.wind.clip_seconds, recipe.wind.fps));
+    report.wind_time += t.elapsed();
 }
 
 /// The optional skeleton passes of McLoughlin2021 §4.2 before fitting: overlap pruning

@@ -2,10 +2,11 @@
 //! from the first stage whose inputs changed (architecture: "Session").
 //!
 //! ```text
-//!  Generate ─► Fit ─► Bark ─► Assemble ─► Dress ─► Lod ─► Wind ─► Tree
-//!  generator   shape,  mesher,  organs,     textures  LOD     rig, clip,
-//!  seed,input  decollide, refine, leaf cards (cached)  chain   provenance
-//!              clear    cut
+//!  Generate ─► Fit ─────► Bark ────► Assemble ──► Dress ─────► Lod ───► Rig ─────► Clip ──► Tree
+//!  generator   shape,     mesher,    bark part,   textures     LOD      joints,    wind clip,
+//!  seed, input decollide, refine,    organs,      (cached),    chain,   skin       provenance
+//!              sink,      flat-base  leaf cards   instancing   curves   weights
+//!              clear      cut
 //! ```
 //!
 //! Each stage keeps its result with the recipe it was made from; [`Stage::same_inputs`]
@@ -43,14 +44,25 @@ pub enum Stage {
     Dress,
     /// The branch curves and the LOD chain.
     Lod,
-    /// The wind rig and clip, and the recipe written into the model.
-    Wind,
+    /// The wind rig: joints within `wind.max_joints`, skin weights, leaf flutter.
+    Rig,
+    /// The wind clip baked from the wind's settings, and the recipe written into the
+    /// model.
+    Clip,
 }
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 7] =
-        [Stage::Generate, Stage::Fit, Stage::Bark, Stage::Assemble, Stage::Dress, Stage::Lod, Stage::Wind];
+    pub const ALL: [Stage; 8] = [
+        Stage::Generate,
+        Stage::Fit,
+        Stage::Bark,
+        Stage::Assemble,
+        Stage::Dress,
+        Stage::Lod,
+        Stage::Rig,
+        Stage::Clip,
+    ];
 
     /// The stage's name in reports (`generate`, `fit`, …).
     pub fn name(self) -> &'static str {
@@ -61,7 +73,8 @@ impl Stage {
             Stage::Assemble => "assemble",
             Stage::Dress => "dress",
             Stage::Lod => "lod",
-            Stage::Wind => "wind",
+            Stage::Rig => "rig",
+            Stage::Clip => "clip",
         }
     }
 
@@ -110,7 +123,12 @@ impl Stage {
                     && a.output.textures == b.output.textures
             }
             // The provenance is the whole recipe: the last stage reruns on any change.
-            Stage::Wind => a == b,
+            Stage::Rig => {
+                a.wind.enabled() == b.wind.enabled()
+                    && a.wind.max_joints == b.wind.max_joints
+                    && a.wind.leaf_flutter == b.wind.leaf_flutter
+            }
+            Stage::Clip => a == b,
         }
     }
 }
@@ -160,6 +178,13 @@ struct Lod {
     report: Report,
 }
 
+struct Rig {
+    skeleton: Skeleton,
+    model: Model,
+    plan: Option<crate::wind::JointPlan>,
+    report: Report,
+}
+
 /// One stage's kept result and the recipe it was made from.
 struct Kept<T> {
     recipe: Recipe,
@@ -175,6 +200,7 @@ struct Cache {
     assemble: Option<Kept<Assemble>>,
     dress: Option<Kept<Dress>>,
     lod: Option<Kept<Lod>>,
+    rig: Option<Kept<Rig>>,
 }
 
 impl Cache {
@@ -187,7 +213,8 @@ impl Cache {
             Stage::Assemble => self.assemble.as_ref().map(|k| &k.recipe),
             Stage::Dress => self.dress.as_ref().map(|k| &k.recipe),
             Stage::Lod => self.lod.as_ref().map(|k| &k.recipe),
-            Stage::Wind => None,
+            Stage::Rig => self.rig.as_ref().map(|k| &k.recipe),
+            Stage::Clip => None,
         }
     }
 
@@ -201,7 +228,8 @@ impl Cache {
                 Stage::Assemble => self.assemble = None,
                 Stage::Dress => self.dress = None,
                 Stage::Lod => self.lod = None,
-                Stage::Wind => {}
+                Stage::Rig => self.rig = None,
+                Stage::Clip => {}
             }
         }
     }
@@ -325,8 +353,8 @@ impl Session {
         let first = Stage::ALL
             .into_iter()
             .find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, &recipe)))
-            .unwrap_or(Stage::Wind);
-        let unchanged = first == Stage::Wind && self.loaded.recipe == recipe && self.tree.is_some();
+            .unwrap_or(Stage::Clip);
+        let unchanged = first == Stage::Clip && self.loaded.recipe == recipe && self.tree.is_some();
         self.loaded.recipe = recipe;
         self.last_run.clear();
         if unchanged {
@@ -454,12 +482,26 @@ impl Session {
             None => kept(&self.cache.lod)?,
         };
 
+        let rig = match self.stage(Stage::Rig, first, cancel, &mut times, move |_| {
+            let mut report = lod.report.clone();
+            let (skeleton, mut model) =
+                take(lod, |l| (l.skeleton, l.model), |l| (l.skeleton.clone(), l.model.clone()));
+            let plan = pipeline::rig_stage(recipe_ref, &mut model, &mut report);
+            Ok(Rig { skeleton, model, plan, report })
+        })? {
+            Some(v) => self.keep(v, |c| &mut c.rig),
+            None => kept(&self.cache.rig)?,
+        };
+
         let mut tree = self
-            .stage(Stage::Wind, first, cancel, &mut times, move |_| {
-                let mut report = lod.report.clone();
+            .stage(Stage::Clip, first, cancel, &mut times, move |_| {
+                let mut report = rig.report.clone();
+                let plan = rig.plan.clone();
                 let (skeleton, mut model) =
-                    take(lod, |l| (l.skeleton, l.model), |l| (l.skeleton.clone(), l.model.clone()));
-                pipeline::wind_stage(recipe_ref, &mut model, &mut report);
+                    take(rig, |r| (r.skeleton, r.model), |r| (r.skeleton.clone(), r.model.clone()));
+                if let Some(plan) = &plan {
+                    pipeline::clip_stage(recipe_ref, plan, &mut model, &mut report);
+                }
                 model.provenance = pipeline::provenance(recipe_ref);
                 Ok(Tree { skeleton, model, report, recipe: recipe_ref.clone() })
             })?
