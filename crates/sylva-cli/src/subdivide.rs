@@ -46,7 +46,7 @@ pub struct SubdivideArgs {
     pub max_faces: usize,
     /// Worker threads, 1..=1024 (`refine::MAX_THREADS`; default: all cores; the output is
     /// identical for any count).
-    #[arg(long, value_parser = crate::whole_in::<usize>(1, refine::MAX_THREADS as u64))]
+    #[arg(long, value_parser = crate::args::whole_in::<usize>(1, refine::MAX_THREADS as u64))]
     pub threads: Option<usize>,
     /// Adaptive Loop refinement instead of uniform (MacMurchy2004): `flatness=RAD,size=AREA`
     /// (flatness in radians, or degrees with a `deg` suffix; size = smallest triangle
