@@ -244,3 +244,20 @@ fn cancel_latency() {
     }
     eprintln!("{} cancelled updates, worst latency {:.1} ms", all.len(), worst.as_secs_f64() * 1e3);
 }
+
+/// The README's library example, as written there (writing into a temporary folder).
+#[test]
+fn the_readme_library_example_runs() -> sylva::Result<()> {
+    let dir = std::env::temp_dir().join(format!("sylva-readme-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut session = sylva::Session::new(sylva::recipe::Loaded::preset("wp-quaking-aspen")?);
+    session.run()?;
+    let mut recipe = session.recipe().clone();
+    recipe.set("leaves.alpha_cutoff", toml::Value::Float(0.3))?;
+    let tree = session.update(recipe)?; // reruns the leaf stages only
+    tree.write(&dir.join("aspen.glb"))?;
+    assert_eq!(session.last_run().first(), Some(&Stage::Assemble));
+    assert!(std::fs::metadata(dir.join("aspen.glb")).unwrap().len() > 1000);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
