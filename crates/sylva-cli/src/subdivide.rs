@@ -1,15 +1,28 @@
 //! `sylva subdivide`: refine an OBJ control mesh with Loop or Catmull–Clark and write it
-//! as glTF, OBJ or PLY (issue 4 item 9; the engine is `sylva::refine`).
+//! as glTF, OBJ or PLY (issue 4 item 9). The policy (the scheme for the mesh, the rules
+//! from its tags, the combinations refused, the run) is the library's
+//! `sylva::refine::policy`; this file parses flags into its request, with the library's
+//! own names for every option.
 //!
 //! Creases and corners come from OpenSubdiv-style tags in the OBJ
 //! (`t crease 2/1 v0 v1 sharpness`, `t corner 1/1 v sharpness`); see
 //! `sylva::mesh::obj_read`.
 
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use miette::Result;
 use std::path::PathBuf;
 use std::time::Instant;
-use sylva::refine::{self, FvarInterpolation, RefineOptions, Scheme, SubdivideOptions};
+use sylva::refine::pn::{EdgeRule, NormalInterpolation, QuadInterior};
+use sylva::refine::policy::{self, Adaptive, MeshTags, Named, Noise, Pn, PolicyError, SubdivideRequest};
+use sylva::refine::{self, BoundaryInterpolation, CreasingMethod, FvarInterpolation, Scheme};
 use sylva::{Material, Model, Part};
+
+/// A clap value parser for a library option written by name ([`Named`]): the names and
+/// their help in `--help`, the aliases accepted.
+fn named<T: Named + Clone + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    let values = T::ALL.iter().map(|v| PossibleValue::new(v.name()).aliases(v.aliases()).help(v.help()));
+    PossibleValuesParser::new(values).map(|s| T::from_name(&s).expect("clap checked the name"))
+}
 
 /// Arguments of `sylva subdivide`.
 #[derive(clap::Args, Debug, Clone)]
@@ -20,8 +33,8 @@ pub struct SubdivideArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Subdivision scheme. Default: Loop for all-triangle meshes, else Catmull–Clark.
-    #[arg(long, value_enum)]
-    pub scheme: Option<SchemeArg>,
+    #[arg(long, value_parser = named::<Scheme>())]
+    pub scheme: Option<Scheme>,
     /// Uniform refinement levels (each multiplies the face count by 4).
     #[arg(short = 'n', long, default_value_t = 2)]
     pub levels: u32,
@@ -29,18 +42,18 @@ pub struct SubdivideArgs {
     #[arg(long)]
     pub limit: bool,
     /// UV interpolation (OpenSubdiv's face-varying rules; docs/subdivision.md lists them).
-    #[arg(long, value_enum, default_value_t = UvArg::Linear)]
-    pub uv: UvArg,
+    #[arg(long, default_value = "linear", value_parser = named::<FvarInterpolation>())]
+    pub uv: FvarInterpolation,
     /// Semi-sharp crease decay: uniform (OpenSubdiv's default) or Chaikin.
-    #[arg(long, value_enum)]
-    pub creasing: Option<CreasingArg>,
+    #[arg(long, value_parser = named::<CreasingMethod>())]
+    pub creasing: Option<CreasingMethod>,
     /// Where boundary vertices go: `bspline` (the rim refines as a cubic B-spline, its
     /// single-face corners pinned; OpenSubdiv's `interpolateboundary 1`), `edge-only`
     /// (`interpolateboundary 2`) or `fixed` (Pieterse2012's rule: every boundary vertex stays
     /// put, so the rim stays the control polygon). Default: the OBJ's `interpolateboundary`
     /// tag, else `bspline`.
-    #[arg(long, value_enum)]
-    pub boundary: Option<BoundaryArg>,
+    #[arg(long, value_parser = named::<BoundaryInterpolation>())]
+    pub boundary: Option<BoundaryInterpolation>,
     /// Refuse to write more faces than this.
     #[arg(long, value_name = "FACES", default_value_t = refine::DEFAULT_MAX_FACES)]
     pub max_faces: usize,
@@ -52,93 +65,29 @@ pub struct SubdivideArgs {
     /// (flatness in radians, or degrees with a `deg` suffix; size = smallest triangle
     /// area to split). `-n` is the deepest level. Output is crack-free.
     #[arg(long, value_name = "flatness=F,size=S", value_parser = parse_adaptive)]
-    pub adaptive: Option<AdaptiveArg>,
+    pub adaptive: Option<Adaptive>,
     /// Tessellate the (subdivided) mesh with PN triangles / PN quads (Skjermo2008): `standard`
     /// (⅓ edge rule) or `rounder` (½ rule). Use `-n 0` or `-n 1` before PN.
-    #[arg(long, value_enum, value_name = "RULE")]
-    pub pn: Option<PnArg>,
+    #[arg(long, value_name = "RULE", value_parser = named::<EdgeRule>())]
+    pub pn: Option<EdgeRule>,
     /// Segments per patch edge for `--pn` (each face becomes level² faces).
     #[arg(long, value_name = "K", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub pn_level: u32,
     /// Inner control points of PN quads: Theyer's diagonals or zero twist.
-    #[arg(long, value_enum, default_value_t = PnInteriorArg::Theyer)]
-    pub pn_interior: PnInteriorArg,
+    #[arg(long, default_value = "theyer", value_parser = named::<QuadInterior>())]
+    pub pn_interior: QuadInterior,
     /// Normal interpolation across PN patches.
-    #[arg(long, value_enum, default_value_t = PnNormalsArg::Quadratic)]
-    pub pn_normals: PnNormalsArg,
+    #[arg(long, default_value = "quadratic", value_parser = named::<NormalInterpolation>())]
+    pub pn_normals: NormalInterpolation,
     /// Fractal noise after every uniform level (MacMurchy2004 §6.5): `k=K,h=H,bias=B` and
     /// optionally `l=LACUNARITY` (default 2), `top=T` (feature size at the top of the mesh;
     /// t falls from 1 at the base, default 0.25; 1 = uniform), `seed=N`. K is a fraction of
     /// the bounding-box diagonal.
     #[arg(long, value_name = "k=K,h=H,bias=B", value_parser = parse_noise)]
-    pub noise: Option<NoiseArg>,
+    pub noise: Option<Noise>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
-}
-
-/// `--adaptive flatness=…,size=…`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AdaptiveArg {
-    /// Flatness tolerance in radians.
-    pub flatness: f32,
-    /// Size tolerance (area).
-    pub size: f32,
-}
-
-/// `--noise k=…,h=…,bias=…[,l=…][,top=…][,seed=…]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NoiseArg {
-    /// Scale as a fraction of the bounding-box diagonal.
-    pub k: f32,
-    /// Fractal dimension H.
-    pub h: f32,
-    /// Bias b.
-    pub bias: f32,
-    /// Lacunarity L.
-    pub lacunarity: f32,
-    /// Feature size t at the top.
-    pub top: f32,
-    /// Random seed.
-    pub seed: u64,
-}
-
-/// `--boundary`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BoundaryArg {
-    /// Cubic B-spline rim, single-face corners pinned.
-    Bspline,
-    /// Cubic B-spline rim, nothing pinned.
-    EdgeOnly,
-    /// Every boundary vertex stays put (Pieterse2012 `Fixed`).
-    Fixed,
-}
-
-/// `--pn`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PnArg {
-    /// ⅓ edge rule (Vlachos; Th Eq. 3.1).
-    Standard,
-    /// ½ edge rule, rounder (Th Eq. 3.2).
-    Rounder,
-}
-
-/// `--pn-interior`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PnInteriorArg {
-    /// Theyer: the edge rule along the diagonals.
-    Theyer,
-    /// Zero twist at the corners.
-    ZeroTwist,
-}
-
-/// `--pn-normals`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PnNormalsArg {
-    /// Linear blend of the corner normals.
-    Linear,
-    /// Vlachos' quadratic normals.
-    Quadratic,
 }
 
 /// Splits `key=value,key=value` into pairs, rejecting unknown and repeated keys.
@@ -166,8 +115,8 @@ fn number(key: &str, v: &str) -> Result<f32, String> {
 }
 
 /// Parses `--adaptive flatness=0.25,size=0.0001` (`flatness=15deg` in degrees).
-pub fn parse_adaptive(s: &str) -> Result<AdaptiveArg, String> {
-    let mut a = AdaptiveArg { flatness: 0.25, size: 1e-4 };
+pub fn parse_adaptive(s: &str) -> Result<Adaptive, String> {
+    let mut a = Adaptive::default();
     for (k, v) in key_values(s, &["flatness", "size"])? {
         match k {
             "flatness" => {
@@ -193,8 +142,8 @@ pub fn parse_adaptive(s: &str) -> Result<AdaptiveArg, String> {
 }
 
 /// Parses `--noise k=0.01,h=0.5,bias=0.5[,l=2][,top=0.25][,seed=1]`.
-pub fn parse_noise(s: &str) -> Result<NoiseArg, String> {
-    let mut a = NoiseArg { k: 0.005, h: 0.5, bias: 0.5, lacunarity: 2.0, top: 0.25, seed: 1 };
+pub fn parse_noise(s: &str) -> Result<Noise, String> {
+    let mut a = Noise::default();
     for (k, v) in key_values(s, &["k", "h", "bias", "l", "top", "seed"])? {
         let in01 = |x: f32| -> Result<f32, String> {
             if (0.0..=1.0).contains(&x) {
@@ -225,47 +174,43 @@ pub fn parse_noise(s: &str) -> Result<NoiseArg, String> {
     Ok(a)
 }
 
-/// `--scheme`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SchemeArg {
-    /// Loop (triangles only).
-    Loop,
-    /// Catmull–Clark (any polygons).
-    CatmullClark,
+/// The library's request for these flags.
+fn request(args: &SubdivideArgs) -> SubdivideRequest {
+    SubdivideRequest {
+        scheme: args.scheme,
+        levels: args.levels,
+        limit: args.limit,
+        uv: args.uv,
+        creasing: args.creasing,
+        boundary: args.boundary,
+        max_faces: args.max_faces,
+        parallel: args.threads != Some(1),
+        adaptive: args.adaptive,
+        noise: args.noise,
+        pn: args.pn.map(|rule| Pn {
+            rule,
+            level: args.pn_level,
+            interior: args.pn_interior,
+            normals: args.pn_normals,
+        }),
+    }
 }
 
-/// `--uv`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UvArg {
-    /// Linear everywhere (UVs never shrink; OpenSubdiv FVAR_LINEAR_ALL).
-    #[value(alias = "all")]
-    Linear,
-    /// Smooth inside each UV chart; seams and borders linear with their corners pinned
-    /// (FVAR_LINEAR_BOUNDARIES).
-    #[value(alias = "boundaries")]
-    Smooth,
-    /// Smooth inside; seams and borders as smooth curves with chart corners and
-    /// junctions of three or more charts pinned (FVAR_LINEAR_CORNERS_PLUS1).
-    #[value(alias = "corners-plus1")]
-    SmoothCurves,
-    /// As smooth-curves, also pinning seam ends and two-chart corners
-    /// (FVAR_LINEAR_CORNERS_PLUS2).
-    CornersPlus2,
-    /// Smooth inside; seams and borders as smooth curves, only chart corners pinned
-    /// (FVAR_LINEAR_CORNERS_ONLY).
-    CornersOnly,
-    /// Smooth everywhere; only mesh corners pinned (FVAR_LINEAR_NONE).
-    #[value(alias = "none")]
-    SmoothAll,
-}
-
-/// `--creasing`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CreasingArg {
-    /// Sharpness decreases by 1 per level.
-    Uniform,
-    /// Chaikin: sharpness is averaged along the crease, then decreased by 1.
-    Chaikin,
+/// A refused combination, in the flags' words.
+fn policy_error(e: PolicyError) -> miette::Report {
+    match e {
+        PolicyError::AdaptiveNeedsLoop => miette::miette!(
+            "--adaptive refines triangles with Loop's scheme; it cannot be used with Catmull–Clark"
+        ),
+        PolicyError::AdaptiveNeedsUniform => {
+            miette::miette!(
+                "--adaptive cannot be combined with --noise or --limit (they need uniform levels)"
+            )
+        }
+        PolicyError::AdaptiveNeedsLinearUv => {
+            miette::miette!("--adaptive carries UVs linearly; use --uv linear")
+        }
+    }
 }
 
 /// Runs `sylva subdivide`.
@@ -274,108 +219,9 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
     sylva::export::Format::from_path(&args.output)?;
     let start = Instant::now();
     let obj = sylva::mesh::obj_read::read_obj(&args.input)?;
-    let mesh = &obj.mesh;
-    let scheme = match args.scheme {
-        Some(SchemeArg::Loop) => Scheme::Loop,
-        Some(SchemeArg::CatmullClark) => Scheme::CatmullClark,
-        None if mesh.face_count() > 0 && (0..mesh.face_count()).all(|f| mesh.face(f).len() == 3) => {
-            Scheme::Loop
-        }
-        None => Scheme::CatmullClark,
-    };
-    let creasing = match args.creasing {
-        Some(CreasingArg::Uniform) => refine::CreasingMethod::Uniform,
-        Some(CreasingArg::Chaikin) => refine::CreasingMethod::Chaikin,
-        None => obj.creasing.unwrap_or_default(),
-    };
-    let options = SubdivideOptions {
-        refine: RefineOptions {
-            scheme,
-            levels: args.levels,
-            boundary: match args.boundary {
-                Some(BoundaryArg::Bspline) => refine::BoundaryInterpolation::EdgeAndCorner,
-                Some(BoundaryArg::EdgeOnly) => refine::BoundaryInterpolation::EdgeOnly,
-                Some(BoundaryArg::Fixed) => refine::BoundaryInterpolation::Fixed,
-                None => obj.boundary.unwrap_or_default(),
-            },
-            creasing,
-            max_faces: args.max_faces,
-            parallel: args.threads != Some(1),
-            ..Default::default()
-        },
-        limit: args.limit,
-        uv: match args.uv {
-            UvArg::Linear => FvarInterpolation::Linear,
-            UvArg::Smooth => FvarInterpolation::Boundaries,
-            UvArg::SmoothCurves => FvarInterpolation::CornersPlus,
-            UvArg::CornersPlus2 => FvarInterpolation::CornersPlus2,
-            UvArg::CornersOnly => FvarInterpolation::CornersOnly,
-            UvArg::SmoothAll => FvarInterpolation::Smooth,
-        },
-    };
-    if args.adaptive.is_some() {
-        if scheme != Scheme::Loop {
-            miette::bail!(
-                "--adaptive refines triangles with Loop's scheme; it cannot be used with Catmull–Clark"
-            );
-        }
-        if args.noise.is_some() || args.limit {
-            miette::bail!("--adaptive cannot be combined with --noise or --limit (they need uniform levels)");
-        }
-        if options.uv != FvarInterpolation::Linear {
-            miette::bail!("--adaptive carries UVs linearly; use --uv linear");
-        }
-    }
-    let diagonal = mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
-    let subdivide = || -> Result<sylva::Mesh, refine::RefineError> {
-        let refined = if let Some(a) = args.adaptive {
-            let opts = refine::adaptive::AdaptiveOptions {
-                max_levels: args.levels,
-                flatness: a.flatness,
-                min_area: a.size,
-                boundary: options.refine.boundary,
-                creasing: options.refine.creasing,
-                max_faces: args.max_faces,
-            };
-            refine::adaptive::adaptive_loop(mesh, &obj.corners, &opts)?
-        } else if let Some(n) = args.noise {
-            let noise = refine::noise::NoiseOptions {
-                k: n.k * diagonal,
-                lacunarity: n.lacunarity,
-                h: n.h,
-                bias: n.bias,
-                feature: refine::noise::FeatureSize::Height { top: n.top },
-            };
-            refine::noise::subdivide_with_noise(mesh, &obj.corners, &options, &noise, n.seed)?
-        } else {
-            refine::subdivide(mesh, &obj.corners, &options)?
-        };
-        match args.pn {
-            None => Ok(refined),
-            Some(rule) => {
-                let edge_rule = match rule {
-                    PnArg::Standard => refine::pn::EdgeRule::Standard,
-                    PnArg::Rounder => refine::pn::EdgeRule::Rounder,
-                };
-                let opts = refine::pn::PnOptions {
-                    level: args.pn_level,
-                    edge_rule,
-                    diagonal_rule: refine::pn::EdgeRule::Standard,
-                    interior: match args.pn_interior {
-                        PnInteriorArg::Theyer => refine::pn::QuadInterior::Theyer,
-                        PnInteriorArg::ZeroTwist => refine::pn::QuadInterior::ZeroTwist,
-                    },
-                    normals: match args.pn_normals {
-                        PnNormalsArg::Linear => refine::pn::NormalInterpolation::Linear,
-                        PnNormalsArg::Quadratic => refine::pn::NormalInterpolation::Quadratic,
-                    },
-                    source: refine::pn::NormalSource::Mesh,
-                    max_faces: args.max_faces,
-                };
-                refine::pn::pn_tessellate(&refined, &opts)
-            }
-        }
-    };
+    let tags = MeshTags { boundary: obj.boundary, creasing: obj.creasing };
+    let plan = policy::plan(&request(&args), &obj.mesh, tags).map_err(policy_error)?;
+    let subdivide = || plan.run(&obj.mesh, &obj.corners);
     let refined = match args.threads {
         Some(n) if n > 1 => {
             refine::with_threads(n, subdivide).map_err(|e| miette::miette!("--threads {n}: {e}"))?
@@ -392,7 +238,7 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
     };
     sylva::export::write(&model, &args.output)?;
     if !args.quiet {
-        let scheme = match scheme {
+        let scheme = match plan.scheme() {
             Scheme::Loop => "Loop",
             Scheme::CatmullClark => "Catmull–Clark",
         };
@@ -427,7 +273,7 @@ mod tests {
             scheme: None,
             levels: 2,
             limit: false,
-            uv: UvArg::Linear,
+            uv: FvarInterpolation::Linear,
             creasing: None,
             boundary: None,
             max_faces: refine::DEFAULT_MAX_FACES,
@@ -435,8 +281,8 @@ mod tests {
             adaptive: None,
             pn: None,
             pn_level: 4,
-            pn_interior: PnInteriorArg::Theyer,
-            pn_normals: PnNormalsArg::Quadratic,
+            pn_interior: QuadInterior::Theyer,
+            pn_normals: NormalInterpolation::Quadratic,
             noise: None,
             quiet: true,
         }
@@ -463,7 +309,7 @@ mod tests {
         let input = temp("quads.obj");
         std::fs::write(&input, CUBE).unwrap();
         let loop_on_quads =
-            SubdivideArgs { scheme: Some(SchemeArg::Loop), ..args(input.clone(), temp("x.obj")) };
+            SubdivideArgs { scheme: Some(Scheme::Loop), ..args(input.clone(), temp("x.obj")) };
         let e = format!("{:?}", run(loop_on_quads).unwrap_err());
         assert!(e.contains("Loop subdivision needs triangles"), "{e}");
         let too_big = SubdivideArgs { levels: 12, ..args(input.clone(), temp("x.obj")) };
@@ -492,7 +338,7 @@ mod tests {
         let back = sylva::mesh::obj_read::read_obj(&out).unwrap();
         assert!(back.mesh.face_count() > 4 && back.mesh.face_count() <= 4 * 64);
         run(SubdivideArgs {
-            pn: Some(PnArg::Rounder),
+            pn: Some(EdgeRule::Rounder),
             pn_level: 3,
             levels: 1,
             ..args(input.clone(), out.clone())
@@ -546,7 +392,7 @@ mod tests {
         let e = format!("{:?}", run(both).unwrap_err());
         assert!(e.contains("--limit"), "{e}");
         let huge = SubdivideArgs {
-            pn: Some(PnArg::Standard),
+            pn: Some(EdgeRule::Standard),
             pn_level: 1024,
             levels: 3,
             ..args(tetra, temp("y.obj"))

@@ -22,6 +22,8 @@
 //! [`limit`] (MacMurchy2004 §2.11 "move to limit surface"). Adaptive Loop refinement:
 //! [`adaptive`] (MacMurchy2004 §A.3). PN triangles and quads: [`pn`] (Skjermo2008 §3.3.1).
 //! Fractal noise between levels: [`noise`] (MacMurchy2004 §6.5).
+//! The policy of one mesh's subdivision as a front end asks it (the scheme for the
+//! mesh, the rules from its tags, the combinations refused): [`policy`].
 //!
 //! Every level is computed in parallel with rayon over child elements, each child value
 //! written by exactly one task with a fixed summation order, so the output is
@@ -36,6 +38,7 @@ pub mod loop_;
 mod memory;
 pub mod noise;
 pub mod pn;
+pub mod policy;
 pub mod topology;
 
 pub use crease::{Corner, INFINITE};
