@@ -9,7 +9,9 @@ use std::collections::HashMap;
 use sylva::grow::least_cost::graph::{
     self, lattice, poisson, poisson_yao, sector, Graph, Primitive, Volume, NONE,
 };
-use sylva::grow::least_cost::mgv::{self, MgvIteration, MgvState, Rotation};
+use sylva::grow::least_cost::mgv::{
+    self, Direction, EndpointRule, MgvIteration, MgvState, Rotation, RotationRule,
+};
 use sylva::grow::least_cost::paths::{dijkstra, dijkstra_until, mgv_weight, Costs, Length, Search, Until};
 use sylva::grow::least_cost::{self as lc, LeastCostParams};
 use sylva::recipe;
@@ -375,9 +377,9 @@ fn mgv_params(iters: Vec<MgvIteration>) -> LeastCostParams {
 
 fn trunk(alpha: f64) -> MgvIteration {
     MgvIteration {
-        endpoints: "point".into(),
+        endpoints: EndpointRule::Point,
         target: [0.0, 2.0, 0.0],
-        rotation: Rotation { rule: "constant".into(), alpha, ..Default::default() },
+        rotation: Rotation { rule: RotationRule::Constant, alpha, ..Default::default() },
         ..Default::default()
     }
 }
@@ -389,9 +391,9 @@ fn guides_stay_vertical_when_alpha_is_zero_and_iterations_nest() {
     let mut st = MgvState::new(&g);
     st.iterate(&g, &trunk(0.0), &p, 1, 0);
     let zero = MgvIteration {
-        endpoints: "surface".into(),
+        endpoints: EndpointRule::Surface,
         count: 50,
-        rotation: Rotation { rule: "constant".into(), alpha: 0.0, ..Default::default() },
+        rotation: Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() },
         ..Default::default()
     };
     let before: Vec<u32> = st.nodes.clone();
@@ -422,15 +424,17 @@ fn late_endpoints_follow_hops_fraction_and_direction_rules() {
     let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 8).unwrap();
     let mut st = MgvState::new(&g);
     st.iterate(&g, &trunk(0.0), &p, 1, 0);
-    for (t, dir) in [(0.3, "any"), (1.0, "any"), (1.0, "lower"), (0.6, "higher")] {
+    for (t, dir) in
+        [(0.3, Direction::Any), (1.0, Direction::Any), (1.0, Direction::Lower), (0.6, Direction::Higher)]
+    {
         let it = MgvIteration {
-            endpoints: "surface".into(),
+            endpoints: EndpointRule::Surface,
             count: 100_000,
             hops: 4,
             outer_fraction: t,
-            direction: dir.into(),
+            direction: dir,
             rotation: Rotation {
-                rule: "two-phase".into(),
+                rule: RotationRule::TwoPhase,
                 alpha1: 30.0,
                 alpha2: 0.0,
                 h0: 1,
@@ -456,12 +460,12 @@ fn late_endpoints_follow_hops_fraction_and_direction_rules() {
             assert!(rank(e) >= cutoff, "in the outer fraction");
             let (y, sy) = (g.position[e as usize].y, g.position[search.source[e as usize] as usize].y);
             match dir {
-                "lower" => assert!(y < sy),
-                "higher" => assert!(y > sy),
-                _ => {}
+                Direction::Lower => assert!(y < sy),
+                Direction::Higher => assert!(y > sy),
+                Direction::Any => {}
             }
         }
-        if t == 1.0 && dir == "any" {
+        if t == 1.0 && dir == Direction::Any {
             assert_eq!(ends.len(), ring.len(), "t = 1 keeps every surface node");
         }
     }
@@ -473,8 +477,8 @@ fn grow(p: &LeastCostParams, seed: u64) -> lc::LeastCostTree {
 
 #[test]
 fn thickness_never_decreases_towards_the_root() {
-    for thickness in ["power", "pipe"] {
-        let p = LeastCostParams { thickness: thickness.into(), ..mgv_params(vec![]) };
+    for thickness in lc::Thickness::ALL.iter().copied() {
+        let p = LeastCostParams { thickness, ..mgv_params(vec![]) };
         let t = grow(&p, 3);
         let sk = &t.skeleton;
         sk.validate().unwrap();
@@ -634,10 +638,10 @@ fn eq51_rotates_only_the_first_new_node_of_each_branch() {
     let mut st = MgvState::new(&g);
     st.iterate(&g, &trunk(0.0), &p, 1, 0);
     let it = MgvIteration {
-        endpoints: "surface".into(),
+        endpoints: EndpointRule::Surface,
         count: 200,
         rotation: Rotation {
-            rule: "two-phase".into(),
+            rule: RotationRule::TwoPhase,
             alpha1: 30.0,
             alpha2: 0.0,
             h0: 1,
@@ -779,10 +783,11 @@ fn bcm_follows_the_lattice_and_later_rounds_add_twigs_near_the_tree() {
 
 #[test]
 fn bcm_parameters_are_named_errors() {
-    let mut p = bcm_params(2);
-    p.bcm.weights = "sideways".into();
-    let e = lc::grow(&p, 1, None).unwrap_err().to_string();
-    assert!(e.contains("generator.bcm.weights"), "{e}");
+    let e = "sideways".parse::<lc::bcm::Weights>().unwrap_err().to_string();
+    assert!(
+        e.contains("`generator.bcm.weights` is `sideways`; use random, left, right, axis or height"),
+        "{e}"
+    );
     let mut p = bcm_params(0);
     p.bcm.rounds = 0;
     let e = lc::grow(&p, 1, None).unwrap_err().to_string();
@@ -821,9 +826,9 @@ fn recipe_params(name: &str) -> LeastCostParams {
 
 #[test]
 fn refinement_subvolumes_share_no_edges_and_fill_their_quotas() {
-    for attach in ["nearest", "top"] {
+    for attach in refine::Attach::ALL.iter().copied() {
         let mut p = refine_params(4);
-        p.refine.as_mut().unwrap().attach = attach.into();
+        p.refine.as_mut().unwrap().attach = attach;
         let r = p.refine.clone().unwrap();
         let rf = refine::build(&p, &r, 3).unwrap();
         let g = &rf.graph;
@@ -964,20 +969,25 @@ impl Costs for UpGuides {
 }
 
 fn forest_params() -> LeastCostParams {
-    let still = Rotation { rule: "constant".into(), alpha: 0.0, ..Default::default() };
+    let still = Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() };
     LeastCostParams {
         nodes: 6000,
         volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [6.0, 4.0, 6.0] }],
         roots: vec![[-2.0, 0.0, -2.0], [2.0, 0.0, -1.5], [0.0, 0.0, 2.0]],
         iterations: vec![
             MgvIteration {
-                endpoints: "volume".into(),
+                endpoints: EndpointRule::Volume,
                 count: 30,
                 crown: vec![Primitive::Box { center: [0.0, 2.5, 0.0], size: [6.0, 3.0, 6.0] }],
                 rotation: still.clone(),
                 ..Default::default()
             },
-            MgvIteration { endpoints: "surface".into(), count: 60, rotation: still, ..Default::default() },
+            MgvIteration {
+                endpoints: EndpointRule::Surface,
+                count: 60,
+                rotation: still,
+                ..Default::default()
+            },
         ],
         ..mgv_params(vec![])
     }
@@ -1191,7 +1201,7 @@ fn leaves_and_needles_sit_at_the_tips() {
 }
 
 fn fork_rotation() -> Rotation {
-    Rotation { rule: "two-phase".into(), alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() }
+    Rotation { rule: RotationRule::TwoPhase, alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() }
 }
 
 /// The report's warnings about MGV iterations that got fewer endpoints than they asked for.
@@ -1205,7 +1215,7 @@ fn shortfall_warnings(t: &lc::LeastCostTree) -> Vec<String> {
 #[test]
 fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
     let surface = MgvIteration {
-        endpoints: "surface".into(),
+        endpoints: EndpointRule::Surface,
         count: 5000,
         rotation: fork_rotation(),
         ..Default::default()
@@ -1230,14 +1240,14 @@ fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
     assert_eq!(t2.report.endpoints, got + 1);
     assert!(shortfall_warnings(&t2).is_empty(), "{:?}", t2.report.warnings);
     // The direction filter is named with the survivors.
-    let higher = MgvIteration { count: 5000, direction: "higher".into(), ..surface_like() };
+    let higher = MgvIteration { count: 5000, direction: Direction::Higher, ..surface_like() };
     let t3 = grow(&mgv_params(vec![trunk(0.0), higher]), 3);
     let w = shortfall_warnings(&t3);
     assert!(w.len() == 1 && w[0].contains("higher than their source"), "{w:?}");
 
     // A crown holding fewer nodes than asked for.
     let crown = |count: usize, min_distance: f64, radius: f64| MgvIteration {
-        endpoints: "volume".into(),
+        endpoints: EndpointRule::Volume,
         count,
         min_distance,
         crown: vec![Primitive::Sphere { center: [0.0, 2.5, 0.0], radius }],
@@ -1281,7 +1291,7 @@ fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
 }
 
 fn surface_like() -> MgvIteration {
-    MgvIteration { endpoints: "surface".into(), rotation: fork_rotation(), ..Default::default() }
+    MgvIteration { endpoints: EndpointRule::Surface, rotation: fork_rotation(), ..Default::default() }
 }
 
 /// Issue 26 (Xu2015, Table 6.1 f, Fig. 6.9; Xu2015-spec §2.6, §8 property 14): `mgv-f`
@@ -1293,7 +1303,7 @@ fn surface_like() -> MgvIteration {
 fn mgv_f_endpoints_lie_higher_than_their_source() {
     let mut p = recipe_params("mgv-f");
     assert_eq!(p.iterations.len(), 4);
-    assert!(p.iterations.iter().all(|it| it.direction == "higher"));
+    assert!(p.iterations.iter().all(|it| it.direction == Direction::Higher));
     p.nodes = 8000;
     let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 5).unwrap();
     // (endpoints per iteration, per iteration the endpoints at or below their source)
@@ -1311,7 +1321,7 @@ fn mgv_f_endpoints_lie_higher_than_their_source() {
     let (ends, low) = run(&p);
     let mut any = p.clone();
     for it in &mut any.iterations {
-        it.direction = "any".into();
+        it.direction = Direction::Any;
     }
     let (ends_any, low_any) = run(&any);
     assert_eq!(ends[0], ends_any[0], "vacuous in iteration 1");

@@ -10,12 +10,13 @@
 //! [`crate::fit::leaves::Placement`], `generator.gap` [`crate::import::lst::GapPolicy`],
 //! `leaves.shape` and `textures.bark` an `Option` of [`crate::texture::leaf::LeafShape`]
 //! and [`crate::texture::bark::BarkStyle`] (`None` is `auto`, [`crate::texture::auto`]).
+//! The least-cost generator's own modes (`generator.axis`, `thickness`, `bcm.weights`,
+//! the MGV iterations' and MIG levels' modes, `refine.attach`) are made by the same
+//! macro in [`crate::grow::least_cost`].
 //!
 //! A name serde does not know is reported by [`crate::recipe::from_table`] as the key, the
 //! name given and the names allowed (`` `leaves.mode` is `sprites`; use cards, instanced
 //! or geometry ``): [`variant_hint`] rewrites serde's `unknown variant` message.
-
-use crate::error::{Error, Result};
 
 /// `names` as words: `a`, `a or b`, `a, b or c`.
 pub fn one_of(names: &[&str]) -> String {
@@ -94,22 +95,24 @@ macro_rules! mode {
         }
 
         impl std::str::FromStr for $name {
-            type Err = Error;
+            type Err = $crate::error::Error;
 
             /// Errors name the key and list the names.
-            fn from_str(s: &str) -> Result<Self> {
+            fn from_str(s: &str) -> $crate::error::Result<Self> {
                 $name::from_name(s).ok_or_else(|| {
-                    Error::Recipe(format!(
+                    $crate::error::Error::Recipe(format!(
                         "`{}` is `{}`; use {}",
                         $key,
-                        crate::diagnostic::quote(s),
-                        one_of($name::NAMES)
+                        $crate::diagnostic::quote(s),
+                        $crate::recipe::modes::one_of($name::NAMES)
                     ))
                 })
             }
         }
     };
 }
+/// The macro for the least-cost generator's own modes ([`crate::grow::least_cost`]).
+pub(crate) use mode;
 
 mode! {
     /// `mesh.method`: the mesher ([`crate::mesh::Mesher`] with its options).

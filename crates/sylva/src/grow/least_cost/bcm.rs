@@ -38,12 +38,28 @@ use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::time::Instant;
 
+crate::recipe::modes::mode! {
+    /// `generator.bcm.weights`: the edge weights of the basic cost model.
+    Weights, key "generator.bcm.weights", default Random {
+        /// `W = 1 + v^β`, `v` uniform in [`low`, `low + range`].
+        Random = "random",
+        /// The edge midpoint's distance to the left side (paths bend toward it).
+        Left = "left",
+        /// The distance to the right side.
+        Right = "right",
+        /// The distance to the vertical axis through the root.
+        Axis = "axis",
+        /// The height above the bottom.
+        Height = "height",
+    }
+}
+
 /// The `[generator.bcm]` keys of a `method = "bcm"` recipe.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct BcmParams {
     /// `random`, or a spatial variation: `left`, `right`, `axis`, `height`.
-    pub weights: String,
+    pub weights: Weights,
     /// β of `W = 1 + v^β`.
     pub beta: f64,
     /// Lower end of `v`'s range.
@@ -67,7 +83,7 @@ pub struct BcmParams {
 impl Default for BcmParams {
     fn default() -> Self {
         BcmParams {
-            weights: "random".into(),
+            weights: Weights::Random,
             beta: 1.0,
             low: 0.0,
             range: 100.0,
@@ -84,9 +100,6 @@ impl Default for BcmParams {
 /// Checks the BCM keys; errors name the key.
 pub fn validate(p: &LeastCostParams) -> Result<()> {
     let b = &p.bcm;
-    if !["random", "left", "right", "axis", "height"].contains(&b.weights.as_str()) {
-        return bad("bcm.weights", format!("is `{}`; use random, left, right, axis or height", b.weights));
-    }
     in_range("bcm.beta", b.beta, 0.0, 10.0)?;
     in_range("bcm.low", b.low, 0.0, 1e6)?;
     in_range("bcm.range", b.range, 1e-6, 1e6)?;
@@ -127,12 +140,12 @@ pub fn grow(p: &LeastCostParams, seed: u64, report: &mut LeastCostReport) -> Res
             })
             .unwrap_or(0);
     }
-    let mut w = match b.weights.as_str() {
-        "random" => bcm_random_weights(&g, b.beta, b.low, b.range, seed ^ 0x6263_6d32),
-        "left" => bcm_spatial_weights(&g, Spatial::Left),
-        "right" => bcm_spatial_weights(&g, Spatial::Right),
-        "axis" => bcm_spatial_weights(&g, Spatial::Axis),
-        _ => bcm_spatial_weights(&g, Spatial::Height),
+    let mut w = match b.weights {
+        Weights::Random => bcm_random_weights(&g, b.beta, b.low, b.range, seed ^ 0x6263_6d32),
+        Weights::Left => bcm_spatial_weights(&g, Spatial::Left),
+        Weights::Right => bcm_spatial_weights(&g, Spatial::Right),
+        Weights::Axis => bcm_spatial_weights(&g, Spatial::Axis),
+        Weights::Height => bcm_spatial_weights(&g, Spatial::Height),
     };
     report.graph_nodes = g.len();
     report.graph_edges = g.edge_count();

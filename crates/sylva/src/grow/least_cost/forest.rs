@@ -11,7 +11,7 @@
 //!   iteration's Dijkstra runs from all current trees at once and every endpoint's path
 //!   starts at the tree node — hence the tree — that reaches it cheapest. Rules that
 //!   refer to "the root" (`eq52`, `height`, the direct fields) use the first root.
-//! - **MIG level 1** ([`mig_level1`]): Dijkstra runs from all roots with length weights,
+//! - **MIG level 1** (`mig_level1`): Dijkstra runs from all roots with length weights,
 //!   so every level-1 endpoint joins the nearest root by path length; `v_g` of its
 //!   level-2 subgraph points away from that root. Later levels are unchanged.
 //!

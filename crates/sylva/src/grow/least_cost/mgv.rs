@@ -71,13 +71,72 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
+crate::recipe::modes::mode! {
+    /// `rule` of an iteration's `rotation` / `lower` table: how the guide turns (see the
+    /// module docs).
+    RotationRule, key "generator.iterations.rotation.rule", default Constant {
+        /// α for every edge.
+        Constant = "constant",
+        /// Eq. 5.1: α₁ while `h ≤ h0`, then α₂.
+        TwoPhase = "two-phase",
+        /// Eq. 5.1 with α₁ drawn per node in [α₁, `alpha1_max`].
+        Random = "random",
+        /// Eq. 5.2 from θ and the angle to the vertical.
+        Eq52 = "eq52",
+        /// Eq. 5.1 with α₁ = 180°·(1 − N.y/H) from the source's height.
+        Height = "height",
+        /// Field: circles about the vertical through the root, tilted up by `pitch`.
+        Helical = "helical",
+        /// Field: circles about the vertical through the root.
+        Rotational = "rotational",
+        /// Field: the upward meridian of the sphere about the root.
+        Spherical = "spherical",
+    }
+}
+
+crate::recipe::modes::mode! {
+    /// `generator.iterations[].endpoints`: where an iteration's endpoints come from.
+    EndpointRule, key "generator.iterations.endpoints", default Surface {
+        /// One endpoint, `target`.
+        Point = "point",
+        /// `count` endpoints drawn inside `crown`.
+        Volume = "volume",
+        /// `count` endpoints near the tree's outer surface (`hops`, `outer_fraction`).
+        Surface = "surface",
+        /// No endpoints (the iteration only re-weights).
+        None = "none",
+    }
+}
+
+crate::recipe::modes::mode! {
+    /// `generator.iterations[].direction`: endpoints kept relative to their source.
+    Direction, key "generator.iterations.direction", default Any {
+        /// Every endpoint.
+        Any = "any",
+        /// Endpoints lower than their source.
+        Lower = "lower",
+        /// Endpoints higher than their source.
+        Higher = "higher",
+    }
+}
+
+crate::recipe::modes::mode! {
+    /// `generator.axis`: which axis form of the guide's rotation to try first.
+    AxisRule, key "generator.axis", default Edge {
+        /// `up × ê` first (Xu2015-spec's recommendation).
+        Edge = "edge",
+        /// `up × parent guide` first (§5.2.2).
+        Guide = "guide",
+    }
+}
+
 /// A rotation rule (the `rotation` / `lower` tables of an iteration).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Rotation {
     /// `constant`, `two-phase`, `random`, `eq52`, `height`, `helical`, `rotational` or
     /// `spherical` (see the module docs).
-    pub rule: String,
+    pub rule: RotationRule,
     /// α of `constant` (degrees).
     pub alpha: f64,
     /// α₁ of `two-phase`, lower bound of `random` (degrees).
@@ -97,7 +156,7 @@ pub struct Rotation {
 impl Default for Rotation {
     fn default() -> Self {
         Rotation {
-            rule: "constant".into(),
+            rule: RotationRule::Constant,
             alpha: 0.0,
             alpha1: 30.0,
             alpha1_max: 120.0,
@@ -109,17 +168,8 @@ impl Default for Rotation {
     }
 }
 
-const RULES: [&str; 8] =
-    ["constant", "two-phase", "random", "eq52", "height", "helical", "rotational", "spherical"];
-
 impl Rotation {
     fn validate(&self, key: &str) -> Result<()> {
-        if !RULES.contains(&self.rule.as_str()) {
-            return bad(
-                &format!("{key}.rule"),
-                format!("is `{}`; use one of {}", self.rule, RULES.join(", ")),
-            );
-        }
         for (k, v) in [
             ("alpha", self.alpha),
             ("alpha1", self.alpha1),
@@ -130,7 +180,7 @@ impl Rotation {
             in_range(&format!("{key}.{k}"), v, -360.0, 360.0)?;
         }
         in_range(&format!("{key}.pitch"), self.pitch, -100.0, 100.0)?;
-        if self.rule == "random" && self.alpha1_max < self.alpha1 {
+        if self.rule == RotationRule::Random && self.alpha1_max < self.alpha1 {
             return bad(
                 &format!("{key}.alpha1_max"),
                 format!("must be ≥ alpha1 ({}), got {}", self.alpha1, self.alpha1_max),
@@ -141,7 +191,7 @@ impl Rotation {
 
     /// Whether the rule sets the guide from a field instead of rotating it.
     fn is_field(&self) -> bool {
-        matches!(self.rule.as_str(), "helical" | "rotational" | "spherical")
+        matches!(self.rule, RotationRule::Helical | RotationRule::Rotational | RotationRule::Spherical)
     }
 }
 
@@ -157,7 +207,7 @@ pub struct MgvIteration {
     /// Height splitting `rotation` (above) from `lower` (below).
     pub region_height: f64,
     /// `point`, `volume`, `surface` or `none`.
-    pub endpoints: String,
+    pub endpoints: EndpointRule,
     /// Endpoints to draw (`volume`, `surface`).
     pub count: usize,
     /// The `point` endpoint's target.
@@ -171,7 +221,7 @@ pub struct MgvIteration {
     /// t of the `surface` endpoints, in (0, 1].
     pub outer_fraction: f64,
     /// `any`, `lower` or `higher` than the endpoint's source.
-    pub direction: String,
+    pub direction: Direction,
 }
 
 impl Default for MgvIteration {
@@ -180,14 +230,14 @@ impl Default for MgvIteration {
             rotation: Rotation::default(),
             lower: None,
             region_height: 0.0,
-            endpoints: "surface".into(),
+            endpoints: EndpointRule::Surface,
             count: 1000,
             target: [0.0, 5.0, 0.0],
             crown: Vec::new(),
             min_distance: 0.0,
             hops: 5,
             outer_fraction: 0.6,
-            direction: "any".into(),
+            direction: Direction::Any,
         }
     }
 }
@@ -195,16 +245,17 @@ impl Default for MgvIteration {
 /// The default iterations: a straight trunk to `[0, 4, 0]`, crown endpoints with
 /// (30°, 0, 1), then two rounds of surface endpoints with (30°, 0, 1).
 pub fn default_iterations() -> Vec<MgvIteration> {
-    let fork = Rotation { rule: "two-phase".into(), alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() };
+    let fork =
+        Rotation { rule: RotationRule::TwoPhase, alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() };
     vec![
         MgvIteration {
-            endpoints: "point".into(),
+            endpoints: EndpointRule::Point,
             target: [0.0, 4.0, 0.0],
-            rotation: Rotation { rule: "constant".into(), alpha: 0.0, ..Default::default() },
+            rotation: Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() },
             ..Default::default()
         },
         MgvIteration {
-            endpoints: "volume".into(),
+            endpoints: EndpointRule::Volume,
             count: 40,
             crown: vec![Primitive::HalfEllipsoid {
                 center: [0.0, 4.0, 0.0],
@@ -212,7 +263,7 @@ pub fn default_iterations() -> Vec<MgvIteration> {
                 axis: [0.0, 1.0, 0.0],
             }],
             rotation: Rotation {
-                rule: "two-phase".into(),
+                rule: RotationRule::TwoPhase,
                 alpha1: 10.0,
                 alpha2: 0.0,
                 h0: 1000,
@@ -221,20 +272,17 @@ pub fn default_iterations() -> Vec<MgvIteration> {
             ..Default::default()
         },
         MgvIteration {
-            endpoints: "surface".into(),
+            endpoints: EndpointRule::Surface,
             count: 300,
             rotation: fork.clone(),
             ..Default::default()
         },
-        MgvIteration { endpoints: "surface".into(), count: 600, rotation: fork, ..Default::default() },
+        MgvIteration { endpoints: EndpointRule::Surface, count: 600, rotation: fork, ..Default::default() },
     ]
 }
 
 /// Checks the MGV keys.
 pub fn validate(p: &LeastCostParams) -> Result<()> {
-    if !["edge", "guide"].contains(&p.axis.as_str()) {
-        return bad("axis", format!("is `{}`; use edge or guide", p.axis));
-    }
     in_range("epsilon", p.epsilon, 0.0, 10.0)?;
     if p.iterations.len() > 32 {
         return bad("iterations", format!("has {} entries; at most 32", p.iterations.len()));
@@ -246,13 +294,7 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
             l.validate(&format!("{k}.lower"))?;
         }
         in_range(&format!("{k}.region_height"), it.region_height, -1e6, 1e6)?;
-        if !["point", "volume", "surface", "none"].contains(&it.endpoints.as_str()) {
-            return bad(
-                &format!("{k}.endpoints"),
-                format!("is `{}`; use point, volume, surface or none", it.endpoints),
-            );
-        }
-        if it.count > p.nodes && ["volume", "surface"].contains(&it.endpoints.as_str()) {
+        if it.count > p.nodes && matches!(it.endpoints, EndpointRule::Volume | EndpointRule::Surface) {
             return bad(
                 &format!("{k}.count"),
                 format!("is {}, more than the graph's {} nodes", it.count, p.nodes),
@@ -261,7 +303,7 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
         for v in it.target {
             in_range(&format!("{k}.target"), v, -1e6, 1e6)?;
         }
-        if it.endpoints == "volume" && it.crown.is_empty() {
+        if it.endpoints == EndpointRule::Volume && it.crown.is_empty() {
             return bad(&format!("{k}.crown"), "needs at least one primitive for `volume` endpoints");
         }
         for (j, c) in it.crown.iter().enumerate() {
@@ -278,26 +320,11 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
                 format!("must be in (0, 1], got {}", it.outer_fraction),
             );
         }
-        if !["any", "lower", "higher"].contains(&it.direction.as_str()) {
-            return bad(
-                &format!("{k}.direction"),
-                format!("is `{}`; use any, lower or higher", it.direction),
-            );
-        }
     }
     Ok(())
 }
 
 use super::finite;
-
-/// Which axis form to try first.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AxisRule {
-    /// `up × ê` first (Xu2015-spec's recommendation).
-    Edge,
-    /// `up × parent guide` first (§5.2.2).
-    Guide,
-}
 
 /// Rotates `guide` by `alpha` radians about the rule's axis (see the module docs), in
 /// `f64`; returns a unit vector (the guide unrotated when every axis is degenerate).
@@ -363,8 +390,8 @@ impl MgvCosts<'_> {
         let up = DVec3::Y;
         let r = p - self.root;
         let radial = DVec3::new(r.x, 0.0, r.z);
-        match rule.rule.as_str() {
-            "spherical" => {
+        match rule.rule {
+            RotationRule::Spherical => {
                 let rn = r.normalize_or_zero();
                 (up - rn * up.dot(rn)).normalize_or(up)
             }
@@ -373,7 +400,7 @@ impl MgvCosts<'_> {
                 if t == DVec3::ZERO {
                     return up;
                 }
-                if rule.rule == "helical" {
+                if rule.rule == RotationRule::Helical {
                     (t + up * rule.pitch).normalize_or(up)
                 } else {
                     t
@@ -405,21 +432,25 @@ impl Costs for MgvCosts<'_> {
         let new = if rule.is_field() {
             self.field(rule, pu)
         } else {
-            let deg = match rule.rule.as_str() {
-                "constant" => rule.alpha,
-                "two-phase" => eq51(rule.alpha1, rule.alpha2, rule.h0, hops),
-                "random" => {
+            let deg = match rule.rule {
+                RotationRule::Constant => rule.alpha,
+                RotationRule::TwoPhase => eq51(rule.alpha1, rule.alpha2, rule.h0, hops),
+                RotationRule::Random => {
                     let a1 = rule.alpha1
                         + (rule.alpha1_max - rule.alpha1) * hash01(self.seed, u as u64, 0x7261_6e64);
                     eq51(a1, rule.alpha2, rule.h0, hops)
                 }
-                "eq52" => {
+                RotationRule::Eq52 => {
                     let beta = (pu - self.root).angle_between(DVec3::Y);
                     let beta = if beta.is_finite() { beta } else { 0.0 };
                     eq52(rule.theta.to_radians(), beta).to_degrees()
                 }
-                _ => {
-                    // "height": α₁ = 180°·(1 − N.y/H), N the source node.
+                // The field rules do not rotate (`is_field` above).
+                RotationRule::Height
+                | RotationRule::Helical
+                | RotationRule::Rotational
+                | RotationRule::Spherical => {
+                    // `height`: α₁ = 180°·(1 − N.y/H), N the source node.
                     let ny = (src().as_dvec3() - self.root).y;
                     let a1 = 180.0 * (1.0 - ny / self.height);
                     eq51(a1, rule.alpha2, rule.h0, hops)
@@ -527,7 +558,7 @@ impl MgvState {
             height: height.max(1e-9),
             seed: seed ^ index as u64,
             epsilon: p.epsilon as f32,
-            axis: if p.axis == "guide" { AxisRule::Guide } else { AxisRule::Edge },
+            axis: p.axis,
         };
         // The search stops as soon as the endpoint candidates are final (see
         // `paths::Until`; the endpoints and their paths are those of a full search). A
@@ -539,11 +570,11 @@ impl MgvState {
         let crown_flags: Vec<bool>;
         // Which nodes the `volume` crown contains (one parallel pass, used for the early
         // stop and again for the candidates).
-        let inside: Option<Vec<bool>> = (it.endpoints == "volume").then(|| {
+        let inside: Option<Vec<bool>> = (it.endpoints == EndpointRule::Volume).then(|| {
             let crown = Volume::new(it.crown.clone());
             g.position.par_iter().map(|q| crown.contains(q.as_dvec3())).collect()
         });
-        let until = if it.endpoints == "point" && it.direction == "any" {
+        let until = if it.endpoints == EndpointRule::Point && it.direction == Direction::Any {
             let t = DVec3::from_array(it.target).as_vec3();
             let nearest = (0..g.len() as u32)
                 .filter(|&v| self.reachable[v as usize] && !self.in_tree[v as usize])
@@ -558,11 +589,12 @@ impl MgvState {
         } else if let Some(inside) = &inside {
             crown_flags = (0..g.len()).map(|v| self.reachable[v] && !self.in_tree[v] && inside[v]).collect();
             Until::Settled(&crown_flags)
-        } else if it.endpoints == "surface" {
+        } else if it.endpoints == EndpointRule::Surface {
             Until::Hops(it.hops)
-        } else if it.endpoints == "none" {
+        } else if it.endpoints == EndpointRule::None {
             Until::Settled(&[])
         } else {
+            // A `point` with a direction filter.
             Until::Never
         };
         let search = dijkstra_until(g, &self.nodes, None, &mut costs, until);
@@ -594,10 +626,10 @@ impl MgvState {
     fn direction_ok(g: &Graph, it: &MgvIteration, s: &Search, v: u32) -> bool {
         let y = g.position[v as usize].y;
         let sy = g.position[s.source[v as usize] as usize].y;
-        match it.direction.as_str() {
-            "lower" => y < sy,
-            "higher" => y > sy,
-            _ => true,
+        match it.direction {
+            Direction::Lower => y < sy,
+            Direction::Higher => y > sy,
+            Direction::Any => true,
         }
     }
 
@@ -629,13 +661,13 @@ impl MgvState {
         inside: Option<&[bool]>,
     ) -> (Vec<u32>, String) {
         let name = |k: &str| format!("generator.iterations[{index}].{k}");
-        let dir = match it.direction.as_str() {
-            "any" => String::new(),
+        let dir = match it.direction {
+            Direction::Any => String::new(),
             d => format!(" and {d} than their source"),
         };
         let fresh = |v: u32| s.reached(v) && !self.in_tree[v as usize] && Self::direction_ok(g, it, s, v);
-        match it.endpoints.as_str() {
-            "point" => {
+        match it.endpoints {
+            EndpointRule::Point => {
                 let t = DVec3::from_array(it.target).as_vec3();
                 let best = s.order.iter().copied().filter(|&v| fresh(v)).min_by(|&a, &b| {
                     g.position[a as usize]
@@ -643,14 +675,14 @@ impl MgvState {
                         .total_cmp(&g.position[b as usize].distance_squared(t))
                         .then(a.cmp(&b))
                 });
-                let why = if it.direction == "any" {
+                let why = if it.direction == Direction::Any {
                     "no reachable graph node lies outside the tree; raise `generator.nodes`".to_string()
                 } else {
                     format!("no reachable graph node outside the tree{dir}; change `{}`", name("direction"))
                 };
                 (best.into_iter().collect(), why)
             }
-            "volume" => {
+            EndpointRule::Volume => {
                 let crown = Volume::new(it.crown.clone());
                 let contains = |v: u32| match inside {
                     Some(f) => f[v as usize],
@@ -717,7 +749,7 @@ impl MgvState {
                 };
                 (out, why)
             }
-            "surface" => {
+            EndpointRule::Surface => {
                 let k = it.hops;
                 let mut ring: Vec<(u32, u64, u32)> = (0..g.len() as u32)
                     .filter(|&v| s.reached(v) && !self.in_tree[v as usize] && s.hops[v as usize] == k)
@@ -739,7 +771,7 @@ impl MgvState {
                         name("hops")
                     )
                 } else {
-                    let filtered = if it.direction == "any" {
+                    let filtered = if it.direction == Direction::Any {
                         String::new()
                     } else {
                         format!(", {} of them {} than their source", cand.len(), it.direction)
@@ -758,7 +790,7 @@ impl MgvState {
                 cand.truncate(it.count);
                 (cand, why)
             }
-            _ => (Vec::new(), String::new()),
+            EndpointRule::None => (Vec::new(), String::new()),
         }
     }
 }
@@ -817,10 +849,10 @@ pub fn grow(
 /// The endpoints an iteration asks for: 1 for `point`, `count` for `volume` and
 /// `surface`, 0 for `none`.
 pub fn asked(it: &MgvIteration) -> usize {
-    match it.endpoints.as_str() {
-        "point" => 1,
-        "volume" | "surface" => it.count,
-        _ => 0,
+    match it.endpoints {
+        EndpointRule::Point => 1,
+        EndpointRule::Volume | EndpointRule::Surface => it.count,
+        EndpointRule::None => 0,
     }
 }
 
@@ -859,7 +891,7 @@ mod tests {
         let v = Volume::new(vec![Primitive::Box { center: [0.0, 1.0, 0.0], size: [2.0; 3] }]);
         let g = super::super::graph::poisson_yao(&v, 3000, None, None, 8, 3, 7).unwrap();
         let it = MgvIteration {
-            endpoints: "volume".into(),
+            endpoints: EndpointRule::Volume,
             count: 50,
             crown: vec![Primitive::Sphere { center: [0.0, 1.2, 0.0], radius: 0.8 }],
             ..Default::default()

@@ -43,6 +43,28 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
+crate::recipe::modes::mode! {
+    /// `generator.levels[].shape`: the subgraph region of a MIG level.
+    SubShape, key "generator.levels.shape", default Sector {
+        /// A portion of a sphere about the endpoint.
+        Sector = "sector",
+        /// A cone from the endpoint.
+        Cone = "cone",
+    }
+}
+
+crate::recipe::modes::mode! {
+    /// `generator.levels[].direction`: the guiding direction `v_g` of a MIG level.
+    GuideDirection, key "generator.levels.direction", default Outward {
+        /// `v_g = e − R`, away from the root.
+        Outward = "outward",
+        /// Straight down.
+        Down = "down",
+        /// Straight up.
+        Up = "up",
+    }
+}
+
 /// One `maketree` level after the first (a `[[generator.levels]]` entry).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -52,9 +74,9 @@ pub struct MigLevel {
     /// Subgraph half-angle α (degrees, in (0, 180]).
     pub half_angle: f64,
     /// `sector` (portion of sphere) or `cone`.
-    pub shape: String,
+    pub shape: SubShape,
     /// `outward` (`v_g = e − R`), `down` or `up`.
-    pub direction: String,
+    pub direction: GuideDirection,
     /// Downward rotation of `v_g` about `up × v_g` (degrees; negative = upward).
     pub rotate: f64,
     /// Build subgraphs around the endpoints of all previous levels.
@@ -68,8 +90,8 @@ impl Default for MigLevel {
         MigLevel {
             endpoints: 6,
             half_angle: 54.0,
-            shape: "sector".into(),
-            direction: "outward".into(),
+            shape: SubShape::Sector,
+            direction: GuideDirection::Outward,
             rotate: 0.0,
             all_previous: false,
             repeat: 1,
@@ -108,14 +130,8 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
             );
         }
         in_range(&format!("{k}.half_angle"), l.half_angle, 1e-3, 180.0)?;
-        if !["sector", "cone"].contains(&l.shape.as_str()) {
-            return bad(&format!("{k}.shape"), format!("is `{}`; use sector or cone", l.shape));
-        }
-        if l.shape == "cone" && l.half_angle >= 89.0 {
+        if l.shape == SubShape::Cone && l.half_angle >= 89.0 {
             return bad(&format!("{k}.half_angle"), "must be below 89 for a cone");
-        }
-        if !["outward", "down", "up"].contains(&l.direction.as_str()) {
-            return bad(&format!("{k}.direction"), format!("is `{}`; use outward, down or up", l.direction));
         }
         in_range(&format!("{k}.rotate"), l.rotate, -180.0, 180.0)?;
         if l.repeat == 0 {
@@ -128,10 +144,10 @@ pub fn validate(p: &LeastCostParams) -> Result<()> {
 /// The guiding direction `v_g` of a subgraph at `e` (step 4B, with the level's options).
 pub fn guide_direction(e: DVec3, root: DVec3, level: &MigLevel) -> DVec3 {
     let up = DVec3::Y;
-    let mut v = match level.direction.as_str() {
-        "down" => -up,
-        "up" => up,
-        _ => (e - root).normalize_or(up),
+    let mut v = match level.direction {
+        GuideDirection::Down => -up,
+        GuideDirection::Up => up,
+        GuideDirection::Outward => (e - root).normalize_or(up),
     };
     if level.rotate != 0.0 {
         let axis = up.cross(v);
@@ -144,7 +160,7 @@ pub fn guide_direction(e: DVec3, root: DVec3, level: &MigLevel) -> DVec3 {
 
 /// The subgraph region of a level at `e` with direction `v` and radius `r`.
 pub fn sub_region(e: DVec3, v: DVec3, r: f64, level: &MigLevel) -> Primitive {
-    if level.shape == "cone" {
+    if level.shape == SubShape::Cone {
         let a = level.half_angle.to_radians();
         Primitive::Cone {
             base: (e + v * r).to_array(),
@@ -343,7 +359,7 @@ mod tests {
         let l = MigLevel { rotate: 30.0, ..Default::default() };
         let v = guide_direction(DVec3::new(1.0, 0.0, 0.0), DVec3::ZERO, &l);
         assert!(v.y < 0.0 && (v.angle_between(DVec3::X) - 30f64.to_radians()).abs() < 1e-9);
-        let l = MigLevel { direction: "down".into(), ..Default::default() };
+        let l = MigLevel { direction: GuideDirection::Down, ..Default::default() };
         assert_eq!(guide_direction(DVec3::X, DVec3::ZERO, &l), -DVec3::Y);
     }
 }

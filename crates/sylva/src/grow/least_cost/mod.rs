@@ -83,6 +83,16 @@ impl std::fmt::Display for Method {
     }
 }
 
+crate::recipe::modes::mode! {
+    /// `generator.thickness`: the thickness rule.
+    Thickness, key "generator.thickness", default Power {
+        /// `w = c·s^ζ` from the path length `s` below a node.
+        Power = "power",
+        /// The pipe model: `r^e` summed over the children (`pipe_exponent`).
+        Pipe = "pipe",
+    }
+}
+
 /// Parameters of the least-cost-path generator: the `[generator]` keys of a recipe with
 /// `type = "least-cost"` (`docs/least-cost.md`). Lengths in metres, angles in degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -136,11 +146,11 @@ pub struct LeastCostParams {
     pub iterations: Vec<mgv::MgvIteration>,
     /// MGV: rotation axis: `edge` (Xu2015-spec's recommendation, §5.3.1) or `guide`
     /// (§5.2.2's `up × parent guide`).
-    pub axis: String,
+    pub axis: mgv::AxisRule,
     /// MGV: weight floor `ε·d_E` (0 = the seed's weights).
     pub epsilon: f64,
     /// Thickness rule: `power` (`w = c·s^ζ`) or `pipe`.
-    pub thickness: String,
+    pub thickness: Thickness,
     /// ζ of `w = c·s^ζ`.
     pub zeta: f64,
     /// c of `w = c·s^ζ`.
@@ -181,9 +191,9 @@ impl Default for LeastCostParams {
             levels: Vec::new(),
             refine: None,
             iterations: Vec::new(),
-            axis: "edge".into(),
+            axis: mgv::AxisRule::Edge,
             epsilon: 0.0,
-            thickness: "power".into(),
+            thickness: Thickness::Power,
             zeta: 0.3,
             radius_scale: 0.05,
             min_radius: 0.01,
@@ -255,9 +265,6 @@ impl LeastCostParams {
         }
         if self.graph_cache.contains('\0') {
             return bad("graph_cache", "is not a valid file name");
-        }
-        if !["power", "pipe"].contains(&self.thickness.as_str()) {
-            return bad("thickness", format!("is `{}`; use power or pipe", self.thickness));
         }
         in_range("zeta", self.zeta, 0.0, 4.0)?;
         in_range("radius_scale", self.radius_scale, 0.0, 1e3)?;
@@ -435,7 +442,7 @@ impl PathTree {
 
     /// Radii by the rule of the module docs.
     pub fn radii(&self, p: &LeastCostParams, reach: &[f64]) -> Vec<f64> {
-        if p.thickness == "pipe" {
+        if p.thickness == Thickness::Pipe {
             let order = self.top_down();
             let e = p.pipe_exponent;
             let mut acc = vec![0.0f64; self.parent.len()];
@@ -709,7 +716,7 @@ mod tests {
     #[test]
     fn pipe_radii_add_areas() {
         let t = chain();
-        let p = LeastCostParams { thickness: "pipe".into(), min_radius: 0.1, ..Default::default() };
+        let p = LeastCostParams { thickness: Thickness::Pipe, min_radius: 0.1, ..Default::default() };
         let r = t.radii(&p, &t.reach());
         assert!((r[1] * r[1] - (r[2] * r[2] + r[4] * r[4])).abs() < 1e-12);
         assert_eq!(r[3], 0.1);

@@ -45,6 +45,16 @@ pub const SHARED: u32 = u32::MAX;
 /// Most sphere + cone subvolumes.
 pub const MAX_SPHERES: usize = 64;
 
+crate::recipe::modes::mode! {
+    /// `generator.refine.attach`: where the cones meet the trunk's axis.
+    Attach, key "generator.refine.attach", default Nearest {
+        /// The point of the axis nearest the sphere centre.
+        Nearest = "nearest",
+        /// The top of the trunk.
+        Top = "top",
+    }
+}
+
 /// The `[generator.refine]` keys (see the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -65,7 +75,7 @@ pub struct RefineParams {
     pub trunk: Option<usize>,
     /// Where the cones meet the trunk's axis: `nearest` (the point nearest the sphere
     /// centre) or `top`.
-    pub attach: String,
+    pub attach: Attach,
 }
 
 impl Default for RefineParams {
@@ -77,7 +87,7 @@ impl Default for RefineParams {
             quota: 0,
             cone: 0.5,
             trunk: None,
-            attach: "nearest".into(),
+            attach: Attach::Nearest,
         }
     }
 }
@@ -131,9 +141,6 @@ impl RefineParams {
                     "leaves no coarse volume: `generator.volume` needs a crown primitive too",
                 );
             }
-        }
-        if !["nearest", "top"].contains(&self.attach.as_str()) {
-            return bad("refine.attach", format!("is `{}`; use nearest or top", self.attach));
         }
         Ok(())
     }
@@ -231,7 +238,7 @@ pub fn build(p: &LeastCostParams, r: &RefineParams, seed: u64) -> Result<Refined
         let a = match &trunk {
             Some(t) => {
                 let (b, top) = trunk_axis(t);
-                if r.attach == "top" {
+                if r.attach == Attach::Top {
                     top
                 } else {
                     let ax = top - b;
