@@ -60,6 +60,7 @@ pub mod lod;
 pub mod lsystem;
 pub mod mesh;
 pub mod model;
+pub mod named;
 pub mod pipeline;
 pub mod presets;
 pub mod preview;

@@ -38,7 +38,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::time::Instant;
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.bcm.weights`: the edge weights of the basic cost model.
     Weights, key "generator.bcm.weights", default Random {
         /// `W = 1 + v^β`, `v` uniform in [`low`, `low + range`].

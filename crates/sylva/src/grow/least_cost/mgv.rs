@@ -71,7 +71,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `rule` of an iteration's `rotation` / `lower` table: how the guide turns (see the
     /// module docs).
     RotationRule, key "generator.iterations.rotation.rule", default Constant {
@@ -94,7 +94,7 @@ crate::recipe::modes::mode! {
     }
 }
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.iterations[].endpoints`: where an iteration's endpoints come from.
     EndpointRule, key "generator.iterations.endpoints", default Surface {
         /// One endpoint, `target`.
@@ -108,7 +108,7 @@ crate::recipe::modes::mode! {
     }
 }
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.iterations[].direction`: endpoints kept relative to their source.
     Direction, key "generator.iterations.direction", default Any {
         /// Every endpoint.
@@ -120,7 +120,7 @@ crate::recipe::modes::mode! {
     }
 }
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.axis`: which axis form of the guide's rotation to try first.
     AxisRule, key "generator.axis", default Edge {
         /// `up × ê` first (Xu2015-spec's recommendation).

@@ -43,7 +43,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.levels[].shape`: the subgraph region of a MIG level.
     SubShape, key "generator.levels.shape", default Sector {
         /// A portion of a sphere about the endpoint.
@@ -53,7 +53,7 @@ crate::recipe::modes::mode! {
     }
 }
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.levels[].direction`: the guiding direction `v_g` of a MIG level.
     GuideDirection, key "generator.levels.direction", default Outward {
         /// `v_g = e − R`, away from the root.

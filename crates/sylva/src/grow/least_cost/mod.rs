@@ -83,7 +83,7 @@ impl std::fmt::Display for Method {
     }
 }
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.thickness`: the thickness rule.
     Thickness, key "generator.thickness", default Power {
         /// `w = c·s^ζ` from the path length `s` below a node.

@@ -45,7 +45,7 @@ pub const SHARED: u32 = u32::MAX;
 /// Most sphere + cone subvolumes.
 pub const MAX_SPHERES: usize = 64;
 
-crate::recipe::modes::mode! {
+crate::named::mode! {
     /// `generator.refine.attach`: where the cones meet the trunk's axis.
     Attach, key "generator.refine.attach", default Nearest {
         /// The point of the axis nearest the sphere centre.
