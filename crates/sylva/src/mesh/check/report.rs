@@ -3,8 +3,8 @@
 
 use std::fmt;
 
-/// What [`check_mesh`] found. Counts are complete; the lists hold the first
-/// [`CheckOptions::max_listed`] items so a report can name them.
+/// What [`check_mesh`](super::check_mesh) found. Counts are complete; the lists hold the first
+/// [`CheckOptions::max_listed`](super::CheckOptions::max_listed) items so a report can name them.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct MeshReport {
     /// Vertices in the mesh.
@@ -53,14 +53,14 @@ pub struct MeshReport {
     pub intersections: Vec<[usize; 2]>,
     /// Number of intersecting triangle pairs; `None` when not tested.
     pub intersection_count: Option<usize>,
-    /// The search stopped at [`CheckOptions::max_intersections`]: the count is a lower bound.
+    /// The search stopped at [`CheckOptions::max_intersections`](super::CheckOptions::max_intersections): the count is a lower bound.
     pub intersections_truncated: bool,
     /// Faces that repeat an earlier face: the same corner positions in the same order
     /// (one primitive drawn twice, a copied triangle). They are reported here and left
     /// out of the self-intersection search (a copy would pair with everything its
     /// original does, and coincident copies make the search quadratic). A back face (the
     /// same corners in reverse order, a leaf card's) is not a duplicate. Looked for only
-    /// with the self-intersection search ([`CheckOptions::self_intersections`]) and
+    /// with the self-intersection search ([`CheckOptions::self_intersections`](super::CheckOptions::self_intersections)) and
     /// reported as a note ([`MeshReport::notes`]), not a problem: coincident copies
     /// (a model that draws one branch twice) do not cross each other.
     pub duplicate_faces: Vec<usize>,
@@ -68,11 +68,11 @@ pub struct MeshReport {
     pub duplicate_face_count: usize,
     /// Candidate triangle pairs the self-intersection search looked at (its work).
     pub pairs_searched: u64,
-    /// The self-intersection search used up [`CheckOptions::max_pairs`] and stopped
+    /// The self-intersection search used up [`CheckOptions::max_pairs`](super::CheckOptions::max_pairs) and stopped
     /// before every triangle was searched: the intersection count is a lower bound and
     /// the mesh is not judged valid.
     pub search_stopped: bool,
-    /// The [`CheckOptions::max_pairs`] the search ran with (named in the report).
+    /// The [`CheckOptions::max_pairs`](super::CheckOptions::max_pairs) the search ran with (named in the report).
     pub max_pairs: u64,
 }
 
