@@ -258,6 +258,17 @@ fn the_readme_library_example_runs() -> sylva::Result<()> {
     tree.write(&dir.join("aspen.glb"))?;
     assert_eq!(session.last_run().first(), Some(&Stage::Assemble));
     assert!(std::fs::metadata(dir.join("aspen.glb")).unwrap().len() > 1000);
+    // With `output.textures = "files"` the bytes in memory still embed their maps: no
+    // image refers to a file that was never written.
+    let mut files = session.recipe().clone();
+    files.set("output.textures", "files")?;
+    let glb = Session::new(sylva::recipe::Loaded::new(
+        files,
+        sylva::recipe::Origin::Preset("wp-quaking-aspen".into()),
+    )?)
+    .run()?
+    .to_glb()?;
+    assert!(!String::from_utf8_lossy(&glb).contains(".png\""), "a .glb in memory names a PNG file");
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }

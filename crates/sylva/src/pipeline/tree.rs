@@ -12,7 +12,11 @@ impl Tree {
     /// settings (textures embedded unless `output.textures = "none"`, compression, LOD
     /// layout).
     pub fn to_glb(&self) -> Result<Vec<u8>> {
-        let options = self.recipe.output.export_options(Path::new("tree.glb"))?;
+        let mut options = self.recipe.output.export_options(Path::new("tree.glb"))?;
+        // Bytes in memory have no folder for side files: `files` embeds too.
+        if matches!(options.textures, crate::export::TextureMode::Files { .. }) {
+            options.textures = crate::export::TextureMode::Embed;
+        }
         crate::export::gltf::to_glb_with(&self.model, &options)
     }
 
