@@ -33,7 +33,7 @@ use crate::skeleton::Skeleton;
 /// one field in `recipe::MeshSection`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Mesher {
-    /// Generalized cylinders, one per axis (`mesh/tube.rs`).
+    /// Generalized cylinders, one per axis (`mesh/tube/`).
     Tube(tube::TubeOptions),
     /// Pieterse2012's convex-hull joints (`mesh/hull/`).
     Hull(hull::HullOptions),
