@@ -68,7 +68,7 @@ impl LSystem {
         }
         // A predecessor of several modules matches consecutive modules, in decomposition
         // and homomorphism productions too (of the string being rewritten: `expand_run`
-        // in derive.rs).
+        // in derive/expand.rs).
         let (pred, rest, mut params, arity) = self.predecessor(strict.0, strict.1)?;
         let mut left = Vec::new();
         if let Some((a, b)) = lc {

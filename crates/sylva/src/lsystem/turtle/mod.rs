@@ -1,74 +1,13 @@
 //! The 3D turtle (ABOP ch. 1.5, McLoughlin2021 §4): interprets a module string into a
-//! [`Skeleton`].
-//!
-//! **Conventions** (McLoughlin2021 §4 "Decision"). The turtle frame is heading H, left L and
-//! up U with H × L = U, starting at H = +Y, L = +Z, U = +X (right-handed, Y up);
-//! cpfg `.str` strings start in cpfg's frame instead, H = +Y, L = −X, U = +Z (MacMurchy2004
-//! property 10; [`TurtleOptions::left`]).
-//! Positive angles rotate right-handed about the named axis, in degrees:
-//!
-//! | module | rotation | effect |
-//! |---|---|---|
-//! | `+(a)` | about U by +a | turn left: H toward L |
-//! | `-(a)` | about U by −a | turn right |
-//! | `&(a)` | about L by +a | pitch down: H toward −U |
-//! | `^(a)` | about L by −a | pitch up |
-//! | `/(a)` | about H by +a | roll right: L toward U |
-//! | `\(a)` | about H by −a | roll left |
-//! | `\|` | about U by 180° | turn around |
-//! | `$` | — | roll so L is horizontal: L = (Y × H)/‖Y × H‖, U = H × L |
-//!
-//! So a tree whose rolls are all 0° or 180° lies in the y–z plane (McLoughlin2021 test 11).
-//! `F(l)`/`G(l)` move by l (default: the step) and draw an internode; `f(l)`/`g(l)` move
-//! without drawing. `!(w)` sets the line width, which is a **diameter**: skeleton radii
-//! are width / 2. `!` and `#` without a parameter multiply / divide the width by the
-//! width factor. `[`/`]` push and pop the state; each `[` raises the branch order by
-//! one. `%` skips the rest of the current branch. `;(i)` / `,(i)` set (or step) the
-//! material index. Other modules have no turtle meaning and are ignored, as in cpfg.
-//!
-//! One skeleton node is written per `F` end point; a root node is written where a
-//! drawn axis starts (at the beginning, and after an `f` move). Axes that start
-//! exactly where a root already is share it: `[&F…][^F…]` at the start of an axiom is
-//! one plant with several stems (ABOP's bush, Fig. 1.25), not several plants whose
-//! bases overlap.
-//!
-//! **Tropism** (ABOP §2.2, cpfg view files): after every drawn `F` the heading turns
-//! toward each tropism vector T about H × T by α = e·‖H × T‖ (e the elasticity; T
-//! normalised), never past T. With an angle A (`tropism: T: … A: …`, plagiotropism)
-//! the heading turns toward the cone at angle A around T instead. `@Ts(i, e)` sets the
-//! elasticity of tropism i (1-based); `_(e)` sets the elasticity of every tropism and a
-//! bare `_` adds the elasticity increment.
-//!
-//! **More cpfg modules**: `@M(x,y,z)` moves to a point without drawing; `@R(hx,hy,hz
-//! [,ux,uy,uz])` sets the heading (and up); `@v` rolls like `$`; `{` … `}` trace a
-//! polygon whose vertices are the start point and every `f`/`F` end point (and `.`),
-//! placed as an organ and not as branches; `~x(s)` places the named surface x scaled
-//! by s; `@O(r)` a sphere, `@o(r)` / `@c(r)` a disc. Every axis is already one smooth
-//! tube; the generalized-cylinder markers also trace one: `@Gs` starts a generalized cylinder at the turtle's
-//! position, `@Gc` adds a node there and `@Ge` adds the last one, so models that move
-//! with `f` between control points (cpfg's contour-swept stems) still get an axis.
-//!
-//! **Contours** (cpfg generalized cylinders, issue 26). `@#(n)` selects contour n of
-//! the view file (`contour: n file.con`, [`TurtleOptions::contours`]); `@#(0)` (the
-//! default) is the circle, and a generalized cylinder drawn with the circle traces
-//! skeleton nodes as above. One whose `@Gs` comes while a contour is selected becomes a
-//! [`OrganKind::Swept`] organ instead (no skeleton nodes): at every control point
-//! (`@Gs`, `@Gc`, `@Ge`) the contour's sampled points (x, y) are placed at
-//! `position + r·(x·U − y·L)` with r the turtle's width / 2 (the same radius as a tube)
-//! — contour x along the turtle's up, y along its right, as cpfg's `make_contour` does,
-//! so a leaf contour (wide in x) lies in the plane of H and U and bends out of its
-//! plane with `+`/`-`. `@Gc(k)` / `@Ge(k)` ask for k rings from the previous control
-//! point (default 1, at most 256): the k − 1 between are on the cubic Hermite curve
-//! through the two points whose tangents are the turtle's headings times their
-//! distance (cpfg's default tangent parameters), with the radius and the contour
-//! interpolated linearly and the frame carried by the smallest rotation plus the share
-//! of the twist between the two control points' frames. With `twist of cylinders: off`
-//! ([`TurtleOptions::twist_of_cylinders`]) a control point's frame is the previous one
-//! carried to its heading, ignoring the turtle's rolls, as in cpfg. A `[` branch that
-//! adds control points forks the surface from its last point; an `@Gc` with no open
-//! cylinder starts one, as cpfg's does. Errors: `@#(n)` for an undeclared or unreadable
-//! contour; an open contour and a closed one (the circle included) in one cylinder, or
-//! a contour selected inside a cylinder started with the circle, are `unsupported:`.
+//! [`Skeleton`]. The frame is heading H, left L and up U with H × L = U, starting at
+//! H = +Y, L = +Z (cpfg `.str` strings: L = −X, MacMurchy2004 property 10,
+//! [`TurtleOptions::left`]); positive angles rotate right-handed, in degrees. `F` draws
+//! an internode (one skeleton node per end point), `[`/`]` push and pop the state, the
+//! width `!(w)` is a diameter; tropism (ABOP §2.2), polygons, organs, sub-L-systems,
+//! query modules and contour-swept generalized cylinders (Mech2004) follow cpfg. Every
+//! module, the conventions and the errors: `docs/lsystem.md` ("The turtle", "Contours
+//! and generalized cylinders"). Here: the options and the entry points; the commands,
+//! the run, the sweeps and the queries are in the files below.
 
 use super::parse::Symbols;
 use super::source::{LsystemError, Source};

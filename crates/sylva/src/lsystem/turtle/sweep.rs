@@ -43,9 +43,9 @@ fn transport(up: DVec3, from: DVec3, to: DVec3) -> DVec3 {
 }
 
 /// Turns a traced contour-swept generalized cylinder into a [`OrganKind::Swept`] organ
-/// (see the module docs of [`super`] and `docs/lsystem.md` for the placement and interpolation);
-/// `None` when it has fewer than two control points or no length. `used` counts the
-/// ring points made so far, which may not pass `budget`.
+/// (see `docs/lsystem.md`, "Contours and generalized cylinders", for the placement and
+/// interpolation); `None` when it has fewer than two control points or no length. `used`
+/// counts the ring points made so far, which may not pass `budget`.
 pub(super) fn sweep_organ(
     sw: &Sweep,
     shapes: &[(Vec<DVec2>, bool, i32)],
