@@ -47,10 +47,11 @@ pub enum Error {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Lsystem(#[from] Box<crate::diagnostic::LsystemError>),
-    /// A mesh that cannot be subdivided.
+    /// A mesh that cannot be subdivided (a cancelled subdivision converts to
+    /// [`Error::Cancelled`] instead).
     #[error(transparent)]
     #[diagnostic(transparent)]
-    Refine(#[from] crate::refine::RefineError),
+    Refine(crate::refine::RefineError),
     /// An invalid skeleton.
     #[error("invalid skeleton: {0}")]
     Skeleton(#[from] crate::skeleton::SkeletonError),
@@ -58,6 +59,15 @@ pub enum Error {
     /// front end dropped a stale regeneration); nothing it made is kept.
     #[error("cancelled")]
     Cancelled,
+}
+
+impl From<crate::refine::RefineError> for Error {
+    fn from(e: crate::refine::RefineError) -> Error {
+        match e {
+            crate::refine::RefineError::Cancelled { .. } => Error::Cancelled,
+            e => Error::Refine(e),
+        }
+    }
 }
 
 /// The engine's result type.

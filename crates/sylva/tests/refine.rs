@@ -1306,3 +1306,24 @@ fn empty_meshes_refine_to_empty_meshes() {
         }
     }
 }
+
+#[test]
+fn a_cancelled_token_stops_refinement_before_the_next_level() {
+    let token = sylva::cancel::Cancel::new();
+    let cube = cube();
+    let o = opts(Scheme::CatmullClark, 2);
+    // Not cancelled: the same calls succeed inside the scope.
+    let refiner = sylva::cancel::scope(&token, || Refiner::new(&cube, &[], &o)).unwrap();
+    token.cancel();
+    let r = sylva::cancel::scope(&token, || Refiner::new(&cube, &[], &o));
+    assert!(matches!(r, Err(RefineError::Cancelled { level: 1 })), "{r:?}");
+    let r = sylva::cancel::scope(&token, || refiner.interpolate(&cube.positions));
+    assert!(matches!(r, Err(RefineError::Cancelled { level: 1 })), "{r:?}");
+    let r = sylva::cancel::scope(&token, || {
+        subdivide(&cube, &[], &SubdivideOptions { refine: o.clone(), ..Default::default() })
+    });
+    let e: sylva::Error = r.unwrap_err().into();
+    assert!(matches!(e, sylva::Error::Cancelled), "{e:?}");
+    // Outside the scope the token is not seen.
+    assert!(Refiner::new(&cube, &[], &o).is_ok());
+}

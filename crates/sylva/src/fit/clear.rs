@@ -247,6 +247,8 @@ where
     // with the full patience again.
     let mut wide = false;
     while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts, &mut report.work)? {
+        // Each round remeshes the whole tree: a cancelled front end stops between rounds.
+        crate::cancel::check()?;
         let count = faces.len() / 2;
         if report.before.is_none() {
             report.before = Some(count);
@@ -346,9 +348,12 @@ fn crossing_faces(
             },
             ..Default::default()
         };
-        subdivide(mesh, &[], &so).map_err(|e| Error::InvalidGeometry {
-            what: "mesh clearing".into(),
-            why: format!("the control mesh does not refine: {e}"),
+        subdivide(mesh, &[], &so).map_err(|e| match e {
+            crate::refine::RefineError::Cancelled { .. } => Error::Cancelled,
+            e => Error::InvalidGeometry {
+                what: "mesh clearing".into(),
+                why: format!("the control mesh does not refine: {e}"),
+            },
         })?
     };
     if fine.positions.iter().any(|p| !p.is_finite()) {
@@ -459,6 +464,16 @@ mod tests {
 
     fn sweep(s: &Skeleton) -> Result<(Mesh, Scheme)> {
         Ok((sweep_mesh(s, &SweepOptions { caps: true, ..Default::default() })?.mesh, Scheme::Loop))
+    }
+
+    #[test]
+    fn a_cancelled_token_stops_the_rounds() {
+        let token = crate::cancel::Cancel::new();
+        token.cancel();
+        let r = crate::cancel::scope(&token, || {
+            clear_crossings(&mut grazing_stems(), &ClearOptions::default(), sweep)
+        });
+        assert!(matches!(r, Err(crate::Error::Cancelled)), "{:?}", r.map(|x| x.1));
     }
 
     #[test]

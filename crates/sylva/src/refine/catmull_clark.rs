@@ -158,15 +158,7 @@ pub(crate) fn interpolate<T: Primvar>(
     let nf = p.num_faces as usize;
     let (vv, rest) = dst.split_at_mut(nv);
     let (fp, ep) = rest.split_at_mut(nf);
-    fill(par, fp, |f, out| {
-        let r = p.corners(f);
-        let inv = 1.0 / r.len() as f32;
-        let mut s = T::zero();
-        for c in r {
-            s = s.add(src[p.face_verts[c] as usize]);
-        }
-        out.write(s.scale(inv));
-    });
+    face_points(p, src, fp, par);
     // SAFETY: every face point was written just above.
     let fp: &[T] = unsafe { assume_init(fp) };
     fill(par, ep, |e, out| {
@@ -194,13 +186,7 @@ pub(crate) fn interpolate<T: Primvar>(
     });
     // SAFETY: every edge and vertex point was written just above.
     let (ep, vv) = unsafe { (assume_init_mut(ep), assume_init_mut(vv)) };
-    for &(e, w) in &rules.edge_specials {
-        let [a, b] = p.edge_verts[e as usize];
-        let mid = src[a as usize].add(src[b as usize]).scale(0.5);
-        let smooth = ep[e as usize];
-        ep[e as usize] = mid.scale(w).add(smooth.scale(1.0 - w));
-    }
-    super::apply_vertex_specials(rules, src, vv);
+    super::apply_specials(rules, p, src, ep, vv);
 }
 
 /// Linear interpolation (every edge and vertex sharp): face centroids, edge midpoints,
@@ -210,9 +196,12 @@ pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut 
     let nf = p.num_faces as usize;
     let (vv, rest) = dst.split_at_mut(nv);
     let (fp, ep) = rest.split_at_mut(nf);
-    for (d, s) in vv.iter_mut().zip(src) {
-        d.write(*s);
-    }
+    face_points(p, src, fp, par);
+    super::interpolate_linear_edges(p, src, vv, ep, par);
+}
+
+/// Face points: each face's centroid, written into `fp` (one per face).
+fn face_points<T: Primvar>(p: &Topology, src: &[T], fp: &mut [MaybeUninit<T>], par: bool) {
     fill(par, fp, |f, out| {
         let r = p.corners(f);
         let inv = 1.0 / r.len() as f32;
@@ -221,10 +210,6 @@ pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut 
             s = s.add(src[p.face_verts[c] as usize]);
         }
         out.write(s.scale(inv));
-    });
-    fill(par, ep, |e, out| {
-        let [a, b] = p.edge_verts[e];
-        out.write(src[a as usize].add(src[b as usize]).scale(0.5));
     });
 }
 

@@ -227,26 +227,14 @@ pub(crate) fn interpolate<T: Primvar>(
     });
     // SAFETY: every edge and vertex point was written just above.
     let (ep, vv) = unsafe { (assume_init_mut(ep), assume_init_mut(vv)) };
-    for &(e, w) in &rules.edge_specials {
-        let [a, b] = p.edge_verts[e as usize];
-        let mid = src[a as usize].add(src[b as usize]).scale(0.5);
-        let smooth = ep[e as usize];
-        ep[e as usize] = mid.scale(w).add(smooth.scale(1.0 - w));
-    }
-    super::apply_vertex_specials(rules, src, vv);
+    super::apply_specials(rules, p, src, ep, vv);
 }
 
 /// Linear interpolation: edge midpoints, vertices kept (Pieterse2012 §2.9's linear UVs).
 pub(crate) fn interpolate_linear<T: Primvar>(p: &Topology, src: &[T], dst: &mut [MaybeUninit<T>], par: bool) {
     let nv = p.num_verts as usize;
     let (vv, ep) = dst.split_at_mut(nv);
-    for (d, s) in vv.iter_mut().zip(src) {
-        d.write(*s);
-    }
-    fill(par, ep, |e, out| {
-        let [a, b] = p.edge_verts[e];
-        out.write(src[a as usize].add(src[b as usize]).scale(0.5));
-    });
+    super::interpolate_linear_edges(p, src, vv, ep, par);
 }
 
 /// Number of triangles after `levels` steps from `faces` triangles (saturating).

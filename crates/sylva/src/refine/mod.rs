@@ -30,6 +30,7 @@
 //! bit-identical for any thread count (and with [`RefineOptions::parallel`] off).
 
 pub mod adaptive;
+mod buffers;
 pub mod catmull_clark;
 pub mod crease;
 pub mod fvar;
@@ -37,12 +38,20 @@ pub mod limit;
 pub mod loop_;
 mod memory;
 pub mod noise;
+mod options;
 pub mod pn;
 pub mod policy;
+mod threads;
 pub mod topology;
 
+pub(crate) use buffers::*;
 pub use crease::{Corner, INFINITE};
 pub use fvar::FaceVaryingRefiner;
+pub use options::{
+    BoundaryInterpolation, CreasingMethod, FvarInterpolation, RefineError, RefineOptions, Scheme,
+    DEFAULT_MAX_FACES, DEFAULT_MAX_MEMORY,
+};
+pub use threads::{start_global_threads, with_threads, ThreadsError, MAX_THREADS};
 pub use topology::{Ring, Topology, NONE};
 
 use crate::geometry::{Crease, FaceVarying, Mesh};
@@ -51,304 +60,6 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use topology::Detail;
-
-/// The largest output a refinement may produce unless told otherwise (100 M faces).
-pub const DEFAULT_MAX_FACES: usize = 100_000_000;
-
-/// The most memory a refinement may need at its peak unless told otherwise
-/// ([`RefineOptions::max_memory`]): 4 GiB.
-pub const DEFAULT_MAX_MEMORY: u64 = 4 << 30;
-
-/// Why a mesh cannot be refined.
-#[derive(Debug, Clone, PartialEq, thiserror::Error, miette::Diagnostic)]
-pub enum RefineError {
-    /// More than two faces share an edge.
-    #[error("non-manifold edge between vertices {a} and {b}: it is shared by {} faces ({faces:?}); subdivision needs at most 2", faces.len())]
-    #[diagnostic(help("split the edge or remove the extra faces"))]
-    NonManifoldEdge {
-        /// One end.
-        a: u32,
-        /// The other end.
-        b: u32,
-        /// The faces sharing it.
-        faces: Vec<u32>,
-    },
-    /// Two faces traverse an edge in the same direction.
-    #[error("inconsistent orientation: faces {} and {} both run from vertex {a} to vertex {b}", faces[0], faces[1])]
-    #[diagnostic(help("flip one of the faces so that neighbours agree (counter-clockwise from the front)"))]
-    InconsistentOrientation {
-        /// Start vertex of both half-edges.
-        a: u32,
-        /// End vertex of both half-edges.
-        b: u32,
-        /// The two faces.
-        faces: [u32; 2],
-    },
-    /// A vertex whose faces form several separate fans (a "bow-tie").
-    #[error("non-manifold vertex {vertex}: its faces form {fans} separate fans")]
-    #[diagnostic(help("duplicate the vertex, one copy per fan"))]
-    NonManifoldVertex {
-        /// The vertex.
-        vertex: u32,
-        /// How many fans (at least 2).
-        fans: usize,
-    },
-    /// A face with fewer than 3 corners or a repeated vertex.
-    #[error("degenerate face {face}: vertices {vertices:?}")]
-    DegenerateFace {
-        /// The face.
-        face: usize,
-        /// Its vertices.
-        vertices: Vec<u32>,
-    },
-    /// A face refers to a vertex that does not exist.
-    #[error("face {face} refers to vertex {vertex}, but there are {count} vertices")]
-    VertexOutOfRange {
-        /// The face.
-        face: usize,
-        /// The bad index.
-        vertex: u32,
-        /// The number of vertices.
-        count: usize,
-    },
-    /// Loop subdivision needs triangles.
-    #[error("Loop subdivision needs triangles, but face {face} has {corners} corners")]
-    #[diagnostic(help("triangulate the mesh first, or use --scheme catmull-clark"))]
-    NotTriangles {
-        /// The first non-triangle face.
-        face: usize,
-        /// Its corner count.
-        corners: usize,
-    },
-    /// A crease tag on two vertices that share no edge.
-    #[error("crease between vertices {a} and {b}: they share no edge")]
-    CreaseNotAnEdge {
-        /// One end.
-        a: u32,
-        /// The other end.
-        b: u32,
-    },
-    /// A sharpness that is NaN or negative.
-    #[error("invalid sharpness {sharpness} on {what}: sharpness must be a number ≥ 0")]
-    BadSharpness {
-        /// The edge or vertex.
-        what: String,
-        /// The value.
-        sharpness: f32,
-    },
-    /// The output would exceed the face budget.
-    #[error("{levels} levels of subdivision would make {faces} faces, more than the limit of {limit}")]
-    #[diagnostic(help("use fewer levels, or raise the limit (RefineOptions::max_faces)"))]
-    Budget {
-        /// Requested levels.
-        levels: u32,
-        /// Faces that would be produced.
-        faces: u128,
-        /// The limit.
-        limit: usize,
-    },
-    /// The refinement would need more memory at its peak than its limit
-    /// ([`RefineOptions::max_memory`]); checked before the levels are allocated.
-    #[error(
-        "{levels} levels of subdivision would make {faces} faces and need about {bytes} bytes at the \
-         refinement's peak, more than the memory limit of {limit} bytes"
-    )]
-    #[diagnostic(help("use fewer levels, or raise the limit (RefineOptions::max_memory)"))]
-    Memory {
-        /// Requested levels.
-        levels: u32,
-        /// Faces that would be produced.
-        faces: u128,
-        /// The estimated peak ([`peak_memory`]).
-        bytes: u128,
-        /// The limit.
-        limit: u64,
-    },
-    /// An allocation of the refinement failed (the system has less memory than the
-    /// estimate allowed for).
-    #[error("out of memory: the refinement's {what} need {bytes} bytes, which could not be allocated")]
-    #[diagnostic(help(
-        "use fewer levels, or lower the memory limit (RefineOptions::max_memory) to what the system has"
-    ))]
-    OutOfMemory {
-        /// The array that could not be allocated.
-        what: &'static str,
-        /// Its size.
-        bytes: u128,
-    },
-    /// Indices would overflow `u32`.
-    #[error("{what} is too large ({count} elements) for 32-bit indices")]
-    TooLarge {
-        /// What.
-        what: &'static str,
-        /// How many.
-        count: usize,
-    },
-    /// A value array of the wrong length.
-    #[error("{what}: expected {expected} values, got {got}")]
-    WrongLength {
-        /// Which input.
-        what: &'static str,
-        /// Expected count.
-        expected: usize,
-        /// Given count.
-        got: usize,
-    },
-    /// Catmull–Clark limit masks need quads.
-    #[error("Catmull–Clark limit positions need an all-quad level; refine at least one level first")]
-    LimitNeedsQuads,
-    /// Anything else wrong with the input mesh.
-    #[error("invalid mesh: {0}")]
-    InvalidMesh(String),
-    /// An option out of range (adaptive tolerances, PN level or size, noise parameters).
-    #[error("invalid option: {0}")]
-    InvalidOption(String),
-}
-
-/// The subdivision scheme.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Scheme {
-    /// Loop's scheme for triangle meshes (Pieterse2012 and MacMurchy2004).
-    Loop,
-    /// Catmull–Clark for any polygons; the first level makes quads (Skjermo2008).
-    #[default]
-    CatmullClark,
-}
-
-/// How boundary vertices are treated (OpenSubdiv's `VtxBoundaryInterpolation`, plus Pieterse2012's
-/// `Fixed` rule). Boundary edges are always infinitely sharp, so a new boundary
-/// vertex is the midpoint of its edge; the rules differ in where an existing boundary
-/// vertex goes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum BoundaryInterpolation {
-    /// Boundary edges sharp; a vertex with a single face follows the crease rule too.
-    EdgeOnly,
-    /// Boundary edges sharp, and vertices with a single face are corners (they stay put);
-    /// the rest of the rim follows the cubic B-spline curve rule `1/8, 3/4, 1/8` (Pieterse2012-spec
-    /// §2.8 `BSpline`: a smooth rim that shrinks slightly).
-    #[default]
-    EdgeAndCorner,
-    /// Every boundary vertex is a corner and keeps its position (Pieterse2012-spec §2.8 `Fixed`,
-    /// property 17: "base and tips remain fixed", Pieterse2012 §4.4.1). With boundary edges
-    /// split at their midpoints, the refined rim is exactly the control polygon (a square
-    /// for a 4-sided loop), at every level and at the limit.
-    Fixed,
-}
-
-/// How semi-sharp edge sharpness decays (OpenSubdiv's `CreasingMethod`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum CreasingMethod {
-    /// Every child edge gets the parent's sharpness minus 1.
-    #[default]
-    Uniform,
-    /// DeRose et al.'s Chaikin rule: ¾ own + ¼ mean of the other semi-sharp edges at the
-    /// vertex, minus 1; sharpness varies smoothly along a crease.
-    Chaikin,
-}
-
-/// How face-varying values (UVs) are interpolated: OpenSubdiv's six
-/// `Sdc::Options::FVarLinearInterpolation` rules, each refined exactly as OpenSubdiv 3
-/// refines it (checked against OpenSubdiv `Far` by `uv_modes_agree_with_opensubdiv` in
-/// `tests/refine.rs`).
-///
-/// Inside a UV chart every mode except [`Linear`](FvarInterpolation::Linear) applies the
-/// scheme's masks, the mesh's creases included; the modes differ only on chart boundaries
-/// (UV seams and mesh borders), whose edges always take the midpoint of their two values.
-/// A boundary vertex is either *pinned* (keeps its value) or follows the cubic B-spline
-/// curve rule `¾ v + ⅛ (a + b)` along its chart's boundary. Tagged corners and, with
-/// [`BoundaryInterpolation::EdgeAndCorner`], mesh corners (a border vertex with one face)
-/// are pinned in every mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum FvarInterpolation {
-    /// Linear everywhere: face centroids and edge midpoints of the UV polygons (Pieterse2012
-    /// §2.9; OpenSubdiv `FVAR_LINEAR_ALL`). UVs never shrink, seams are exact.
-    #[default]
-    Linear,
-    /// Smooth inside each UV chart; every chart-boundary vertex is pinned, so seams and
-    /// borders stay the linear UV polyline (OpenSubdiv `FVAR_LINEAR_BOUNDARIES`). Removes
-    /// the UV shrinkage MacMurchy2004 §6.3 reports.
-    Boundaries,
-    /// Smooth inside; chart boundaries are B-spline curves. Pinned: chart corners (a
-    /// boundary vertex with one face in its chart) and every value of a vertex where three
-    /// or more charts meet, or where two meet and one of them has an infinitely sharp
-    /// crease running into the vertex (OpenSubdiv `FVAR_LINEAR_CORNERS_PLUS1`).
-    CornersPlus,
-    /// As [`CornersPlus`](FvarInterpolation::CornersPlus), and also the end of a seam inside
-    /// the mesh (a "dart") and both values of a two-chart vertex where either chart has a
-    /// corner (OpenSubdiv `FVAR_LINEAR_CORNERS_PLUS2`).
-    CornersPlus2,
-    /// Smooth inside; chart boundaries are B-spline curves and only chart corners (a
-    /// boundary vertex with one face in its chart) are pinned (OpenSubdiv
-    /// `FVAR_LINEAR_CORNERS_ONLY`).
-    CornersOnly,
-    /// Smooth everywhere: chart boundaries are B-spline curves and no chart corner is
-    /// pinned; only mesh corners and tagged corners stay put (OpenSubdiv
-    /// `FVAR_LINEAR_NONE`). UVs shrink at chart corners (MacMurchy2004 §6.3).
-    Smooth,
-}
-
-impl FvarInterpolation {
-    /// Every mode, from the most linear to the smoothest.
-    pub const ALL: [FvarInterpolation; 6] = [
-        FvarInterpolation::Linear,
-        FvarInterpolation::Boundaries,
-        FvarInterpolation::CornersPlus2,
-        FvarInterpolation::CornersPlus,
-        FvarInterpolation::CornersOnly,
-        FvarInterpolation::Smooth,
-    ];
-
-    /// The name of OpenSubdiv's matching `FVarLinearInterpolation` rule, as
-    /// `bench/opensubdiv/osd_refine.cpp --fvar` takes it.
-    pub fn opensubdiv_name(self) -> &'static str {
-        match self {
-            FvarInterpolation::Linear => "all",
-            FvarInterpolation::Boundaries => "boundaries",
-            FvarInterpolation::CornersPlus => "corners-plus1",
-            FvarInterpolation::CornersPlus2 => "corners-plus2",
-            FvarInterpolation::CornersOnly => "corners-only",
-            FvarInterpolation::Smooth => "none",
-        }
-    }
-}
-
-/// Options of a [`Refiner`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct RefineOptions {
-    /// Loop or Catmull–Clark.
-    pub scheme: Scheme,
-    /// Uniform refinement levels.
-    pub levels: u32,
-    /// Boundary vertex rule.
-    pub boundary: BoundaryInterpolation,
-    /// Sharpness decay of semi-sharp creases.
-    pub creasing: CreasingMethod,
-    /// Build full adjacency at the last level as well (needed for limit positions and
-    /// normals); otherwise the last level has only its faces.
-    pub full_last_level: bool,
-    /// Run on the rayon thread pool (the result is identical either way).
-    pub parallel: bool,
-    /// Refuse to produce more faces than this.
-    pub max_faces: usize,
-    /// Refuse a refinement whose estimated peak memory ([`peak_memory`]) is over this
-    /// many bytes, before its levels are allocated.
-    pub max_memory: u64,
-}
-
-impl Default for RefineOptions {
-    fn default() -> Self {
-        RefineOptions {
-            scheme: Scheme::CatmullClark,
-            levels: 1,
-            boundary: BoundaryInterpolation::EdgeAndCorner,
-            creasing: CreasingMethod::Uniform,
-            full_last_level: false,
-            parallel: true,
-            max_faces: DEFAULT_MAX_FACES,
-            max_memory: DEFAULT_MAX_MEMORY,
-        }
-    }
-}
 
 /// A value that can be interpolated through a [`Refiner`]: positions, UVs, colours, skin
 /// weights. Masks are affine combinations computed in `f32`.
@@ -411,125 +122,6 @@ impl<const N: usize> Primvar for [f32; N] {
     }
 }
 
-/// Elements per parallel task.
-const CHUNK: usize = 2048;
-
-/// `dst[i] = f(i)` for every element, on the rayon pool when `par`.
-pub(crate) fn fill<T: Send>(par: bool, dst: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
-    if par && dst.len() > CHUNK {
-        dst.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, chunk)| {
-            let base = ci * CHUNK;
-            for (k, x) in chunk.iter_mut().enumerate() {
-                f(base + k, x);
-            }
-        });
-    } else {
-        for (i, x) in dst.iter_mut().enumerate() {
-            f(i, x);
-        }
-    }
-}
-
-/// Fills `dst` in chunks of `n` elements: `f(i, &mut dst[i*n..(i+1)*n])`.
-pub(crate) fn fill_chunks<T: Send>(par: bool, dst: &mut [T], n: usize, f: impl Fn(usize, &mut [T]) + Sync) {
-    if par && dst.len() > CHUNK * n {
-        dst.par_chunks_mut(CHUNK * n).enumerate().for_each(|(ci, chunk)| {
-            for (k, x) in chunk.chunks_mut(n).enumerate() {
-                f(ci * CHUNK + k, x);
-            }
-        });
-    } else {
-        for (i, x) in dst.chunks_mut(n).enumerate() {
-            f(i, x);
-        }
-    }
-}
-
-/// The error of a failed allocation of `n` values of `T` for `what`.
-fn out_of_memory<T>(n: usize, what: &'static str) -> RefineError {
-    RefineError::OutOfMemory { what, bytes: n as u128 * std::mem::size_of::<T>() as u128 }
-}
-
-/// `n` uninitialised slots, for outputs that a kernel writes completely (saves zeroing
-/// large arrays and lets the first touch of each page happen in the parallel writers),
-/// or [`RefineError::OutOfMemory`] naming `what` when the allocation fails.
-pub(crate) fn try_uninit_vec<T>(n: usize, what: &'static str) -> Result<Vec<MaybeUninit<T>>, RefineError> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| out_of_memory::<T>(n, what))?;
-    // SAFETY: `MaybeUninit` needs no initialisation, and the capacity is at least `n`.
-    unsafe { v.set_len(n) };
-    Ok(v)
-}
-
-/// An empty vector with room for `n` values, or [`RefineError::OutOfMemory`].
-pub(crate) fn try_with_capacity<T>(n: usize, what: &'static str) -> Result<Vec<T>, RefineError> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| out_of_memory::<T>(n, what))?;
-    Ok(v)
-}
-
-/// Types whose all-zero bit pattern is a valid value (index arrays).
-///
-/// # Safety
-/// Implement only for types valid when zeroed.
-pub(crate) unsafe trait Zeroable: Copy {}
-// SAFETY: integers and arrays of them are valid when zeroed.
-unsafe impl Zeroable for u32 {}
-// SAFETY: as above.
-unsafe impl Zeroable for [u32; 2] {}
-
-/// `n` zeros (as `vec![0; n]`, whose pages the system zeroes lazily), or
-/// [`RefineError::OutOfMemory`] naming `what` when the allocation fails.
-pub(crate) fn try_zeroed<T: Zeroable>(n: usize, what: &'static str) -> Result<Vec<T>, RefineError> {
-    let layout = std::alloc::Layout::array::<T>(n).map_err(|_| out_of_memory::<T>(n, what))?;
-    if layout.size() == 0 {
-        return Ok(Vec::new());
-    }
-    // SAFETY: the layout has a non-zero size.
-    let ptr = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<T>();
-    if ptr.is_null() {
-        return Err(out_of_memory::<T>(n, what));
-    }
-    // SAFETY: allocated by the global allocator with `T`'s layout for `n` values, all
-    // valid because `T: Zeroable`.
-    Ok(unsafe { Vec::from_raw_parts(ptr, n, n) })
-}
-
-/// A copy of `src`, or [`RefineError::OutOfMemory`] naming `what`.
-pub(crate) fn try_to_vec<T: Copy>(src: &[T], what: &'static str) -> Result<Vec<T>, RefineError> {
-    let mut v = try_with_capacity(src.len(), what)?;
-    v.extend_from_slice(src);
-    Ok(v)
-}
-
-/// Views fully written slots as values.
-///
-/// # Safety
-/// Every element of `s` must have been written.
-pub(crate) unsafe fn assume_init<T>(s: &[MaybeUninit<T>]) -> &[T] {
-    // SAFETY: same layout; initialised by the caller's contract.
-    unsafe { std::slice::from_raw_parts(s.as_ptr().cast::<T>(), s.len()) }
-}
-
-/// Mutable view of fully written slots as values.
-///
-/// # Safety
-/// Every element of `s` must have been written.
-pub(crate) unsafe fn assume_init_mut<T>(s: &mut [MaybeUninit<T>]) -> &mut [T] {
-    // SAFETY: same layout; initialised by the caller's contract.
-    unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<T>(), s.len()) }
-}
-
-/// Turns a fully written vector into a vector of values.
-///
-/// # Safety
-/// Every element of `v` must have been written.
-pub(crate) unsafe fn into_init<T>(v: Vec<MaybeUninit<T>>) -> Vec<T> {
-    let mut v = std::mem::ManuallyDrop::new(v);
-    // SAFETY: same layout, length and capacity; initialised by the caller's contract.
-    unsafe { Vec::from_raw_parts(v.as_mut_ptr().cast::<T>(), v.len(), v.capacity()) }
-}
-
 /// Interpolates one level of `scheme` into uninitialised `dst`, writing all of it.
 pub(crate) fn interpolate_into<T: Primvar>(
     scheme: Scheme,
@@ -546,6 +138,37 @@ pub(crate) fn interpolate_into<T: Primvar>(
         (Scheme::Loop, true) => loop_::interpolate_linear(p, src, dst, par),
         (Scheme::CatmullClark, true) => catmull_clark::interpolate_linear(p, src, dst, par),
     }
+}
+
+/// Applies a level's crease rules to the smooth child values both schemes computed:
+/// each special edge point blends the edge's midpoint by its weight, then each special
+/// vertex gets [`apply_vertex_specials`].
+pub(crate) fn apply_specials<T: Primvar>(rules: &Rules, p: &Topology, src: &[T], ep: &mut [T], vv: &mut [T]) {
+    for &(e, w) in &rules.edge_specials {
+        let [a, b] = p.edge_verts[e as usize];
+        let mid = src[a as usize].add(src[b as usize]).scale(0.5);
+        let smooth = ep[e as usize];
+        ep[e as usize] = mid.scale(w).add(smooth.scale(1.0 - w));
+    }
+    apply_vertex_specials(rules, src, vv);
+}
+
+/// The linear part both schemes share for face-varying data: vertices kept (`vv`) and
+/// edge midpoints (`ep`), all written.
+pub(crate) fn interpolate_linear_edges<T: Primvar>(
+    p: &Topology,
+    src: &[T],
+    vv: &mut [MaybeUninit<T>],
+    ep: &mut [MaybeUninit<T>],
+    par: bool,
+) {
+    for (d, s) in vv.iter_mut().zip(src) {
+        d.write(*s);
+    }
+    fill(par, ep, |e, out| {
+        let [a, b] = p.edge_verts[e];
+        out.write(src[a as usize].add(src[b as usize]).scale(0.5));
+    });
 }
 
 /// Overwrites the crease and corner vertices:
@@ -639,6 +262,9 @@ impl Refiner {
         let mut levels = vec![Level { topo: control.topo, features: control.features }];
         let mut rules = Vec::new();
         for l in 0..options.levels {
+            if crate::cancel::cancelled() {
+                return Err(RefineError::Cancelled { level: l + 1 });
+            }
             let last = l + 1 == options.levels;
             let parent = &levels[l as usize];
             let (r, child_features) =
@@ -679,6 +305,9 @@ impl Refiner {
         }
         let mut cur = try_to_vec(control, "interpolated values")?;
         for l in 0..self.levels() {
+            if crate::cancel::cancelled() {
+                return Err(RefineError::Cancelled { level: l as u32 + 1 });
+            }
             let p = &self.levels[l].topo;
             let mut next = try_uninit_vec(self.level(l + 1).vertex_count(), "interpolated values")?;
             interpolate_into(
@@ -1064,157 +693,4 @@ pub fn subdivide_traced(
     }
     let control_faces = refiner.try_control_faces()?;
     Ok((out, control_faces))
-}
-
-/// The most worker threads a pool may have ([`with_threads`], `sylva subdivide
-/// --threads`, `RAYON_NUM_THREADS` for [`start_global_threads`]). A fixed number, not one
-/// derived from the machine, so a command that works on one machine is not refused on
-/// another: far above the cores of any machine sylva runs on (the result is the same
-/// for any count, so more threads than cores only cost memory), yet small enough that
-/// the pool's stacks (2 MiB of address space each, 2 GiB for 1024) fit a 6 GB
-/// address-space limit. Issue 39: 100,000 threads failed after 36 s with an error that
-/// never named threads.
-pub const MAX_THREADS: usize = 1024;
-
-/// Why a pool of worker threads could not be started.
-#[derive(Debug, thiserror::Error, miette::Diagnostic)]
-pub enum ThreadsError {
-    /// More threads were asked for than [`MAX_THREADS`]; nothing was started.
-    #[error("{threads} worker threads: more than the limit of {MAX_THREADS} (use 1..={MAX_THREADS}; the output is the same for any count)")]
-    TooMany {
-        /// The count asked for.
-        threads: usize,
-    },
-    /// The process's address-space limit (`ulimit -v`) leaves no room for the threads'
-    /// stacks; checked before any thread starts, because a thread the system starts
-    /// without room for its signal stack aborts the process (Rust's runtime cannot
-    /// unwind from that).
-    #[error("cannot start {threads} worker threads: with their stacks and malloc arenas they need about {need_mib} MiB of address space and the limit (ulimit -v) leaves {free_mib} MiB (use --threads {fit} or fewer, or raise the limit)")]
-    AddressSpace {
-        /// The count asked for.
-        threads: usize,
-        /// Address space the threads need (stacks and malloc arenas), in MiB.
-        need_mib: u64,
-        /// Address space left under the limit, in MiB.
-        free_mib: u64,
-        /// The most threads that fit.
-        fit: usize,
-    },
-    /// The system refused to start the threads (too many processes, no memory).
-    #[error("cannot start {threads} worker threads: {source} (use fewer)")]
-    Start {
-        /// The count asked for.
-        threads: usize,
-        /// Why.
-        source: rayon::ThreadPoolBuildError,
-    },
-}
-
-/// Runs `f` on a dedicated rayon pool of `threads` workers (refinement inside it uses that
-/// many threads; the result is the same for any count). `0` counts as 1. More than
-/// [`MAX_THREADS`] is [`ThreadsError::TooMany`], checked before any thread starts; a pool
-/// the system cannot start is [`ThreadsError::Start`].
-pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, ThreadsError> {
-    let threads = threads.max(1);
-    if threads > MAX_THREADS {
-        return Err(ThreadsError::TooMany { threads });
-    }
-    check_address_space(threads)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|source| ThreadsError::Start { threads, source })?;
-    Ok(pool.install(f))
-}
-
-/// Address space one worker thread takes: its 2 MiB stack (Rust's default) with its
-/// guard page, signal stack and thread-local storage, rounded up.
-const THREAD_ADDRESS_SPACE: u64 = (2 << 20) + (256 << 10);
-
-/// Address space kept free for the work itself once the threads are started.
-const WORK_HEADROOM: u64 = 256 << 20;
-
-/// Refuses `threads` workers when the address-space limit (`RLIMIT_AS`, `ulimit -v`)
-/// minus what the process already maps leaves less than their stacks and
-/// [`WORK_HEADROOM`]. Issue 39: under `ulimit -v 1500000`, 1024 threads started, and the
-/// last ones aborted the process when their signal stacks could not be mapped.
-fn check_address_space(threads: usize) -> Result<(), ThreadsError> {
-    let Some(free) = free_address_space() else { return Ok(()) };
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let need = |n: usize| n as u64 * THREAD_ADDRESS_SPACE + arenas(n, cores) * ARENA_ADDRESS_SPACE;
-    if need(threads) + WORK_HEADROOM <= free {
-        return Ok(());
-    }
-    let fit = (1..threads).rev().find(|&n| need(n) + WORK_HEADROOM <= free).unwrap_or(1);
-    Err(ThreadsError::AddressSpace { threads, need_mib: need(threads) >> 20, free_mib: free >> 20, fit })
-}
-
-/// Address space glibc reserves for each malloc arena a thread may create (64 MiB on
-/// 64-bit systems: `HEAP_MAX_SIZE`).
-const ARENA_ADDRESS_SPACE: u64 = 64 << 20;
-
-/// The malloc arenas `threads` workers may add besides the main one: one per thread up
-/// to glibc's default cap of 8 per core. Measured: under a 1.5 GB limit on 2 cores, 250
-/// threads failed to start and 400 aborted, far sooner than their stacks alone explain.
-fn arenas(threads: usize, cores: usize) -> u64 {
-    threads.min(8 * cores).saturating_sub(1) as u64
-}
-
-/// Bytes of address space left under `RLIMIT_AS`, or `None` when there is no limit
-/// (or it cannot be read). What the process maps now is read from `/proc/self/statm`
-/// where there is one.
-#[cfg(unix)]
-fn free_address_space() -> Option<u64> {
-    let mut lim = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
-    // SAFETY: getrlimit writes one rlimit into the struct it is given.
-    if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut lim) } != 0 || lim.rlim_cur == libc::RLIM_INFINITY {
-        return None;
-    }
-    let used = std::fs::read_to_string("/proc/self/statm")
-        .ok()
-        .and_then(|s| s.split_whitespace().next().and_then(|p| p.parse::<u64>().ok()))
-        .map_or(0, |pages| pages * page_size());
-    // rlim_t is u64 on Linux but not on every Unix.
-    #[allow(clippy::unnecessary_cast)]
-    let limit = lim.rlim_cur as u64;
-    Some(limit.saturating_sub(used))
-}
-
-/// The system's page size in bytes (4096 where it cannot be read).
-#[cfg(unix)]
-fn page_size() -> u64 {
-    // SAFETY: sysconf only reads a system constant.
-    let p = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
-    if p > 0 {
-        p as u64
-    } else {
-        4096
-    }
-}
-
-/// No address-space limit is read outside Unix.
-#[cfg(not(unix))]
-fn free_address_space() -> Option<u64> {
-    None
-}
-
-/// Starts rayon's global pool now, so that a count it cannot start is an error rather
-/// than a panic at its first use: the pool has `RAYON_NUM_THREADS` workers when that is
-/// set to a number above 0 (at most [`MAX_THREADS`], else [`ThreadsError::TooMany`]
-/// before any thread starts), else one per core. Call it once, before any parallel
-/// work; a global pool that is already running is left as it is.
-pub fn start_global_threads() -> Result<(), ThreadsError> {
-    let asked = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.trim().parse::<u128>().ok());
-    let asked = asked.map_or(0, |n| usize::try_from(n).unwrap_or(usize::MAX));
-    if asked > MAX_THREADS {
-        return Err(ThreadsError::TooMany { threads: asked });
-    }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    check_address_space(if asked == 0 { cores } else { asked })?;
-    match rayon::ThreadPoolBuilder::new().build_global() {
-        Ok(()) => Ok(()),
-        // rayon says so only in words: a pool already running is not an error here.
-        Err(e) if e.to_string().contains("already") => Ok(()),
-        Err(source) => Err(ThreadsError::Start { threads: if asked == 0 { cores } else { asked }, source }),
-    }
 }

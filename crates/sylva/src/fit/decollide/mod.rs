@@ -314,6 +314,8 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
     report.near_joint = first.iter().filter(|p| near_joint(skeleton, &topo, p[0], p[1], opts)).count();
     let original_radius = skeleton.radius.clone();
     (report.rounds, report.rotations) = rounds(skeleton, &topo, opts, opts.max_rounds, &work);
+    // A cancelled front end keeps nothing of a half-fitted skeleton.
+    crate::cancel::check()?;
     work.charge(skeleton.len());
     let mut left = collisions(skeleton, &topo, opts.clearance, &work);
     if !left.is_empty() && !work.over() {
@@ -407,7 +409,7 @@ fn rounds(
 ) -> (usize, usize) {
     let (mut run, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
-        if work.over() {
+        if work.over() || crate::cancel::cancelled() {
             break;
         }
         work.charge(s.len());
@@ -442,6 +444,26 @@ mod tests {
     use super::*;
     use crate::skeleton::NO_PARENT;
     use glam::Vec3;
+
+    /// Two crossing stems under a cancelled token: the pass stops after its rounds with
+    /// [`Error::Cancelled`]; without the token it runs.
+    #[test]
+    fn a_cancelled_token_stops_the_pass() {
+        let crossing = || {
+            let mut s = Skeleton::new();
+            let a = s.push(Vec3::new(-0.5, 0.0, 0.0), 0.05, NO_PARENT, Vec3::Z, 0);
+            s.push(Vec3::new(0.5, 0.0, 0.0), 0.05, a, Vec3::Z, 0);
+            let b = s.push(Vec3::new(0.0, -0.5, 0.0), 0.05, NO_PARENT, Vec3::Z, 0);
+            s.push(Vec3::new(0.0, 0.5, 0.0), 0.05, b, Vec3::Z, 0);
+            s
+        };
+        let token = crate::cancel::Cancel::new();
+        token.cancel();
+        let r = crate::cancel::scope(&token, || decollide(&mut crossing(), &DecollideOptions::default()));
+        assert!(matches!(r, Err(Error::Cancelled)), "{r:?}");
+        let r = decollide(&mut crossing(), &DecollideOptions::default()).unwrap();
+        assert!(r.before > 0, "{r:?}");
+    }
 
     /// A longer internode is only bent by steps that turn it by at most
     /// [`BEND_MAX_DEG`]: the 50 mm one (radius 5 mm, against another of 5 mm: a
