@@ -300,113 +300,26 @@ impl Cutter {
         if cut.is_empty() {
             return CutOutcome::NothingBelow;
         }
-        let triangles = self.polygons == 0;
         let (has_uv, has_nr) = (self.uv_values.is_some(), self.normal_values.is_some());
         let marks = (
             self.positions.len(),
             self.uv_values.as_ref().map_or(0, Vec::len),
             self.normal_values.as_ref().map_or(0, Vec::len),
         );
-        let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-        let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-        // Directed edges on the plane, in the kept polygons' winding: loop successor map.
-        let mut plane_edges: Vec<(u32, u32)> = Vec::new();
-        // The pieces of each cut face: (position, uv, normal) corner lists.
-        type Piece = (Vec<u32>, Vec<u32>, Vec<u32>);
+        let mut clip = Clip::new(plane, self.polygons == 0);
+        // The pieces of each cut face.
         let mut pieces: Vec<(u32, Vec<Piece>)> = Vec::with_capacity(cut.len());
         for &f in &cut {
             let face = self.faces[f as usize];
             let corners = face.start as usize..(face.start + face.len) as usize;
-            let pos: Vec<u32> = self.corner_pos[corners.clone()].to_vec();
             let uv: Option<&[u32]> = has_uv.then(|| &self.corner_uv[corners.clone()]);
             let nr: Option<&[u32]> = has_nr.then(|| &self.corner_nr[corners.clone()]);
-            // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
-            // normal) and whether it lies on the plane.
-            let k = pos.len();
-            let ds: Vec<f32> = pos.iter().map(|&i| self.positions[i as usize].y - plane).collect();
-            let d = |i: usize| ds[i];
-            let mut kept: Vec<Corner> = Vec::with_capacity(k + 2);
-            let corner = |i: usize| {
-                (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
+            let mut values = Values {
+                positions: &mut self.positions,
+                uvs: self.uv_values.as_mut(),
+                normals: self.normal_values.as_mut(),
             };
-            for i in 0..k {
-                let j = (i + 1) % k;
-                let (di, dj) = (d(i), d(j));
-                if di >= 0.0 {
-                    kept.push(corner(i));
-                }
-                if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
-                    let t = di / (di - dj);
-                    let (a, b) = (pos[i], pos[j]);
-                    let key = edge_key(a, b);
-                    let positions = &mut self.positions;
-                    let p = *new_point.entry(key).or_insert_with(|| {
-                        let (pa, pb) = (positions[a as usize], positions[b as usize]);
-                        let mut q = pa + (pb - pa) * t;
-                        q.y = plane;
-                        positions.push(q);
-                        (positions.len() - 1) as u32
-                    });
-                    // t measured from the key's first end, so both faces agree.
-                    let t_key = if a == key.0 { t } else { 1.0 - t };
-                    let ui = self.uv_values.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
-                        let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
-                        *new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
-                            let v = c[u0 as usize].lerp(c[u1 as usize], t_key);
-                            c.push(v);
-                            (c.len() - 1) as u32
-                        })
-                    });
-                    let un = self.normal_values.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
-                        let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
-                        *new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
-                            let v = c[n0 as usize].lerp(c[n1 as usize], t_key).normalize_or_zero();
-                            c.push(v);
-                            (c.len() - 1) as u32
-                        })
-                    });
-                    kept.push((p, ui, un, true));
-                }
-            }
-            // The edges that run from a point on the plane to the next through the
-            // removed part: where the original polygon went below between them.
-            let n = kept.len();
-            for a in 0..n {
-                let b = (a + 1) % n;
-                if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
-                    // On the plane at both ends: a boundary edge unless it is an edge of
-                    // the original polygon (both original corners, consecutive).
-                    let original =
-                        pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
-                    if !original {
-                        plane_edges.push((kept[a].0, kept[b].0));
-                    }
-                }
-            }
-            let distinct = {
-                let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
-                v.sort_unstable();
-                v.dedup();
-                v.len()
-            };
-            let mut own = Vec::new();
-            if distinct >= 3 {
-                let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
-                let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
-                let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
-                if triangles && p.len() > 3 {
-                    // A clipped triangle is a quad: fanned, so a triangle mesh stays one
-                    // (Loop subdivision needs triangles). Clipped polygons are convex.
-                    for t in 1..p.len() - 1 {
-                        let pick = |v: &[u32]| vec![v[0], v[t], v[t + 1]];
-                        own.push((pick(&p), pick(&u), pick(&nn)));
-                    }
-                } else {
-                    own.push((p, u, nn));
-                }
-            }
-            pieces.push((f, own));
+            pieces.push((f, clip.face(&mut values, &self.corner_pos[corners], uv, nr)));
         }
         let open = |c: &mut Cutter| {
             c.positions.truncate(marks.0);
@@ -418,7 +331,7 @@ impl Cutter {
             }
             CutOutcome::Open
         };
-        let Some(loops) = chain_loops(&plane_edges) else { return open(self) };
+        let Some(loops) = chain_loops(&clip.plane_edges) else { return open(self) };
         // Commit: the pieces replace their faces.
         for (f, own) in pieces {
             let first = self.faces.len() as u32;
@@ -429,32 +342,16 @@ impl Cutter {
             self.polygons -= usize::from(len != 3);
             self.faces[f as usize].replaced = Some((first, self.faces.len() as u32 - first));
         }
-        // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
-        // texel scale (one unit of u around the root's circumference).
-        let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
+        // Fill each loop; its fan's triangles are top-level faces.
         for ring in &loops {
-            let c = ring.iter().map(|&i| self.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
-            let centre = self.positions.len() as u32;
-            self.positions.push(Vec3::new(c.x, plane, c.z));
-            let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
-            let positions = &self.positions;
-            let uv0 = self.uv_values.as_mut().map(|ch| {
-                let first = ch.len() as u32;
-                ch.push(Vec2::splat(0.5));
-                ch.extend(ring.iter().map(|&i| uv_of(positions[i as usize])));
-                first
-            });
-            let n0 = self.normal_values.as_mut().map(|ch| {
-                ch.push(-Vec3::Y);
-                (ch.len() - 1) as u32
-            });
-            for (k, &a) in ring.iter().enumerate() {
-                let kb = (k + 1) % ring.len();
-                let b = ring[kb];
-                let u = uv0.map_or(Vec::new(), |u0| vec![u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
-                let n = n0.map_or(Vec::new(), |n0| vec![n0; 3]);
+            let mut values = Values {
+                positions: &mut self.positions,
+                uvs: self.uv_values.as_mut(),
+                normals: self.normal_values.as_mut(),
+            };
+            for (p, u, n) in fill_loop(&mut values, ring, plane, root.radius) {
                 let rank = self.top.len() as u32;
-                let id = self.push(&[centre, a, b], &u, &n, NONE, rank);
+                let id = self.push(&p, &u, &n, NONE, rank);
                 self.top.push(id);
             }
         }
@@ -509,6 +406,170 @@ impl Cutter {
         compact(&mut out);
         out
     }
+}
+
+/// A piece of a clipped face, or a fan triangle: its position, UV and normal corners (the
+/// last two ignored where the mesh has no UVs or normals).
+type Piece = (Vec<u32>, Vec<u32>, Vec<u32>);
+
+/// The value columns a cut appends to: positions, and UV and normal values where the
+/// mesh has them.
+struct Values<'a> {
+    positions: &'a mut Vec<Vec3>,
+    uvs: Option<&'a mut Vec<Vec2>>,
+    normals: Option<&'a mut Vec<Vec3>>,
+}
+
+/// One root's cut in progress, face by face (Sutherland–Hodgman against y ≥ `plane`):
+/// the intersection points, UVs and normals made so far, shared by the two faces of an
+/// edge, and the directed edges on the plane in the kept polygons' winding (the loops'
+/// successor map).
+struct Clip {
+    plane: f32,
+    /// The mesh is all triangles: a clipped triangle's quad is fanned so it stays so.
+    triangles: bool,
+    new_point: HashMap<(u32, u32), u32>,
+    new_uv: HashMap<(u32, u32, u32, u32), u32>,
+    new_normal: HashMap<(u32, u32, u32, u32), u32>,
+    plane_edges: Vec<(u32, u32)>,
+}
+
+impl Clip {
+    fn new(plane: f32, triangles: bool) -> Clip {
+        Clip {
+            plane,
+            triangles,
+            new_point: HashMap::new(),
+            new_uv: HashMap::new(),
+            new_normal: HashMap::new(),
+            plane_edges: Vec::new(),
+        }
+    }
+
+    /// The pieces above the plane of the face with corners `pos` (`uv`, `nr`: its UV and
+    /// normal corners where the mesh has them); none when less than a polygon is left.
+    fn face(
+        &mut self,
+        values: &mut Values,
+        pos: &[u32],
+        uv: Option<&[u32]>,
+        nr: Option<&[u32]>,
+    ) -> Vec<Piece> {
+        let plane = self.plane;
+        // Each output corner (position, uv, normal) and whether it lies on the plane.
+        let k = pos.len();
+        let ds: Vec<f32> = pos.iter().map(|&i| values.positions[i as usize].y - plane).collect();
+        let d = |i: usize| ds[i];
+        let mut kept: Vec<Corner> = Vec::with_capacity(k + 2);
+        let corner = |i: usize| (pos[i], uv.map_or(0, |u| u[i]), nr.map_or(0, |n| n[i]), d(i) == 0.0);
+        for i in 0..k {
+            let j = (i + 1) % k;
+            let (di, dj) = (d(i), d(j));
+            if di >= 0.0 {
+                kept.push(corner(i));
+            }
+            if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
+                let t = di / (di - dj);
+                let (a, b) = (pos[i], pos[j]);
+                let key = edge_key(a, b);
+                let positions = &mut *values.positions;
+                let p = *self.new_point.entry(key).or_insert_with(|| {
+                    let (pa, pb) = (positions[a as usize], positions[b as usize]);
+                    let mut q = pa + (pb - pa) * t;
+                    q.y = plane;
+                    positions.push(q);
+                    (positions.len() - 1) as u32
+                });
+                // t measured from the key's first end, so both faces agree.
+                let t_key = if a == key.0 { t } else { 1.0 - t };
+                let ui = values.uvs.as_deref_mut().zip(uv).map_or(0, |(c, u)| {
+                    let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
+                    *self.new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
+                        let v = c[u0 as usize].lerp(c[u1 as usize], t_key);
+                        c.push(v);
+                        (c.len() - 1) as u32
+                    })
+                });
+                let un = values.normals.as_deref_mut().zip(nr).map_or(0, |(c, n)| {
+                    let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
+                    *self.new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
+                        let v = c[n0 as usize].lerp(c[n1 as usize], t_key).normalize_or_zero();
+                        c.push(v);
+                        (c.len() - 1) as u32
+                    })
+                });
+                kept.push((p, ui, un, true));
+            }
+        }
+        // The edges that run from a point on the plane to the next through the
+        // removed part: where the original polygon went below between them.
+        let n = kept.len();
+        for a in 0..n {
+            let b = (a + 1) % n;
+            if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
+                // On the plane at both ends: a boundary edge unless it is an edge of
+                // the original polygon (both original corners, consecutive).
+                let original =
+                    pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
+                if !original {
+                    self.plane_edges.push((kept[a].0, kept[b].0));
+                }
+            }
+        }
+        let distinct = {
+            let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
+            v.sort_unstable();
+            v.dedup();
+            v.len()
+        };
+        let mut own = Vec::new();
+        if distinct >= 3 {
+            let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
+            let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
+            let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
+            if self.triangles && p.len() > 3 {
+                // A clipped triangle is a quad: fanned, so a triangle mesh stays one
+                // (Loop subdivision needs triangles). Clipped polygons are convex.
+                for t in 1..p.len() - 1 {
+                    let pick = |v: &[u32]| vec![v[0], v[t], v[t + 1]];
+                    own.push((pick(&p), pick(&u), pick(&nn)));
+                }
+            } else {
+                own.push((p, u, nn));
+            }
+        }
+        own
+    }
+}
+
+/// Fills one closed cut loop with a fan around its centroid, facing −y, with planar UVs
+/// at the bark's texel scale (one unit of u around the root's circumference of `radius`):
+/// appends the centre and the fan's values, returns its triangles.
+fn fill_loop(values: &mut Values, ring: &[u32], plane: f32, radius: f32) -> Vec<Piece> {
+    let per_metre = 1.0 / (std::f32::consts::TAU * radius.max(1e-6));
+    let c = ring.iter().map(|&i| values.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
+    let centre = values.positions.len() as u32;
+    values.positions.push(Vec3::new(c.x, plane, c.z));
+    let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
+    let positions = &*values.positions;
+    let uv0 = values.uvs.as_deref_mut().map(|ch| {
+        let first = ch.len() as u32;
+        ch.push(Vec2::splat(0.5));
+        ch.extend(ring.iter().map(|&i| uv_of(positions[i as usize])));
+        first
+    });
+    let n0 = values.normals.as_deref_mut().map(|ch| {
+        ch.push(-Vec3::Y);
+        (ch.len() - 1) as u32
+    });
+    (0..ring.len())
+        .map(|k| {
+            let kb = (k + 1) % ring.len();
+            let u = uv0.map_or(Vec::new(), |u0| vec![u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
+            let n = n0.map_or(Vec::new(), |n0| vec![n0; 3]);
+            (vec![centre, ring[k], ring[kb]], u, n)
+        })
+        .collect()
 }
 
 /// Chains the reversed plane edges into closed loops (each start the smallest vertex not
@@ -644,7 +705,8 @@ mod tests {
     }
 
     /// The cut as it was before issue 39 (the whole mesh rebuilt and compacted once per
-    /// root), kept to check that the local cut gives the same bytes.
+    /// root), kept to check that the local cut gives the same bytes: the same clipping of
+    /// each face ([`Clip`]), loops and fans, over every face in mesh order.
     fn reference_cut_base(mesh: &mut Mesh, roots: &[SunkRoot]) -> Vec<CutOutcome> {
         roots.iter().map(|r| reference_cut_one(mesh, r)).collect()
     }
@@ -675,219 +737,55 @@ mod tests {
             mesh.uvs.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
         let mut normals =
             mesh.normals.as_ref().map(|c| FaceVarying { values: c.values.clone(), indices: Vec::new() });
-        let mut new_point: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut new_uv: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-        let mut new_normal: HashMap<(u32, u32, u32, u32), u32> = HashMap::new();
-        // Directed edges on the plane, in the kept polygons' winding: loop successor map.
-        let mut plane_edges: Vec<(u32, u32)> = Vec::new();
+        let push = |out: &mut Mesh,
+                    uvs: &mut Option<FaceVarying<Vec2>>,
+                    normals: &mut Option<FaceVarying<Vec3>>,
+                    p: &[u32],
+                    u: &[u32],
+                    n: &[u32]| {
+            out.push_face(p);
+            if let Some(c) = uvs.as_mut() {
+                c.indices.extend_from_slice(u);
+            }
+            if let Some(c) = normals.as_mut() {
+                c.indices.extend_from_slice(n);
+            }
+        };
+        let mut clip = Clip::new(plane, triangles);
         for (f, &cut_face) in cut.iter().enumerate() {
             let corners = mesh.corners(f);
             let pos: &[u32] = &mesh.face_indices[corners.clone()];
             let uv: Option<&[u32]> = mesh.uvs.as_ref().map(|c| &c.indices[corners.clone()]);
             let nr: Option<&[u32]> = mesh.normals.as_ref().map(|c| &c.indices[corners.clone()]);
-            let push = |out: &mut Mesh,
-                        uvs: &mut Option<FaceVarying<Vec2>>,
-                        normals: &mut Option<FaceVarying<Vec3>>,
-                        p: &[u32],
-                        u: &[u32],
-                        n: &[u32]| {
-                out.push_face(p);
-                if let Some(c) = uvs.as_mut() {
-                    c.indices.extend_from_slice(u);
-                }
-                if let Some(c) = normals.as_mut() {
-                    c.indices.extend_from_slice(n);
-                }
-            };
             if !cut_face {
                 push(&mut out, &mut uvs, &mut normals, pos, uv.unwrap_or(&[]), nr.unwrap_or(&[]));
                 continue;
             }
-            // Sutherland–Hodgman against y ≥ plane; each output corner (position, uv,
-            // normal) and whether it lies on the plane.
-            let k = pos.len();
-            let d = |i: usize| mesh.positions[pos[i] as usize].y - plane;
-            let mut kept: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(k + 2);
-            let corner = |i: usize| {
-                (pos[i], uv.as_ref().map_or(0, |u| u[i]), nr.as_ref().map_or(0, |n| n[i]), d(i) == 0.0)
+            let mut values = Values {
+                positions: &mut out.positions,
+                uvs: uvs.as_mut().map(|c| &mut c.values),
+                normals: normals.as_mut().map(|c| &mut c.values),
             };
-            for i in 0..k {
-                let j = (i + 1) % k;
-                let (di, dj) = (d(i), d(j));
-                if di >= 0.0 {
-                    kept.push(corner(i));
-                }
-                if (di < 0.0 && dj > 0.0) || (di > 0.0 && dj < 0.0) {
-                    let t = di / (di - dj);
-                    let (a, b) = (pos[i], pos[j]);
-                    let key = edge_key(a, b);
-                    let p = *new_point.entry(key).or_insert_with(|| {
-                        let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
-                        let mut q = pa + (pb - pa) * t;
-                        q.y = plane;
-                        out.positions.push(q);
-                        (out.positions.len() - 1) as u32
-                    });
-                    // t measured from the key's first end, so both faces agree.
-                    let t_key = if a == key.0 { t } else { 1.0 - t };
-                    let (ui, un) = (
-                        uvs.as_mut().zip(uv.as_ref()).map_or(0, |(c, u)| {
-                            let (u0, u1) = if a == key.0 { (u[i], u[j]) } else { (u[j], u[i]) };
-                            *new_uv.entry((key.0, key.1, u0, u1)).or_insert_with(|| {
-                                let v = c.values[u0 as usize].lerp(c.values[u1 as usize], t_key);
-                                c.values.push(v);
-                                (c.values.len() - 1) as u32
-                            })
-                        }),
-                        normals.as_mut().zip(nr.as_ref()).map_or(0, |(c, n)| {
-                            let (n0, n1) = if a == key.0 { (n[i], n[j]) } else { (n[j], n[i]) };
-                            *new_normal.entry((key.0, key.1, n0, n1)).or_insert_with(|| {
-                                let v = c.values[n0 as usize]
-                                    .lerp(c.values[n1 as usize], t_key)
-                                    .normalize_or_zero();
-                                c.values.push(v);
-                                (c.values.len() - 1) as u32
-                            })
-                        }),
-                    );
-                    kept.push((p, ui, un, true));
-                }
-            }
-            // The edges that run from a point on the plane to the next through the removed
-            // part: where the original polygon went below between them.
-            let n = kept.len();
-            for a in 0..n {
-                let b = (a + 1) % n;
-                if n >= 2 && kept[a].3 && kept[b].3 && kept[a].0 != kept[b].0 {
-                    // On the plane at both ends: a boundary edge unless it is an edge of the
-                    // original polygon (both original corners, consecutive).
-                    let original =
-                        pos.iter().enumerate().any(|(i, &p)| p == kept[a].0 && pos[(i + 1) % k] == kept[b].0);
-                    if !original {
-                        plane_edges.push((kept[a].0, kept[b].0));
-                    }
-                }
-            }
-            let distinct = {
-                let mut v: Vec<u32> = kept.iter().map(|c| c.0).collect();
-                v.sort_unstable();
-                v.dedup();
-                v.len()
-            };
-            if distinct >= 3 {
-                let p: Vec<u32> = kept.iter().map(|c| c.0).collect();
-                let u: Vec<u32> = kept.iter().map(|c| c.1).collect();
-                let nn: Vec<u32> = kept.iter().map(|c| c.2).collect();
-                if triangles && p.len() > 3 {
-                    // A clipped triangle is a quad: fanned, so a triangle mesh stays one
-                    // (Loop subdivision needs triangles). Clipped polygons are convex.
-                    for t in 1..p.len() - 1 {
-                        let pick = |v: &[u32]| [v[0], v[t], v[t + 1]];
-                        push(&mut out, &mut uvs, &mut normals, &pick(&p), &pick(&u), &pick(&nn));
-                    }
-                } else {
-                    push(&mut out, &mut uvs, &mut normals, &p, &u, &nn);
-                }
+            for (p, u, n) in clip.face(&mut values, pos, uv, nr) {
+                push(&mut out, &mut uvs, &mut normals, &p, &u, &n);
             }
         }
-        // Chain the reversed plane edges into loops.
-        let mut next: HashMap<u32, u32> = HashMap::with_capacity(plane_edges.len());
-        for &(a, b) in &plane_edges {
-            if next.insert(b, a).is_some() {
-                return CutOutcome::Open;
-            }
-        }
-        let mut loops: Vec<Vec<u32>> = Vec::new();
-        let mut seen: HashSet<u32> = HashSet::new();
-        let mut starts: Vec<u32> = next.keys().copied().collect();
-        starts.sort_unstable();
-        for s in starts {
-            if seen.contains(&s) {
-                continue;
-            }
-            let mut ring = vec![s];
-            seen.insert(s);
-            let mut v = s;
-            loop {
-                let Some(&w) = next.get(&v) else { return CutOutcome::Open };
-                if w == s {
-                    break;
-                }
-                if !seen.insert(w) || ring.len() > plane_edges.len() {
-                    return CutOutcome::Open;
-                }
-                ring.push(w);
-                v = w;
-            }
-            if ring.len() < 3 {
-                return CutOutcome::Open;
-            }
-            loops.push(ring);
-        }
-        if loops.is_empty() {
-            return CutOutcome::Open;
-        }
-        // Fill each loop: a fan around its centroid, facing −y; planar UVs at the bark's
-        // texel scale (one unit of u around the root's circumference).
-        let per_metre = 1.0 / (std::f32::consts::TAU * root.radius.max(1e-6));
+        let Some(loops) = chain_loops(&clip.plane_edges) else { return CutOutcome::Open };
         for ring in &loops {
-            let c = ring.iter().map(|&i| out.positions[i as usize]).sum::<Vec3>() / ring.len() as f32;
-            let centre = out.positions.len() as u32;
-            out.positions.push(Vec3::new(c.x, plane, c.z));
-            let uv_of = |p: Vec3| Vec2::new(0.5 + (p.x - c.x) * per_metre, 0.5 + (p.z - c.z) * per_metre);
-            let uv0 = uvs.as_mut().map(|ch| {
-                let first = ch.values.len() as u32;
-                ch.values.push(Vec2::splat(0.5));
-                ch.values.extend(ring.iter().map(|&i| uv_of(out.positions[i as usize])));
-                first
-            });
-            let n0 = normals.as_mut().map(|ch| {
-                ch.values.push(-Vec3::Y);
-                (ch.values.len() - 1) as u32
-            });
-            for (k, &a) in ring.iter().enumerate() {
-                let kb = (k + 1) % ring.len();
-                let b = ring[kb];
-                out.push_face(&[centre, a, b]);
-                if let (Some(ch), Some(u0)) = (uvs.as_mut(), uv0) {
-                    ch.indices.extend_from_slice(&[u0, u0 + 1 + k as u32, u0 + 1 + kb as u32]);
-                }
-                if let (Some(ch), Some(n0)) = (normals.as_mut(), n0) {
-                    ch.indices.extend_from_slice(&[n0; 3]);
-                }
+            let mut values = Values {
+                positions: &mut out.positions,
+                uvs: uvs.as_mut().map(|c| &mut c.values),
+                normals: normals.as_mut().map(|c| &mut c.values),
+            };
+            for (p, u, n) in fill_loop(&mut values, ring, plane, root.radius) {
+                push(&mut out, &mut uvs, &mut normals, &p, &u, &n);
             }
         }
         out.uvs = uvs;
         out.normals = normals;
-        reference_compact(&mut out);
+        compact(&mut out);
         *mesh = out;
         CutOutcome::Flat(loops.len())
-    }
-
-    /// Drops positions no face uses (renumbering faces and creases).
-    fn reference_compact(mesh: &mut Mesh) {
-        let mut map = vec![u32::MAX; mesh.positions.len()];
-        let mut kept = Vec::with_capacity(mesh.positions.len());
-        for &i in &mesh.face_indices {
-            if map[i as usize] == u32::MAX {
-                map[i as usize] = kept.len() as u32;
-                kept.push(i);
-            }
-        }
-        // Keep the original order (stable output) rather than first use.
-        kept.sort_unstable();
-        for (new, &old) in kept.iter().enumerate() {
-            map[old as usize] = new as u32;
-        }
-        mesh.positions = kept.iter().map(|&i| mesh.positions[i as usize]).collect();
-        for i in &mut mesh.face_indices {
-            *i = map[*i as usize];
-        }
-        mesh.creases.retain(|c| map[c.a as usize] != u32::MAX && map[c.b as usize] != u32::MAX);
-        for c in &mut mesh.creases {
-            c.a = map[c.a as usize];
-            c.b = map[c.b as usize];
-        }
     }
 
     /// Tubes (a [`tube`] each, scaled and moved) of a forest: some far apart, some
