@@ -2,7 +2,7 @@
 //! along given view directions, one rasterization per view, written to layered texture
 //! maps ([`render_layers`]).
 
-use super::raster::{edge, ScreenVertex, Srgb, Texture};
+use super::raster::{edge, Coverage, ScreenVertex, Srgb, Texture};
 use super::{MAX_SIZE, SUBPIXEL};
 use crate::error::{Error, Result};
 use glam::Vec3;
@@ -403,73 +403,25 @@ fn for_each_sample(
         perm.swap(1, 2);
         area = -area;
     }
-    let edges = [(p[1], p[2]), (p[2], p[0]), (p[0], p[1])];
-    let len2 = edges.map(|(a, b)| {
-        let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
-        dx * dx + dy * dy
-    });
-    let area_f = area as f64;
-    let thin = area_f * area_f < len2.iter().cloned().fold(0.0, f64::max) * (SUBPIXEL * SUBPIXEL) as f64;
-    let bias: [i64; 3] = if thin {
-        len2.map(|l| (l.sqrt() * (SUBPIXEL / 2) as f64) as i64)
-    } else {
-        edges.map(|(a, b)| {
-            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-            if dy < 0 || (dy == 0 && dx > 0) {
-                0
-            } else {
-                -1
-            }
-        })
-    };
-    let grow = if thin { SUBPIXEL / 2 } else { 0 };
-    let xmin = p.iter().map(|q| q.0).min().unwrap_or(0) - grow;
-    let xmax = p.iter().map(|q| q.0).max().unwrap_or(0) + grow;
-    let ymin = p.iter().map(|q| q.1).min().unwrap_or(0) - grow;
-    let ymax = p.iter().map(|q| q.1).max().unwrap_or(0) + grow;
-    if xmax < 0 || ymax < 0 || (xmin >> 8) >= w || (ymin >> 8) >= h {
-        return;
-    }
-    let x0 = (xmin >> 8).clamp(0, w - 1);
-    let x1 = (xmax >> 8).clamp(0, w - 1);
-    let y0 = (ymin >> 8).clamp(0, h - 1);
-    let y1 = (ymax >> 8).clamp(0, h - 1);
-    let step = edges.map(|(a, b)| -(b.1 - a.1) * SUBPIXEL);
+    let Some(c) = Coverage::new(p, area, w, h) else { return };
+    let (step, bias, thin, x0) = (c.step, c.bias, c.thin, c.x0);
     let inv_area = 1.0 / area as f32;
     // Depth is affine in the edge values: z = Σ iz_k · e_k / area.
     let dz = (0..3).map(|k| iz[k] * step[k] as f32).sum::<f32>() * inv_area;
     let (zlo, zhi) = (iz[0].min(iz[1]).min(iz[2]), iz[0].max(iz[1]).max(iz[2]));
-    let half = SUBPIXEL / 2;
     // Narrow boxes (most triangles of a distant tree) test every sample; wide ones solve
     // each row's span (a few divisions instead of a test per sample).
-    let narrow = x1 - x0 < 16;
-    for py in y0..y1 + 1 {
-        let cy = py * SUBPIXEL + half;
-        let cx = x0 * SUBPIXEL + half;
-        let e = [0, 1, 2].map(|k| edge(edges[k].0, edges[k].1, cx, cy));
-        let (mut k0, mut k1) = (0i64, x1 - x0);
-        if !narrow {
-            for k in 0..3 {
-                let v = e[k] + bias[k];
-                let st = step[k];
-                if st > 0 {
-                    if v < 0 {
-                        k0 = k0.max((-v + st - 1) / st);
-                    }
-                } else if st < 0 {
-                    if v < 0 {
-                        k1 = -1;
-                    } else {
-                        k1 = k1.min(v / -st);
-                    }
-                } else if v < 0 {
-                    k1 = -1;
-                }
+    let narrow = c.x1 - c.x0 < 16;
+    for py in c.y0..c.y1 + 1 {
+        let e = c.row_start(py);
+        let (k0, k1) = if narrow {
+            (0, c.x1 - c.x0)
+        } else {
+            match c.span(e) {
+                Some(span) => span,
+                None => continue,
             }
-            if k0 > k1 {
-                continue;
-            }
-        }
+        };
         let z_row = (0..3).map(|k| iz[k] * e[k] as f32).sum::<f32>() * inv_area;
         let row = (py * w) as usize;
         for j in k0..k1 + 1 {

@@ -182,6 +182,106 @@ pub(super) fn draw_model(model: &Model, cam: &Camera, fit: Option<Vec<Vec3>>, sr
     }
 }
 
+/// How a screen triangle covers a frame's samples, set up once for both rasterizers:
+/// its edges (edge k opposite corner k), their top-left fill biases, the change of each
+/// edge value per sample to the right, and the clamped box of samples it may touch. A
+/// triangle thinner than one sample (its smallest height, area / longest edge, is below
+/// 1; a twig seen from afar) is dilated by half a sample on every side so it shows as a
+/// hairline instead of vanishing.
+pub(super) struct Coverage {
+    /// Edge k runs between the two corners other than k.
+    pub(super) edges: [((i64, i64), (i64, i64)); 3],
+    /// Added to an edge value before the inside test.
+    pub(super) bias: [i64; 3],
+    /// Change of each edge value one sample to the right.
+    pub(super) step: [i64; 3],
+    /// Whether the triangle is dilated as a hairline.
+    pub(super) thin: bool,
+    /// First and last sample column and row touched.
+    pub(super) x0: i64,
+    pub(super) x1: i64,
+    pub(super) y0: i64,
+    pub(super) y1: i64,
+}
+
+impl Coverage {
+    /// Sets up corners `p` (clockwise on screen, twice-area `area` > 0) in a `w × h`
+    /// frame; `None` when the triangle misses the frame.
+    pub(super) fn new(p: [(i64, i64); 3], area: i64, w: i64, h: i64) -> Option<Coverage> {
+        // Edge k is opposite vertex k; its value is vertex k's barycentric weight × area.
+        let edges = [(p[1], p[2]), (p[2], p[0]), (p[0], p[1])];
+        let len2 = edges.map(|(a, b)| {
+            let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+            dx * dx + dy * dy
+        });
+        let area_f = area as f64;
+        let thin = area_f * area_f < len2.iter().cloned().fold(0.0, f64::max) * (SUBPIXEL * SUBPIXEL) as f64;
+        let bias: [i64; 3] = if thin {
+            len2.map(|l| (l.sqrt() * (SUBPIXEL / 2) as f64) as i64)
+        } else {
+            // Top-left rule (clockwise on screen): top edges run right, left edges run up.
+            edges.map(|(a, b)| {
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                if dy < 0 || (dy == 0 && dx > 0) {
+                    0
+                } else {
+                    -1
+                }
+            })
+        };
+        let grow = if thin { SUBPIXEL / 2 } else { 0 };
+        let xmin = p.iter().map(|q| q.0).min().unwrap_or(0) - grow;
+        let xmax = p.iter().map(|q| q.0).max().unwrap_or(0) + grow;
+        let ymin = p.iter().map(|q| q.1).min().unwrap_or(0) - grow;
+        let ymax = p.iter().map(|q| q.1).max().unwrap_or(0) + grow;
+        if xmax < 0 || ymax < 0 || (xmin >> 8) >= w || (ymin >> 8) >= h {
+            return None;
+        }
+        Some(Coverage {
+            edges,
+            bias,
+            step: edges.map(|(a, b)| -(b.1 - a.1) * SUBPIXEL),
+            thin,
+            x0: (xmin >> 8).clamp(0, w - 1),
+            x1: (xmax >> 8).clamp(0, w - 1),
+            y0: (ymin >> 8).clamp(0, h - 1),
+            y1: (ymax >> 8).clamp(0, h - 1),
+        })
+    }
+
+    /// The edge values at the centre of the first sample (column `x0`) of row `py`.
+    pub(super) fn row_start(&self, py: i64) -> [i64; 3] {
+        let half = SUBPIXEL / 2;
+        let (cx, cy) = (self.x0 * SUBPIXEL + half, py * SUBPIXEL + half);
+        self.edges.map(|(a, b)| edge(a, b, cx, cy))
+    }
+
+    /// The column offsets `k0..=k1` (from `x0`) of the row whose edge values at `x0` are
+    /// `e` that lie inside every biased edge, solving `e + bias + step·j ≥ 0` for `j`;
+    /// `None` when none do.
+    pub(super) fn span(&self, e: [i64; 3]) -> Option<(i64, i64)> {
+        let (mut k0, mut k1) = (0i64, self.x1 - self.x0);
+        for k in 0..3 {
+            let v = e[k] + self.bias[k];
+            let st = self.step[k];
+            if st > 0 {
+                if v < 0 {
+                    k0 = k0.max((-v + st - 1) / st); // ceil(−v / st)
+                }
+            } else if st < 0 {
+                if v < 0 {
+                    k1 = -1;
+                } else {
+                    k1 = k1.min(v / -st);
+                }
+            } else if v < 0 {
+                k1 = -1;
+            }
+        }
+        (k0 <= k1).then_some((k0, k1))
+    }
+}
+
 /// `E_ab(p)`: twice the signed area of (a, b, p) in fixed point, y down.
 #[inline]
 pub(super) fn edge(a: (i64, i64), b: (i64, i64), px: i64, py: i64) -> i64 {
@@ -256,75 +356,13 @@ fn draw_triangle(
     let face_n = face_n * flip;
     let n = n.map(|v| v * flip);
 
-    // Edge k is opposite vertex k; its value is vertex k's barycentric weight × area.
-    let edges = [(p[1], p[2]), (p[2], p[0]), (p[0], p[1])];
-    let len2 = edges.map(|(a, b)| {
-        let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
-        dx * dx + dy * dy
-    });
-    // A triangle thinner than one sample (its smallest height, area / longest edge, is
-    // below 1; a twig seen from afar) is dilated by half a sample on every side so it
-    // shows as a hairline instead of vanishing.
-    let area_f = area as f64;
-    let thin = area_f * area_f < len2.iter().cloned().fold(0.0, f64::max) * (SUBPIXEL * SUBPIXEL) as f64;
-    let bias: [i64; 3] = if thin {
-        len2.map(|l| (l.sqrt() * (SUBPIXEL / 2) as f64) as i64)
-    } else {
-        // Top-left rule (clockwise on screen): top edges run right, left edges run up.
-        edges.map(|(a, b)| {
-            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-            if dy < 0 || (dy == 0 && dx > 0) {
-                0
-            } else {
-                -1
-            }
-        })
-    };
-    let grow = if thin { SUBPIXEL / 2 } else { 0 };
-    let xmin = p.iter().map(|q| q.0).min().unwrap_or(0) - grow;
-    let xmax = p.iter().map(|q| q.0).max().unwrap_or(0) + grow;
-    let ymin = p.iter().map(|q| q.1).min().unwrap_or(0) - grow;
-    let ymax = p.iter().map(|q| q.1).max().unwrap_or(0) + grow;
-    if xmax < 0 || ymax < 0 || (xmin >> 8) >= t.w || (ymin >> 8) >= t.h {
-        return;
-    }
-    let x0 = (xmin >> 8).clamp(0, t.w - 1);
-    let x1 = (xmax >> 8).clamp(0, t.w - 1);
-    let y0 = (ymin >> 8).clamp(0, t.h - 1);
-    let y1 = (ymax >> 8).clamp(0, t.h - 1);
-
-    let step = edges.map(|(a, b)| -(b.1 - a.1) * SUBPIXEL);
+    let Some(c) = Coverage::new(p, area, t.w, t.h) else { return };
+    let (step, thin, x0) = (c.step, c.thin, c.x0);
     let inv_area = 1.0 / area as f32;
     let iz = [s[0].iz, s[1].iz, s[2].iz];
-    let half = SUBPIXEL / 2;
-    for py in y0..=y1 {
-        let cy = py * SUBPIXEL + half;
-        let cx = x0 * SUBPIXEL + half;
-        let mut e = [0i64; 3];
-        let (mut k0, mut k1) = (0i64, x1 - x0);
-        for k in 0..3 {
-            let (a, b) = edges[k];
-            e[k] = edge(a, b, cx, cy);
-            let v = e[k] + bias[k];
-            let st = step[k];
-            // Solve v + st·j ≥ 0 for the column offset j.
-            if st > 0 {
-                if v < 0 {
-                    k0 = k0.max((-v + st - 1) / st); // ceil(−v / st)
-                }
-            } else if st < 0 {
-                if v < 0 {
-                    k1 = -1;
-                } else {
-                    k1 = k1.min(v / -st);
-                }
-            } else if v < 0 {
-                k1 = -1;
-            }
-        }
-        if k0 > k1 {
-            continue;
-        }
+    for py in c.y0..=c.y1 {
+        let e = c.row_start(py);
+        let Some((k0, k1)) = c.span(e) else { continue };
         let row = (py * t.w) as usize;
         for j in k0..=k1 {
             let mut w = [
