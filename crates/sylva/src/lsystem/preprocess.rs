@@ -82,7 +82,7 @@ impl Source {
         depth: usize,
     ) -> Result<(), Box<LsystemError>> {
         let text = self.files[file].1.clone();
-        let stripped = strip_comments(&text);
+        let stripped = blank_comments(&text, CommentStyle::Lsystem);
         let lines = logical_lines(&stripped, file);
         for line in &lines {
             let s: String = line.iter().map(|&(c, _)| c).collect();
@@ -338,6 +338,18 @@ impl Source {
                     out.extend_from_slice(&line[start..k]);
                     continue;
                 };
+                // The expansion of this use makes the line longer than the limit.
+                let too_long = || {
+                    self.error_origin(
+                        ErrorKind::Budget,
+                        o,
+                        ident.len(),
+                        &format!(
+                            "macro `{ident}` expands this line to more than {MAX_EXPANDED_LINE} characters"
+                        ),
+                        "macro use",
+                    )
+                };
                 if depth > 64 {
                     return Err(self.error_origin(
                         ErrorKind::Syntax,
@@ -397,15 +409,7 @@ impl Source {
                         }
                         let body = substitute(&mac.body, params, &expanded_args, o);
                         if body.len() > MAX_EXPANDED_LINE {
-                            return Err(self.error_origin(
-                                ErrorKind::Budget,
-                                o,
-                                ident.len(),
-                                &format!(
-                                    "macro `{ident}` expands this line to more than {MAX_EXPANDED_LINE} characters"
-                                ),
-                                "macro use",
-                            ));
+                            return Err(too_long());
                         }
                         body
                     }
@@ -415,15 +419,7 @@ impl Source {
                 let rescanned = self.expand_except(&body, depth + 1, &dis)?;
                 out.extend(rescanned);
                 if out.len() > MAX_EXPANDED_LINE {
-                    return Err(self.error_origin(
-                        ErrorKind::Budget,
-                        o,
-                        ident.len(),
-                        &format!(
-                            "macro `{ident}` expands this line to more than {MAX_EXPANDED_LINE} characters"
-                        ),
-                        "macro use",
-                    ));
+                    return Err(too_long());
                 }
             } else if c.is_ascii_digit() || c == '.' {
                 // Numbers such as 1e5 must not have their exponent taken as an identifier.
@@ -569,16 +565,27 @@ fn substitute(body: &str, params: &[String], args: &[Vec<Ch>], o: u64) -> Vec<Ch
     out
 }
 
-/// Replaces comments by spaces (newlines kept), so offsets stay the same. String
-/// literals are left alone.
-fn strip_comments(s: &str) -> String {
+/// Which text [`blank_comments`] reads: what it leaves alone besides newlines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum CommentStyle {
+    /// L-system files: string literals (`"…"` up to the line's end) are not searched for
+    /// comments, and the non-ASCII bytes of comments are copied unchanged.
+    Lsystem,
+    /// cpfg's data files (view files): every byte of a comment becomes a space.
+    Data,
+}
+
+/// Replaces `/* … */` and `//` comments by spaces (newlines kept), so every byte offset
+/// stays the same: the C preprocessor's comment removal, which cpfg runs on L-system
+/// and view files (Mech2004).
+pub(crate) fn blank_comments(s: &str, style: CommentStyle) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     let blank = |c: u8| {
         if c == b'\n' {
             b'\n'
-        } else if c < 0x80 {
+        } else if c < 0x80 || style == CommentStyle::Data {
             b' '
         } else {
             c
@@ -601,7 +608,7 @@ fn strip_comments(s: &str) -> String {
                 out.push(blank(b[i]));
                 i += 1;
             }
-        } else if b[i] == b'"' {
+        } else if b[i] == b'"' && style == CommentStyle::Lsystem {
             out.push(b[i]);
             i += 1;
             while i < b.len() && b[i] != b'"' && b[i] != b'\n' {
@@ -613,7 +620,8 @@ fn strip_comments(s: &str) -> String {
             i += 1;
         }
     }
-    // Non-ASCII bytes were copied unchanged, so the result is valid UTF-8.
+    // Comments start and end on ASCII bytes and their non-ASCII bytes were either all
+    // copied or all blanked, so no multi-byte character was split.
     String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
 }
 

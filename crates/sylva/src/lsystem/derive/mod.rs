@@ -303,6 +303,17 @@ mod tests {
         (ls, m)
     }
 
+    /// `m` with the homomorphism of `ls` applied, as text.
+    fn interpreted(ls: &LSystem, m: &ModuleString) -> Result<String, Box<LsystemError>> {
+        ls.interpretation(m, &mut Evaluator::new(1), 100).map(|i| ls.format(&i))
+    }
+
+    /// The error of deriving `text` for `steps` steps within `budget` modules.
+    fn derive_err(text: &str, steps: u32, budget: usize) -> Box<LsystemError> {
+        let ls = LSystem::parse("t.l", text, &[]).unwrap();
+        ls.derive(&DeriveOptions { steps, budget, seed: 1 }).unwrap_err()
+    }
+
     const BINARY: &str = "Lsystem: 1\nAxiom: a\na --> b[a]a\nb --> bb\nendlsystem\n";
 
     /// A main L-system calling sub-L-system 2 (scale 0.5); both have rules for `B` and
@@ -331,8 +342,7 @@ mod tests {
     #[test]
     fn sub_lsystem_errors() {
         let bad = SUBS.replace("?(2,0.5)", "?(7,0.5)");
-        let ls = LSystem::parse("t.l", &bad, &[]).unwrap();
-        let e = ls.derive(&DeriveOptions { steps: 2, budget: 1000, seed: 0 }).unwrap_err();
+        let e = derive_err(&bad, 2, 1000);
         assert!(e.message.contains("calls sub-L-system 7") && e.message.contains("are 2"), "{}", e.message);
         let twice = SUBS.replace("Lsystem: 2", "Lsystem: 1");
         let e = LSystem::parse("t.l", &twice, &[]).unwrap_err();
@@ -353,18 +363,25 @@ mod tests {
         assert_eq!(m.count(ls.symbols.get("b").unwrap()), 192);
     }
 
+    /// Small grammars and the strings they derive: the first matching production with
+    /// its condition, arity, multi-module predecessors, the empty successor.
     #[test]
-    fn first_match_and_conditions() {
-        let t = "Lsystem: 1\nAxiom: A(0)\nA(x) : x < 2 --> A(x+1)\nA(x) : x >= 2 --> B(x*10)\nA(x) --> C\nendlsystem\n";
-        let (ls, m) = derive(t, 3);
-        assert_eq!(ls.format(&m), "B(20)");
-    }
-
-    #[test]
-    fn arity_must_match() {
-        let t = "Lsystem: 1\nAxiom: A(1,2) A\nA(x) --> X\nA --> Y\nendlsystem\n";
-        let (ls, m) = derive(t, 1);
-        assert_eq!(ls.format(&m), "A(1,2)Y");
+    fn derived_strings() {
+        let cases = [
+            (
+                "first match and conditions",
+                "Axiom: A(0)\nA(x) : x < 2 --> A(x+1)\nA(x) : x >= 2 --> B(x*10)\nA(x) --> C",
+                3,
+                "B(20)",
+            ),
+            ("arity must match", "Axiom: A(1,2) A\nA(x) --> X\nA --> Y", 1, "A(1,2)Y"),
+            ("multi-module predecessors", "Axiom: A(1)B(2)A(3)C\nA(x)B(y) --> D(x+y)", 1, "D(3)A(3)C"),
+            ("empty successor", "Axiom: A B A\nA --> *", 1, "B"),
+        ];
+        for (what, rules, steps, want) in cases {
+            let (ls, m) = derive(&format!("Lsystem: 1\n{rules}\nendlsystem\n"), steps);
+            assert_eq!(ls.format(&m), want, "{what}");
+        }
     }
 
     #[test]
@@ -381,8 +398,7 @@ mod tests {
     #[test]
     fn budget_stops_explosions() {
         let t = "Lsystem: 1\nAxiom: F\nF --> FFFFFFFFFF\nendlsystem\n";
-        let ls = LSystem::parse("t.l", t, &[]).unwrap();
-        let e = ls.derive(&DeriveOptions { steps: 20, budget: 1_000_000, seed: 1 }).unwrap_err();
+        let e = derive_err(t, 20, 1_000_000);
         assert_eq!(e.kind, ErrorKind::Budget);
         assert!(e.message.contains("step 7 of 20"), "{}", e.message);
     }
@@ -390,8 +406,7 @@ mod tests {
     #[test]
     fn division_by_zero_names_the_production() {
         let t = "Lsystem: 1\nAxiom: A(1)\nA(x) --> A(x-1) B(1/(x-1))\nendlsystem\n";
-        let ls = LSystem::parse("t.l", t, &[]).unwrap();
-        let e = ls.derive(&DeriveOptions { steps: 2, budget: 100, seed: 1 }).unwrap_err();
+        let e = derive_err(t, 2, 100);
         assert_eq!(e.kind, ErrorKind::DivisionByZero);
         assert!(e.message.starts_with("t.l:3:"), "{}", e.message);
         assert!(e.message.contains("module `B`") && e.message.contains("A(1)"), "{}", e.message);
@@ -402,16 +417,15 @@ mod tests {
         let t = "Lsystem: 1\nAxiom: a\na --> b[a]a\nb --> bb\nhomomorphism\na --> F(0.5)\nb --> F(1)\nendlsystem\n";
         let (ls, m) = derive(t, 1);
         assert_eq!(ls.format(&m), "b[a]a");
-        let i = ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap();
-        assert_eq!(ls.format(&i), "F(1)[F(0.5)]F(0.5)");
+        assert_eq!(interpreted(&ls, &m).unwrap(), "F(1)[F(0.5)]F(0.5)");
         // Depth 3: a -> bb -> cccc -> FFFF.
         let t =
             "Lsystem: 1\nAxiom: a\nhomomorphism\nmaximum depth: 3\na --> bb\nb --> cc\nc --> F\nendlsystem\n";
         let (ls, m) = derive(t, 0);
-        assert_eq!(ls.format(&ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap()), "FFFF");
+        assert_eq!(interpreted(&ls, &m).unwrap(), "FFFF");
         // Depth 2 is too shallow: an error naming the module.
         let (ls, m) = derive(&t.replace("depth: 3", "depth: 2"), 0);
-        let e = ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap_err();
+        let e = interpreted(&ls, &m).unwrap_err();
         assert!(
             e.message.contains("module c still has a homomorphism production at the maximum depth 2"),
             "{}",
@@ -420,7 +434,7 @@ mod tests {
         // Without `maximum depth:` the homomorphism is a single substitution.
         let t = "Lsystem: 1\nAxiom: a\nhomomorphism\na --> aa\nendlsystem\n";
         let (ls, m) = derive(t, 0);
-        assert_eq!(ls.format(&ls.interpretation(&m, &mut Evaluator::new(1), 100).unwrap()), "aa");
+        assert_eq!(interpreted(&ls, &m).unwrap(), "aa");
     }
 
     #[test]
@@ -435,21 +449,7 @@ mod tests {
         let (ls, m) = derive(&t2, 0);
         assert_eq!(ls.format(&m), "GEGE");
         let t3 = t2.replace("depth: 3", "depth: 2");
-        let ls = LSystem::parse("t.l", &t3, &[]).unwrap();
-        let e = ls.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap_err();
+        let e = derive_err(&t3, 0, 100);
         assert!(e.message.contains("module D still has a decomposition production"), "{}", e.message);
-    }
-
-    #[test]
-    fn multi_module_predecessors() {
-        let t = "Lsystem: 1\nAxiom: A(1)B(2)A(3)C\nA(x)B(y) --> D(x+y)\nendlsystem\n";
-        let (ls, m) = derive(t, 1);
-        assert_eq!(ls.format(&m), "D(3)A(3)C");
-    }
-
-    #[test]
-    fn empty_successor() {
-        let (ls, m) = derive("Lsystem: 1\nAxiom: A B A\nA --> *\nendlsystem\n", 1);
-        assert_eq!(ls.format(&m), "B");
     }
 }

@@ -89,15 +89,7 @@ impl LSystem {
             return Ok(None);
         }
         if !p.needs_buffer() {
-            if let Some(c) = &p.cond {
-                let v = ev
-                    .eval(c, params)
-                    .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params))))?;
-                if v == 0.0 {
-                    return Ok(None);
-                }
-            }
-            return Ok(Some(false));
+            return Ok(self.condition_holds(p, params, params, ev)?.then_some(false));
         }
         buf.clear();
         buf.extend_from_slice(params);
@@ -129,19 +121,31 @@ impl LSystem {
         if let Some(pre) = &p.pre {
             ev.exec(pre, buf).map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
         }
-        if let Some(c) = &p.cond {
-            let v = ev
-                .eval(c, buf)
-                .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params))))?;
-            if v == 0.0 {
-                return Ok(None);
-            }
+        if !self.condition_holds(p, buf, params, ev)? {
+            return Ok(None);
         }
         if let Some(post) = &p.post {
             ev.exec(post, buf)
                 .map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
         }
         Ok(Some(true))
+    }
+
+    /// Whether the condition of `p` holds for the locals `locals` (true when it has
+    /// none); `params` are the module's, for messages.
+    #[inline]
+    fn condition_holds(
+        &self,
+        p: &Production,
+        locals: &[f64],
+        params: &[f64],
+        ev: &mut Evaluator,
+    ) -> Result<bool, Box<LsystemError>> {
+        let Some(c) = &p.cond else { return Ok(true) };
+        let v = ev
+            .eval(c, locals)
+            .map_err(|e| self.eval_error(e, "evaluating the condition", Some((p, params))))?;
+        Ok(v != 0.0)
     }
 
     /// Left context (ABOP §1.8): scanning left, `[` steps out of the branch, a complete

@@ -81,28 +81,27 @@ pub fn sky(n: usize, up: usize) -> Vec<DVec3> {
 impl Chiba {
     /// Settings from the spec file and the recipe's overrides.
     pub fn configure(spec: &Spec, over: &Overrides) -> Result<Chiba, String> {
-        let mut n = DEFAULT_DIRECTIONS as f64;
-        if let Some(e) = spec.get("directions") {
-            n = spec.number(e)?;
-            if !(n >= 1.0 && n <= MAX_DIRECTIONS as f64 && n.fract() == 0.0) {
-                return Err(spec.error(e, &format!("expected a whole number from 1 to {MAX_DIRECTIONS}")));
-            }
-        }
+        let whole = |n: f64| n >= 1.0 && n <= MAX_DIRECTIONS as f64 && n.fract() == 0.0;
+        let mut n = spec.number_or(
+            "directions",
+            DEFAULT_DIRECTIONS as f64,
+            whole,
+            &format!("expected a whole number from 1 to {MAX_DIRECTIONS}"),
+        )?;
         if let Some(d) = over.directions {
-            if !(d >= 1.0 && d <= MAX_DIRECTIONS as f64 && d.fract() == 0.0) {
+            if !whole(d) {
                 return Err(format!(
                     "chiba: directions must be a whole number from 1 to {MAX_DIRECTIONS}, got {d}"
                 ));
             }
             n = d;
         }
-        let mut leaf_radius = DEFAULT_LEAF_RADIUS;
-        if let Some(e) = spec.get("leaf radius") {
-            leaf_radius = spec.number(e)?;
-            if leaf_radius <= 0.0 {
-                return Err(spec.error(e, "the leaf radius must be positive"));
-            }
-        }
+        let mut leaf_radius = spec.number_or(
+            "leaf radius",
+            DEFAULT_LEAF_RADIUS,
+            |r| r > 0.0,
+            "the leaf radius must be positive",
+        )?;
         if let Some(r) = over.radius {
             if !(r.is_finite() && r > 0.0) {
                 return Err(format!("chiba: radius must be a positive number, got {r}"));

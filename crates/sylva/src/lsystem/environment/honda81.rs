@@ -46,13 +46,8 @@ pub struct Honda81 {
 impl Honda81 {
     /// Settings from the spec file and the recipe's overrides.
     pub fn configure(spec: &Spec, over: &Overrides) -> Result<Honda81, String> {
-        let mut radius = DEFAULT_RADIUS;
-        if let Some(e) = spec.get("radius") {
-            radius = spec.number(e)?;
-            if radius <= 0.0 {
-                return Err(spec.error(e, "the radius must be positive"));
-            }
-        }
+        let mut radius =
+            spec.number_or("radius", DEFAULT_RADIUS, |r| r > 0.0, "the radius must be positive")?;
         if let Some(r) = over.radius {
             radius = r;
         }

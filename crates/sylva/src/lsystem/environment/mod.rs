@@ -214,6 +214,24 @@ impl Spec {
         }
     }
 
+    /// The number under `key` (the last entry with it), `default` when there is none;
+    /// a value `ok` refuses is an error about the entry saying `why`.
+    pub fn number_or(
+        &self,
+        key: &str,
+        default: f64,
+        ok: impl Fn(f64) -> bool,
+        why: &str,
+    ) -> Result<f64, String> {
+        let Some(e) = self.get(key) else { return Ok(default) };
+        let v = self.number(e)?;
+        if ok(v) {
+            Ok(v)
+        } else {
+            Err(self.error(e, why))
+        }
+    }
+
     /// The entry's value as `n` finite numbers separated by blanks, `x` or commas
     /// (`100x100`, `-50 -50`). Text after the numbers is returned as the second value
     /// (the corpus has `grid range: 100x100view.pnl`), for the caller to note.
@@ -364,16 +382,12 @@ pub(crate) fn transmittance(
         }
         return Ok(t);
     }
-    match spec.get("transmittance") {
-        None => Ok(default),
-        Some(e) => {
-            let t = spec.number(e)?;
-            if !(0.0..=1.0).contains(&t) {
-                return Err(spec.error(e, "the transmittance must be in [0, 1]"));
-            }
-            Ok(t)
-        }
-    }
+    spec.number_or(
+        "transmittance",
+        default,
+        |t| (0.0..=1.0).contains(&t),
+        "the transmittance must be in [0, 1]",
+    )
 }
 
 /// A coordinate axis, for the programs that need "up".

@@ -372,59 +372,43 @@ impl<'a> Parser<'a> {
     }
 
     fn or(&mut self) -> PResult {
-        self.and()?;
-        while self.eat("||") {
-            let j = self.ops.len();
-            self.ops.push(Op::OrJump(0));
-            self.and()?;
-            self.ops.push(Op::ToBool);
-            self.ops[j] = Op::OrJump(self.ops.len() as u32);
-        }
-        Ok(())
+        self.short_circuit("||", Op::OrJump, Self::and)
     }
 
     fn and(&mut self) -> PResult {
-        self.equality()?;
-        while self.eat("&&") {
+        self.short_circuit("&&", Op::AndJump, Self::equality)
+    }
+
+    /// `||` or `&&` (`tok`): `next`, then for every `tok` that follows, a jump (`jump`,
+    /// patched to the end) over another `next`, whose value becomes 0 or 1.
+    fn short_circuit(&mut self, tok: &str, jump: fn(u32) -> Op, next: fn(&mut Self) -> PResult) -> PResult {
+        next(self)?;
+        while self.eat(tok) {
             let j = self.ops.len();
-            self.ops.push(Op::AndJump(0));
-            self.equality()?;
+            self.ops.push(jump(0));
+            next(self)?;
             self.ops.push(Op::ToBool);
-            self.ops[j] = Op::AndJump(self.ops.len() as u32);
+            self.ops[j] = jump(self.ops.len() as u32);
         }
         Ok(())
     }
 
     fn equality(&mut self) -> PResult {
-        self.relational()?;
-        loop {
-            let op = if self.eat("==") {
-                Op::Eq
-            } else if self.eat("!=") {
-                Op::Ne
-            } else {
-                return Ok(());
-            };
-            self.relational()?;
-            self.ops.push(op);
-        }
+        self.binary(&[("==", Op::Eq), ("!=", Op::Ne)], Self::relational)
     }
 
     fn relational(&mut self) -> PResult {
-        self.additive()?;
+        self.binary(&[("<=", Op::Le), (">=", Op::Ge), ("<", Op::Lt), (">", Op::Gt)], Self::additive)
+    }
+
+    /// One left-associative level of binary operators: `next` (the level that binds
+    /// tighter), then for every operator of `ops` that follows (tried in order, so `<=`
+    /// before `<`), another `next` and the operator's instruction.
+    fn binary(&mut self, ops: &[(&str, Op)], next: fn(&mut Self) -> PResult) -> PResult {
+        next(self)?;
         loop {
-            let op = if self.eat("<=") {
-                Op::Le
-            } else if self.eat(">=") {
-                Op::Ge
-            } else if self.eat("<") {
-                Op::Lt
-            } else if self.eat(">") {
-                Op::Gt
-            } else {
-                return Ok(());
-            };
-            self.additive()?;
+            let Some(&(_, op)) = ops.iter().find(|(tok, _)| self.eat(tok)) else { return Ok(()) };
+            next(self)?;
             self.ops.push(op);
         }
     }

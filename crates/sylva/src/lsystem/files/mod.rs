@@ -74,6 +74,7 @@ pub mod surface;
 pub mod view;
 
 use crate::input::SideFiles;
+use crate::lsystem::preprocess::{blank_comments, CommentStyle};
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use colormap::ColorMap;
 use func::Function;
@@ -569,34 +570,7 @@ pub(crate) fn number(s: &str) -> Option<f64> {
 /// Replaces `/* … */` and `//` comments by spaces, keeping newlines and every byte
 /// offset (the C preprocessor's comment removal, which cpfg runs on view files).
 pub(crate) fn strip_comments(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'/' && b.get(i + 1) == Some(&b'*') {
-            out.extend_from_slice(b"  ");
-            i += 2;
-            while i < b.len() && !(b[i] == b'*' && b.get(i + 1) == Some(&b'/')) {
-                out.push(if b[i] == b'\n' { b'\n' } else { b' ' });
-                i += 1;
-            }
-            if i < b.len() {
-                out.extend_from_slice(b"  ");
-                i += 2;
-            }
-        } else if b[i] == b'/' && b.get(i + 1) == Some(&b'/') {
-            while i < b.len() && b[i] != b'\n' {
-                out.push(b' ');
-                i += 1;
-            }
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    // Comment bytes became ASCII spaces and comments start and end on ASCII bytes, so
-    // no multi-byte character was split.
-    String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
+    blank_comments(s, CommentStyle::Data)
 }
 
 #[cfg(test)]

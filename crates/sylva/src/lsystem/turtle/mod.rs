@@ -171,18 +171,20 @@ mod tests {
     use crate::lsystem::parse::LSystem;
     use crate::skeleton::{OrganKind, NO_PARENT};
 
-    fn run(axiom: &str) -> Skeleton {
-        let text = format!("Lsystem: 1\nAxiom: {axiom}\nendlsystem\n");
-        let ls = LSystem::parse("t.l", &text, &[]).unwrap();
-        let m = ls.derive(&DeriveOptions { steps: 0, budget: 1000, seed: 0 }).unwrap();
-        interpret(&ls.symbols, &m, &TurtleOptions { angle: 90.0, ..Default::default() }, &ls.source).unwrap()
-    }
-
-    fn run_with(axiom: &str, opts: &TurtleOptions) -> Skeleton {
+    /// The turtle's skeleton of the axiom `axiom` (no derivation step) with `opts`.
+    fn turtle(axiom: &str, opts: &TurtleOptions) -> Result<Skeleton, Box<LsystemError>> {
         let text = format!("Lsystem: 1\nAxiom: {axiom}\nendlsystem\n");
         let ls = LSystem::parse("t.l", &text, &[]).unwrap();
         let m = ls.derive(&DeriveOptions { steps: 0, budget: 10_000, seed: 0 }).unwrap();
-        interpret(&ls.symbols, &m, opts, &ls.source).unwrap()
+        interpret(&ls.symbols, &m, opts, &ls.source)
+    }
+
+    fn run(axiom: &str) -> Skeleton {
+        turtle(axiom, &TurtleOptions { angle: 90.0, ..Default::default() }).unwrap()
+    }
+
+    fn run_with(axiom: &str, opts: &TurtleOptions) -> Skeleton {
+        turtle(axiom, opts).unwrap()
     }
 
     fn close(a: glam::Vec3, b: [f32; 3]) -> bool {
@@ -191,22 +193,18 @@ mod tests {
 
     #[test]
     fn heading_and_sign_conventions() {
-        let s = run("F");
-        assert!(close(s.position[1], [0.0, 1.0, 0.0]), "initial heading is +Y");
-        let s = run("+F");
-        assert!(close(s.position[1], [0.0, 0.0, 1.0]), "+ turns H toward L = +Z");
-        let s = run("-F");
-        assert!(close(s.position[1], [0.0, 0.0, -1.0]));
-        let s = run("&F");
-        assert!(close(s.position[1], [-1.0, 0.0, 0.0]), "& pitches H toward -U = -X");
-        let s = run("^F");
-        assert!(close(s.position[1], [1.0, 0.0, 0.0]));
-        let s = run("/+F");
-        assert!(close(s.position[1], [1.0, 0.0, 0.0]), "/ rolls L toward U");
-        let s = run("\\+F");
-        assert!(close(s.position[1], [-1.0, 0.0, 0.0]));
-        let s = run("|F");
-        assert!(close(s.position[1], [0.0, -1.0, 0.0]));
+        for (axiom, want, why) in [
+            ("F", [0.0, 1.0, 0.0], "initial heading is +Y"),
+            ("+F", [0.0, 0.0, 1.0], "+ turns H toward L = +Z"),
+            ("-F", [0.0, 0.0, -1.0], "- turns H away from L"),
+            ("&F", [-1.0, 0.0, 0.0], "& pitches H toward -U = -X"),
+            ("^F", [1.0, 0.0, 0.0], "^ pitches H toward U"),
+            ("/+F", [1.0, 0.0, 0.0], "/ rolls L toward U"),
+            ("\\+F", [-1.0, 0.0, 0.0], "\\ rolls L away from U"),
+            ("|F", [0.0, -1.0, 0.0], "| turns around"),
+        ] {
+            assert!(close(run(axiom).position[1], want), "{axiom}: {why}");
+        }
     }
 
     #[test]
@@ -245,10 +243,7 @@ mod tests {
 
     #[test]
     fn roll_horizontal() {
-        let text = "Lsystem: 1\nAxiom: &(30)/(40)$F\nendlsystem\n";
-        let ls = LSystem::parse("t.l", text, &[]).unwrap();
-        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
-        let s = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap();
+        let s = run_with("&(30)/(40)$F", &TurtleOptions::default());
         // After `$`, U is H × L with L horizontal: U's y component is ≥ 0 and L.y = 0.
         assert!(s.up[1].y >= 0.0);
         let h = (s.position[1] - s.position[0]).normalize();
@@ -317,10 +312,7 @@ mod tests {
 
     #[test]
     fn unbalanced_pop_is_an_error() {
-        let text = "Lsystem: 1\nAxiom: F]F\nendlsystem\n";
-        let ls = LSystem::parse("t.l", text, &[]).unwrap();
-        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
-        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        let e = turtle("F]F", &TurtleOptions::default()).unwrap_err();
         assert!(e.message.contains("without a matching"));
     }
 
@@ -329,10 +321,7 @@ mod tests {
         // `@#(0)` selects the circle; read as `@` `#(0)` it would set the width to 0.
         let s = run("@#(0)F");
         assert!((s.radius[1] - 0.05).abs() < 1e-9, "{}", s.radius[1]);
-        let text = "Lsystem: 1\nAxiom: @#(3)F\nendlsystem\n";
-        let ls = LSystem::parse("t.l", text, &[]).unwrap();
-        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
-        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        let e = turtle("@#(3)F", &TurtleOptions::default()).unwrap_err();
         assert!(
             e.message.contains("selects contour 3") && e.message.contains("declared: none"),
             "{}",
@@ -342,7 +331,7 @@ mod tests {
             contours: vec![TurtleContour::unusable(3, "x.con:2:1: bad")],
             ..Default::default()
         };
-        let e = interpret(&ls.symbols, &m, &opts, &ls.source).unwrap_err();
+        let e = turtle("@#(3)F", &opts).unwrap_err();
         assert!(e.message.contains("cannot be used: x.con:2:1: bad"), "{}", e.message);
     }
 
@@ -398,10 +387,7 @@ mod tests {
 
     #[test]
     fn negative_width_is_an_error() {
-        let text = "Lsystem: 1\nAxiom: !(-1)F\nendlsystem\n";
-        let ls = LSystem::parse("t.l", text, &[]).unwrap();
-        let m = ls.derive(&DeriveOptions { steps: 0, budget: 10, seed: 0 }).unwrap();
-        let e = interpret(&ls.symbols, &m, &TurtleOptions::default(), &ls.source).unwrap_err();
+        let e = turtle("!(-1)F", &TurtleOptions::default()).unwrap_err();
         assert!(e.message.contains("negative width"));
     }
 }
