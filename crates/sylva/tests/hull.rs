@@ -2,64 +2,37 @@
 //! branch segments, convex-hull joints, UVs, robustness on hard cases and on every
 //! embedded preset, and the mesh staying a 2-manifold through Loop subdivision.
 
+#[path = "common/cage_topo.rs"]
+mod cage_topo;
 #[path = "common/checks.rs"]
 mod checks;
 #[path = "common/det_tree.rs"]
 mod det_tree;
+#[path = "common/preset_skeletons.rs"]
+mod preset_skeletons;
 #[path = "common/random_tree.rs"]
 mod random_tree;
 #[path = "common/skeletons.rs"]
 mod skeletons;
+use cage_topo::{refined, Topo};
 use det_tree::tree;
+use preset_skeletons::each_preset_skeleton;
 use skeletons::{chain, seg, whorl};
 
 use glam::{DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
 use sylva::mesh::check::{check_mesh, CheckOptions};
 use sylva::mesh::hull::{hull_mesh, pair_offsets, simplify, HullMesh, HullOptions, JointKind};
-use sylva::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
+use sylva::refine::Scheme;
 use sylva::{Mesh, Skeleton, NO_PARENT};
 
 // ---------------------------------------------------------------------------------------
 // Mesh checks
 
-/// What [`check`] measured.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Topo {
-    vertices: usize,
-    edges: usize,
-    faces: usize,
-    boundary_loops: usize,
-    components: usize,
-    euler: i64,
-}
-
-/// Asserts a valid, consistently oriented 2-manifold of triangles (each edge in one or
-/// two faces run opposite ways, every vertex star one fan, finite positions, no unused
-/// vertex, no degenerate face) of genus 0 in every component, with
-/// `sylva::mesh::check`; returns its counts.
+/// A valid, consistently oriented 2-manifold of triangles, genus 0 in every component
+/// (boundary loops allowed); returns its counts.
 fn check(name: &str, m: &Mesh) -> Topo {
-    m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert!((0..m.face_count()).all(|f| m.face(f).len() == 3), "{name}: not all triangles");
-    let r = check_mesh(m, &CheckOptions { self_intersections: false, ..Default::default() });
-    let problems = r.structural_problems();
-    assert!(problems.is_empty(), "{name}: {problems:?}");
-    assert_eq!(
-        r.total_genus(),
-        0,
-        "{name}: not genus 0 (χ {}, {} components, {} holes)",
-        r.euler,
-        r.components,
-        r.boundary_loops
-    );
-    Topo {
-        vertices: r.vertices,
-        edges: r.edges,
-        faces: r.faces,
-        boundary_loops: r.boundary_loops,
-        components: r.components,
-        euler: r.euler,
-    }
+    cage_topo::check(name, m, 3, false)
 }
 
 fn face_area(m: &Mesh, f: usize) -> f64 {
@@ -68,11 +41,7 @@ fn face_area(m: &Mesh, f: usize) -> f64 {
 }
 
 fn loop2(m: &Mesh) -> Mesh {
-    let opts = SubdivideOptions {
-        refine: RefineOptions { scheme: Scheme::Loop, levels: 2, ..Default::default() },
-        ..Default::default()
-    };
-    subdivide(m, &[], &opts).expect("Loop subdivision of the hull control mesh")
+    refined(m, Scheme::Loop, 2)
 }
 
 /// Meshes with and without caps and checks everything that holds for any input.
@@ -110,12 +79,7 @@ fn full_check(name: &str, sk: &Skeleton, sides: u32, refine: bool) -> HullMesh {
 // Skeleton builders
 
 fn y_fork() -> Skeleton {
-    let mut s = Skeleton::new();
-    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
-    let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
-    seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), 0.12);
-    seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), 0.15);
-    s
+    skeletons::y_fork(0.12, 0.15)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -632,53 +596,48 @@ fn every_preset_meshes_into_a_valid_manifold() {
     println!("| preset | nodes | vertices | faces | boundary loops | fallbacks | collapsed | ms |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut meshed = 0;
-    for p in sylva::presets::all() {
-        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
-        let mut report = sylva::pipeline::Report::default();
-        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut report) else { continue };
-        let sk = &g.skeleton;
-        // Keep CI fast: the largest Weber–Penn trees are meshed by the ignored
-        // `throughput` test instead.
-        if sk.len() > 30_000 {
-            println!("| {} | {} | skipped (large) |", p.name, sk.len());
-            continue;
-        }
-        let t0 = std::time::Instant::now();
-        let full = hull_mesh(sk, &HullOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", p.name));
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let (v_full, f_full) = (full.mesh.positions.len(), full.mesh.face_count());
-        // Very large trees are checked with coarse branches (2 segments at most): the
-        // joints, which are what can go wrong, are the same.
-        let big = f_full > 1_000_000;
-        let coarse = HullOptions { max_segments: 2, ..Default::default() };
-        let m = if big { hull_mesh(sk, &coarse).unwrap() } else { full };
-        let t = check(p.name, &m.mesh);
-        assert_eq!(t.boundary_loops, m.open_loops, "{}", p.name);
-        if m.mesh.face_count() < 400_000 {
-            let capped =
-                hull_mesh(sk, &HullOptions { caps: true, ..if big { coarse } else { Default::default() } })
-                    .unwrap();
-            let tc = check(p.name, &capped.mesh);
-            assert_eq!(tc.boundary_loops, 0);
-            if capped.mesh.face_count() > 0 {
-                assert!(capped.mesh.signed_volume() > 0.0, "{}: volume", p.name);
+    each_preset_skeleton(
+        |_| true,
+        |name, sk| {
+            let t0 = std::time::Instant::now();
+            let full = hull_mesh(sk, &HullOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let (v_full, f_full) = (full.mesh.positions.len(), full.mesh.face_count());
+            // Very large trees are checked with coarse branches (2 segments at most): the
+            // joints, which are what can go wrong, are the same.
+            let big = f_full > 1_000_000;
+            let coarse = HullOptions { max_segments: 2, ..Default::default() };
+            let m = if big { hull_mesh(sk, &coarse).unwrap() } else { full };
+            let t = check(name, &m.mesh);
+            assert_eq!(t.boundary_loops, m.open_loops, "{}", name);
+            if m.mesh.face_count() < 400_000 {
+                let capped = hull_mesh(
+                    sk,
+                    &HullOptions { caps: true, ..if big { coarse } else { Default::default() } },
+                )
+                .unwrap();
+                let tc = check(name, &capped.mesh);
+                assert_eq!(tc.boundary_loops, 0);
+                if capped.mesh.face_count() > 0 {
+                    assert!(capped.mesh.signed_volume() > 0.0, "{}: volume", name);
+                }
             }
-        }
-        if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {
-            check(&format!("{} Loop 2", p.name), &loop2(&m.mesh));
-        }
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {ms:.1} |",
-            p.name,
-            sk.len(),
-            v_full,
-            f_full,
-            t.boundary_loops,
-            m.fallbacks.len(),
-            m.collapsed.len()
-        );
-        meshed += 1;
-    }
+            if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {
+                check(&format!("{} Loop 2", name), &loop2(&m.mesh));
+            }
+            println!(
+                "| {} | {} | {} | {} | {} | {} | {} | {ms:.1} |",
+                name,
+                sk.len(),
+                v_full,
+                f_full,
+                t.boundary_loops,
+                m.fallbacks.len(),
+                m.collapsed.len()
+            );
+            meshed += 1;
+        },
+    );
     assert!(meshed > 0);
 }
 

@@ -22,9 +22,12 @@
 #[path = "common/checks.rs"]
 mod checks;
 mod common;
+#[path = "common/preset_skeletons.rs"]
+mod preset_skeletons;
 #[path = "common/random_tree.rs"]
 mod random_tree;
 
+use preset_skeletons::each_preset_skeleton;
 use sylva::fit::clear::{clear_crossings, ClearOptions};
 use sylva::fit::decollide::{decollide, DecollideOptions};
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
@@ -140,34 +143,29 @@ fn every_preset_with_every_mesher() {
     println!("| preset | nodes | skeleton collisions | mesher | vertices | faces | boundary loops | degenerate | intersections | level-2 intersections | fallbacks |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut meshed = 0;
-    for p in sylva::presets::all() {
-        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
-        let mut rep = sylva::pipeline::Report::default();
-        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut rep) else { continue };
-        let sk = &g.skeleton;
-        if sk.len() > 30_000 {
-            println!("| {} | {} | – | (skipped in CI: large) |", p.name, sk.len());
-            continue;
-        }
-        let collisions = skeleton_collisions(sk, 0.01).len();
-        for mesher in ["tube", "hull", "sweep", "quad"] {
-            let row = mesh_and_check(p.name, mesher, sk, collisions);
-            println!(
-                "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",
-                p.name,
-                sk.len(),
-                collisions,
-                row.vertices,
-                row.faces,
-                row.boundary_loops,
-                row.degenerate,
-                show(row.intersections),
-                show(row.refined_intersections),
-                row.fallbacks
-            );
-            meshed += 1;
-        }
-    }
+    each_preset_skeleton(
+        |_| true,
+        |name, sk| {
+            let collisions = skeleton_collisions(sk, 0.01).len();
+            for mesher in ["tube", "hull", "sweep", "quad"] {
+                let row = mesh_and_check(name, mesher, sk, collisions);
+                println!(
+                    "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",
+                    name,
+                    sk.len(),
+                    collisions,
+                    row.vertices,
+                    row.faces,
+                    row.boundary_loops,
+                    row.degenerate,
+                    show(row.intersections),
+                    show(row.refined_intersections),
+                    row.fallbacks
+                );
+                meshed += 1;
+            }
+        },
+    );
     assert!(meshed >= 40, "only {meshed} preset × mesher pairs meshed");
 }
 

@@ -3,13 +3,19 @@
 //! embedded preset, Catmull–Clark refinement staying manifold, and a property test over
 //! random skeletons.
 
+#[path = "common/cage_topo.rs"]
+mod cage_topo;
+#[path = "common/preset_skeletons.rs"]
+mod preset_skeletons;
 #[path = "common/random_tree.rs"]
 mod random_tree;
 #[path = "common/skeletons.rs"]
 mod skeletons;
 use skeletons::{chain, seg, whorl};
 
+use cage_topo::{refined, Topo};
 use glam::Vec3;
+use preset_skeletons::each_preset_skeleton;
 use proptest::prelude::*;
 use random_tree::random_tree;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
@@ -20,50 +26,18 @@ use sylva::{Mesh, Skeleton, NO_PARENT};
 // ---------------------------------------------------------------------------------------
 // Mesh checks
 
-/// What [`check`] measured.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Topo {
-    vertices: usize,
-    edges: usize,
-    faces: usize,
-    components: usize,
-}
-
-/// Checks a closed, consistently oriented 2-manifold of quads with
-/// `sylva::mesh::check`: every face has four distinct vertices and is not degenerate,
-/// every edge has two faces run opposite ways (no boundary), every vertex star is a
-/// single cycle, no vertex is unused, and every component has genus 0. Returns a
-/// description of the first problem.
+/// A closed, consistently oriented 2-manifold of quads (no boundary edge), genus 0 in
+/// every component; else a description of the first problem.
 fn try_check(m: &Mesh) -> Result<Topo, String> {
-    m.validate()?;
-    if let Some(f) = (0..m.face_count()).find(|&f| m.face(f).len() != 4) {
-        return Err(format!("face {f} has {} corners", m.face(f).len()));
-    }
-    let r = check_mesh(m, &CheckOptions { self_intersections: false, ..Default::default() });
-    let problems = r.structural_problems();
-    if !problems.is_empty() {
-        return Err(problems.join("; "));
-    }
-    if r.boundary_edges > 0 {
-        return Err(format!("{} boundary edge(s) (open or flipped faces)", r.boundary_edges));
-    }
-    if r.total_genus() != 0 {
-        return Err(format!("χ = {} with {} components (not genus 0 spheres)", r.euler, r.components));
-    }
-    Ok(Topo { vertices: r.vertices, edges: r.edges, faces: r.faces, components: r.components })
+    cage_topo::try_check(m, 4, true)
 }
 
 fn check(name: &str, m: &Mesh) -> Topo {
-    try_check(m).unwrap_or_else(|e| panic!("{name}: {e}"))
+    cage_topo::check(name, m, 4, true)
 }
 
-/// Signed volume of a closed quad mesh (each quad as two triangles).
 fn catmull_clark(m: &Mesh, levels: u32) -> Mesh {
-    let opts = SubdivideOptions {
-        refine: RefineOptions { scheme: Scheme::CatmullClark, levels, ..Default::default() },
-        ..Default::default()
-    };
-    subdivide(m, &[], &opts).expect("Catmull–Clark subdivision of the quad cage")
+    refined(m, Scheme::CatmullClark, levels)
 }
 
 /// Components expected from the report: one per tree plus one per detached or
@@ -108,12 +82,7 @@ fn full_check(name: &str, sk: &Skeleton, opts: &QuadOptions) -> QuadMesh {
 // Skeleton builders
 
 fn y_fork() -> Skeleton {
-    let mut s = Skeleton::new();
-    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
-    let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
-    seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), 0.15);
-    seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), 0.12);
-    s
+    skeletons::y_fork(0.15, 0.12)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -438,45 +407,40 @@ fn every_preset_meshes_into_a_closed_manifold() {
     println!("|---|---|---|---|---|---|---|---|---|");
     let mut meshed = 0;
     let mut total_fallbacks = 0;
-    for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
-        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
-        let mut report = sylva::pipeline::Report::default();
-        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut report) else { continue };
-        let sk = &g.skeleton;
-        if sk.len() > 30_000 {
-            println!("| {} | {} | skipped (large) |", p.name, sk.len());
-            continue;
-        }
-        let t0 = std::time::Instant::now();
-        let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", p.name));
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let t = check(p.name, &q.mesh);
-        assert_eq!(t.components, expected_components(sk, &q), "{}", p.name);
-        if t.faces > 0 {
-            assert!(q.mesh.signed_volume() > 0.0, "{}: volume", p.name);
-            check(&format!("{} CC 1", p.name), &catmull_clark(&q.mesh, 1));
-        }
-        let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
-        println!(
-            "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}/{}/{}) | {} | {} | {ms:.1} |",
-            p.name,
-            sk.len(),
-            t.vertices,
-            t.faces,
-            t.components,
-            q.fallbacks.len(),
-            by(FallbackReason::Detached),
-            by(FallbackReason::ChainLimit),
-            by(FallbackReason::ShortBox),
-            by(FallbackReason::Short),
-            by(FallbackReason::Separated),
-            by(FallbackReason::Unboxed),
-            q.merged.len(),
-            q.repair_rounds
-        );
-        total_fallbacks += q.fallbacks.len();
-        meshed += 1;
-    }
+    each_preset_skeleton(
+        |p| !p.is_curves(),
+        |name, sk| {
+            let t0 = std::time::Instant::now();
+            let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let t = check(name, &q.mesh);
+            assert_eq!(t.components, expected_components(sk, &q), "{}", name);
+            if t.faces > 0 {
+                assert!(q.mesh.signed_volume() > 0.0, "{}: volume", name);
+                check(&format!("{} CC 1", name), &catmull_clark(&q.mesh, 1));
+            }
+            let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
+            println!(
+                "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}/{}/{}) | {} | {} | {ms:.1} |",
+                name,
+                sk.len(),
+                t.vertices,
+                t.faces,
+                t.components,
+                q.fallbacks.len(),
+                by(FallbackReason::Detached),
+                by(FallbackReason::ChainLimit),
+                by(FallbackReason::ShortBox),
+                by(FallbackReason::Short),
+                by(FallbackReason::Separated),
+                by(FallbackReason::Unboxed),
+                q.merged.len(),
+                q.repair_rounds
+            );
+            total_fallbacks += q.fallbacks.len();
+            meshed += 1;
+        },
+    );
     println!("{meshed} presets meshed, {total_fallbacks} fallbacks in all");
     assert!(meshed > 0);
 }

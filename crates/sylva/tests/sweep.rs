@@ -3,6 +3,10 @@
 //! awkward cases) checked with `sylva::mesh::check` (MacMurchy2004-spec §7 properties 1, 3–5,
 //! 12–16, 18–19, 23), plus a property test over random skeletons.
 
+#[path = "common/preset_skeletons.rs"]
+mod preset_skeletons;
+use preset_skeletons::each_preset_skeleton;
+
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions, MeshReport};
@@ -889,32 +893,30 @@ fn preset_fallbacks() {
         .unwrap_or_default();
     println!("| preset | nodes | fallbacks before | fallbacks now | general junctions | extra rings |");
     println!("|---|---|---|---|---|---|");
-    for p in sylva::presets::all() {
-        if !only.is_empty() && !only.iter().any(|o| o == p.name) {
-            continue;
-        }
-        let Ok(loaded) = sylva::recipe::load(p.name, &[]) else { continue };
-        let Ok(g) = sylva::pipeline::skeleton(&loaded, &mut Default::default()) else { continue };
-        let sk = &g.skeleton;
-        if sk.len() > 30_000 {
-            continue;
-        }
-        let old =
-            SweepOptions { caps: true, general_junctions: false, collar_ratio: 0.0, ..Default::default() };
-        let before = sweep_mesh(sk, &old).unwrap();
-        let now = sweep(sk, true);
-        let r = check_mesh(&now.mesh, &CheckOptions { self_intersections: false, ..Default::default() });
-        assert!(r.structural_problems().is_empty(), "{}: {:?}", p.name, r.problems());
-        println!(
-            "| {} | {} | {} | {} | {} | {} |",
-            p.name,
-            sk.len(),
-            before.fallbacks.len(),
-            now.fallbacks.len(),
-            now.general.len(),
-            now.collars.len()
-        );
-    }
+    each_preset_skeleton(
+        |p| only.is_empty() || only.iter().any(|o| o == p.name),
+        |name, sk| {
+            let old = SweepOptions {
+                caps: true,
+                general_junctions: false,
+                collar_ratio: 0.0,
+                ..Default::default()
+            };
+            let before = sweep_mesh(sk, &old).unwrap();
+            let now = sweep(sk, true);
+            let r = check_mesh(&now.mesh, &CheckOptions { self_intersections: false, ..Default::default() });
+            assert!(r.structural_problems().is_empty(), "{}: {:?}", name, r.problems());
+            println!(
+                "| {} | {} | {} | {} | {} | {} |",
+                name,
+                sk.len(),
+                before.fallbacks.len(),
+                now.fallbacks.len(),
+                now.general.len(),
+                now.collars.len()
+            );
+        },
+    );
 }
 
 /// Tips that taper to zero radius are raised to `SweepOptions::min_radius` (default

@@ -26,6 +26,17 @@ pub fn chain(points: &[Vec3], r: f32) -> Skeleton {
     s
 }
 
+/// A trunk of height 3 (radius 0.2) forking into two branches of radii `r_right` (to
+/// +x) and `r_left` (to −x, a little out of the plane).
+pub fn y_fork(r_right: f32, r_left: f32) -> Skeleton {
+    let mut s = Skeleton::new();
+    let r = seg(&mut s, NO_PARENT, Vec3::ZERO, 0.2);
+    let a = seg(&mut s, r, Vec3::Y * 3.0, 0.2);
+    seg(&mut s, a, Vec3::new(1.5, 5.0, 0.0), r_right);
+    seg(&mut s, a, Vec3::new(-1.2, 5.2, 0.3), r_left);
+    s
+}
+
 /// Trunk of height 2 (radius 0.2) with `n` children of length 2 fanned around its top at
 /// `tilt` from vertical; with `wobble` the children's tilts alternate (a non-planar
 /// whorl).
