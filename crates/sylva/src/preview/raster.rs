@@ -261,8 +261,8 @@ impl Coverage {
     /// `None` when none do.
     pub(super) fn span(&self, e: [i64; 3]) -> Option<(i64, i64)> {
         let (mut k0, mut k1) = (0i64, self.x1 - self.x0);
-        for k in 0..3 {
-            let v = e[k] + self.bias[k];
+        for (k, ek) in e.into_iter().enumerate() {
+            let v = ek + self.bias[k];
             let st = self.step[k];
             if st > 0 {
                 if v < 0 {

@@ -17,9 +17,7 @@
 
 use super::crease::Rules;
 use super::topology::{Detail, Topology, NONE};
-use super::{
-    assume_init, assume_init_mut, fill, fill_chunks, try_with_capacity, try_zeroed, Primvar, RefineError,
-};
+use super::{assume_init, assume_init_mut, fill, fill_chunks, try_zeroed, Primvar, RefineError};
 use std::mem::MaybeUninit;
 
 /// Splits `p` into its Catmull–Clark child topology, building adjacency up to `detail`.
@@ -77,69 +75,21 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology,
     t.edge_corners = try_zeroed(2 * ne as usize + nc, "edge corners")?;
     {
         let (halves, interior) = t.edge_corners.split_at_mut(2 * ne as usize);
-        fill_chunks(par, halves, 2, |e, out| {
-            let a = p.edge_verts[e][0];
-            for (k, &ck) in p.edge_corners[e].iter().enumerate() {
-                if ck == NONE {
-                    out[0][k] = NONE;
-                    out[1][k] = NONE;
-                    continue;
-                }
-                let (at_start, at_end) = (4 * ck, 4 * p.next(ck) + 3);
-                if p.face_verts[ck as usize] == a {
-                    out[0][k] = at_start;
-                    out[1][k] = at_end;
-                } else {
-                    out[1][k] = at_start;
-                    out[0][k] = at_end;
-                }
-            }
-        });
+        super::fill_half_edge_corners(p, halves, par, |ck| (4 * ck, 4 * p.next(ck) + 3));
         fill(par, interior, |c, out| {
             let c = c as u32;
             *out = [4 * c + 1, 4 * p.next(c) + 2];
         });
     }
     // Vertex → corners: vertex points, face points, edge points.
-    let mut off = try_with_capacity(t.num_verts as usize + 1, "vertex corner offsets")?;
-    off.push(0u32);
-    let mut acc = 0u32;
-    for v in 0..nv as usize {
-        acc += p.vert_corner_offsets[v + 1] - p.vert_corner_offsets[v];
-        off.push(acc);
-    }
-    for f in 0..nf as usize {
-        acc += p.corners(f).len() as u32;
-        off.push(acc);
-    }
-    for e in 0..ne as usize {
-        acc += 2 * (1 + (p.edge_corners[e][1] != NONE) as u32);
-        off.push(acc);
-    }
-    let mut vc: Vec<u32> = try_zeroed(acc as usize, "vertex corners")?;
+    let off = super::child_corner_offsets(p, t.num_verts, true, 2)?;
+    let mut vc: Vec<u32> = try_zeroed(*off.last().unwrap_or(&0) as usize, "vertex corners")?;
     {
         let (vvs, rest) = vc.split_at_mut(off[nv as usize] as usize);
         let (fvs, evs) = rest.split_at_mut((off[(nv + nf) as usize] - off[nv as usize]) as usize);
         fill(par, vvs, |i, slot| *slot = 4 * p.vert_corners[i]);
         fill(par, fvs, |c, slot| *slot = 4 * c as u32 + 2);
-        if evs.len() == 4 * ne as usize {
-            // No boundary: every edge point has four corners.
-            fill_chunks(par, evs, 4, |e, out| {
-                let [c0, c1] = p.edge_corners[e];
-                out.copy_from_slice(&[4 * c0 + 1, 4 * p.next(c0) + 3, 4 * c1 + 1, 4 * p.next(c1) + 3]);
-            });
-        } else {
-            let mut k = 0;
-            for e in 0..ne as usize {
-                for ck in p.edge_corners[e] {
-                    if ck != NONE {
-                        evs[k] = 4 * ck + 1;
-                        evs[k + 1] = 4 * p.next(ck) + 3;
-                        k += 2;
-                    }
-                }
-            }
-        }
+        super::fill_edge_point_corners(p, evs, par, |ck| [4 * ck + 1, 4 * p.next(ck) + 3]);
     }
     t.vert_corner_offsets = off;
     t.vert_corners = vc;

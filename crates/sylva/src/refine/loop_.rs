@@ -18,7 +18,7 @@
 
 use super::crease::Rules;
 use super::topology::{Detail, Topology, NONE};
-use super::{assume_init_mut, fill, fill_chunks, try_with_capacity, try_zeroed, Primvar, RefineError};
+use super::{assume_init_mut, fill, fill_chunks, try_zeroed, Primvar, RefineError};
 use std::mem::MaybeUninit;
 
 /// Loop's vertex weight β(n) for valence `n` (Pieterse2012-spec §2.8 with the cos erratum):
@@ -112,25 +112,9 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology,
     t.edge_corners = try_zeroed(2 * ne as usize + 3 * nf, "edge corners")?;
     {
         let (halves, interior) = t.edge_corners.split_at_mut(2 * ne as usize);
-        fill_chunks(par, halves, 2, |e, out| {
-            let a = p.edge_verts[e][0];
-            for (k, &ck) in p.edge_corners[e].iter().enumerate() {
-                if ck == NONE {
-                    out[0][k] = NONE;
-                    out[1][k] = NONE;
-                    continue;
-                }
-                let (f, j) = (ck / 3, ck % 3);
-                let at_start = 3 * (4 * f + j) + j;
-                let at_end = 3 * (4 * f + (j + 1) % 3) + j;
-                if p.face_verts[ck as usize] == a {
-                    out[0][k] = at_start;
-                    out[1][k] = at_end;
-                } else {
-                    out[1][k] = at_start;
-                    out[0][k] = at_end;
-                }
-            }
+        super::fill_half_edge_corners(p, halves, par, |ck| {
+            let (f, j) = (ck / 3, ck % 3);
+            (3 * (4 * f + j) + j, 3 * (4 * f + (j + 1) % 3) + j)
         });
         fill_chunks(par, interior, 3, |f, out| {
             let f = f as u32;
@@ -140,18 +124,8 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology,
             }
         });
     }
-    let mut off = try_with_capacity(t.num_verts as usize + 1, "vertex corner offsets")?;
-    off.push(0u32);
-    let mut acc = 0u32;
-    for v in 0..nv as usize {
-        acc += p.vert_corner_offsets[v + 1] - p.vert_corner_offsets[v];
-        off.push(acc);
-    }
-    for e in 0..ne as usize {
-        acc += 3 * (1 + (p.edge_corners[e][1] != NONE) as u32);
-        off.push(acc);
-    }
-    let mut vc: Vec<u32> = try_zeroed(acc as usize, "vertex corners")?;
+    let off = super::child_corner_offsets(p, t.num_verts, false, 3)?;
+    let mut vc: Vec<u32> = try_zeroed(*off.last().unwrap_or(&0) as usize, "vertex corners")?;
     {
         let (vvs, evs) = vc.split_at_mut(off[nv as usize] as usize);
         fill(par, vvs, |i, slot| {
@@ -164,24 +138,7 @@ pub(crate) fn split(p: &Topology, detail: Detail, par: bool) -> Result<Topology,
             let (f, j) = (ck / 3, ck % 3);
             [3 * (4 * f + j) + (j + 1) % 3, 3 * (4 * f + (j + 1) % 3) + j, 3 * (4 * f + 3) + j]
         };
-        if evs.len() == 6 * ne as usize {
-            // No boundary: every edge point has six corners.
-            fill_chunks(par, evs, 6, |e, out| {
-                let [c0, c1] = p.edge_corners[e];
-                out[..3].copy_from_slice(&corners(c0));
-                out[3..].copy_from_slice(&corners(c1));
-            });
-        } else {
-            let mut k = 0;
-            for e in 0..ne as usize {
-                for ck in p.edge_corners[e] {
-                    if ck != NONE {
-                        evs[k..k + 3].copy_from_slice(&corners(ck));
-                        k += 3;
-                    }
-                }
-            }
-        }
+        super::fill_edge_point_corners(p, evs, par, corners);
     }
     t.vert_corner_offsets = off;
     t.vert_corners = vc;

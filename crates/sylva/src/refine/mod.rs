@@ -140,6 +140,93 @@ pub(crate) fn interpolate_into<T: Primvar>(
     }
 }
 
+/// Writes the corners beside the two halves of every parent edge (`halves`: two child
+/// edges per parent edge, from its first vertex, then from its second):
+/// `ends(ck)` gives the child corners at the start and the end of parent corner `ck`'s
+/// side of the edge; a missing side stays [`NONE`].
+pub(crate) fn fill_half_edge_corners(
+    p: &Topology,
+    halves: &mut [[u32; 2]],
+    par: bool,
+    ends: impl Fn(u32) -> (u32, u32) + Sync,
+) {
+    fill_chunks(par, halves, 2, |e, out| {
+        let a = p.edge_verts[e][0];
+        for (k, &ck) in p.edge_corners[e].iter().enumerate() {
+            if ck == NONE {
+                out[0][k] = NONE;
+                out[1][k] = NONE;
+                continue;
+            }
+            let (at_start, at_end) = ends(ck);
+            if p.face_verts[ck as usize] == a {
+                out[0][k] = at_start;
+                out[1][k] = at_end;
+            } else {
+                out[1][k] = at_start;
+                out[0][k] = at_end;
+            }
+        }
+    });
+}
+
+/// The child level's vertex → corner offsets, shared by both schemes: vertex points keep
+/// their parent's count, then (Catmull–Clark, `face_points`) each face point has one per
+/// corner of its face, then each edge point `per_side` per face along the edge.
+pub(crate) fn child_corner_offsets(
+    p: &Topology,
+    child_verts: u32,
+    face_points: bool,
+    per_side: u32,
+) -> Result<Vec<u32>, RefineError> {
+    let mut off = try_with_capacity(child_verts as usize + 1, "vertex corner offsets")?;
+    off.push(0u32);
+    let mut acc = 0u32;
+    for v in 0..p.num_verts as usize {
+        acc += p.vert_corner_offsets[v + 1] - p.vert_corner_offsets[v];
+        off.push(acc);
+    }
+    if face_points {
+        for f in 0..p.num_faces as usize {
+            acc += p.corners(f).len() as u32;
+            off.push(acc);
+        }
+    }
+    for e in 0..p.edge_count() {
+        acc += per_side * (1 + (p.edge_corners[e][1] != NONE) as u32);
+        off.push(acc);
+    }
+    Ok(off)
+}
+
+/// Writes the corners of every edge point into `evs`, edge by edge: the `N` child
+/// corners `corners(ck)` of each parent corner `ck` along the edge (one on a boundary).
+pub(crate) fn fill_edge_point_corners<const N: usize>(
+    p: &Topology,
+    evs: &mut [u32],
+    par: bool,
+    corners: impl Fn(u32) -> [u32; N] + Sync,
+) {
+    if evs.len() == 2 * N * p.edge_count() {
+        // No boundary: every edge point has 2N corners.
+        fill_chunks(par, evs, 2 * N, |e, out| {
+            let [c0, c1] = p.edge_corners[e];
+            out[..N].copy_from_slice(&corners(c0));
+            out[N..].copy_from_slice(&corners(c1));
+        });
+    } else {
+        let mut k = 0;
+        for e in 0..p.edge_count() {
+            for ck in p.edge_corners[e] {
+                if ck != NONE {
+                    evs[k..k + N].copy_from_slice(&corners(ck));
+                    k += N;
+                }
+            }
+        }
+    }
+}
+
 /// Applies a level's crease rules to the smooth child values both schemes computed:
 /// each special edge point blends the edge's midpoint by its weight, then each special
 /// vertex gets [`apply_vertex_specials`].
