@@ -153,8 +153,7 @@ impl Source {
             |s: &Self, kind, what: &str, label: &str| s.error_origin(kind, at, 1 + word.len(), what, label);
         match word.as_str() {
             "ifdef" | "ifndef" => {
-                let name: String =
-                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                let name = leading_ident(arg);
                 let defined = self.macros.contains_key(&name);
                 let cond = if word == "ifdef" { defined } else { !defined };
                 conds.push(Cond { active: active && cond, taken: cond, parent_active: active });
@@ -192,8 +191,7 @@ impl Source {
             }
             _ if !active => Ok(()),
             "define" => {
-                let name: String =
-                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                let name = leading_ident(arg);
                 if name.is_empty() || name.starts_with(|c: char| c.is_ascii_digit()) {
                     return Err(err(self, ErrorKind::Syntax, "`#define` needs a name", "here"));
                 }
@@ -227,8 +225,7 @@ impl Source {
                 Ok(())
             }
             "undef" => {
-                let name: String =
-                    arg.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                let name = leading_ident(arg);
                 self.macros.remove(&name);
                 self.defines.remove(&name);
                 Ok(())
@@ -287,9 +284,7 @@ impl Source {
                 j += 1;
             }
             let ns = j;
-            while j < rest.len() && (rest[j].is_ascii_alphanumeric() || rest[j] == '_') {
-                j += 1;
-            }
+            j = ident_end(rest, j);
             let name: String = rest[ns..j].iter().collect();
             while j < rest.len() && (rest[j] == ' ' || rest[j] == ')') {
                 j += 1;
@@ -330,7 +325,7 @@ impl Source {
             let (c, o) = line[k];
             if c.is_ascii_alphabetic() || c == '_' {
                 let start = k;
-                while k < line.len() && (line[k].0.is_ascii_alphanumeric() || line[k].0 == '_') {
+                while k < line.len() && is_ident(line[k].0) {
                     k += 1;
                 }
                 let ident: String = line[start..k].iter().map(|&(c, _)| c).collect();
@@ -455,6 +450,24 @@ impl Source {
     }
 }
 
+/// Whether `c` may continue an identifier (C rules, ASCII).
+fn is_ident(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_'
+}
+
+/// The end of the identifier characters of `b` from `i` on.
+fn ident_end(b: &[char], mut i: usize) -> usize {
+    while i < b.len() && is_ident(b[i]) {
+        i += 1;
+    }
+    i
+}
+
+/// The identifier at the start of `s` (empty when there is none).
+fn leading_ident(s: &str) -> String {
+    s.chars().take_while(|&c| is_ident(c)).collect()
+}
+
 /// Rewrites every identifier of `text` through `f(identifier, rest of the text)`, which
 /// returns the replacement and how many characters of the rest it consumed.
 fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usize)) -> String {
@@ -464,9 +477,7 @@ fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usiz
     while i < b.len() {
         if b[i].is_ascii_alphabetic() || b[i] == '_' {
             let st = i;
-            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
-                i += 1;
-            }
+            i = ident_end(&b, i);
             let ident: String = b[st..i].iter().collect();
             let (rep, used) = f(&ident, &b[i..]);
             out.push_str(&rep);
@@ -544,9 +555,7 @@ fn substitute(body: &str, params: &[String], args: &[Vec<Ch>], o: u64) -> Vec<Ch
     while i < b.len() {
         if b[i].is_ascii_alphabetic() || b[i] == '_' {
             let st = i;
-            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == '_') {
-                i += 1;
-            }
+            i = ident_end(&b, i);
             let ident: String = b[st..i].iter().collect();
             match params.iter().position(|p| *p == ident) {
                 Some(k) => out.extend_from_slice(&args[k]),

@@ -33,7 +33,8 @@ impl<'a> Parser<'a> {
     }
 
     /// Enters one level of nesting at `at`; an error past [`MAX_NESTING`]. Every
-    /// recursive call of the compiler goes through here (and [`Parser::leave`]).
+    /// recursive call of the compiler goes through here and [`Parser::leave`], by way
+    /// of [`Parser::nested`].
     fn enter(&mut self, at: usize) -> PResult {
         self.depth += 1;
         if self.depth > MAX_NESTING {
@@ -61,6 +62,14 @@ impl<'a> Parser<'a> {
     /// Leaves a level entered with [`Parser::enter`].
     fn leave(&mut self) {
         self.depth -= 1;
+    }
+
+    /// Runs `inner` one level of nesting deeper, entered at `at`.
+    fn nested(&mut self, at: usize, inner: fn(&mut Self) -> PResult) -> PResult {
+        self.enter(at)?;
+        let r = inner(self);
+        self.leave();
+        r
     }
 
     pub(super) fn expect_end(&mut self) -> PResult {
@@ -194,10 +203,7 @@ impl<'a> Parser<'a> {
     /// One statement (or a `{ }` block of them).
     pub(super) fn statement(&mut self) -> PResult {
         self.skip_ws();
-        self.enter(self.pos)?;
-        let r = self.statement_inner();
-        self.leave();
-        r
+        self.nested(self.pos, Self::statement_inner)
     }
 
     fn statement_inner(&mut self) -> PResult {
@@ -347,10 +353,7 @@ impl<'a> Parser<'a> {
 
     pub(super) fn ternary(&mut self) -> PResult {
         self.skip_ws();
-        self.enter(self.pos)?;
-        let r = self.ternary_inner();
-        self.leave();
-        r
+        self.nested(self.pos, Self::ternary_inner)
     }
 
     fn ternary_inner(&mut self) -> PResult {
@@ -456,11 +459,9 @@ impl<'a> Parser<'a> {
             Some(b'!') if self.s.get(self.pos + 1) != Some(&b'=') => Some(Op::Not),
             _ => return self.power(),
         };
-        self.enter(self.pos)?;
+        let at = self.pos;
         self.pos += 1;
-        let r = self.unary();
-        self.leave();
-        r?;
+        self.nested(at, Self::unary)?;
         if let Some(op) = op {
             self.ops.push(op);
         }
@@ -470,11 +471,9 @@ impl<'a> Parser<'a> {
     fn power(&mut self) -> PResult {
         self.primary()?;
         if self.peek() == Some(b'^') {
-            self.enter(self.pos)?;
+            let at = self.pos;
             self.pos += 1;
-            let r = self.unary();
-            self.leave();
-            r?;
+            self.nested(at, Self::unary)?;
             self.ops.push(Op::Pow);
         }
         Ok(())
