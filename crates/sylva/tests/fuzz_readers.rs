@@ -337,7 +337,6 @@ fn class_hostile_folders_do_not_leak() {
 /// Special files behind inputs and side files, item 9's fix: `/dev/zero`,
 /// `/dev/urandom` and FIFOs are refused (not read to the memory limit, not waited on).
 #[test]
-#[ignore = "issue 39 item 9: readers refuse special files (robustness_inputs.rs), but this check counts a special file the run never opens (a `specifications` entry that is not a .v file is not read as a view file) as read; the generator needs fixing"]
 fn class_special_files_are_refused() {
     let cases = (0..30)
         .map(|k| classes::hostile_with(&mut seeded(Class::Hostile, k), true))

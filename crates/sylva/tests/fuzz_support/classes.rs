@@ -820,6 +820,10 @@ pub fn hostile_with(rng: &mut Rng, special: bool) -> Case {
     let token = format!("CANARY-{:016x}{:08x}", rng.next(), rng.next() as u32);
     let mut entries: Vec<(String, Entry)> = Vec::new();
     let mut uses_special = false;
+    // A special file named only by `plant.v`'s text is read only when that text is the
+    // view the run uses (the specifications may name another view, or plant.v may be
+    // replaced by a link).
+    let mut view_special = false;
     let mut what = Vec::new();
     // The input itself a special file: a generic input (any reader) or the `.l`.
     if special && rng.chance(0.3) {
@@ -875,18 +879,18 @@ pub fn hostile_with(rng: &mut Rng, special: bool) -> Case {
             }
             4 => {
                 let key = *rng.pick(&["function:", "function set:", "curve:"]);
-                let r = reference(rng, special, &mut uses_special, &mut entries, "f.func");
+                let r = reference(rng, special, &mut view_special, &mut entries, "f.func");
                 view.push_str(&format!("{key} {r}\n"));
                 what.push("view: function/curve");
             }
             5 => {
                 let key = *rng.pick(&["surface: l", "line: L"]);
-                let r = reference(rng, special, &mut uses_special, &mut entries, "leaf.s");
+                let r = reference(rng, special, &mut view_special, &mut entries, "leaf.s");
                 view.push_str(&format!("{key} {r} 1\n"));
                 what.push("view: surface");
             }
             6 => {
-                let r = reference(rng, special, &mut uses_special, &mut entries, "c.con");
+                let r = reference(rng, special, &mut view_special, &mut entries, "c.con");
                 view.push_str(&format!("contour: 1 {r}\n"));
                 what.push("view: contour");
             }
@@ -915,6 +919,7 @@ pub fn hostile_with(rng: &mut Rng, special: bool) -> Case {
     plant.push_str(PLANT_L);
     if !entries.iter().any(|(n, _)| n == "plant.v") {
         entries.push(("plant.v".into(), Entry::File(view.into_bytes())));
+        uses_special |= view_special && view_name == "plant.v";
     }
     entries.push(("plant.l".into(), Entry::File(plant.into_bytes())));
     entries.push((
