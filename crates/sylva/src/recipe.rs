@@ -18,6 +18,7 @@ pub mod build;
 mod check;
 pub mod modes;
 mod read;
+pub mod schema;
 #[cfg(test)]
 mod tests;
 
@@ -25,6 +26,7 @@ pub use modes::{
     LeafMode, LeafNormals, MeshBase, MeshMethod, RefineBoundary, RefineScheme, ViewFiles, WindPreset,
 };
 pub use read::{from_table, load, parse_set, set_key, Loaded, Origin};
+pub use schema::schema;
 
 use crate::error::{Error, Result};
 use crate::export::{Compression, InstancingFallback, LodLayout, TextureMode};

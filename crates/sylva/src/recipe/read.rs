@@ -231,6 +231,7 @@ const SKIPPED_AT_DEFAULT: &[&str] = &[
     "wind",
     "lod",
     "output.preview",
+    "leaves.place",
     "output.instancing_fallback",
     "output.compress",
     "output.lod_layout",
