@@ -360,25 +360,7 @@ impl Skeleton {
     /// Children of every node in compressed sparse rows: the children of node `i` are
     /// `children[offsets[i]..offsets[i + 1]]`, in increasing index order. O(n).
     pub fn children(&self) -> Children {
-        let n = self.len();
-        let mut offsets = vec![0u32; n + 1];
-        for &p in &self.parent {
-            if p != NO_PARENT {
-                offsets[p as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut children = vec![0u32; offsets[n] as usize];
-        for (i, &p) in self.parent.iter().enumerate() {
-            if p != NO_PARENT {
-                let slot = &mut fill[p as usize];
-                children[*slot as usize] = i as u32;
-                *slot += 1;
-            }
-        }
+        let (offsets, children) = children_csr(self.len(), &self.parent);
         Children { offsets, children }
     }
 
@@ -511,6 +493,32 @@ impl Children {
     pub fn of(&self, i: usize) -> &[u32] {
         &self.children[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
+}
+
+/// Children of the `n` nodes of a parent array (`NO_PARENT` for roots) in compressed
+/// sparse rows `(offsets, children)`: the children of node `i` are
+/// `children[offsets[i]..offsets[i + 1]]`, in increasing index order. O(n). Shared by
+/// [`Skeleton::children`] and the least-cost generator's path trees.
+pub(crate) fn children_csr(n: usize, parent: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut offsets = vec![0u32; n + 1];
+    for &p in parent {
+        if p != NO_PARENT {
+            offsets[p as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut children = vec![0u32; offsets[n] as usize];
+    for (i, &p) in parent.iter().enumerate() {
+        if p != NO_PARENT {
+            let slot = &mut fill[p as usize];
+            children[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+    }
+    (offsets, children)
 }
 
 #[cfg(test)]

@@ -2,6 +2,10 @@
 //! oracles, Dijkstra against Bellman–Ford, MGV rules, thickness, determinism, graph
 //! reuse and the mig-/mgv- presets.
 
+#[path = "common/edges.rs"]
+mod edges;
+
+use edges::check_closed_manifold;
 use glam::{DVec3, Vec3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -9,9 +13,7 @@ use std::collections::HashMap;
 use sylva::grow::least_cost::graph::{
     self, lattice, poisson, poisson_yao, sector, Graph, Primitive, Volume, NONE,
 };
-use sylva::grow::least_cost::mgv::{
-    self, Direction, EndpointRule, MgvIteration, MgvState, Rotation, RotationRule,
-};
+use sylva::grow::least_cost::mgv::{self, Direction, EndpointRule, MgvIteration, MgvState, Rotation};
 use sylva::grow::least_cost::paths::{dijkstra, dijkstra_until, mgv_weight, Costs, Length, Search, Until};
 use sylva::grow::least_cost::{self as lc, LeastCostParams};
 use sylva::recipe;
@@ -379,23 +381,39 @@ fn trunk(alpha: f64) -> MgvIteration {
     MgvIteration {
         endpoints: EndpointRule::Point,
         target: [0.0, 2.0, 0.0],
-        rotation: Rotation { rule: RotationRule::Constant, alpha, ..Default::default() },
+        rotation: Rotation::constant(alpha),
         ..Default::default()
     }
+}
+
+/// The rotation of the default iterations' forks: (30°, 0, 1).
+fn fork_rotation() -> Rotation {
+    Rotation::two_phase(30.0, 0.0, 1)
+}
+
+/// `count` surface endpoints with the fork rotation.
+fn surface(count: usize) -> MgvIteration {
+    MgvIteration { endpoints: EndpointRule::Surface, count, rotation: fork_rotation(), ..Default::default() }
+}
+
+/// The MGV graph of `p` (8 sectors, 3D) for `seed`.
+fn mgv_graph(p: &LeastCostParams, seed: u64) -> Graph {
+    poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, seed).unwrap()
+}
+
+/// The graph of `p` for `seed` and its MGV state after a straight trunk to `[0, 2, 0]`.
+fn after_trunk(p: &LeastCostParams, seed: u64) -> (Graph, MgvState) {
+    let g = mgv_graph(p, seed);
+    let mut st = MgvState::new(&g);
+    st.iterate(&g, &trunk(0.0), p, 1, 0);
+    (g, st)
 }
 
 #[test]
 fn guides_stay_vertical_when_alpha_is_zero_and_iterations_nest() {
     let p = mgv_params(vec![]);
-    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 7).unwrap();
-    let mut st = MgvState::new(&g);
-    st.iterate(&g, &trunk(0.0), &p, 1, 0);
-    let zero = MgvIteration {
-        endpoints: EndpointRule::Surface,
-        count: 50,
-        rotation: Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() },
-        ..Default::default()
-    };
+    let (g, mut st) = after_trunk(&p, 7);
+    let zero = MgvIteration { rotation: Rotation::constant(0.0), ..surface(50) };
     let before: Vec<u32> = st.nodes.clone();
     st.iterate(&g, &zero, &p, 1, 1);
     for &u in &st.nodes {
@@ -421,27 +439,11 @@ fn guides_stay_vertical_when_alpha_is_zero_and_iterations_nest() {
 #[test]
 fn late_endpoints_follow_hops_fraction_and_direction_rules() {
     let p = mgv_params(vec![]);
-    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 8).unwrap();
-    let mut st = MgvState::new(&g);
-    st.iterate(&g, &trunk(0.0), &p, 1, 0);
+    let (g, st) = after_trunk(&p, 8);
     for (t, dir) in
         [(0.3, Direction::Any), (1.0, Direction::Any), (1.0, Direction::Lower), (0.6, Direction::Higher)]
     {
-        let it = MgvIteration {
-            endpoints: EndpointRule::Surface,
-            count: 100_000,
-            hops: 4,
-            outer_fraction: t,
-            direction: dir,
-            rotation: Rotation {
-                rule: RotationRule::TwoPhase,
-                alpha1: 30.0,
-                alpha2: 0.0,
-                h0: 1,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+        let it = MgvIteration { hops: 4, outer_fraction: t, direction: dir, ..surface(100_000) };
         let mut s2 = st.clone();
         s2.iterate(&g, &it, &p, 2, 1);
         let search = s2.last.as_ref().unwrap();
@@ -589,21 +591,6 @@ fn bad_parameters_are_named_errors() {
     assert!(p.validate().unwrap_err().to_string().contains("generator.volume[0].radius"));
 }
 
-/// Directed-edge check of a closed, consistently oriented manifold (as in presets.rs).
-fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for f in 0..mesh.face_count() {
-        let face = mesh.face(f);
-        for k in 0..face.len() {
-            *directed.entry((face[k], face[(k + 1) % face.len()])).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(n, 1, "{name}: directed edge {a}->{b} used {n} times");
-        assert_eq!(directed.get(&(b, a)), Some(&1), "{name}: edge {a}-{b} has one face");
-    }
-}
-
 #[test]
 fn every_least_cost_preset_grows_a_closed_tube_mesh() {
     let names: Vec<_> = sylva::presets::all()
@@ -634,21 +621,8 @@ fn graph_sizes_stay_compact() {
 #[test]
 fn eq51_rotates_only_the_first_new_node_of_each_branch() {
     let p = mgv_params(vec![]);
-    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 12).unwrap();
-    let mut st = MgvState::new(&g);
-    st.iterate(&g, &trunk(0.0), &p, 1, 0);
-    let it = MgvIteration {
-        endpoints: EndpointRule::Surface,
-        count: 200,
-        rotation: Rotation {
-            rule: RotationRule::TwoPhase,
-            alpha1: 30.0,
-            alpha2: 0.0,
-            h0: 1,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let (g, mut st) = after_trunk(&p, 12);
+    let it = surface(200);
     let old = st.in_tree.clone();
     st.iterate(&g, &it, &p, 1, 1);
     let s = st.last.as_ref().unwrap();
@@ -969,7 +943,7 @@ impl Costs for UpGuides {
 }
 
 fn forest_params() -> LeastCostParams {
-    let still = Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() };
+    let still = Rotation::constant(0.0);
     LeastCostParams {
         nodes: 6000,
         volume: vec![Primitive::Box { center: [0.0, 2.0, 0.0], size: [6.0, 4.0, 6.0] }],
@@ -982,12 +956,7 @@ fn forest_params() -> LeastCostParams {
                 rotation: still.clone(),
                 ..Default::default()
             },
-            MgvIteration {
-                endpoints: EndpointRule::Surface,
-                count: 60,
-                rotation: still,
-                ..Default::default()
-            },
+            MgvIteration { rotation: still, ..surface(60) },
         ],
         ..mgv_params(vec![])
     }
@@ -1200,10 +1169,6 @@ fn leaves_and_needles_sit_at_the_tips() {
     }
 }
 
-fn fork_rotation() -> Rotation {
-    Rotation { rule: RotationRule::TwoPhase, alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() }
-}
-
 /// The report's warnings about MGV iterations that got fewer endpoints than they asked for.
 fn shortfall_warnings(t: &lc::LeastCostTree) -> Vec<String> {
     t.report.warnings.iter().filter(|w| w.starts_with("MGV iteration")).cloned().collect()
@@ -1214,13 +1179,8 @@ fn shortfall_warnings(t: &lc::LeastCostTree) -> Vec<String> {
 /// spacing) and the keys to change; asking for what it got warns of nothing.
 #[test]
 fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
-    let surface = MgvIteration {
-        endpoints: EndpointRule::Surface,
-        count: 5000,
-        rotation: fork_rotation(),
-        ..Default::default()
-    };
-    let t = grow(&mgv_params(vec![trunk(0.0), surface.clone()]), 3);
+    let asked = surface(5000);
+    let t = grow(&mgv_params(vec![trunk(0.0), asked.clone()]), 3);
     let got = t.report.endpoints - 1;
     assert!(got > 0 && got < 5000, "{got}");
     let w = shortfall_warnings(&t);
@@ -1235,12 +1195,12 @@ fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
         assert!(w[0].contains(&part), "{part:?} missing from {:?}", w[0]);
     }
     // Asking for what it got: the same tree, no warning.
-    let enough = MgvIteration { count: got, ..surface };
+    let enough = MgvIteration { count: got, ..asked };
     let t2 = grow(&mgv_params(vec![trunk(0.0), enough]), 3);
     assert_eq!(t2.report.endpoints, got + 1);
     assert!(shortfall_warnings(&t2).is_empty(), "{:?}", t2.report.warnings);
     // The direction filter is named with the survivors.
-    let higher = MgvIteration { count: 5000, direction: Direction::Higher, ..surface_like() };
+    let higher = MgvIteration { direction: Direction::Higher, ..surface(5000) };
     let t3 = grow(&mgv_params(vec![trunk(0.0), higher]), 3);
     let w = shortfall_warnings(&t3);
     assert!(w.len() == 1 && w[0].contains("higher than their source"), "{w:?}");
@@ -1290,10 +1250,6 @@ fn an_mgv_tree_with_fewer_endpoints_than_asked_says_so() {
     }
 }
 
-fn surface_like() -> MgvIteration {
-    MgvIteration { endpoints: EndpointRule::Surface, rotation: fork_rotation(), ..Default::default() }
-}
-
 /// Issue 26 (Xu2015, Table 6.1 f, Fig. 6.9; Xu2015-spec §2.6, §8 property 14): `mgv-f`
 /// selects endpoints higher than their source where that filters. In iteration 1 the only
 /// source is the root, below the whole crown, so the filter changes nothing there; in
@@ -1305,7 +1261,7 @@ fn mgv_f_endpoints_lie_higher_than_their_source() {
     assert_eq!(p.iterations.len(), 4);
     assert!(p.iterations.iter().all(|it| it.direction == Direction::Higher));
     p.nodes = 8000;
-    let g = poisson_yao(&p.graph_volume(), p.nodes, None, None, 8, 3, 5).unwrap();
+    let g = mgv_graph(&p, 5);
     // (endpoints per iteration, per iteration the endpoints at or below their source)
     let run = |p: &LeastCostParams| {
         let mut st = MgvState::new(&g);

@@ -2,26 +2,11 @@
 //! 2-manifold (each axis is closed at both ends, so every edge has exactly two faces);
 //! an OBJ of it reads back with the same counts through an independent reader.
 
-use std::collections::HashMap;
-use sylva::recipe;
+#[path = "common/edges.rs"]
+mod edges;
 
-/// Counts of directed edges; a closed oriented manifold has each directed edge once
-/// and its reverse once.
-fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for f in 0..mesh.face_count() {
-        let face = mesh.face(f);
-        for k in 0..face.len() {
-            let (a, b) = (face[k], face[(k + 1) % face.len()]);
-            assert_ne!(a, b, "{name}: face {f} has a repeated vertex");
-            *directed.entry((a, b)).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(n, 1, "{name}: directed edge {a}->{b} used {n} times (orientation or non-manifold)");
-        assert_eq!(directed.get(&(b, a)), Some(&1), "{name}: edge {a}-{b} has only one face (a hole)");
-    }
-}
+use edges::check_closed_manifold;
+use sylva::recipe;
 
 #[test]
 fn every_preset_meshes_closed_and_round_trips_through_obj() {

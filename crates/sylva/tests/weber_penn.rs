@@ -4,7 +4,10 @@
 //! structure, leaves, and every `presets/wp-*.toml` growing and meshing.
 
 mod common;
+#[path = "common/edges.rs"]
+mod edges;
 
+use edges::check_closed_manifold;
 use glam::Vec3;
 use std::collections::HashMap;
 use sylva::grow::weber_penn::*;
@@ -515,22 +518,6 @@ fn bad_parameters_and_budgets_name_the_key() {
     ] {
         let t = grow(&p, 1).unwrap();
         t.skeleton.validate().unwrap();
-    }
-}
-
-/// Every directed edge once and its reverse once: a closed, consistently oriented
-/// 2-manifold (each tube axis is closed at both ends).
-fn check_closed_manifold(name: &str, mesh: &sylva::Mesh) {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for f in 0..mesh.face_count() {
-        let face = mesh.face(f);
-        for k in 0..face.len() {
-            *directed.entry((face[k], face[(k + 1) % face.len()])).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(n, 1, "{name}: directed edge {a}->{b} used {n} times");
-        assert_eq!(directed.get(&(b, a)), Some(&1), "{name}: edge {a}-{b} has one face");
     }
 }
 

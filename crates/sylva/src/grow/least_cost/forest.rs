@@ -20,17 +20,12 @@
 //! exactly one root per grown tree (`report.trees`).
 
 use super::graph::{poisson, resolve_spacing, spatial_sort, yao, Graph, NONE};
-use super::paths::{dijkstra, Length};
-use super::{
-    bad, finite, main_graph, shell_candidates, shuffle, End, LeastCostParams, LeastCostReport, PathTree,
-    LEVEL1_STREAM,
-};
+use super::{bad, finite, level1_search, shuffle, End, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::Result;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use std::path::Path;
-use std::time::Instant;
 
 /// Most roots in one forest.
 pub const MAX_ROOTS: usize = 256;
@@ -162,16 +157,7 @@ pub(crate) fn mig_level1(
     base: Option<&Path>,
     report: &mut LeastCostReport,
 ) -> Result<(PathTree, Vec<End>)> {
-    let g = main_graph(p, seed, base, report)?;
-    if g.shortfall > 0 {
-        report.warnings.push(format!("the level-1 volume holds only {} of the {} nodes", g.len(), p.nodes));
-    }
-    let t = Instant::now();
-    let roots = root_nodes(p, &g)?;
-    let s = dijkstra(&g, &roots, None, &mut Length);
-    report.unreachable = (0..g.len() as u32).filter(|&u| !s.reached(u)).count();
-    let mut cand = shell_candidates(p, &g, &s);
-    let mut rng = Pcg64::seed_from_u64(seed ^ LEVEL1_STREAM);
+    let (g, roots, s, mut cand, mut rng, t) = level1_search(p, seed, base, report, |g| root_nodes(p, g))?;
     shuffle(&mut cand, &mut rng);
     cand.truncate(p.endpoints);
     let mut tree = PathTree::default();

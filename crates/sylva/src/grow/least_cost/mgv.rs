@@ -169,6 +169,16 @@ impl Default for Rotation {
 }
 
 impl Rotation {
+    /// `constant`: α for every edge (0 = guides stay as they are).
+    pub fn constant(alpha: f64) -> Rotation {
+        Rotation { rule: RotationRule::Constant, alpha, ..Default::default() }
+    }
+
+    /// `two-phase` (Eq. 5.1): α₁ while `h ≤ h0`, then α₂.
+    pub fn two_phase(alpha1: f64, alpha2: f64, h0: u32) -> Rotation {
+        Rotation { rule: RotationRule::TwoPhase, alpha1, alpha2, h0, ..Default::default() }
+    }
+
     fn validate(&self, key: &str) -> Result<()> {
         for (k, v) in [
             ("alpha", self.alpha),
@@ -245,13 +255,12 @@ impl Default for MgvIteration {
 /// The default iterations: a straight trunk to `[0, 4, 0]`, crown endpoints with
 /// (30°, 0, 1), then two rounds of surface endpoints with (30°, 0, 1).
 pub fn default_iterations() -> Vec<MgvIteration> {
-    let fork =
-        Rotation { rule: RotationRule::TwoPhase, alpha1: 30.0, alpha2: 0.0, h0: 1, ..Default::default() };
+    let fork = Rotation::two_phase(30.0, 0.0, 1);
     vec![
         MgvIteration {
             endpoints: EndpointRule::Point,
             target: [0.0, 4.0, 0.0],
-            rotation: Rotation { rule: RotationRule::Constant, alpha: 0.0, ..Default::default() },
+            rotation: Rotation::constant(0.0),
             ..Default::default()
         },
         MgvIteration {
@@ -262,13 +271,7 @@ pub fn default_iterations() -> Vec<MgvIteration> {
                 radii: [4.0, 5.0, 4.0],
                 axis: [0.0, 1.0, 0.0],
             }],
-            rotation: Rotation {
-                rule: RotationRule::TwoPhase,
-                alpha1: 10.0,
-                alpha2: 0.0,
-                h0: 1000,
-                ..Default::default()
-            },
+            rotation: Rotation::two_phase(10.0, 0.0, 1000),
             ..Default::default()
         },
         MgvIteration {

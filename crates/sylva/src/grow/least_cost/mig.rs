@@ -30,10 +30,7 @@
 
 use super::graph::{auto_spacing, poisson_yao, Graph, Primitive, Volume, NONE};
 use super::paths::{dijkstra, Length};
-use super::{
-    bad, in_range, main_graph, shell_candidates, shuffle, End, LeastCostParams, LeastCostReport, PathTree,
-    LEVEL1_STREAM,
-};
+use super::{bad, in_range, level1_search, shuffle, End, LeastCostParams, LeastCostReport, PathTree};
 use crate::error::{Error, Result};
 use glam::{DQuat, DVec3, Vec3};
 use rand::SeedableRng;
@@ -269,15 +266,7 @@ fn level1(
     base: Option<&Path>,
     report: &mut LeastCostReport,
 ) -> Result<(PathTree, Vec<End>)> {
-    let g = main_graph(p, seed, base, report)?;
-    if g.shortfall > 0 {
-        report.warnings.push(format!("the level-1 volume holds only {} of the {} nodes", g.len(), p.nodes));
-    }
-    let t = Instant::now();
-    let s = dijkstra(&g, &[g.root], None, &mut Length);
-    report.unreachable = (0..g.len() as u32).filter(|&u| !s.reached(u)).count();
-    let mut cand = shell_candidates(p, &g, &s);
-    let mut rng = Pcg64::seed_from_u64(seed ^ LEVEL1_STREAM);
+    let (g, _, s, mut cand, mut rng, t) = level1_search(p, seed, base, report, |g| Ok(vec![g.root]))?;
     let sub = union_paths(&g, &s.parent, &mut cand, p.endpoints, &mut rng);
     let mut tree = PathTree::default();
     let root_pos = g.position[g.root as usize];

@@ -51,6 +51,9 @@ use crate::error::{Error, Result};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DVec3, Vec3};
 use graph::{Graph, Primitive, Volume, NONE};
+use paths::{dijkstra, Length, Search};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -401,25 +404,7 @@ impl PathTree {
 
     /// Children in CSR form: `(start, kids)`, kids of each node in id order.
     pub fn children(&self) -> (Vec<u32>, Vec<u32>) {
-        let n = self.parent.len();
-        let mut start = vec![0u32; n + 1];
-        for &p in &self.parent {
-            if p != NONE {
-                start[p as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut kids = vec![0u32; start[n] as usize];
-        for (i, &p) in self.parent.iter().enumerate() {
-            if p != NONE {
-                kids[fill[p as usize] as usize] = i as u32;
-                fill[p as usize] += 1;
-            }
-        }
-        (start, kids)
+        crate::skeleton::children_csr(self.parent.len(), &self.parent)
     }
 
     /// `s(n)`: summed segment length from each node out to its farthest descendant tip
@@ -670,9 +655,37 @@ pub(crate) struct End {
 /// The generator stream of the level-1 endpoints.
 pub(crate) const LEVEL1_STREAM: u64 = 0x6c65_7665_6c31;
 
+/// What [`level1_search`] finds: the level-1 graph, its roots, the length-weighted
+/// search from them, the shell candidates for endpoints, the endpoint stream, and when
+/// the search started (for `report.path_time`).
+pub(crate) type Level1 = (Graph, Vec<u32>, Search, Vec<u32>, Pcg64, Instant);
+
+/// The level-1 graph (a warning when its volume holds fewer than `nodes` nodes), a
+/// Dijkstra with length weights from `roots(&graph)`, its unreachable nodes counted in
+/// `report`, and the shell candidates for the endpoints.
+pub(crate) fn level1_search(
+    p: &LeastCostParams,
+    seed: u64,
+    base: Option<&Path>,
+    report: &mut LeastCostReport,
+    roots: impl FnOnce(&Graph) -> Result<Vec<u32>>,
+) -> Result<Level1> {
+    let g = main_graph(p, seed, base, report)?;
+    if g.shortfall > 0 {
+        report.warnings.push(format!("the level-1 volume holds only {} of the {} nodes", g.len(), p.nodes));
+    }
+    let t = Instant::now();
+    let roots = roots(&g)?;
+    let s = dijkstra(&g, &roots, None, &mut Length);
+    report.unreachable = (0..g.len() as u32).filter(|&u| !s.reached(u)).count();
+    let cand = shell_candidates(p, &g, &s);
+    let rng = Pcg64::seed_from_u64(seed ^ LEVEL1_STREAM);
+    Ok((g, roots, s, cand, rng, t))
+}
+
 /// Level-1 endpoint candidates: reached nodes (not sources) in the shell
 /// `−d_e ≤ sdf ≤ 0` under the volume's surface, in id order.
-pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &paths::Search) -> Vec<u32> {
+pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &Search) -> Vec<u32> {
     let vol = p.graph_volume();
     let de = if p.shell > 0.0 { p.shell } else { 3.0 * g.spacing as f64 };
     (0..g.len() as u32)
@@ -683,7 +696,7 @@ pub(crate) fn shell_candidates(p: &LeastCostParams, g: &Graph, s: &paths::Search
 }
 
 /// Fisher–Yates shuffle with the given generator.
-pub(crate) fn shuffle(v: &mut [u32], rng: &mut rand_pcg::Pcg64) {
+pub(crate) fn shuffle(v: &mut [u32], rng: &mut Pcg64) {
     use rand::RngExt;
     for i in (1..v.len()).rev() {
         let j = rng.random_range(0..=i);

@@ -187,21 +187,13 @@ fn sector_box(s: u32, k: u32, dims: u8, c: [usize; 3], n: [usize; 3]) -> ([usize
                 }
             }
         }
-        let x = if xp && xn {
-            full(0)
-        } else if xp {
-            pos(0)
-        } else {
-            neg(0)
+        // The whole axis when both signs are touched, else the touched side.
+        let span = |a: usize, plus: bool, minus: bool| match (plus, minus) {
+            (true, true) => full(a),
+            (true, false) => pos(a),
+            _ => neg(a),
         };
-        let y = if yp && yn {
-            full(1)
-        } else if yp {
-            pos(1)
-        } else {
-            neg(1)
-        };
-        [x, y, full(2)]
+        [span(0, xp, xn), span(1, yp, yn), full(2)]
     } else {
         let oct = s / (k / 8).max(1);
         let ax = |a: usize, bit: u32| if oct & (1 << bit) != 0 { pos(a) } else { neg(a) };
