@@ -34,47 +34,36 @@ pub trait Real:
     fn to_f32(self) -> f32;
 }
 
-impl Real for f32 {
-    fn of(x: f32) -> f32 {
-        x
-    }
-    fn sin(self) -> f32 {
-        f32::sin(self)
-    }
-    fn cos(self) -> f32 {
-        f32::cos(self)
-    }
-    fn powf(self, e: f32) -> f32 {
-        f32::powf(self, e)
-    }
-    fn exp(self) -> f32 {
-        f32::exp(self)
-    }
-    fn to_f32(self) -> f32 {
-        self
-    }
+/// [`Real`] for the float type `$t` by its own methods; `$x => $of` makes one from an
+/// `f32`, `$s => $to` rounds one to `f32`.
+macro_rules! real {
+    ($t:ident, $x:ident => $of:expr, $s:ident => $to:expr) => {
+        impl Real for $t {
+            fn of($x: f32) -> $t {
+                $of
+            }
+            fn sin(self) -> $t {
+                $t::sin(self)
+            }
+            fn cos(self) -> $t {
+                $t::cos(self)
+            }
+            fn powf(self, e: $t) -> $t {
+                $t::powf(self, e)
+            }
+            fn exp(self) -> $t {
+                $t::exp(self)
+            }
+            fn to_f32(self) -> f32 {
+                let $s = self;
+                $to
+            }
+        }
+    };
 }
 
-impl Real for f64 {
-    fn of(x: f32) -> f64 {
-        x as f64
-    }
-    fn sin(self) -> f64 {
-        f64::sin(self)
-    }
-    fn cos(self) -> f64 {
-        f64::cos(self)
-    }
-    fn powf(self, e: f64) -> f64 {
-        f64::powf(self, e)
-    }
-    fn exp(self) -> f64 {
-        f64::exp(self)
-    }
-    fn to_f32(self) -> f32 {
-        self as f32
-    }
-}
+real!(f32, x => x, s => s);
+real!(f64, x => x as f64, s => s as f32);
 
 /// A 3-vector the deformer runs in: `Vec3` (scalar `f32`) or `DVec3` (scalar `f64`). The
 /// methods are glam's (WGSL's `dot`, `cross`, `mix`, `normalize`).
@@ -111,72 +100,47 @@ pub trait Vector:
     fn abs(self) -> Self;
 }
 
-impl Vector for Vec3 {
-    type S = f32;
-    const ZERO: Vec3 = Vec3::ZERO;
-    const X: Vec3 = Vec3::X;
-    const Y: Vec3 = Vec3::Y;
-    const Z: Vec3 = Vec3::Z;
-    fn of(v: Vec3) -> Vec3 {
-        v
-    }
-    fn to_vec3(self) -> Vec3 {
-        self
-    }
-    fn components(self) -> [f32; 3] {
-        self.to_array()
-    }
-    fn dot(self, o: Vec3) -> f32 {
-        Vec3::dot(self, o)
-    }
-    fn cross(self, o: Vec3) -> Vec3 {
-        Vec3::cross(self, o)
-    }
-    fn lerp(self, o: Vec3, t: f32) -> Vec3 {
-        Vec3::lerp(self, o, t)
-    }
-    fn length_squared(self) -> f32 {
-        Vec3::length_squared(self)
-    }
-    fn normalize(self) -> Vec3 {
-        Vec3::normalize(self)
-    }
-    fn abs(self) -> Vec3 {
-        Vec3::abs(self)
-    }
+/// [`Vector`] for glam's `$t` of scalar `$r` by glam's own methods; `$v => $of` makes
+/// one from a `Vec3`, `$s => $to` rounds one to `Vec3`.
+macro_rules! vector {
+    ($t:ident, $r:ident, $v:ident => $of:expr, $s:ident => $to:expr) => {
+        impl Vector for $t {
+            type S = $r;
+            const ZERO: $t = $t::ZERO;
+            const X: $t = $t::X;
+            const Y: $t = $t::Y;
+            const Z: $t = $t::Z;
+            fn of($v: Vec3) -> $t {
+                $of
+            }
+            fn to_vec3(self) -> Vec3 {
+                let $s = self;
+                $to
+            }
+            fn components(self) -> [$r; 3] {
+                self.to_array()
+            }
+            fn dot(self, o: $t) -> $r {
+                $t::dot(self, o)
+            }
+            fn cross(self, o: $t) -> $t {
+                $t::cross(self, o)
+            }
+            fn lerp(self, o: $t, t: $r) -> $t {
+                $t::lerp(self, o, t)
+            }
+            fn length_squared(self) -> $r {
+                $t::length_squared(self)
+            }
+            fn normalize(self) -> $t {
+                $t::normalize(self)
+            }
+            fn abs(self) -> $t {
+                $t::abs(self)
+            }
+        }
+    };
 }
 
-impl Vector for DVec3 {
-    type S = f64;
-    const ZERO: DVec3 = DVec3::ZERO;
-    const X: DVec3 = DVec3::X;
-    const Y: DVec3 = DVec3::Y;
-    const Z: DVec3 = DVec3::Z;
-    fn of(v: Vec3) -> DVec3 {
-        v.as_dvec3()
-    }
-    fn to_vec3(self) -> Vec3 {
-        self.as_vec3()
-    }
-    fn components(self) -> [f64; 3] {
-        self.to_array()
-    }
-    fn dot(self, o: DVec3) -> f64 {
-        DVec3::dot(self, o)
-    }
-    fn cross(self, o: DVec3) -> DVec3 {
-        DVec3::cross(self, o)
-    }
-    fn lerp(self, o: DVec3, t: f64) -> DVec3 {
-        DVec3::lerp(self, o, t)
-    }
-    fn length_squared(self) -> f64 {
-        DVec3::length_squared(self)
-    }
-    fn normalize(self) -> DVec3 {
-        DVec3::normalize(self)
-    }
-    fn abs(self) -> DVec3 {
-        DVec3::abs(self)
-    }
-}
+vector!(Vec3, f32, v => v, s => s);
+vector!(DVec3, f64, v => v.as_dvec3(), s => s.as_vec3());
