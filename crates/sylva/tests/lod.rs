@@ -241,11 +241,10 @@ fn a_generous_budget_keeps_the_full_model_and_the_chain_is_deterministic() {
     );
 }
 
-#[test]
-fn bad_options_are_errors() {
-    let (full, _, _) = chain("lsys-honda-a", &sets(&[1000], false, &[]));
-    let opts = sylva::lod::LodOptions {
-        budgets: vec![1000, 2000],
+/// Chain options of one level of 1,000 triangles, no impostor, 8 sides, no cards.
+fn options_without_impostor() -> sylva::lod::LodOptions {
+    sylva::lod::LodOptions {
+        budgets: vec![1000],
         impostor: false,
         atlas_frames: 8,
         atlas_size: 1024,
@@ -253,7 +252,13 @@ fn bad_options_are_errors() {
         min_sides: 3,
         refine_factor: 1,
         per_card: 0,
-    };
+    }
+}
+
+#[test]
+fn bad_options_are_errors() {
+    let (full, _, _) = chain("lsys-honda-a", &sets(&[1000], false, &[]));
+    let opts = sylva::lod::LodOptions { budgets: vec![1000, 2000], ..options_without_impostor() };
     let mut never =
         |_: &sylva::Skeleton, _: &sylva::lod::LevelSettings| -> sylva::Result<Model> { unreachable!() };
     let e = sylva::lod::build_chain(&full.model, &full.skeleton, &opts, &mut never).unwrap_err();
@@ -290,6 +295,31 @@ fn bad_options_are_errors() {
     assert!(e.to_string().contains("lod.levels"), "{e}");
     let e = sylva::preview::render_layers(&full.model.parts, &[], &[], 0, 1).unwrap_err();
     assert!(e.to_string().contains("size"), "{e}");
+}
+
+/// A cancelled token stops the chain with `Error::Cancelled` before any level is
+/// re-meshed (it is checked per level, per part before simplification and before the
+/// impostor's views are drawn); the same call without the token builds the chain.
+#[test]
+fn a_cancelled_token_stops_the_chain() {
+    let (full, _, _) = chain("lsys-honda-a", &sets(&[1000], false, &[]));
+    let opts = sylva::lod::LodOptions {
+        budgets: vec![1_000_000],
+        impostor: true,
+        atlas_frames: 2,
+        atlas_size: 64,
+        ..options_without_impostor()
+    };
+    let mut never =
+        |_: &sylva::Skeleton, _: &sylva::lod::LevelSettings| -> sylva::Result<Model> { unreachable!() };
+    let token = sylva::cancel::Cancel::new();
+    token.cancel();
+    let r = sylva::cancel::scope(&token, || {
+        sylva::lod::build_chain(&full.model, &full.skeleton, &opts, &mut never)
+    });
+    assert!(matches!(r, Err(sylva::Error::Cancelled)), "{:?}", r.map(|c| c.levels.len()));
+    let c = sylva::lod::build_chain(&full.model, &full.skeleton, &opts, &mut never).unwrap();
+    assert_eq!(c.levels.len(), 2);
 }
 
 /// The acceptance test on the aspen: budgets 30,000 / 8,000 / 2,000 and the impostor.

@@ -103,6 +103,7 @@ pub fn build(parts: &[Part], images: &[ModelImage], n: u32, size: u32, image_bas
     let views: Vec<LayerView> = (0..n * n)
         .map(|k| LayerView { centre, toward: frame_direction(k % n, k / n, n), half_extent: radius })
         .collect();
+    crate::cancel::check()?;
     let layers = render_layers(parts, images, &views, frame, SUPERSAMPLE)?;
     let mut albedo = Image::new(size, size, 4);
     let mut normal = Image::new(size, size, 3);

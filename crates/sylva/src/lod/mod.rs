@@ -325,6 +325,7 @@ pub fn build_chain(
     // LOD0's parts (for the impostor), when it is not the full model.
     let mut lod0_parts: Option<Vec<Part>> = None;
     for (k, &budget) in opts.budgets.iter().enumerate() {
+        crate::cancel::check()?;
         let t = Instant::now();
         let (parts, mut report) = if total as f64 <= budget as f64 * (1.0 + TOLERANCE) {
             chain.warnings.push(format!(
@@ -385,6 +386,7 @@ pub fn build_chain(
         chain.levels.push(report);
     }
     if opts.impostor {
+        crate::cancel::check()?;
         let t = Instant::now();
         let parts = lod0_parts.as_deref().unwrap_or(&flat.parts);
         let imp = impostor::build(
@@ -527,6 +529,7 @@ impl Context<'_> {
                 ((room * n as f64 / rest as f64).round() as usize).max(1)
             };
             let what = format!("LOD{k} part `{}`", part.name);
+            crate::cancel::check()?;
             let (mesh, method) = simplify::simplify(&part.mesh, target, &what)?;
             part.mesh = mesh;
             if let Some(m) = material_of(full, &part.name) {

@@ -203,6 +203,26 @@ impl Mesher {
 mod tests {
     use super::*;
 
+    /// With a cancelled token installed every skeleton mesher returns `Error::Cancelled`
+    /// (tube per axis, hull per joint and branch, sweep per node and repair round, quad
+    /// per internode and repair round); without one the same call meshes.
+    #[test]
+    fn every_mesher_stops_when_cancelled() {
+        let s = tube::tests::binary_tree(5, 2);
+        let token = crate::cancel::Cancel::new();
+        token.cancel();
+        for mesher in [
+            Mesher::Tube(Default::default()),
+            Mesher::Hull(Default::default()),
+            Mesher::Sweep(Default::default()),
+            Mesher::Quad(Default::default()),
+        ] {
+            let r = crate::cancel::scope(&token, || mesher.cage(&s));
+            assert!(matches!(r, Err(crate::Error::Cancelled)), "{}: {r:?}", mesher.name());
+            assert!(mesher.cage(&s).is_ok_and(|c| c.mesh.face_count() > 0), "{}", mesher.name());
+        }
+    }
+
     #[test]
     fn fallback_warnings_name_the_mesher_count_and_first_nodes() {
         assert!(Mesher::Hull(Default::default()).fallback_warnings(&[]).is_empty());

@@ -93,6 +93,7 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
         if k < 2 {
             continue;
         }
+        crate::cancel::check()?;
         let mut loops: Vec<LoopRef> = Vec::with_capacity(k);
         if work.branch[j] {
             loops.push(LoopRef { slot: slot[j], at_end: true });
@@ -273,6 +274,7 @@ pub fn hull_mesh(skeleton: &Skeleton, opts: &HullOptions) -> Result<HullMesh> {
     e.face_offsets.push(0);
     let mut branches = Vec::with_capacity(geo.len());
     for g in &geo {
+        crate::cancel::check()?;
         let first_face = e.face_count();
         let (c0, r0) = g.end_loop(false);
         let (c1, r1) = g.end_loop(true);

@@ -31,6 +31,11 @@ impl Builder<'_> {
 
     pub(super) fn drain(&mut self) {
         while let Some(t) = self.stack.pop() {
+            if crate::cancel::cancelled() {
+                // quad_mesh returns `Error::Cancelled`; the partial cage is dropped.
+                self.stack.clear();
+                return;
+            }
             match t {
                 Task::Segment { ring, node } => self.segment(ring, node),
                 Task::Detach { node } => self.detach(node),

@@ -412,6 +412,8 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
             }
             b.drain();
         }
+        // Checked per internode in `drain`, which stops early when cancelled.
+        crate::cancel::check()?;
         let Builder {
             positions,
             indices,
@@ -438,6 +440,8 @@ pub fn quad_mesh(skeleton: &Skeleton, opts: &QuadOptions) -> Result<QuadMesh> {
             let left = opts.max_repair_work.saturating_sub(work);
             match repair(skeleton, &mesh, &owner, &lead, opts.check_levels, &mut repairs, left) {
                 Some((changed, spent)) => {
+                    // A refinement stopped by the token is no finished round.
+                    crate::cancel::check()?;
                     work += spent;
                     changed
                 }

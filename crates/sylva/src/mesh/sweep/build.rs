@@ -286,11 +286,14 @@ pub(super) fn max_min_angle(pts: &[DVec3]) -> Vec<[usize; 3]> {
     out
 }
 
+/// Builds the control mesh of `plan` with the nodes in `fallback` capped separately:
+/// the mesh, each face's owner nodes, the largest twist and the open loops. Errors:
+/// [`crate::Error::Cancelled`] when the thread's token is cancelled (checked per node).
 pub(super) fn build(
     plan: &Plan,
     opts: &SweepOptions,
     fallback: &[bool],
-) -> (Mesh, Vec<[u32; 2]>, f64, usize) {
+) -> crate::error::Result<(Mesh, Vec<[u32; 2]>, f64, usize)> {
     let n = plan.pos.len();
     let mut b = Build {
         plan,
@@ -309,6 +312,7 @@ pub(super) fn build(
         if !plan.live[i] {
             continue;
         }
+        crate::cancel::check()?;
         let fb = fallback[i];
         let kind = plan.kind[i];
         let r = plan.rad[i];
@@ -439,5 +443,5 @@ pub(super) fn build(
     }
     let mut mesh = b.mesh;
     mesh.uvs = Some(b.uv);
-    (mesh, b.owner, b.max_twist, b.open_loops)
+    Ok((mesh, b.owner, b.max_twist, b.open_loops))
 }

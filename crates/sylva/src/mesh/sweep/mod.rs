@@ -431,11 +431,12 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
     let mut checked = vec![false; n];
     let mut round = 0;
     let (mesh, face_owner, max_twist, open_loops) = loop {
-        let (mesh, owner, twist, loops) = build(&plan, opts, &fallback);
+        let (mesh, owner, twist, loops) = build(&plan, opts, &fallback)?;
         if round >= opts.repair_rounds || mesh.face_count() == 0 {
             break (mesh, owner, twist, loops);
         }
         round += 1;
+        crate::cancel::check()?;
         let rep = check_mesh(
             &mesh,
             &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
@@ -466,6 +467,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         // A clean control mesh: check the templates once more after refinement.
         let refined_only = bad.is_empty();
         if refined_only {
+            crate::cancel::check()?;
             bad = folded_junctions(&plan, &mesh, &owner, opts.check_levels, &mut checked);
         }
         if bad.is_empty() {
@@ -500,6 +502,8 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
             }
         }
     };
+    // A refinement stopped by the token leaves a mesh the rounds did not finish.
+    crate::cancel::check()?;
     let plan = &plan;
     let kind_is = |k: Kind| (0..n).filter(move |&i| plan.live[i] && plan.kind[i] == k);
     let fallbacks: Vec<u32> = (0..n).filter(|&i| fallback[i]).map(|i| i as u32).collect();

@@ -126,6 +126,7 @@ pub fn tube_mesh(skeleton: &Skeleton, opts: &TubeOptions) -> Result<TubeMesh> {
     let mut frames = Vec::new();
     let mut axis_count = 0;
     for a in 0..axes.count() {
+        crate::cancel::check()?;
         let st = axes.axis(a);
         if !has_faces(st) {
             continue;
