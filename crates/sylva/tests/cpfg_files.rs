@@ -26,6 +26,13 @@ fn corpus_files(dir: &Path, ext: &str) -> Vec<PathBuf> {
     out
 }
 
+/// [`corpus_files`] with extension `ext`, which must be `n` files.
+fn corpus_files_n(dir: &Path, ext: &str, n: usize) -> Vec<PathBuf> {
+    let files = corpus_files(dir, ext);
+    assert_eq!(files.len(), n, "corpus files `.{ext}`");
+    files
+}
+
 fn text(p: &Path) -> String {
     String::from_utf8_lossy(&std::fs::read(p).unwrap()).into_owned()
 }
@@ -173,9 +180,7 @@ fn corpus_functions() {
 #[test]
 fn corpus_surfaces() {
     let Some(dir) = corpus() else { return };
-    let files = corpus_files(&dir, "s");
-    assert_eq!(files.len(), 11);
-    for p in files {
+    for p in corpus_files_n(&dir, "s", 11) {
         let s = surface::parse(&name(&p), &text(&p)).unwrap();
         assert!(s.neighbour_problems().is_empty(), "{}: {:?}", p.display(), s.neighbour_problems());
         for n in [1, 3, 8] {
@@ -204,15 +209,11 @@ fn corpus_surfaces() {
 #[test]
 fn corpus_colour_maps_and_materials() {
     let Some(dir) = corpus() else { return };
-    let maps = corpus_files(&dir, "map");
-    assert_eq!(maps.len(), 33);
-    for p in maps {
+    for p in corpus_files_n(&dir, "map", 33) {
         let m = colormap::parse(&std::fs::read(&p).unwrap()).unwrap();
         assert_eq!(m.colors.len(), 256, "{}", p.display());
     }
-    let mats = corpus_files(&dir, "mat");
-    assert_eq!(mats.len(), 17);
-    for p in mats {
+    for p in corpus_files_n(&dir, "mat", 17) {
         let m = colormap::parse_materials(&std::fs::read(&p).unwrap()).unwrap();
         assert!(m.materials.as_ref().unwrap().iter().any(|m| m.defined), "{}", p.display());
     }

@@ -99,30 +99,26 @@ impl Source {
                 let lead = s.chars().count() - trimmed.chars().count();
                 let at = line.get(lead).map(|&(_, o)| o).unwrap_or(origin(file, 0));
                 self.directive(rest.trim_end(), at, active, overrides, resolve, conds, depth)?;
-                if let Some(&(_, o)) = line.last() {
-                    self.push_char('\n', o);
+            } else if active {
+                let expanded = self.expand(line, 0)?;
+                if self.text.len() + expanded.len() > MAX_PREPROCESSED {
+                    let o = line.first().map_or(0, |c| c.1);
+                    return Err(self.error_origin(
+                        ErrorKind::Budget,
+                        o,
+                        1,
+                        &format!("the preprocessed L-system is longer than {MAX_PREPROCESSED} characters (macros expand too much)"),
+                        "here",
+                    ));
+                }
+                for (c, o) in expanded {
+                    self.push_char(c, o);
                 }
                 continue;
             }
-            if !active {
-                if let Some(&(_, o)) = line.last() {
-                    self.push_char('\n', o);
-                }
-                continue;
-            }
-            let expanded = self.expand(line, 0)?;
-            if self.text.len() + expanded.len() > MAX_PREPROCESSED {
-                let o = line.first().map_or(0, |c| c.1);
-                return Err(self.error_origin(
-                    ErrorKind::Budget,
-                    o,
-                    1,
-                    &format!("the preprocessed L-system is longer than {MAX_PREPROCESSED} characters (macros expand too much)"),
-                    "here",
-                ));
-            }
-            for (c, o) in expanded {
-                self.push_char(c, o);
+            // A directive or a line an `#if` leaves out keeps only its newline.
+            if let Some(&(_, o)) = line.last() {
+                self.push_char('\n', o);
             }
         }
         Ok(())
