@@ -57,6 +57,12 @@ pub struct SubdivideArgs {
     /// Refuse to write more faces than this.
     #[arg(long, value_name = "FACES", default_value_t = refine::DEFAULT_MAX_FACES)]
     pub max_faces: usize,
+    /// Refuse a subdivision that would need more memory than this at its peak, in bytes
+    /// (default 4 GiB; checked before any level is made, so a machine with less memory
+    /// gets an error instead of an abort).
+    #[arg(long, value_name = "BYTES", default_value_t = refine::DEFAULT_MAX_MEMORY,
+          value_parser = crate::args::whole_in::<u64>(1, u64::MAX))]
+    pub max_memory: u64,
     /// Worker threads, 1..=1024 (`refine::MAX_THREADS`; default: all cores; the output is
     /// identical for any count).
     #[arg(long, value_parser = crate::args::whole_in::<usize>(1, refine::MAX_THREADS as u64))]
@@ -184,6 +190,7 @@ fn request(args: &SubdivideArgs) -> SubdivideRequest {
         creasing: args.creasing,
         boundary: args.boundary,
         max_faces: args.max_faces,
+        max_memory: args.max_memory,
         parallel: args.threads != Some(1),
         adaptive: args.adaptive,
         noise: args.noise,
@@ -213,6 +220,27 @@ fn policy_error(e: PolicyError) -> miette::Report {
     }
 }
 
+/// A refinement error, with the budgets named by their flags.
+fn refine_error(e: refine::RefineError, args: &SubdivideArgs) -> miette::Report {
+    let input = args.input.display();
+    match e {
+        refine::RefineError::Budget { levels, faces, limit } => miette::miette!(
+            "cannot subdivide {input}: {levels} levels (-n) would make {faces} faces, more than --max-faces {limit} \
+             (use fewer levels, or raise --max-faces)"
+        ),
+        refine::RefineError::Memory { levels, faces, bytes, limit } => miette::miette!(
+            "cannot subdivide {input}: {levels} levels (-n) would make {faces} faces and need about {bytes} bytes \
+             at the refinement's peak, more than --max-memory {limit} (use fewer levels, or raise --max-memory \
+             if the machine has the memory)"
+        ),
+        refine::RefineError::OutOfMemory { what, bytes } => miette::miette!(
+            "cannot subdivide {input}: its {what} need {bytes} bytes, which the system could not allocate (use \
+             fewer levels, or lower --max-memory to what the machine has so the estimate stops it first)"
+        ),
+        e => miette::Report::new(e).wrap_err(format!("cannot subdivide {input}")),
+    }
+}
+
 /// Runs `sylva subdivide`.
 pub fn run(args: SubdivideArgs) -> Result<()> {
     // Fail on a bad extension before doing any work.
@@ -228,7 +256,7 @@ pub fn run(args: SubdivideArgs) -> Result<()> {
         }
         _ => subdivide(),
     }
-    .map_err(|e| miette::Report::new(e).wrap_err(format!("cannot subdivide {}", args.input.display())))?;
+    .map_err(|e| refine_error(e, &args))?;
     let name =
         args.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
     let (faces, verts) = (refined.face_count(), refined.vertex_count());
@@ -277,6 +305,7 @@ mod tests {
             creasing: None,
             boundary: None,
             max_faces: refine::DEFAULT_MAX_FACES,
+            max_memory: refine::DEFAULT_MAX_MEMORY,
             threads: None,
             adaptive: None,
             pn: None,

@@ -72,8 +72,18 @@ fn item_3_subdivide_over_the_memory_limit_is_an_error() {
     );
     assert_ne!(r.code, 0);
     assert!(!r.stderr.contains("panicked") && !r.stderr.contains("memory allocation"), "{}", r.stderr);
-    assert!(r.stderr.contains("bytes") && r.stderr.contains("memory limit"), "{}", r.stderr);
+    assert!(r.stderr.contains("bytes") && r.stderr.contains("--max-memory 4294967296"), "{}", r.stderr);
     assert_eq!(files(&d, &["grid.obj"]), Vec::<String>::new());
+    // The budget is the user's: two levels fit the default and not 1 MB.
+    let two = ["subdivide", "grid.obj", "-o", "out.obj", "--levels", "2", "--quiet"];
+    let r = sylva(&[&two[..], &["--max-memory", "1000000"]].concat(), &d);
+    assert_ne!(r.code, 0);
+    assert!(r.stderr.contains("--max-memory 1000000 ") && r.stderr.contains("-n"), "{}", r.stderr);
+    assert_eq!(files(&d, &["grid.obj"]), Vec::<String>::new());
+    let r = sylva(&two, &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let r = sylva(&[&two[..], &["--max-memory", "0"]].concat(), &d);
+    assert!(r.code != 0 && r.stderr.contains("--max-memory"), "{}", r.stderr);
 }
 
 /// Issue 39 item 3: `render --wind breeze --frames 1200 --size 8192x8192` held every

@@ -6,9 +6,9 @@
 //! axes, texture rows, refinement levels, LOD levels) call [`cancelled`] or [`check`]
 //! without a token in their signature, and parallel loops capture [`current`] before
 //! they fork. A stage that stops early returns a partial result the session never
-//! keeps: it checks the token after every stage and returns [`Error::Cancelled`].
+//! keeps: it checks the token after every stage and returns
+//! [`crate::Error::Cancelled`] (what [`Cancelled`] converts to).
 
-use crate::error::{Error, Result};
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -38,15 +38,22 @@ impl Cancel {
         self.0.load(Ordering::Relaxed)
     }
 
-    /// `Err(Error::Cancelled)` once cancelled.
-    pub fn check(&self) -> Result<()> {
+    /// `Err(Cancelled)` once cancelled.
+    pub fn check(&self) -> Result<(), Cancelled> {
         if self.is_cancelled() {
-            Err(Error::Cancelled)
+            Err(Cancelled)
         } else {
             Ok(())
         }
     }
 }
+
+/// A checkpoint found its token cancelled. It converts to [`crate::Error::Cancelled`],
+/// so `cancel::check()?` works in any function returning the engine's result; this module
+/// depends on nothing else, so every stage may call it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("cancelled")]
+pub struct Cancelled;
 
 thread_local! {
     static CURRENT: RefCell<Option<Cancel>> = const { RefCell::new(None) };
@@ -85,10 +92,10 @@ pub fn cancelled() -> bool {
     CURRENT.with(|c| c.borrow().as_ref().is_some_and(Cancel::is_cancelled))
 }
 
-/// `Err(Error::Cancelled)` when this thread's token is cancelled.
-pub fn check() -> Result<()> {
+/// `Err(Cancelled)` when this thread's token is cancelled.
+pub fn check() -> Result<(), Cancelled> {
     if cancelled() {
-        Err(Error::Cancelled)
+        Err(Cancelled)
     } else {
         Ok(())
     }
@@ -106,7 +113,7 @@ mod tests {
         assert!(!cancelled());
         scope(&outer, || {
             assert!(!cancelled());
-            scope(&inner, || assert!(matches!(check(), Err(Error::Cancelled))));
+            scope(&inner, || assert_eq!(check(), Err(Cancelled)));
             assert!(check().is_ok());
             outer.cancel();
             assert!(cancelled() && current().is_some_and(|c| c.is_cancelled()));

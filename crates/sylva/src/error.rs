@@ -70,5 +70,11 @@ impl From<crate::refine::RefineError> for Error {
     }
 }
 
+impl From<crate::cancel::Cancelled> for Error {
+    fn from(_: crate::cancel::Cancelled) -> Error {
+        Error::Cancelled
+    }
+}
+
 /// The engine's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -59,6 +59,9 @@ pub struct AdaptiveOptions {
     pub creasing: CreasingMethod,
     /// Refuse inputs whose uniform refinement to `max_levels` would exceed this many faces.
     pub max_faces: usize,
+    /// Refuse inputs whose uniform refinement to `max_levels` would need more memory
+    /// than this at its peak (bytes; as in [`RefineOptions::max_memory`]).
+    pub max_memory: u64,
 }
 
 impl Default for AdaptiveOptions {
@@ -71,6 +74,7 @@ impl Default for AdaptiveOptions {
             boundary: BoundaryInterpolation::EdgeAndCorner,
             creasing: CreasingMethod::Uniform,
             max_faces: super::DEFAULT_MAX_FACES,
+            max_memory: super::DEFAULT_MAX_MEMORY,
         }
     }
 }
@@ -154,7 +158,7 @@ pub fn adaptive_loop_levels(
         full_last_level: true,
         parallel: true,
         max_faces: options.max_faces,
-        max_memory: super::DEFAULT_MAX_MEMORY,
+        max_memory: options.max_memory,
     };
     let refiner = Refiner::new(mesh, corners, &ro)?;
     let mut pos: Vec<Vec<Vec3>> = Vec::with_capacity(n);

@@ -180,6 +180,9 @@ pub struct SubdivideRequest {
     pub boundary: Option<BoundaryInterpolation>,
     /// The most faces to make.
     pub max_faces: usize,
+    /// The most memory the refinement may need at its peak, in bytes
+    /// ([`RefineOptions::max_memory`]).
+    pub max_memory: u64,
     /// Refine each level in parallel (the output is the same either way).
     pub parallel: bool,
     /// Adaptive Loop refinement instead of uniform levels.
@@ -201,6 +204,7 @@ impl Default for SubdivideRequest {
             creasing: None,
             boundary: None,
             max_faces: super::DEFAULT_MAX_FACES,
+            max_memory: super::DEFAULT_MAX_MEMORY,
             parallel: true,
             adaptive: None,
             noise: None,
@@ -268,6 +272,7 @@ pub fn plan(request: &SubdivideRequest, mesh: &Mesh, tags: MeshTags) -> Result<P
             boundary: request.boundary.or(tags.boundary).unwrap_or_default(),
             creasing: request.creasing.or(tags.creasing).unwrap_or_default(),
             max_faces: request.max_faces,
+            max_memory: request.max_memory,
             parallel: request.parallel,
             ..Default::default()
         },
@@ -286,6 +291,7 @@ pub fn plan(request: &SubdivideRequest, mesh: &Mesh, tags: MeshTags) -> Result<P
             boundary: options.refine.boundary,
             creasing: options.refine.creasing,
             max_faces: request.max_faces,
+            max_memory: request.max_memory,
         }),
     };
     let diagonal = mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
