@@ -31,12 +31,20 @@ fn lsystem(body: &str) -> String {
     format!("Lsystem: 1\n{body}\nendlsystem\n")
 }
 
+/// [`strings`] of the L-system whose body (between `Lsystem: 1` and `endlsystem`) is
+/// `body`.
+fn of(body: &str, steps: u32) -> (String, String) {
+    strings(&lsystem(body), steps)
+}
+
 /// The example: the axiom `A B` decomposes into `X`, and the homomorphism draws
 /// `X Y` as one internode.
 #[test]
 fn two_module_decomposition_and_homomorphism() {
-    let t = lsystem("Axiom: A B\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)");
-    assert_eq!(strings(&t, 0), ("X".into(), "X".into()));
+    assert_eq!(
+        of("Axiom: A B\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)", 0),
+        ("X".into(), "X".into())
+    );
     let t = lsystem("Axiom: A B Y\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)");
     let (derived, shown) = strings(&t, 0);
     assert_eq!((derived.as_str(), shown.as_str()), ("XY", "F(1)"));
@@ -55,25 +63,26 @@ fn two_module_decomposition_and_homomorphism() {
 /// stays.
 #[test]
 fn matches_are_consecutive_left_to_right() {
-    let t = lsystem("Axiom: A A B B A C B A B\ndecomposition\nA B --> X");
-    assert_eq!(strings(&t, 0).0, "AXBACBX");
+    assert_eq!(of("Axiom: A A B B A C B A B\ndecomposition\nA B --> X", 0).0, "AXBACBX");
     // Overlapping candidates: `A A A` with `A A --> X` gives `X A`.
-    let t = lsystem("Axiom: A A A\nhomomorphism\nA A --> X");
-    assert_eq!(strings(&t, 0), ("AAA".into(), "XA".into()));
+    assert_eq!(of("Axiom: A A A\nhomomorphism\nA A --> X", 0), ("AAA".into(), "XA".into()));
     // A longer predecessor listed first wins where it matches; the single-module
     // production of the same first module applies elsewhere.
-    let t = lsystem("Axiom: A B C A B D\ndecomposition\nA B C --> X\nA --> Y");
-    assert_eq!(strings(&t, 0).0, "XYBD");
+    assert_eq!(of("Axiom: A B C A B D\ndecomposition\nA B C --> X\nA --> Y", 0).0, "XYBD");
 }
 
 /// Parameters of every module of the predecessor are bound in order, and conditions
 /// and statements see them all.
 #[test]
 fn parameters_and_conditions() {
-    let t = lsystem("Axiom: A(1) B(2) A(3) B(1)\ndecomposition\nA(x) B(y) : x < y --> C(x + y)");
-    assert_eq!(strings(&t, 0).0, "C(3)A(3)B(1)");
-    let t = lsystem("Axiom: A(2) B(5)\nhomomorphism\nA(x) B(y) : {z = x * y;} 1 --> F(z) +(x)");
-    assert_eq!(strings(&t, 0), ("A(2)B(5)".into(), "F(10)+(2)".into()));
+    assert_eq!(
+        of("Axiom: A(1) B(2) A(3) B(1)\ndecomposition\nA(x) B(y) : x < y --> C(x + y)", 0).0,
+        "C(3)A(3)B(1)"
+    );
+    assert_eq!(
+        of("Axiom: A(2) B(5)\nhomomorphism\nA(x) B(y) : {z = x * y;} 1 --> F(z) +(x)", 0),
+        ("A(2)B(5)".into(), "F(10)+(2)".into())
+    );
 }
 
 /// In a derivation step the string decomposed is the derived string as a whole: a
@@ -86,8 +95,7 @@ fn decomposition_sees_the_whole_derived_string() {
     assert_eq!(ls.format(&derive(&ls, 1)), "XZ");
     // Step 2: X and Z are not rewritten; Z stays Z.
     assert_eq!(ls.format(&derive(&ls, 2)), "XZ");
-    let t = lsystem("Axiom: P B\nP --> A\ndecomposition\nA B --> X");
-    assert_eq!(strings(&t, 1).0, "X");
+    assert_eq!(of("Axiom: P B\nP --> A\ndecomposition\nA B --> X", 1).0, "X");
 }
 
 /// The recursive case (`maximum depth:`): a successor is decomposed as a string of its
@@ -96,20 +104,15 @@ fn decomposition_sees_the_whole_derived_string() {
 /// follow the rewritten module are not consecutive in the same string).
 #[test]
 fn recursion_matches_within_one_successor() {
-    let t = lsystem("Axiom: A\ndecomposition\nmaximum depth: 3\nA --> B C\nB C --> D D\nD D --> F");
-    assert_eq!(strings(&t, 0).0, "F");
+    assert_eq!(of("Axiom: A\ndecomposition\nmaximum depth: 3\nA --> B C\nB C --> D D\nD D --> F", 0).0, "F");
     // `B` comes from A's successor, `C` from the axiom: not one string.
-    let t = lsystem("Axiom: A C\ndecomposition\nmaximum depth: 3\nA --> B\nB C --> X");
-    assert_eq!(strings(&t, 0).0, "BC");
+    assert_eq!(of("Axiom: A C\ndecomposition\nmaximum depth: 3\nA --> B\nB C --> X", 0).0, "BC");
     // Two sibling successors do not join either: `A A` gives `B B`, not `X`.
-    let t = lsystem("Axiom: A A\nhomomorphism\nmaximum depth: 3\nA --> B\nB B --> X");
-    assert_eq!(strings(&t, 0).1, "BB");
+    assert_eq!(of("Axiom: A A\nhomomorphism\nmaximum depth: 3\nA --> B\nB B --> X", 0).1, "BB");
     // A successor's own pair does match, at any depth within the maximum.
-    let t = lsystem("Axiom: A A\nhomomorphism\nmaximum depth: 3\nA --> B B\nB B --> X");
-    assert_eq!(strings(&t, 0).1, "XX");
+    assert_eq!(of("Axiom: A A\nhomomorphism\nmaximum depth: 3\nA --> B B\nB B --> X", 0).1, "XX");
     // Without `maximum depth:` a single level applies, as for one-module predecessors.
-    let t = lsystem("Axiom: A\nhomomorphism\nA --> B C\nB C --> X");
-    assert_eq!(strings(&t, 0).1, "BC");
+    assert_eq!(of("Axiom: A\nhomomorphism\nA --> B C\nB C --> X", 0).1, "BC");
     // With an explicit depth, a pair still matching at that depth is an error naming it.
     let t = lsystem("Axiom: A\ndecomposition\nmaximum depth: 1\nA --> B C\nB C --> X");
     let e = parse(&t).derive(&DeriveOptions { steps: 0, budget: 1000, seed: 0 }).unwrap_err();
@@ -141,8 +144,10 @@ fn contexts_are_still_unsupported() {
 /// multi-module production in the same section.
 #[test]
 fn single_module_productions_are_unchanged() {
-    let t = lsystem("Axiom: a\na --> b[a]a\nb --> bb\nhomomorphism\na --> F(0.5)\nb --> F(1)");
-    assert_eq!(strings(&t, 1), ("b[a]a".into(), "F(1)[F(0.5)]F(0.5)".into()));
+    assert_eq!(
+        of("Axiom: a\na --> b[a]a\nb --> bb\nhomomorphism\na --> F(0.5)\nb --> F(1)", 1),
+        ("b[a]a".into(), "F(1)[F(0.5)]F(0.5)".into())
+    );
     let t = lsystem("Axiom: P\nP --> A B\ndecomposition\nmaximum depth: 3\nA --> X[Y]\nB --> CC\nC --> DE");
     let single = strings(&t, 1);
     assert_eq!(single.0, "X[Y]DEDE");
