@@ -56,7 +56,8 @@ pub struct Report {
     pub clear: Option<crate::fit::clear::ClearReport>,
     /// Surfaces (`~x`) the model places but no `.s` file provides.
     pub missing_surfaces: Vec<String>,
-    /// Problems that did not stop the run (printed by the CLI).
+    /// Problems that did not stop the run (printed by the CLI): at most
+    /// [`MAX_WARNINGS`], each clipped like an error's message ([`clip_warnings`]).
     pub warnings: Vec<String>,
     /// One line from generators other than the L-system: what they built.
     pub summary: String,
@@ -521,4 +522,54 @@ pub fn lod_stage(
     report.triangles = drawn.triangle_count();
     report.vertices = drawn.vertex_count();
     Ok(levels)
+}
+
+/// The most warnings a [`Report`] keeps; the rest are counted in a last line.
+pub const MAX_WARNINGS: usize = 50;
+
+/// Bounds a run's warnings the way errors are bounded (issue 39): every quoted piece of
+/// input clipped to [`crate::diagnostic::MAX_QUOTED_CHARS`] characters, each warning to
+/// [`crate::diagnostic::MAX_MESSAGE_CHARS`], repeated warnings kept once, and at most
+/// [`MAX_WARNINGS`] of them, the rest counted in a last line. A hostile model can name
+/// thousands of unknown keys or a key of a megabyte; the report stays readable.
+pub fn clip_warnings(warnings: Vec<String>) -> Vec<String> {
+    use crate::diagnostic::{clip, clip_quoted_to, MAX_MESSAGE_CHARS, MAX_QUOTED_CHARS};
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    let mut dropped = 0usize;
+    for w in warnings {
+        let w = clip(&clip_quoted_to(&w, MAX_QUOTED_CHARS), MAX_MESSAGE_CHARS).into_owned();
+        if !seen.insert(w.clone()) {
+            continue;
+        }
+        if out.len() < MAX_WARNINGS {
+            out.push(w);
+        } else {
+            dropped += 1;
+        }
+    }
+    if dropped > 0 {
+        out.push(format!("… and {dropped} more warnings"));
+    }
+    out
+}
+
+#[cfg(test)]
+mod warning_tests {
+    use super::*;
+
+    #[test]
+    fn warnings_are_clipped_deduplicated_and_counted() {
+        let huge = format!("unknown key `{}` in the spec file", "k".repeat(100_000));
+        let mut w = vec![huge.clone(), huge, "x".repeat(10_000)];
+        w.extend((0..200).map(|i| format!("warning {i}")));
+        let out = clip_warnings(w);
+        assert_eq!(out.len(), MAX_WARNINGS + 1, "{:?}", out.last());
+        assert!(out[0].chars().count() < crate::diagnostic::MAX_QUOTED_CHARS + 100, "{}", out[0].len());
+        assert!(out[0].ends_with("in the spec file"), "{}", &out[0][out[0].len() - 40..]);
+        assert!(out[1].chars().count() <= crate::diagnostic::MAX_MESSAGE_CHARS + 1);
+        assert_eq!(out[2], "warning 0");
+        assert_eq!(out[MAX_WARNINGS], "… and 152 more warnings");
+        assert_eq!(clip_warnings(vec!["a".into(), "b".into()]), ["a", "b"]);
+    }
 }

@@ -507,6 +507,7 @@ impl Session {
             })?
             .expect("the last stage always runs");
         tree.report.stage_times = times.into_iter().map(|(s, t)| (s.name(), t)).collect();
+        tree.report.warnings = pipeline::clip_warnings(std::mem::take(&mut tree.report.warnings));
         Ok(tree)
     }
 
