@@ -4,6 +4,7 @@
 use super::axes::{has_faces, Station};
 use super::frames::Frame;
 use super::{BaseStyle, TipStyle, TubeOptions};
+use crate::geometry::{FaceVarying, Mesh};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, TAU};
 
@@ -100,13 +101,13 @@ pub(super) struct Emitter {
     u: Vec<f32>,
     /// u half-way between columns, for point and apex corners.
     u_mid: Vec<f32>,
-    pub(super) positions: Vec<Vec3>,
-    pub(super) face_offsets: Vec<u32>,
-    pub(super) face_indices: Vec<u32>,
-    pub(super) uv_values: Vec<Vec2>,
-    pub(super) uv_indices: Vec<u32>,
-    pub(super) normal_values: Vec<Vec3>,
-    pub(super) normal_indices: Vec<u32>,
+    positions: Vec<Vec3>,
+    face_offsets: Vec<u32>,
+    face_indices: Vec<u32>,
+    uv_values: Vec<Vec2>,
+    uv_indices: Vec<u32>,
+    normal_values: Vec<Vec3>,
+    normal_indices: Vec<u32>,
 }
 
 impl Emitter {
@@ -132,6 +133,18 @@ impl Emitter {
             uv_indices: Vec::with_capacity(corners),
             normal_values: Vec::with_capacity(c.normals as usize),
             normal_indices: Vec::with_capacity(corners),
+        }
+    }
+
+    /// The mesh written so far: triangles with face-varying UVs and normals.
+    pub(super) fn finish(self) -> Mesh {
+        Mesh {
+            positions: self.positions,
+            face_offsets: self.face_offsets,
+            face_indices: self.face_indices,
+            uvs: Some(FaceVarying { values: self.uv_values, indices: self.uv_indices }),
+            normals: Some(FaceVarying { values: self.normal_values, indices: self.normal_indices }),
+            creases: Vec::new(),
         }
     }
 

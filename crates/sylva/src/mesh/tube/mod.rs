@@ -14,7 +14,7 @@ mod emit;
 mod frames;
 
 use crate::error::{Error, Result};
-use crate::geometry::{FaceVarying, Mesh};
+use crate::geometry::Mesh;
 use crate::skeleton::Skeleton;
 use axes::{build_axes, has_faces};
 use emit::{count_axis, Counts, Emitter};
@@ -135,18 +135,11 @@ pub fn tube_mesh(skeleton: &Skeleton, opts: &TubeOptions) -> Result<TubeMesh> {
         e.axis(st, &frames, texel, opts, round_rings);
         axis_count += 1;
     }
-    debug_assert_eq!(e.positions.len() as u64, total.vertices);
-    debug_assert_eq!(e.face_offsets.len() as u64, total.triangles + 1);
-    let triangles = e.face_offsets.len() - 1;
+    let mesh = e.finish();
+    debug_assert_eq!(mesh.positions.len() as u64, total.vertices);
+    debug_assert_eq!(mesh.face_count() as u64, total.triangles);
+    let triangles = mesh.face_count();
     let rings = total.rings as usize;
-    let mesh = Mesh {
-        positions: e.positions,
-        face_offsets: e.face_offsets,
-        face_indices: e.face_indices,
-        uvs: Some(FaceVarying { values: e.uv_values, indices: e.uv_indices }),
-        normals: Some(FaceVarying { values: e.normal_values, indices: e.normal_indices }),
-        creases: Vec::new(),
-    };
     Ok(TubeMesh { mesh, axes: axis_count, rings, triangles })
 }
 
