@@ -133,6 +133,12 @@ fn keys_are_unique_per_section_and_defaults_parse() {
     }
     for section in Section::ALL {
         assert!(sylva::recipe::schema::keys_of(*section).next().is_some(), "{section:?} has no keys");
+        // A key the schema does not have is refused, naming it.
+        let kind = section.generator().unwrap_or(GeneratorKind::Lsystem);
+        let key = [section.table(), "no_such_key"].join(".");
+        let key = key.trim_start_matches('.');
+        let e = base(kind).set(key, 1).unwrap_err().to_string();
+        assert!(e.contains(key) && (e.contains("unknown key") || e.contains("unknown field")), "{key}: {e}");
     }
 }
 
@@ -304,7 +310,14 @@ fn ranges_are_the_ones_set_enforces() {
         let refused = |x: f64| match try_set(x) {
             Ok(()) => panic!("`{}` = {x} is accepted, outside its range", key.key),
             Err(e) => {
-                assert!(e.contains(key.key), "`{}` = {x}: the error does not name the key: {e}", key.key)
+                // The key the error names first is this one (or an element of it).
+                let named = e.split('`').nth(1).unwrap_or("");
+                let found = sylva::recipe::schema::find(named, Some(kind_of(key)));
+                assert!(
+                    found.is_some_and(|k| k.key == key.key),
+                    "`{}` = {x}: the error names `{named}`, not the key: {e}",
+                    key.key
+                );
             }
         };
         let accepted = |x: f64| {
@@ -345,9 +358,8 @@ fn mode_names_are_the_ones_set_enforces() {
             list.split([',', ' ']).filter(|w| !w.is_empty() && *w != "or").collect::<BTreeSet<_>>()
         });
         let schema_names: BTreeSet<&str> = names.iter().copied().collect();
-        if let Some(listed) = listed {
-            assert_eq!(listed, schema_names, "`{}`: the error lists other names: {e}", key.key);
-        }
+        let listed = listed.unwrap_or_else(|| panic!("`{}`: the error lists no names: {e}", key.key));
+        assert_eq!(listed, schema_names, "`{}`: the error lists other names: {e}", key.key);
     }
     for &kind in GeneratorKind::ALL {
         assert_eq!(base(kind).generator.generator_kind(), kind);
@@ -448,4 +460,33 @@ fn docs_recipe_md_matches_the_schema() {
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+#[test]
+fn find_resolves_the_keys_errors_name() {
+    use sylva::recipe::schema::find;
+    let at = |key: &str, kind| find(key, Some(kind)).map(|k| k.key);
+    assert_eq!(at("mesh.sides", GeneratorKind::WeberPenn), Some("mesh.sides"));
+    assert_eq!(at("generator.n_taper[2]", GeneratorKind::WeberPenn), Some("generator.n_taper"));
+    assert_eq!(at("generator.n_taper[2]", GeneratorKind::Lsystem), None);
+    assert_eq!(at("generator.define.R1", GeneratorKind::Lsystem), Some("generator.define"));
+    assert_eq!(
+        at("generator.iterations[0].rotation.rule", GeneratorKind::LeastCost),
+        Some("generator.iterations")
+    );
+    assert_eq!(at("generator.iterations", GeneratorKind::Lsystem), Some("generator.iterations"));
+    assert_eq!(find("generator.iterations", Some(GeneratorKind::Lsystem)).unwrap().kind.to_string(), "≥ 0");
+    assert_eq!(at("mesh.sides.x", GeneratorKind::Lsystem), None);
+    assert_eq!(at("mesh.nope", GeneratorKind::Lsystem), None);
+    assert_eq!(
+        find("generator.scale", None).map(|k| k.section),
+        Some(Section::Generator(GeneratorKind::WeberPenn))
+    );
+    // The words of a few kinds, as the doc tables give ranges.
+    let kind = |key: &str| find(key, None).unwrap().kind.to_string();
+    assert_eq!(kind("mesh.sides"), "3..=1024");
+    assert_eq!(kind("leaves.alpha_cutoff"), "(0, 1)");
+    assert_eq!(kind("mesh.leaf.tip_size"), "(0, 100]");
+    assert_eq!(kind("mesh.method"), "tube, hull, sweep, quad or leaf");
+    assert_eq!(kind("fit.decollide.angles"), "at most 64 × (0, 180]");
 }

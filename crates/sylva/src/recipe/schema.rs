@@ -353,12 +353,29 @@ pub fn schema() -> &'static [Key] {
     KEYS
 }
 
-/// The key `key` (for `generator.*` keys, of the generator `generator`; `None` picks the
-/// first section that has it).
+/// The schema key `key` names (for `generator.*` keys, of the generator `generator`;
+/// `None` picks the first section that has it). A key inside a list or a free-form
+/// table, as error messages name them (`generator.n_taper[2]`,
+/// `generator.define.R1`, `generator.iterations[0].rotation.rule`), finds the list's or
+/// table's key, so a front end can point at the control an error is about.
 pub fn find(key: &str, generator: Option<GeneratorKind>) -> Option<&'static Key> {
-    KEYS.iter().find(|k| {
-        k.key == key && (generator.is_none() || k.section.generator().is_none_or(|g| Some(g) == generator))
-    })
+    let fits = |k: &Key| generator.is_none() || k.section.generator().is_none_or(|g| Some(g) == generator);
+    let exact = |name: &str| KEYS.iter().find(|k| k.key == name && fits(k));
+    let key = key.trim();
+    if let Some(k) = exact(key) {
+        return Some(k);
+    }
+    if let Some((list, _)) = key.split_once('[') {
+        return exact(list).filter(|k| matches!(k.kind, Kind::List { .. }));
+    }
+    let mut prefix = key;
+    while let Some((head, _)) = prefix.rsplit_once('.') {
+        if let Some(k) = exact(head) {
+            return (k.kind == Kind::Table).then_some(k);
+        }
+        prefix = head;
+    }
+    None
 }
 
 /// The keys of `section`, in order.
