@@ -37,19 +37,7 @@ impl Recipe {
         }
         match &self.generator {
             Generator::Lsystem(g) => {
-                for (k, v) in [
-                    ("generator.angle", g.angle),
-                    ("generator.step", g.step),
-                    ("generator.width", g.width),
-                    ("generator.width_factor", g.width_factor),
-                ] {
-                    if !v.is_finite() {
-                        return bad(k, format!("must be a finite number, got {v}"));
-                    }
-                }
-                if g.width < 0.0 {
-                    return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
-                }
+                check_turtle(g.angle, g.step, g.width, Some(g.width_factor))?;
                 if g.max_modules == 0 {
                     return bad("generator.max_modules", "must be at least 1".into());
                 }
@@ -73,16 +61,7 @@ impl Recipe {
             Generator::WeberPenn(g) => g.validate()?,
             Generator::LeastCost(g) => g.validate()?,
             Generator::Import(g) => {
-                for (k, v) in
-                    [("generator.angle", g.angle), ("generator.step", g.step), ("generator.width", g.width)]
-                {
-                    if !v.is_finite() {
-                        return bad(k, format!("must be a finite number, got {v}"));
-                    }
-                }
-                if g.width < 0.0 {
-                    return bad("generator.width", format!("must be ≥ 0, got {}", g.width));
-                }
+                check_turtle(g.angle, g.step, g.width, None)?;
                 if g.max_nodes == 0 {
                     return bad("generator.max_nodes", "must be at least 1".into());
                 }
@@ -135,4 +114,20 @@ impl Recipe {
         }
         Ok(())
     }
+}
+
+/// The turtle's settings of the L-system and import generators (`generator.angle`,
+/// `step`, `width`, and for L-systems `width_factor`): finite, the width ≥ 0.
+fn check_turtle(angle: f64, step: f64, width: f64, width_factor: Option<f64>) -> Result<()> {
+    let bad = |k: &str, why: String| Err(Error::Recipe(format!("`generator.{k}` {why}")));
+    let factor = width_factor.map(|f| ("width_factor", f));
+    for (k, v) in [("angle", angle), ("step", step), ("width", width)].into_iter().chain(factor) {
+        if !v.is_finite() {
+            return bad(k, format!("must be a finite number, got {v}"));
+        }
+    }
+    if width < 0.0 {
+        return bad("width", format!("must be ≥ 0, got {width}"));
+    }
+    Ok(())
 }
