@@ -16,7 +16,7 @@ mod random_tree;
 mod skeletons;
 use cage_topo::{refined, Topo};
 use det_tree::tree;
-use preset_skeletons::each_preset_skeleton;
+use preset_skeletons::{each_preset_skeleton, named_preset_skeleton};
 use skeletons::{chain, seg, whorl};
 
 use glam::{DVec3, Vec3};
@@ -670,11 +670,9 @@ fn throughput() {
 #[test]
 #[ignore]
 fn fallback_reasons() {
-    let name = std::env::var("HULL_PRESET").unwrap_or_else(|_| "wp-european-larch".into());
-    let loaded = sylva::recipe::load(&name, &[]).unwrap();
-    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap();
-    let m = hull_mesh(&g.skeleton, &HullOptions::default()).unwrap();
-    let graph = simplify(&g.skeleton, &HullOptions::default()).unwrap();
+    let (name, sk) = named_preset_skeleton("HULL_PRESET", "wp-european-larch");
+    let m = hull_mesh(&sk, &HullOptions::default()).unwrap();
+    let graph = simplify(&sk, &HullOptions::default()).unwrap();
     let aligned: HashSet<u32> = graph.aligned.iter().copied().collect();
     let a = m.fallbacks.iter().filter(|j| aligned.contains(j)).count();
     let mut ks: HashMap<u32, usize> = HashMap::new();

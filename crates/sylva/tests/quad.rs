@@ -15,7 +15,7 @@ use skeletons::{chain, seg, whorl};
 
 use cage_topo::{refined, Topo};
 use glam::Vec3;
-use preset_skeletons::each_preset_skeleton;
+use preset_skeletons::{each_preset_skeleton, named_preset_skeleton};
 use proptest::prelude::*;
 use random_tree::random_tree;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
@@ -501,10 +501,8 @@ fn random_rate() {
 #[test]
 #[ignore]
 fn detach_reasons() {
-    let name = std::env::var("QUAD_PRESET").unwrap_or_else(|_| "lsys-abop-a".into());
-    let loaded = sylva::recipe::load(&name, &[]).unwrap();
-    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default()).unwrap();
-    let sk = &g.skeleton;
+    let (_, sk) = named_preset_skeleton("QUAD_PRESET", "lsys-abop-a");
+    let sk = &sk;
     let q = quad_mesh(sk, &QuadOptions::default()).unwrap();
     let ch = sk.children();
     for f in q.fallbacks.iter().filter(|f| f.reason == FallbackReason::Detached).take(12) {

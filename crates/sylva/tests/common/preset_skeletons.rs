@@ -24,3 +24,13 @@ pub fn each_preset_skeleton(keep: impl Fn(&Preset) -> bool, mut f: impl FnMut(&'
         f(p.name, &g.skeleton);
     }
 }
+
+/// The name and skeleton of the preset that environment variable `var` names (`default`
+/// when it is unset), for the ignored diagnostic tests.
+pub fn named_preset_skeleton(var: &str, default: &str) -> (String, Skeleton) {
+    let name = std::env::var(var).unwrap_or_else(|_| default.into());
+    let loaded = sylva::recipe::load(&name, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let g = sylva::pipeline::skeleton(&loaded, &mut sylva::pipeline::Report::default())
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    (name, g.skeleton)
+}
