@@ -9,6 +9,7 @@
 //! McLoughlin2021 §2 (D0L and parametric L-systems, the Honda tree family) and §4 (turtle
 //! conventions). The language reference is `docs/lsystem.md`.
 
+mod comments;
 pub mod derive;
 pub mod environment;
 pub mod expr;

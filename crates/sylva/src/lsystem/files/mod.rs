@@ -74,7 +74,7 @@ pub mod surface;
 pub mod view;
 
 use crate::input::SideFiles;
-use crate::lsystem::preprocess::{blank_comments, CommentStyle};
+use crate::lsystem::comments::{blank_comments, CommentStyle};
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use colormap::ColorMap;
 use func::Function;
