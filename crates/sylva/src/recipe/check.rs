@@ -90,17 +90,12 @@ impl Recipe {
                 format!("must be in 1..={REFINE_MAX_FACES_LIMIT}, got {}", self.refine.max_faces),
             );
         }
-        if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&self.mesh.max_memory) {
-            return bad(
-                "mesh.max_memory",
-                format!("must be in 1..={REFINE_MAX_MEMORY_LIMIT} bytes, got {}", self.mesh.max_memory),
-            );
-        }
-        if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&self.refine.max_memory) {
-            return bad(
-                "refine.max_memory",
-                format!("must be in 1..={REFINE_MAX_MEMORY_LIMIT} bytes, got {}", self.refine.max_memory),
-            );
+        for (k, v) in
+            [("mesh.max_memory", self.mesh.max_memory), ("refine.max_memory", self.refine.max_memory)]
+        {
+            if !(1..=REFINE_MAX_MEMORY_LIMIT).contains(&v) {
+                return bad(k, format!("must be in 1..={REFINE_MAX_MEMORY_LIMIT} bytes, got {v}"));
+            }
         }
         self.textures.check()?;
         self.leaves.check()?;
