@@ -68,9 +68,10 @@ fn constant_charge_and_field_trace_a_circle() {
 /// Acceptance: q = 0 is a straight line at unchanged speed.
 #[test]
 fn zero_charge_is_a_straight_line() {
-    for profile in
-        [Profile::Constant { q: 0.0 }, Profile::Sine { amplitude: 0.0, mean: 0.0, period: 7.0, phase: 0.0 }]
-    {
+    for profile in [
+        Profile::Constant { q: 0.0 },
+        Profile::Sine(Wave { amplitude: 0.0, mean: 0.0, period: 7.0, phase: 0.0 }),
+    ] {
         let mut p = particle(profile, 1.0, 500.0);
         p.velocity = DVec2::new(0.6, -0.8) * 2.0;
         for integrator in [Integrator::Exact, Integrator::Euler, Integrator::Renormalized] {
@@ -91,8 +92,8 @@ fn zero_charge_is_a_straight_line() {
 fn flipping_the_charge_mirrors_the_path() {
     let profiles = [
         Profile::Spiral { t_end: 400.0, alpha: 0.75 },
-        Profile::Sine { amplitude: 0.04, mean: 0.01, period: 90.0, phase: 0.1 },
-        Profile::Triangle { amplitude: 0.05, mean: 0.0, period: 60.0, phase: 0.0 },
+        Profile::Sine(Wave { amplitude: 0.04, mean: 0.01, period: 90.0, phase: 0.1 }),
+        Profile::Triangle(Wave { amplitude: 0.05, mean: 0.0, period: 60.0, phase: 0.0 }),
         Profile::Power { alpha: 0.7, t0: 1.0 },
     ];
     for profile in profiles {
@@ -404,18 +405,14 @@ fn perlin_field_is_bounded_and_seeded() {
 #[test]
 fn branching_releases_at_equal_intervals_with_fair_signs() {
     let root = particle(Profile::Spiral { t_end: 700.0, alpha: 0.7 }, 1.0, 700.0);
+    // Every case grows the same root in a uniform field; only the branching differs.
+    let grow = |br: &Branching, rng: &mut Pcg64| {
+        let budget = &mut Budget::new(10_000_000);
+        grow_branching(&root, &Field::Uniform(1.0), &TraceOptions::default(), br, rng, budget, 1000).unwrap()
+    };
     let br = Branching { count: 6, depth: 1, from: 0.0, to: 1.0, signs: Signs::Random, duration_scale: 0.3 };
     let mut rng = Pcg64::seed_from_u64(5);
-    let curves = grow_branching(
-        &root,
-        &Field::Uniform(1.0),
-        &TraceOptions::default(),
-        &br,
-        &mut rng,
-        &mut Budget::new(10_000_000),
-        1000,
-    )
-    .unwrap();
+    let curves = grow(&br, &mut rng);
     assert_eq!(curves.len(), 7);
     let pts = &curves[0].trace.points;
     let arc = |i: usize| pts[..=i].windows(2).map(|w| w[0].distance(w[1])).sum::<f64>();
@@ -432,30 +429,12 @@ fn branching_releases_at_equal_intervals_with_fair_signs() {
     // Fairness over many children.
     let br =
         Branching { count: 400, depth: 1, from: 0.0, to: 1.0, signs: Signs::Random, duration_scale: 0.01 };
-    let curves = grow_branching(
-        &root,
-        &Field::Uniform(1.0),
-        &TraceOptions::default(),
-        &br,
-        &mut rng,
-        &mut Budget::new(10_000_000),
-        1000,
-    )
-    .unwrap();
+    let curves = grow(&br, &mut rng);
     let plus = curves[1..].iter().filter(|c| c.sign > 0.0).count() as f64 / 400.0;
     assert!((plus - 0.5).abs() < 3.0 * (0.25f64 / 400.0).sqrt(), "{plus}");
     // Split: a pair of opposite signs per release point.
     let br = Branching { count: 3, depth: 1, from: 0.0, to: 1.0, signs: Signs::Split, duration_scale: 0.5 };
-    let curves = grow_branching(
-        &root,
-        &Field::Uniform(1.0),
-        &TraceOptions::default(),
-        &br,
-        &mut rng,
-        &mut Budget::new(10_000_000),
-        1000,
-    )
-    .unwrap();
+    let curves = grow(&br, &mut rng);
     assert_eq!(curves.len(), 7);
     for pair in curves[1..].chunks(2) {
         assert_eq!(pair[0].parent, pair[1].parent);

@@ -114,15 +114,7 @@ impl Region {
         match self {
             Region::Rect { min, max } => (*min, *max),
             Region::Ellipse { center, radii } => (*center - *radii, *center + *radii),
-            Region::Polygon(pts) => {
-                let mut lo = DVec2::splat(f64::INFINITY);
-                let mut hi = DVec2::splat(f64::NEG_INFINITY);
-                for p in pts {
-                    lo = lo.min(*p);
-                    hi = hi.max(*p);
-                }
-                (lo, hi)
-            }
+            Region::Polygon(pts) => bounding_box(pts),
         }
     }
 
@@ -161,6 +153,17 @@ impl Region {
             Region::Polygon(pts) => Region::Polygon(pts.iter().map(|p| m(*p)).collect()),
         }
     }
+}
+
+/// The bounding box `(min, max)` of points (`(+∞, −∞)` for none).
+pub(crate) fn bounding_box<'a>(pts: impl IntoIterator<Item = &'a DVec2>) -> (DVec2, DVec2) {
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    for p in pts {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
 }
 
 /// A grid of square cells, each [`EMPTY`] or holding the id of the particle that
@@ -268,24 +271,8 @@ impl Occupancy {
         let (mut ix, mut iy) = (pa.x.floor() as i64, pa.y.floor() as i64);
         let (ex, ey) = (pb.x.floor() as i64, pb.y.floor() as i64);
         let d = pb - pa;
-        let step_x: i64 = if d.x > 0.0 { 1 } else { -1 };
-        let step_y: i64 = if d.y > 0.0 { 1 } else { -1 };
-        let t_delta_x = if d.x != 0.0 { (1.0 / d.x).abs() } else { f64::INFINITY };
-        let t_delta_y = if d.y != 0.0 { (1.0 / d.y).abs() } else { f64::INFINITY };
-        let mut t_max_x = if d.x > 0.0 {
-            ((ix + 1) as f64 - pa.x) / d.x
-        } else if d.x < 0.0 {
-            (ix as f64 - pa.x) / d.x
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_y = if d.y > 0.0 {
-            ((iy + 1) as f64 - pa.y) / d.y
-        } else if d.y < 0.0 {
-            (iy as f64 - pa.y) / d.y
-        } else {
-            f64::INFINITY
-        };
+        let (step_x, t_delta_x, mut t_max_x) = traversal_axis(pa.x, ix, d.x);
+        let (step_y, t_delta_y, mut t_max_y) = traversal_axis(pa.y, iy, d.y);
         let mut push = |ix: i64, iy: i64| {
             if ix >= 0 && iy >= 0 && (ix as usize) < self.nx && (iy as usize) < self.ny {
                 out.push(iy as usize * self.nx + ix as usize);
@@ -305,6 +292,23 @@ impl Occupancy {
             push(ix, iy);
         }
     }
+}
+
+/// One axis of [`Occupancy::segment_cells`]'s traversal, for a segment starting at
+/// grid coordinate `p` (in cell `i`) and moving `d` cells along the axis: the cell step
+/// (±1), the segment parameter one cell spans, and the parameter of the first cell
+/// boundary crossed (∞ when the segment does not move along the axis).
+fn traversal_axis(p: f64, i: i64, d: f64) -> (i64, f64, f64) {
+    let step = if d > 0.0 { 1 } else { -1 };
+    let span = if d != 0.0 { (1.0 / d).abs() } else { f64::INFINITY };
+    let first = if d > 0.0 {
+        ((i + 1) as f64 - p) / d
+    } else if d < 0.0 {
+        (i as f64 - p) / d
+    } else {
+        f64::INFINITY
+    };
+    (step, span, first)
 }
 
 /// A root particle of a space filling.
@@ -451,26 +455,24 @@ impl FillParams {
                 return bad(format!("ladder rung ({t}, {a}) needs T > 0 and a finite α"));
             }
         }
-        for (name, v) in [
-            ("k", self.k),
-            ("speed", self.speed),
-            ("mass", self.mass),
-            ("release_every", self.release_every),
-            ("cell", self.cell),
-            ("dt", self.dt),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(format!("`{name}` = {v} must be a positive number"));
-            }
-        }
-        for (name, v) in [
-            ("release_skip", self.release_skip),
-            ("peel", self.peel),
-            ("min_radius", self.min_radius),
-            ("min_length", self.min_length),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("`{name}` = {v} must be ≥ 0"));
+        // (key, value, whether 0 is allowed): the rest must be positive.
+        let limits = [
+            ("k", self.k, false),
+            ("speed", self.speed, false),
+            ("mass", self.mass, false),
+            ("release_every", self.release_every, false),
+            ("cell", self.cell, false),
+            ("dt", self.dt, false),
+            ("release_skip", self.release_skip, true),
+            ("peel", self.peel, true),
+            ("min_radius", self.min_radius, true),
+            ("min_length", self.min_length, true),
+        ];
+        for (name, v, zero_allowed) in limits {
+            let (ok, must) =
+                if zero_allowed { (v >= 0.0, "be ≥ 0") } else { (v > 0.0, "be a positive number") };
+            if !(v.is_finite() && ok) {
+                return bad(format!("`{name}` = {v} must {must}"));
             }
         }
         self.region.validate(&format!("{what}: region"))?;
@@ -731,43 +733,28 @@ pub fn space_fill(
         Ok(false)
     };
 
-    for (r, root) in roots.iter().enumerate() {
-        if curves.len() >= params.max_curves {
+    // The roots first, in order, then the release points, smallest generation first.
+    let mut roots = roots.iter().enumerate();
+    while curves.len() < params.max_curves {
+        let (position, direction, parent, own) = if let Some((r, root)) = roots.next() {
+            if !(root.position.is_finite() && root.direction.is_finite()) {
+                return Err(Error::Recipe(format!("fill: root {} has a non-finite start", r + 1)));
+            }
+            if !params.region.contains(root.position) {
+                return Err(Error::Recipe(format!(
+                    "fill: root {} starts at ({}, {}), outside the region",
+                    r + 1,
+                    root.position.x,
+                    root.position.y
+                )));
+            }
+            (root.position, root.direction, None, root.charge.as_ref())
+        } else if let Some(Reverse((_, _, p, i))) = queue.pop() {
+            let tr = &curves[p].trace;
+            (tr.points[i], tr.velocities[i], Some((p, i)), None)
+        } else {
             break;
-        }
-        if !(root.position.is_finite() && root.direction.is_finite()) {
-            return Err(Error::Recipe(format!("fill: root {} has a non-finite start", r + 1)));
-        }
-        if !params.region.contains(root.position) {
-            return Err(Error::Recipe(format!(
-                "fill: root {} starts at ({}, {}), outside the region",
-                r + 1,
-                root.position.x,
-                root.position.y
-            )));
-        }
-        let placed = try_position(
-            &mut grid,
-            &mut curves,
-            &mut attempts,
-            &mut queue,
-            rng,
-            budget,
-            root.position,
-            root.direction,
-            None,
-            root.charge.as_ref(),
-        )?;
-        if !placed {
-            abandoned += 1;
-        }
-    }
-    while let Some(Reverse((_, _, p, i))) = queue.pop() {
-        if curves.len() >= params.max_curves {
-            break;
-        }
-        let tr = &curves[p].trace;
-        let (position, direction) = (tr.points[i], tr.velocities[i]);
+        };
         let placed = try_position(
             &mut grid,
             &mut curves,
@@ -777,8 +764,8 @@ pub fn space_fill(
             budget,
             position,
             direction,
-            Some((p, i)),
-            None,
+            parent,
+            own,
         )?;
         if !placed {
             abandoned += 1;

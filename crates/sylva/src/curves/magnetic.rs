@@ -92,41 +92,39 @@ pub enum Profile {
     },
     /// A triangle wave starting at its minimum: `mean + amplitude/2 · (1 − 4|u − ½|)`,
     /// `u` the phase in `[0, 1)`.
-    Triangle {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean value.
-        mean: f64,
-        /// Period (time units).
-        period: f64,
-        /// Phase offset as a fraction of the period.
-        phase: f64,
-    },
+    Triangle(Wave),
     /// A square wave: `mean + amplitude/2` for the first half period, `mean −
     /// amplitude/2` for the second.
-    Square {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean value.
-        mean: f64,
-        /// Period.
-        period: f64,
-        /// Phase offset as a fraction of the period.
-        phase: f64,
-    },
+    Square(Wave),
     /// `mean + amplitude/2 · sin(2π(t/period + phase))` (hair, Fig. 7.10 lower left).
-    Sine {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean value.
-        mean: f64,
-        /// Period.
-        period: f64,
-        /// Phase offset as a fraction of the period.
-        phase: f64,
-    },
+    Sine(Wave),
     /// A user expression in `t` and `T` (the duration).
     Expr(UserExpr),
+}
+
+/// The numbers of a periodic profile ([`Profile::Triangle`], [`Profile::Square`],
+/// [`Profile::Sine`]); a preset writes them inline (`charge = { type = "sine",
+/// amplitude = 0.04, period = 90 }`).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wave {
+    /// Peak-to-peak amplitude.
+    pub amplitude: f64,
+    /// Mean value (default 0).
+    #[serde(default)]
+    pub mean: f64,
+    /// Period (time units).
+    pub period: f64,
+    /// Phase offset as a fraction of the period (default 0).
+    #[serde(default)]
+    pub phase: f64,
+}
+
+impl Wave {
+    /// The phase `u ∈ [0, 1)` at time `t`.
+    fn phase_at(&self, t: f64) -> f64 {
+        (t / self.period + self.phase).rem_euclid(1.0)
+    }
 }
 
 /// A compiled user expression `q(t, T)` in the cpfg expression language.
@@ -171,52 +169,31 @@ impl Profile {
     /// Checks that every number is finite and every period, `T` and `t₀` positive;
     /// `what` names the profile in the message.
     pub fn validate(&self, what: &str) -> Result<()> {
-        let bad = |why: String| Err(Error::Recipe(format!("{what}: {why}")));
-        let finite = |name: &str, v: f64| -> Result<()> {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(Error::Recipe(format!("{what}: `{name}` = {v} is not a finite number")))
-            }
+        // Every number must be finite; the one that sets the time scale, positive.
+        let (numbers, positive) = match self {
+            Profile::Constant { q } => (vec![("q", *q)], None),
+            Profile::Power { alpha, t0 } => (vec![("alpha", *alpha), ("t0", *t0)], Some(("t0", *t0))),
+            Profile::Spiral { t_end, alpha } => (vec![("T", *t_end), ("alpha", *alpha)], Some(("T", *t_end))),
+            Profile::Triangle(w) | Profile::Square(w) | Profile::Sine(w) => (
+                vec![("amplitude", w.amplitude), ("mean", w.mean), ("period", w.period), ("phase", w.phase)],
+                Some(("period", w.period)),
+            ),
+            Profile::Expr(_) => return Ok(()),
         };
-        match self {
-            Profile::Constant { q } => finite("q", *q),
-            Profile::Power { alpha, t0 } => {
-                finite("alpha", *alpha)?;
-                finite("t0", *t0)?;
-                if *t0 <= 0.0 {
-                    return bad(format!("`t0` = {t0} must be positive"));
-                }
-                Ok(())
+        if let Some((name, v)) = numbers.into_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::Recipe(format!("{what}: `{name}` = {v} is not a finite number")));
+        }
+        match positive {
+            Some((name, v)) if v <= 0.0 => {
+                Err(Error::Recipe(format!("{what}: `{name}` = {v} must be positive")))
             }
-            Profile::Spiral { t_end, alpha } => {
-                finite("T", *t_end)?;
-                finite("alpha", *alpha)?;
-                if *t_end <= 0.0 {
-                    return bad(format!("`T` = {t_end} must be positive"));
-                }
-                Ok(())
-            }
-            Profile::Triangle { amplitude, mean, period, phase }
-            | Profile::Square { amplitude, mean, period, phase }
-            | Profile::Sine { amplitude, mean, period, phase } => {
-                finite("amplitude", *amplitude)?;
-                finite("mean", *mean)?;
-                finite("period", *period)?;
-                finite("phase", *phase)?;
-                if *period <= 0.0 {
-                    return bad(format!("`period` = {period} must be positive"));
-                }
-                Ok(())
-            }
-            Profile::Expr(_) => Ok(()),
+            _ => Ok(()),
         }
     }
 
     /// `q(t)` for a curve of the given duration. Returns a non-finite value only for
     /// the spiral at or past `T` (the trace ends there).
     pub fn at(&self, t: f64, duration: f64, ev: &mut Evaluator) -> Result<f64> {
-        let wave = |period: f64, phase: f64| (t / period + phase).rem_euclid(1.0);
         Ok(match self {
             Profile::Constant { q } => *q,
             Profile::Power { alpha, t0 } => (t + t0).powf(-alpha),
@@ -228,17 +205,17 @@ impl Profile {
                     r.powf(-alpha)
                 }
             }
-            Profile::Triangle { amplitude, mean, period, phase } => {
-                let u = wave(*period, *phase);
-                mean + 0.5 * amplitude * (1.0 - 4.0 * (u - 0.5).abs())
+            Profile::Triangle(w) => {
+                let u = w.phase_at(t);
+                w.mean + 0.5 * w.amplitude * (1.0 - 4.0 * (u - 0.5).abs())
             }
-            Profile::Square { amplitude, mean, period, phase } => {
-                let u = wave(*period, *phase);
-                mean + if u < 0.5 { 0.5 * amplitude } else { -0.5 * amplitude }
+            Profile::Square(w) => {
+                let u = w.phase_at(t);
+                w.mean + if u < 0.5 { 0.5 * w.amplitude } else { -0.5 * w.amplitude }
             }
-            Profile::Sine { amplitude, mean, period, phase } => {
-                let u = wave(*period, *phase);
-                mean + 0.5 * amplitude * (std::f64::consts::TAU * u).sin()
+            Profile::Sine(w) => {
+                let u = w.phase_at(t);
+                w.mean + 0.5 * w.amplitude * (std::f64::consts::TAU * u).sin()
             }
             Profile::Expr(e) => e.eval(ev, t, duration)?,
         })

@@ -80,7 +80,7 @@ pub(super) fn build_layer(
                     })
                     .collect();
                 if let Some([x0, y0, x1, y1]) = p.center_in {
-                    let (lo, hi) = bounds(group.iter().flat_map(|r| r.points.iter()));
+                    let (lo, hi) = fill::bounding_box(group.iter().flat_map(|r| r.points.iter()));
                     let shift = DVec2::new(0.5 * (x0 + x1), 0.5 * (y0 + y1)) - 0.5 * (lo + hi);
                     if shift.is_finite() {
                         for r in &mut group {
@@ -116,7 +116,7 @@ pub(super) fn build_layer(
                     let mut pts = tr.points;
                     // Row 0 is the top row.
                     let centre = DVec2::new((col as f64 + 0.5) * cw, spec.height - (row as f64 + 0.5) * ch);
-                    let (lo, hi) = bounds(pts.iter());
+                    let (lo, hi) = fill::bounding_box(&pts);
                     let shift = centre - 0.5 * (lo + hi);
                     for p in &mut pts {
                         *p += shift;
@@ -228,12 +228,7 @@ pub(super) fn build_layer(
                 return Err(ctx.err("the hairline needs at least two finite points"));
             }
             let parting = parting.unwrap_or(0.5 * spec.width);
-            if *strands as usize > spec.max_curves {
-                return Err(ctx.err(format!(
-                    "{strands} strands exceed the curve limit {}; raise `curves.max_curves`",
-                    spec.max_curves
-                )));
-            }
+            ctx.check_count(*strands as u64, "strands")?;
             let mut raws = Vec::new();
             for s in 0..*strands {
                 let (pos, tangent) = along(&line, (s as f64 + 0.5) / *strands as f64);
@@ -283,12 +278,7 @@ pub(super) fn build_layer(
             let field = field.field(ctx.noise_seed)?;
             let (base_charge, duration) = ctx.charge(charge, *k, None, Some(*flip_at))?;
             let total: u64 = side.iter().map(|sd| sd.tongues as u64).sum();
-            if total > spec.max_curves as u64 {
-                return Err(ctx.err(format!(
-                    "{total} tongues exceed the curve limit {}; raise `curves.max_curves`",
-                    spec.max_curves
-                )));
-            }
+            ctx.check_count(total, "tongues")?;
             let mut raws = Vec::new();
             let mut at = v2(*start);
             {
@@ -442,12 +432,7 @@ pub(super) fn build_layer(
             let field3 = field.field3(ctx.noise_seed)?;
             let (ch, duration) = ctx.charge(charge, *k, *duration, None)?;
             let proj = Projection::new(view, spec);
-            if *particles as usize > spec.max_curves {
-                return Err(ctx.err(format!(
-                    "{particles} particles exceed the curve limit {}; raise `curves.max_curves`",
-                    spec.max_curves
-                )));
-            }
+            ctx.check_count(*particles as u64, "particles")?;
             let mut raws = Vec::new();
             for i in 0..*particles {
                 // A uniform random point and tangent direction on the sphere.
@@ -540,17 +525,6 @@ fn grow_in_region(
         out.push(c);
     }
     Ok(out)
-}
-
-/// Bounding box of points.
-fn bounds<'a>(pts: impl Iterator<Item = &'a DVec2>) -> (DVec2, DVec2) {
-    let mut lo = DVec2::splat(f64::INFINITY);
-    let mut hi = DVec2::splat(f64::NEG_INFINITY);
-    for p in pts {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    (lo, hi)
 }
 
 /// The point and unit tangent at arc-length fraction `f` of a polyline.

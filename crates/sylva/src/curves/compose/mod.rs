@@ -187,6 +187,18 @@ impl Ctx<'_> {
         Error::Recipe(format!("{}: {why}", self.what))
     }
 
+    /// Refuses `n` curves of one kind (`strands`, `tongues`, …) when they alone exceed
+    /// `curves.max_curves`, before any is traced.
+    fn check_count(&self, n: u64, kind: &str) -> Result<()> {
+        let limit = self.spec.max_curves;
+        if n > limit as u64 {
+            return Err(
+                self.err(format!("{n} {kind} exceed the curve limit {limit}; raise `curves.max_curves`"))
+            );
+        }
+        Ok(())
+    }
+
     /// Charge and duration from a spec, scale and optional flip fraction.
     fn charge(
         &self,

@@ -5,7 +5,7 @@
 use super::style::StyleSpec;
 use super::{check_finite, check_positive, v2};
 use crate::curves::fill::Region;
-use crate::curves::magnetic::{self, Field, Integrator, Profile, Signs, UserExpr};
+use crate::curves::magnetic::{self, Field, Integrator, Profile, Signs, UserExpr, Wave};
 use crate::curves::noise::Perlin;
 use crate::curves::render::Drawing;
 use crate::curves::space;
@@ -46,45 +46,12 @@ pub enum ChargeSpec {
         /// α (negative for the fire's `(T − t)^{|α|}`).
         alpha: f64,
     },
-    /// Triangle wave (peak-to-peak amplitude).
-    Triangle {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean.
-        #[serde(default)]
-        mean: f64,
-        /// Period.
-        period: f64,
-        /// Phase, fraction of a period.
-        #[serde(default)]
-        phase: f64,
-    },
+    /// Triangle wave.
+    Triangle(Wave),
     /// Square wave.
-    Square {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean.
-        #[serde(default)]
-        mean: f64,
-        /// Period.
-        period: f64,
-        /// Phase, fraction of a period.
-        #[serde(default)]
-        phase: f64,
-    },
+    Square(Wave),
     /// Sine wave.
-    Sine {
-        /// Peak-to-peak amplitude.
-        amplitude: f64,
-        /// Mean.
-        #[serde(default)]
-        mean: f64,
-        /// Period.
-        period: f64,
-        /// Phase, fraction of a period.
-        #[serde(default)]
-        phase: f64,
-    },
+    Sine(Wave),
     /// A cpfg expression in `t` and `T` (trigonometry in degrees).
     Expr {
         /// The expression.
@@ -99,15 +66,9 @@ impl ChargeSpec {
             ChargeSpec::Constant { q } => Profile::Constant { q: *q },
             ChargeSpec::Power { alpha, t0 } => Profile::Power { alpha: *alpha, t0: *t0 },
             ChargeSpec::Spiral { t_end, alpha } => Profile::Spiral { t_end: *t_end, alpha: *alpha },
-            ChargeSpec::Triangle { amplitude, mean, period, phase } => {
-                Profile::Triangle { amplitude: *amplitude, mean: *mean, period: *period, phase: *phase }
-            }
-            ChargeSpec::Square { amplitude, mean, period, phase } => {
-                Profile::Square { amplitude: *amplitude, mean: *mean, period: *period, phase: *phase }
-            }
-            ChargeSpec::Sine { amplitude, mean, period, phase } => {
-                Profile::Sine { amplitude: *amplitude, mean: *mean, period: *period, phase: *phase }
-            }
+            ChargeSpec::Triangle(w) => Profile::Triangle(*w),
+            ChargeSpec::Square(w) => Profile::Square(*w),
+            ChargeSpec::Sine(w) => Profile::Sine(*w),
             ChargeSpec::Expr { expr } => Profile::Expr(UserExpr::compile(expr)?),
         })
     }
@@ -388,269 +349,253 @@ impl Default for ViewSpec {
     }
 }
 
-/// One layer of a composition (see the module docs for the table of types).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum LayerSpec {
-    /// Listed particles.
-    Particles {
-        /// The particles.
-        particle: Vec<ParticleSpec>,
-        /// Stop particles when they leave this region (default: no limit).
-        region: Option<RegionSpec>,
-        /// The field.
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror about the canvas centre line.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// A grid of spirals: one per (row `T`, column `α`) (Fig. 7.3).
-    Grid {
-        /// Rows, top to bottom.
-        #[serde(rename = "T")]
-        t: Vec<f64>,
-        /// Columns, left to right.
-        alpha: Vec<f64>,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Start heading, degrees (default 0).
-        #[serde(default)]
-        heading: f64,
-        /// Charge sign (default 1).
-        #[serde(default = "one")]
-        sign: f64,
-        /// The field.
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// Space filling (Figs. 7.4–7.7).
-    Fill {
-        /// Roots (default: one at the region's bottom centre heading up).
-        #[serde(default)]
-        root: Vec<RootSpec>,
-        /// Every curve stays here (default: the canvas).
-        region: Option<RegionSpec>,
-        /// Release points only here (default: anywhere in the region).
-        release_region: Option<RegionSpec>,
-        /// `[[T, α], …]`, largest first (default: Fig. 7.3's diagonal).
-        ladder: Option<Vec<[f64; 2]>>,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Release spacing (default 25).
-        release_every: Option<f64>,
-        /// No releases in this first arc length of a curve (default 10).
-        release_skip: Option<f64>,
-        /// Occupancy cell size (default 2).
-        cell: Option<f64>,
-        /// Own-cell re-entry window in steps (default 8).
-        recent: Option<u32>,
-        /// Peel-off length from the parent (default 12).
-        peel: Option<f64>,
-        /// Smallest radius of curvature (default 3).
-        min_radius: Option<f64>,
-        /// Shortest kept curve (default 8).
-        min_length: Option<f64>,
-        /// Stop after this many curves (default: the composition's max_curves).
-        max_curves: Option<usize>,
-        /// `random` (default), `alternate` or `split` (try both signs).
-        #[serde(default)]
-        signs: Signs,
-        /// The field.
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// Hair strands from a drawn hairline (Figs. 7.10, 7.12).
-    Hair {
-        /// The hairline polyline `[[x, y], …]`.
-        hairline: Vec<[f64; 2]>,
-        /// Number of strands, at equal arc-length spacing along the hairline.
-        strands: u32,
-        /// Charge profile of every strand.
-        charge: ChargeSpec,
-        /// Random `[min, max]` of the spiral's T per strand.
-        #[serde(rename = "T_range")]
-        t_range: Option<[f64; 2]>,
-        /// Random `[min, max]` of the spiral's α per strand.
-        alpha_range: Option<[f64; 2]>,
-        /// Random `[min, max]` duration for non-spiral profiles.
-        duration_range: Option<[f64; 2]>,
-        /// Random `[min, max]` fraction of the duration at which q flips (waves).
-        flip_range: Option<[f64; 2]>,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Start heading in degrees; default: the hairline's left normal (draw the
-        /// hairline left to right over the head and the strands grow outwards).
-        heading: Option<f64>,
-        /// Strands whose start x exceeds this turn the other way and lean the other
-        /// way (default: the canvas centre).
-        parting: Option<f64>,
-        /// Extra heading away from the parting, degrees (default 0).
-        #[serde(default)]
-        lean: f64,
-        /// Uniform heading jitter, ± degrees (default 5).
-        #[serde(default = "five")]
-        spread: f64,
-        /// Sign for strands right of the parting (left ones get the opposite; default 1).
-        #[serde(default = "one")]
-        sign: f64,
-        /// Stop strands when they leave this region.
-        region: Option<RegionSpec>,
-        /// The field.
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// Cartoon flames (Fig. 7.13).
-    Fire {
-        /// Start of the first tongue.
-        start: [f64; 2],
-        /// Charge of each tongue (the seed: `(T − t)^{+α}`, a spiral with negative α).
-        charge: ChargeSpec,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Flip the sign at this fraction of T (default 0.5).
-        #[serde(default = "half")]
-        flip_at: f64,
-        /// Sides, drawn one after the other, each continuing from the last tip unless
-        /// it has its own `start`.
-        side: Vec<FireSide>,
-        /// The field.
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// One particle meandering in a region (Fig. 7.14).
-    Meander {
-        /// Start.
-        start: [f64; 2],
-        /// Heading, degrees (default 0).
-        #[serde(default)]
-        heading: f64,
-        /// Fixed charge.
-        q: f64,
-        /// Duration.
-        duration: f64,
-        /// The region (default: the canvas).
-        region: Option<RegionSpec>,
-        /// The field (a Perlin field for interesting curves).
-        #[serde(default)]
-        field: FieldSpec,
-        /// Style (each re-entry gets a uniform random RGB colour unless `color_by` is
-        /// set).
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// Drawn polylines.
-    Lines {
-        /// Polylines `[[[x, y], …], …]`.
-        lines: Vec<Vec<[f64; 2]>>,
-        /// Close every polyline.
-        #[serde(default)]
-        closed: bool,
-        /// Style (no taper unless set).
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// 3D magnetic curves with a vector field, branching, drawn in projection and
-    /// exported as a skeleton (`sylva curves … -o tree.glb`).
-    Space {
-        /// The root particle's start `[x, y, z]` (default origin).
-        #[serde(default)]
-        start: [f64; 3],
-        /// The root's initial direction (default `[0, 1, 0]`: up).
-        direction: Option<[f64; 3]>,
-        /// Charge profile.
-        charge: ChargeSpec,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Duration (default: the spiral's T).
-        duration: Option<f64>,
-        /// Children.
-        children: Option<ChildrenSpec>,
-        /// Children's start direction leans off the parent's tangent by this angle,
-        /// degrees, about a random axis (default 35).
-        #[serde(default = "thirty_five")]
-        tilt: f64,
-        /// The field (`uniform` with `vector`, or `perlin` with `bias`).
-        #[serde(default)]
-        field: FieldSpec,
-        /// Projection.
-        #[serde(default)]
-        view: ViewSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror (of the projection).
-        #[serde(default)]
-        mirror: bool,
-    },
-    /// Curves traced on a sphere: B is normal to the surface, its value from 3D noise
-    /// (or uniform), and particles move along great circles between turns.
-    Sphere {
-        /// Sphere radius.
-        radius: f64,
-        /// Number of particles, started at random points with random headings.
-        particles: u32,
-        /// Charge profile.
-        charge: ChargeSpec,
-        /// Charge scale (default 1).
-        #[serde(default = "one")]
-        k: f64,
-        /// Duration (default: the spiral's T).
-        duration: Option<f64>,
-        /// Draw only the hemisphere facing the viewer (default true).
-        #[serde(default = "yes")]
-        cull: bool,
-        /// The field: `uniform` (B_n = b) or `perlin` (B_n = strength·0.5(1+noise)).
-        #[serde(default)]
-        field: FieldSpec,
-        /// Projection.
-        #[serde(default)]
-        view: ViewSpec,
-        /// Style.
-        #[serde(default)]
-        style: StyleSpec,
-        /// Mirror.
-        #[serde(default)]
-        mirror: bool,
-    },
+/// Declares [`LayerSpec`]: each variant's own fields followed by the two every layer
+/// has (`style`, `mirror`), and the accessors that match over all variants, so a new
+/// layer type is written in one place.
+macro_rules! layer_spec {
+    ($($(#[$doc:meta])* $variant:ident = $kind:literal { $($fields:tt)* })*) => {
+        /// One layer of a composition (see the module docs for the table of types).
+        #[derive(Debug, Clone, PartialEq, Deserialize)]
+        #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+        pub enum LayerSpec {
+            $(
+                $(#[$doc])*
+                $variant {
+                    $($fields)*
+                    /// Style, over the composition's.
+                    #[serde(default)]
+                    style: StyleSpec,
+                    /// Mirror about the canvas centre line (3D layers: their projection).
+                    #[serde(default)]
+                    mirror: bool,
+                },
+            )*
+        }
+
+        impl LayerSpec {
+            /// The layer's `type` name.
+            pub fn kind(&self) -> &'static str {
+                match self {
+                    $(LayerSpec::$variant { .. } => $kind,)*
+                }
+            }
+
+            /// The layer's style and whether it is mirrored.
+            pub(super) fn common(&self) -> (&StyleSpec, bool) {
+                match self {
+                    $(LayerSpec::$variant { style, mirror, .. } => (style, *mirror),)*
+                }
+            }
+        }
+    };
+}
+
+layer_spec! {
+        /// Listed particles.
+        Particles = "particles" {
+            /// The particles.
+            particle: Vec<ParticleSpec>,
+            /// Stop particles when they leave this region (default: no limit).
+            region: Option<RegionSpec>,
+            /// The field.
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// A grid of spirals: one per (row `T`, column `α`) (Fig. 7.3).
+        Grid = "grid" {
+            /// Rows, top to bottom.
+            #[serde(rename = "T")]
+            t: Vec<f64>,
+            /// Columns, left to right.
+            alpha: Vec<f64>,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Start heading, degrees (default 0).
+            #[serde(default)]
+            heading: f64,
+            /// Charge sign (default 1).
+            #[serde(default = "one")]
+            sign: f64,
+            /// The field.
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// Space filling (Figs. 7.4–7.7).
+        Fill = "fill" {
+            /// Roots (default: one at the region's bottom centre heading up).
+            #[serde(default)]
+            root: Vec<RootSpec>,
+            /// Every curve stays here (default: the canvas).
+            region: Option<RegionSpec>,
+            /// Release points only here (default: anywhere in the region).
+            release_region: Option<RegionSpec>,
+            /// `[[T, α], …]`, largest first (default: Fig. 7.3's diagonal).
+            ladder: Option<Vec<[f64; 2]>>,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Release spacing (default 25).
+            release_every: Option<f64>,
+            /// No releases in this first arc length of a curve (default 10).
+            release_skip: Option<f64>,
+            /// Occupancy cell size (default 2).
+            cell: Option<f64>,
+            /// Own-cell re-entry window in steps (default 8).
+            recent: Option<u32>,
+            /// Peel-off length from the parent (default 12).
+            peel: Option<f64>,
+            /// Smallest radius of curvature (default 3).
+            min_radius: Option<f64>,
+            /// Shortest kept curve (default 8).
+            min_length: Option<f64>,
+            /// Stop after this many curves (default: the composition's max_curves).
+            max_curves: Option<usize>,
+            /// `random` (default), `alternate` or `split` (try both signs).
+            #[serde(default)]
+            signs: Signs,
+            /// The field.
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// Hair strands from a drawn hairline (Figs. 7.10, 7.12).
+        Hair = "hair" {
+            /// The hairline polyline `[[x, y], …]`.
+            hairline: Vec<[f64; 2]>,
+            /// Number of strands, at equal arc-length spacing along the hairline.
+            strands: u32,
+            /// Charge profile of every strand.
+            charge: ChargeSpec,
+            /// Random `[min, max]` of the spiral's T per strand.
+            #[serde(rename = "T_range")]
+            t_range: Option<[f64; 2]>,
+            /// Random `[min, max]` of the spiral's α per strand.
+            alpha_range: Option<[f64; 2]>,
+            /// Random `[min, max]` duration for non-spiral profiles.
+            duration_range: Option<[f64; 2]>,
+            /// Random `[min, max]` fraction of the duration at which q flips (waves).
+            flip_range: Option<[f64; 2]>,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Start heading in degrees; default: the hairline's left normal (draw the
+            /// hairline left to right over the head and the strands grow outwards).
+            heading: Option<f64>,
+            /// Strands whose start x exceeds this turn the other way and lean the other
+            /// way (default: the canvas centre).
+            parting: Option<f64>,
+            /// Extra heading away from the parting, degrees (default 0).
+            #[serde(default)]
+            lean: f64,
+            /// Uniform heading jitter, ± degrees (default 5).
+            #[serde(default = "five")]
+            spread: f64,
+            /// Sign for strands right of the parting (left ones get the opposite; default 1).
+            #[serde(default = "one")]
+            sign: f64,
+            /// Stop strands when they leave this region.
+            region: Option<RegionSpec>,
+            /// The field.
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// Cartoon flames (Fig. 7.13).
+        Fire = "fire" {
+            /// Start of the first tongue.
+            start: [f64; 2],
+            /// Charge of each tongue (the seed: `(T − t)^{+α}`, a spiral with negative α).
+            charge: ChargeSpec,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Flip the sign at this fraction of T (default 0.5).
+            #[serde(default = "half")]
+            flip_at: f64,
+            /// Sides, drawn one after the other, each continuing from the last tip unless
+            /// it has its own `start`.
+            side: Vec<FireSide>,
+            /// The field.
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// One particle meandering in a region (Fig. 7.14); each re-entry gets a uniform
+        /// random RGB colour unless the style sets `color_by`.
+        Meander = "meander" {
+            /// Start.
+            start: [f64; 2],
+            /// Heading, degrees (default 0).
+            #[serde(default)]
+            heading: f64,
+            /// Fixed charge.
+            q: f64,
+            /// Duration.
+            duration: f64,
+            /// The region (default: the canvas).
+            region: Option<RegionSpec>,
+            /// The field (a Perlin field for interesting curves).
+            #[serde(default)]
+            field: FieldSpec,
+        }
+        /// Drawn polylines (no taper unless the style sets one).
+        Lines = "lines" {
+            /// Polylines `[[[x, y], …], …]`.
+            lines: Vec<Vec<[f64; 2]>>,
+            /// Close every polyline.
+            #[serde(default)]
+            closed: bool,
+        }
+        /// 3D magnetic curves with a vector field, branching, drawn in projection and
+        /// exported as a skeleton (`sylva curves … -o tree.glb`).
+        Space = "space" {
+            /// The root particle's start `[x, y, z]` (default origin).
+            #[serde(default)]
+            start: [f64; 3],
+            /// The root's initial direction (default `[0, 1, 0]`: up).
+            direction: Option<[f64; 3]>,
+            /// Charge profile.
+            charge: ChargeSpec,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Duration (default: the spiral's T).
+            duration: Option<f64>,
+            /// Children.
+            children: Option<ChildrenSpec>,
+            /// Children's start direction leans off the parent's tangent by this angle,
+            /// degrees, about a random axis (default 35).
+            #[serde(default = "thirty_five")]
+            tilt: f64,
+            /// The field (`uniform` with `vector`, or `perlin` with `bias`).
+            #[serde(default)]
+            field: FieldSpec,
+            /// Projection.
+            #[serde(default)]
+            view: ViewSpec,
+        }
+        /// Curves traced on a sphere: B is normal to the surface, its value from 3D noise
+        /// (or uniform), and particles move along great circles between turns.
+        Sphere = "sphere" {
+            /// Sphere radius.
+            radius: f64,
+            /// Number of particles, started at random points with random headings.
+            particles: u32,
+            /// Charge profile.
+            charge: ChargeSpec,
+            /// Charge scale (default 1).
+            #[serde(default = "one")]
+            k: f64,
+            /// Duration (default: the spiral's T).
+            duration: Option<f64>,
+            /// Draw only the hemisphere facing the viewer (default true).
+            #[serde(default = "yes")]
+            cull: bool,
+            /// The field: `uniform` (B_n = b) or `perlin` (B_n = strength·0.5(1+noise)).
+            #[serde(default)]
+            field: FieldSpec,
+            /// Projection.
+            #[serde(default)]
+            view: ViewSpec,
+        }
 }
 
 fn thirty_five() -> f64 {
@@ -658,37 +603,6 @@ fn thirty_five() -> f64 {
 }
 fn yes() -> bool {
     true
-}
-
-impl LayerSpec {
-    /// The layer's `type` name.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            LayerSpec::Particles { .. } => "particles",
-            LayerSpec::Grid { .. } => "grid",
-            LayerSpec::Fill { .. } => "fill",
-            LayerSpec::Hair { .. } => "hair",
-            LayerSpec::Fire { .. } => "fire",
-            LayerSpec::Meander { .. } => "meander",
-            LayerSpec::Lines { .. } => "lines",
-            LayerSpec::Space { .. } => "space",
-            LayerSpec::Sphere { .. } => "sphere",
-        }
-    }
-
-    pub(super) fn common(&self) -> (&StyleSpec, bool) {
-        match self {
-            LayerSpec::Particles { style, mirror, .. }
-            | LayerSpec::Grid { style, mirror, .. }
-            | LayerSpec::Fill { style, mirror, .. }
-            | LayerSpec::Hair { style, mirror, .. }
-            | LayerSpec::Fire { style, mirror, .. }
-            | LayerSpec::Meander { style, mirror, .. }
-            | LayerSpec::Lines { style, mirror, .. }
-            | LayerSpec::Space { style, mirror, .. }
-            | LayerSpec::Sphere { style, mirror, .. } => (style, *mirror),
-        }
-    }
 }
 
 /// The `[curves]` table of a preset.

@@ -600,12 +600,8 @@ impl Grower<'_> {
             };
             let count = diffuse(&mut self.child_err[cl], n);
             let base_len = self.p.base_size * self.scale_tree;
-            let mut rot = RotateState::default();
-            for k in 0..count {
-                let t = start + (k as f64 + 0.5) * span / count as f64;
+            self.spaced(cl, (level, length), (start, span), count, &mut prng, |t, angle, down, prng| {
                 let pl = place(t, &mut rr);
-                let angle = rot.next(self.p.n_rotate[cl], self.p.n_rotate_v[cl], &mut prng);
-                let down = self.down_angle(cl, level, length, t, &mut prng);
                 let child_len = if cl == 1 {
                     let denom = length - base_len;
                     let ratio = if denom > 0.0 { ((length - t) / denom).clamp(0.0, 1.0) } else { 0.0 };
@@ -617,7 +613,7 @@ impl Grower<'_> {
                 let build_seed = prng.random::<u64>();
                 let place_seed = prng.random::<u64>();
                 if child_len <= self.min_len {
-                    continue;
+                    return;
                 }
                 let frame = pl.seg_frame.rot_z(angle).rot_x(down).orthonormalized();
                 children.push((
@@ -638,7 +634,7 @@ impl Grower<'_> {
                         place_seed,
                     },
                 ));
-            }
+            });
         }
 
         // Leaves on the last level (the paper's Leaves, placed like children).
@@ -655,14 +651,10 @@ impl Grower<'_> {
             if self.p.leaves > 0 {
                 let count = diffuse(&mut self.leaf_err, per);
                 self.leaf_budget(count)?;
-                let mut rot = RotateState::default();
-                for k in 0..count {
-                    let t = start + (k as f64 + 0.5) * span / count as f64;
+                self.spaced(ll, (level, length), (start, span), count, &mut prng, |t, angle, down, _| {
                     let pl = place(t, &mut rr);
-                    let angle = rot.next(self.p.n_rotate[ll], self.p.n_rotate_v[ll], &mut prng);
-                    let down = self.down_angle(ll, level, length, t, &mut prng);
                     leaves.push((pl, pl.seg_frame.rot_z(angle).rot_x(down)));
-                }
+                });
             } else {
                 // A fan at every tip (each path's last segment end).
                 let cnt = (per + 0.5).floor() as usize;
@@ -868,6 +860,28 @@ impl Grower<'_> {
             )));
         }
         Ok(())
+    }
+
+    /// Places `count` children or leaves of level `lvl` on a `(level, length)` stem,
+    /// evenly over its `(start, span)`, as the paper places both: `each` gets the
+    /// offset `t` along the stem, the running rotation about it and the down angle (both
+    /// drawn from `prng`, which `each` may go on drawing from).
+    fn spaced(
+        &self,
+        lvl: usize,
+        (level, length): (usize, f64),
+        (start, span): (f64, f64),
+        count: usize,
+        prng: &mut Pcg64,
+        mut each: impl FnMut(f64, f64, f64, &mut Pcg64),
+    ) {
+        let mut rot = RotateState::default();
+        for k in 0..count {
+            let t = start + (k as f64 + 0.5) * span / count as f64;
+            let angle = rot.next(self.p.n_rotate[lvl], self.p.n_rotate_v[lvl], prng);
+            let down = self.down_angle(lvl, level, length, t, prng);
+            each(t, angle, down, prng);
+        }
     }
 
     /// `nDownAngle ± nDownAngleV`, or for negative `nDownAngleV` the paper's variation
