@@ -232,6 +232,13 @@ impl Grower<'_> {
         DVec3::new(n.x, n.z / self.z_scale, -n.y).normalize_or(DVec3::X).as_vec3()
     }
 
+    /// Appends a level-`level` skeleton node at stem-space `pos` after `prev`, its up
+    /// vector the stem-space normal `normal` (a segment frame's y) mapped to sylva's axes.
+    fn push_node(&mut self, pos: DVec3, radius: f64, prev: u32, normal: DVec3, level: usize) -> u32 {
+        let up = self.normal_to_world(normal);
+        self.skeleton.push(self.to_world(pos), radius as f32, prev, up, level as u16)
+    }
+
     /// The pruning envelope test (the paper's pruning): inside when
     /// `r / scale_tree < PruneWidth · ShapeRatio(8, (scale_tree − z) / (scale_tree·(1 − BaseSize)))`.
     fn inside_envelope(&self, p: DVec3) -> bool {
@@ -713,10 +720,7 @@ impl Grower<'_> {
         for (pi, pa) in paths.iter().enumerate() {
             let first = self.skeleton.len() as u32;
             let base = match pa.parent {
-                None if level == 0 => {
-                    let up = self.normal_to_world(task.frame.y);
-                    self.skeleton.push(self.to_world(task.origin), radius_at(0.0) as f32, NO_PARENT, up, 0)
-                }
+                None if level == 0 => self.push_node(task.origin, radius_at(0.0), NO_PARENT, task.frame.y, 0),
                 None => task.base_node,
                 Some((pp, pt)) => point_node[pp][pt],
             };
@@ -752,14 +756,7 @@ impl Grower<'_> {
                         child_node[ci] = prev;
                         child_origin[ci] = Some((prev_pos, prev_dist));
                     } else {
-                        let up = self.normal_to_world(pl.seg_frame.y);
-                        let n = self.skeleton.push(
-                            self.to_world(pl.pos),
-                            radius_at(pl.dist) as f32,
-                            prev,
-                            up,
-                            level as u16,
-                        );
+                        let n = self.push_node(pl.pos, radius_at(pl.dist), prev, pl.seg_frame.y, level);
                         nodes.push((pl.dist, n));
                         prev = n;
                         prev_dist = pl.dist;
@@ -771,14 +768,7 @@ impl Grower<'_> {
                 }
                 let Some(pt) = pt else { break };
                 let f = pa.frames[pt.seg as usize - pa.first_seg];
-                let up = self.normal_to_world(f.y);
-                let n = self.skeleton.push(
-                    self.to_world(pt.pos),
-                    radius_at(pt.dist) as f32,
-                    prev,
-                    up,
-                    level as u16,
-                );
+                let n = self.push_node(pt.pos, radius_at(pt.dist), prev, f.y, level);
                 pn.push(n);
                 nodes.push((pt.dist, n));
                 prev = n;
