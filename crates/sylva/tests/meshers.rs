@@ -142,30 +142,40 @@ fn show(n: Option<usize>) -> String {
 fn every_preset_with_every_mesher() {
     println!("| preset | nodes | skeleton collisions | mesher | vertices | faces | boundary loops | degenerate | intersections | level-2 intersections | fallbacks |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut meshed = 0;
+    let mut skeletons = Vec::new();
     each_preset_skeleton(
         |_| true,
-        |name, sk| {
-            let collisions = skeleton_collisions(sk, 0.01).len();
-            for mesher in ["tube", "hull", "sweep", "quad"] {
-                let row = mesh_and_check(name, mesher, sk, collisions);
-                println!(
-                    "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",
-                    name,
-                    sk.len(),
-                    collisions,
-                    row.vertices,
-                    row.faces,
-                    row.boundary_loops,
-                    row.degenerate,
-                    show(row.intersections),
-                    show(row.refined_intersections),
-                    row.fallbacks
-                );
-                meshed += 1;
-            }
-        },
+        |name, sk| skeletons.push((name, sk.clone(), skeleton_collisions(sk, 0.01).len())),
     );
+    // Every (preset, mesher) pair on the pool (CI has two cores), the rows printed in order.
+    let jobs: Vec<(usize, &str)> =
+        (0..skeletons.len()).flat_map(|i| ["tube", "hull", "sweep", "quad"].map(|m| (i, m))).collect();
+    let rows: Vec<Row> = {
+        use rayon::prelude::*;
+        jobs.par_iter()
+            .map(|&(i, mesher)| {
+                let (name, sk, collisions) = &skeletons[i];
+                mesh_and_check(name, mesher, sk, *collisions)
+            })
+            .collect()
+    };
+    for (&(i, mesher), row) in jobs.iter().zip(&rows) {
+        let (name, sk, collisions) = &skeletons[i];
+        println!(
+            "| {} | {} | {} | {mesher} | {} | {} | {} | {} | {} | {} | {} |",
+            name,
+            sk.len(),
+            collisions,
+            row.vertices,
+            row.faces,
+            row.boundary_loops,
+            row.degenerate,
+            show(row.intersections),
+            show(row.refined_intersections),
+            row.fallbacks
+        );
+    }
+    let meshed = rows.len();
     assert!(meshed >= 40, "only {meshed} preset × mesher pairs meshed");
 }
 
