@@ -12,7 +12,9 @@ use sylva::recipe;
 fn every_preset_meshes_closed_and_round_trips_through_obj() {
     let dir = std::env::temp_dir().join(format!("sylva-presets-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
+    // The presets grow on the rayon pool (CI has two cores).
+    use rayon::prelude::*;
+    sylva::presets::all().into_par_iter().filter(|p| !p.is_curves()).for_each(|p| {
         let loaded = recipe::load(p.name, &[]).unwrap();
         let grown = sylva::pipeline::grow(&loaded).unwrap_or_else(|e| panic!("{}: {e}", p.name));
         let bark = &grown.model.parts[0].mesh;
@@ -44,7 +46,7 @@ fn every_preset_meshes_closed_and_round_trips_through_obj() {
         for part in &grown.model.parts[1..] {
             part.mesh.validate().unwrap();
         }
-    }
+    });
     let _ = std::fs::remove_dir_all(&dir);
 }
 
