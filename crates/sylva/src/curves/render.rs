@@ -463,7 +463,7 @@ pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
 const BANDS: u32 = 4;
 
 /// Rasterizes `picture` `width_px` pixels wide with anti-aliasing (tiny-skia, non-zero
-/// fill rule). The canvas is cut into [`BANDS`] horizontal bands drawn in parallel
+/// fill rule). The canvas is cut into `BANDS` horizontal bands drawn in parallel
 /// (rayon), each with every path shifted up by the band's first row; coverage is
 /// computed per pixel, so the bands meet seamlessly.
 pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {

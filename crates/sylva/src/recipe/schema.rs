@@ -5,7 +5,7 @@
 //!
 //! Ranges are those [`Recipe::set`](super::Recipe::set) enforces on one key; a limit that
 //! depends on other keys (a budget, `kill_distance < influence_radius`) is said in words
-//! in [`Key::limits`]. Free-form tables (`generator.define`, least-cost volumes and
+//! in the `limits` field of [`Key`]. Free-form tables (`generator.define`, least-cost volumes and
 //! iterations) are [`Kind::Table`] or lists of it; their keys are in
 //! `docs/least-cost.md` and `docs/lsystem.md`. Model names follow the references of
 //! `docs/references.md` (WeberPenn1995, Runions2007, Xu2015, …).

@@ -13,7 +13,7 @@
 //! §2.8 `Fixed`) every boundary vertex is one.
 //!
 //! Sharpness is an `f32`; values ≥ [`INFINITE`] (10, OpenSubdiv's convention) never decay.
-//! The features of a level ([`Features`]: sharp edges, sharp vertices, boundary edges) are
+//! The features of a level (`Features`: sharp edges, sharp vertices, boundary edges) are
 //! kept as sparse sorted lists, so a smooth closed mesh costs nothing here.
 
 use super::topology::Topology;

@@ -8,7 +8,7 @@
 //! triples — corners around a mesh vertex are merged across an edge only when both faces
 //! agree on the values at both ends — so a UV seam is a boundary of that topology. The
 //! channel is then refined by the same scheme with
-//! [`FvarInterpolation`](super::FvarInterpolation) deciding how boundaries behave —
+//! [`super::FvarInterpolation`] deciding how boundaries behave —
 //! OpenSubdiv's six `FVarLinearInterpolation` rules: everything linear, linear boundaries
 //! with pinned control vertices, or B-spline boundaries with more or fewer pinned chart
 //! corners (the pinning rules are those of OpenSubdiv's `Vtr::FVarLevel`). Interior edges

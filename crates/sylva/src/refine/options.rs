@@ -116,7 +116,7 @@ pub enum RefineError {
         levels: u32,
         /// Faces that would be produced.
         faces: u128,
-        /// The estimated peak ([`peak_memory`]).
+        /// The estimated peak ([`peak_memory`](super::peak_memory)).
         bytes: u128,
         /// The limit.
         limit: u64,
@@ -269,7 +269,7 @@ impl FvarInterpolation {
     }
 }
 
-/// Options of a [`Refiner`].
+/// Options of a [`Refiner`](super::Refiner).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RefineOptions {
     /// Loop or Catmull–Clark.
@@ -287,7 +287,7 @@ pub struct RefineOptions {
     pub parallel: bool,
     /// Refuse to produce more faces than this.
     pub max_faces: usize,
-    /// Refuse a refinement whose estimated peak memory ([`peak_memory`]) is over this
+    /// Refuse a refinement whose estimated peak memory ([`peak_memory`](super::peak_memory)) is over this
     /// many bytes, before its levels are allocated.
     pub max_memory: u64,
 }

@@ -5,7 +5,7 @@
 //! Issue 5's acceptance ("after refinement to level 2 it has no self-intersections")
 //! needs a skeleton whose internode capsules do not overlap: a mesher cannot keep two
 //! surfaces apart when the skeleton itself crosses them (see
-//! [`skeleton_collisions`](crate::mesh::check::skeleton_collisions) and
+//! [`crate::mesh::check::skeleton_collisions`] and
 //! `docs/meshers.md`). This pass runs before the mesher (recipe key `mesh.decollide`).
 //!
 //! What counts as a collision is the checker's rule, shared through

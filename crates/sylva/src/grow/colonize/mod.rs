@@ -97,7 +97,7 @@ pub fn attraction_points(params: &ColonizeParams, seed: u64) -> Result<Vec<DVec3
 /// Grows a tree (see the module docs). A mesh envelope's file is read from disk,
 /// relative to the working directory; use [`grow_with`] to resolve it elsewhere.
 ///
-/// Errors: [`Error::Recipe`] naming the key for bad parameters or an exceeded node
+/// Errors: [`crate::Error::Recipe`] naming the key for bad parameters or an exceeded node
 /// budget; a read error for a missing envelope file. Deterministic in `seed`.
 pub fn grow(params: &ColonizeParams, seed: u64) -> Result<ColonizeTree> {
     grow_with(params, seed, &read_from_disk)
