@@ -2,7 +2,7 @@
 //! along given view directions, one rasterization per view, written to layered texture
 //! maps ([`render_layers`]).
 
-use super::raster::{edge, Coverage, ScreenVertex, Srgb, Texture};
+use super::raster::{base_colour, colour_map, edge, Coverage, ScreenVertex, Srgb, Texture};
 use super::{MAX_SIZE, SUBPIXEL};
 use crate::error::{Error, Result};
 use glam::Vec3;
@@ -200,16 +200,9 @@ fn layer_view(
     };
     for part in parts {
         let m = &part.mesh;
-        let c = part.material.base_color;
-        let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
-        let base = Vec3::new(ch(c[0]), ch(c[1]), ch(c[2]));
+        let base = base_colour(part);
         let normals = m.normals.as_ref();
-        let map = part
-            .material
-            .maps
-            .base_color
-            .and_then(|i| images.get(i as usize))
-            .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len()));
+        let map = colour_map(part, images);
         let screen: Vec<ScreenVertex> = m.positions.iter().map(|&p| to_screen(p)).collect();
         // Single-sided materials show their front faces only (glTF's back-face culling).
         let cull = !part.material.double_sided;

@@ -145,17 +145,10 @@ pub(super) fn draw_model(model: &Model, cam: &Camera, fit: Option<Vec<Vec3>>, sr
     let shader = Shader { light, srgb };
     for (part, screen) in model.parts.iter().zip(&screen) {
         let m = &part.mesh;
-        let c = part.material.base_color;
-        let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
-        let base = Vec3::new(ch(c[0]), ch(c[1]), ch(c[2]));
+        let base = base_colour(part);
         let normals = m.normals.as_ref();
         // The colour map, where the part has UVs (the file's look: issue 23).
-        let map = part
-            .material
-            .maps
-            .base_color
-            .and_then(|i| model.images.get(i as usize))
-            .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len()));
+        let map = colour_map(part, &model.images);
         for f in 0..m.face_count() {
             let corners = m.corners(f);
             if corners.len() < 3 {
@@ -280,6 +273,27 @@ impl Coverage {
         }
         (k0 <= k1).then_some((k0, k1))
     }
+}
+
+/// A part's base colour, each channel clamped to 0..=1 (0 where it is not finite).
+pub(super) fn base_colour(part: &crate::model::Part) -> Vec3 {
+    let c = part.material.base_color;
+    let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+    Vec3::new(ch(c[0]), ch(c[1]), ch(c[2]))
+}
+
+/// A part's colour map from `images` and the UVs that place it, where it has both (UVs
+/// with one index per face corner).
+pub(super) fn colour_map<'a>(
+    part: &'a crate::model::Part,
+    images: &'a [crate::model::ModelImage],
+) -> Option<(&'a crate::model::ModelImage, &'a crate::geometry::FaceVarying<glam::Vec2>)> {
+    let m = &part.mesh;
+    part.material
+        .maps
+        .base_color
+        .and_then(|i| images.get(i as usize))
+        .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len()))
 }
 
 /// `E_ab(p)`: twice the signed area of (a, b, p) in fixed point, y down.
