@@ -654,25 +654,7 @@ pub fn glb(positions: &[[f32; 3]], tris: &[[u32; 3]], copies: usize) -> Vec<u8> 
         hi[2],
         tris.len() * 3
     );
-    let mut jb = json.into_bytes();
-    while !jb.len().is_multiple_of(4) {
-        jb.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
-    let total = 12 + 8 + jb.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(jb.len() as u32).to_le_bytes());
-    out.extend_from_slice(&0x4E4F_534Au32.to_le_bytes());
-    out.extend_from_slice(&jb);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(&0x004E_4942u32.to_le_bytes());
-    out.extend_from_slice(&bin);
-    out
+    super::glb_container(json.into_bytes(), &super::bin_chunk(bin))
 }
 
 /// A closed UV sphere of `rings × sectors` vertices (poles included).

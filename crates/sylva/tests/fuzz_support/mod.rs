@@ -900,18 +900,36 @@ pub fn mutate_gltf(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
         bin.truncate(8);
         bin.extend(tail);
     }
-    let mut jb = j.into_bytes();
-    while !jb.len().is_multiple_of(4) {
-        jb.push(b' ');
+    glb_container(j.into_bytes(), &bin)
+}
+
+/// A GLB file: the 12-byte header, the JSON chunk (padded with spaces to 4 bytes) and
+/// `rest` as it is (a [`bin_chunk`], or the bytes a mutation left of one); the header's
+/// total length counts them all.
+pub fn glb_container(mut json: Vec<u8>, rest: &[u8]) -> Vec<u8> {
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
     }
-    let total = 12 + 8 + jb.len() + bin.len();
+    let total = 12 + 8 + json.len() + rest.len();
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
     out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(jb.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&0x4E4F_534Au32.to_le_bytes());
-    out.extend_from_slice(&jb);
+    out.extend_from_slice(&json);
+    out.extend_from_slice(rest);
+    out
+}
+
+/// A GLB BIN chunk: its 8-byte header and `bin` padded with zeros to 4 bytes.
+pub fn bin_chunk(mut bin: Vec<u8>) -> Vec<u8> {
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let mut out = Vec::with_capacity(8 + bin.len());
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(&0x004E_4942u32.to_le_bytes());
     out.extend_from_slice(&bin);
     out
 }
