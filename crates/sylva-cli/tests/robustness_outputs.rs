@@ -6,12 +6,16 @@
 
 mod common;
 
+#[path = "../../sylva/tests/common/tmpfs.rs"]
+mod tmpfs;
+
 use common::{sylva, tempdir};
 use std::collections::BTreeMap;
 use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
+use tmpfs::Tmpfs;
 
 /// A small tree: the runs below grow it many times.
 const SMALL: &str = "lsys-honda-a";
@@ -165,39 +169,6 @@ fn item12_a_bad_preview_path_fails_before_growing_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// A small tmpfs mounted at a fresh folder, unmounted on drop; `None` (with the reason
-/// printed) where this test cannot mount one (not root, no permission).
-struct Tmpfs(PathBuf);
-
-impl Tmpfs {
-    fn mount(name: &str, bytes: u64) -> Option<Tmpfs> {
-        let uid = Command::new("id").arg("-u").output().ok()?;
-        if String::from_utf8_lossy(&uid.stdout).trim() != "0" {
-            eprintln!("SKIPPED {name}: mounting a small tmpfs needs root");
-            return None;
-        }
-        let dir = tempdir("robust-out", name);
-        let ok = Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={bytes}"), "tmpfs"])
-            .arg(&dir)
-            .status()
-            .is_ok_and(|s| s.success());
-        if !ok {
-            eprintln!("SKIPPED {name}: `mount -t tmpfs` failed (no CAP_SYS_ADMIN?)");
-            let _ = std::fs::remove_dir_all(&dir);
-            return None;
-        }
-        Some(Tmpfs(dir))
-    }
-}
-
-impl Drop for Tmpfs {
-    fn drop(&mut self) {
-        let _ = Command::new("umount").arg("-l").arg(&self.0).status();
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 #[test]
 fn item12_a_full_disk_after_the_model_leaves_nothing() {
     // How large the model and the preview are.
@@ -211,7 +182,7 @@ fn item12_a_full_disk_after_the_model_leaves_nothing() {
     let page = 4096;
     let size = model.div_ceil(page) * page + 2 * page;
     assert!(preview > 3 * page, "the preview ({preview} bytes) must not fit in the room left");
-    let Some(fs) = Tmpfs::mount("full-disk", size) else { return };
+    let Some(fs) = Tmpfs::mount("full-disk", tempdir("robust-out", "full-disk"), size) else { return };
     let r = sylva(&args, &fs.0);
     assert_eq!(r.code, 1, "{}", r.stderr);
     assert!(r.stderr.contains("t.png") && r.stderr.contains("No space left"), "{}", r.stderr);

@@ -2,10 +2,14 @@
 //! textures) and whatever else a run stages with them are one result
 //! ([`sylva::fsutil::OutputSet`]).
 
+#[path = "common/tmpfs.rs"]
+mod tmpfs;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use sylva::export::{stage_with_options, write_with_options, ExportOptions};
 use sylva::fsutil::OutputSet;
+use tmpfs::Tmpfs;
 
 /// An empty folder for one test.
 fn tempdir(name: &str) -> PathBuf {
@@ -108,7 +112,7 @@ fn item11_an_obj_export_that_fills_the_disk_leaves_the_earlier_export_whole() {
     let page = 4096;
     let room = (small_total + large_total - large_obj).div_ceil(page) * page + 16 * page;
     assert!(large_obj > 20 * page, "the large .obj ({large_obj} bytes) must not fit");
-    let Some(fs) = Tmpfs::mount("full-disk", room) else { return };
+    let Some(fs) = Tmpfs::mount("full-disk", tempdir("full-disk"), room) else { return };
     let path = fs.0.join("t.obj");
     write_with_options(&small, &path, &obj_options(&path)).unwrap();
     let before = snapshot(&fs.0);
@@ -141,37 +145,4 @@ fn item13_concurrent_commits_into_one_name_leave_one_whole_set() {
         assert_eq!(leftovers(&d), Vec::<String>::new());
     }
     let _ = std::fs::remove_dir_all(&d);
-}
-
-/// A small tmpfs mounted at a fresh folder, unmounted on drop; `None` (with the reason
-/// printed) where this test cannot mount one.
-struct Tmpfs(PathBuf);
-
-impl Tmpfs {
-    fn mount(name: &str, bytes: u64) -> Option<Tmpfs> {
-        // SAFETY: getuid has no preconditions.
-        if unsafe { libc::getuid() } != 0 {
-            eprintln!("SKIPPED {name}: mounting a small tmpfs needs root");
-            return None;
-        }
-        let dir = tempdir(name);
-        let ok = std::process::Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={bytes}"), "tmpfs"])
-            .arg(&dir)
-            .status()
-            .is_ok_and(|s| s.success());
-        if !ok {
-            eprintln!("SKIPPED {name}: `mount -t tmpfs` failed (no CAP_SYS_ADMIN?)");
-            let _ = std::fs::remove_dir_all(&dir);
-            return None;
-        }
-        Some(Tmpfs(dir))
-    }
-}
-
-impl Drop for Tmpfs {
-    fn drop(&mut self) {
-        let _ = std::process::Command::new("umount").arg("-l").arg(&self.0).status();
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
