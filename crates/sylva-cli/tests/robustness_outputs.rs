@@ -12,7 +12,7 @@ mod tmpfs;
 use common::{sylva, tempdir};
 use std::collections::BTreeMap;
 use std::os::unix::process::ExitStatusExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 use tmpfs::Tmpfs;
