@@ -57,11 +57,11 @@ pub struct SubdivideArgs {
     /// Refuse to write more faces than this.
     #[arg(long, value_name = "FACES", default_value_t = refine::DEFAULT_MAX_FACES)]
     pub max_faces: usize,
-    /// Refuse a subdivision that would need more memory than this at its peak, in bytes
-    /// (default 4 GiB; checked before any level is made, so a machine with less memory
+    /// Refuse a subdivision that would need more memory than this at its peak, in bytes,
+    /// 1..=2^40 like the recipe's `refine.max_memory` (default 4 GiB; checked before any level is made, so a machine with less memory
     /// gets an error instead of an abort).
     #[arg(long, value_name = "BYTES", default_value_t = refine::DEFAULT_MAX_MEMORY,
-          value_parser = crate::args::whole_in::<u64>(1, u64::MAX))]
+          value_parser = crate::args::whole_in::<u64>(1, sylva::recipe::REFINE_MAX_MEMORY_LIMIT))]
     pub max_memory: u64,
     /// Worker threads, 1..=1024 (`refine::MAX_THREADS`; default: all cores; the output is
     /// identical for any count).

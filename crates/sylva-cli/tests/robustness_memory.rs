@@ -82,8 +82,15 @@ fn item_3_subdivide_over_the_memory_limit_is_an_error() {
     assert_eq!(files(&d, &["grid.obj"]), Vec::<String>::new());
     let r = sylva(&two, &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
-    let r = sylva(&[&two[..], &["--max-memory", "0"]].concat(), &d);
-    assert!(r.code != 0 && r.stderr.contains("--max-memory"), "{}", r.stderr);
+    // The flag's range is the recipe key's (`refine.max_memory`, 1..=2^40).
+    for bad in ["0", "1099511627777"] {
+        let r = sylva(&[&two[..], &["--max-memory", bad]].concat(), &d);
+        assert!(
+            r.code != 0 && r.stderr.contains("--max-memory") && r.stderr.contains("1099511627776"),
+            "{}",
+            r.stderr
+        );
+    }
 }
 
 /// Issue 39 item 3: `render --wind breeze --frames 1200 --size 8192x8192` held every
