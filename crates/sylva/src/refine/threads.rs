@@ -26,7 +26,7 @@ pub enum ThreadsError {
     /// stacks; checked before any thread starts, because a thread the system starts
     /// without room for its signal stack aborts the process (Rust's runtime cannot
     /// unwind from that).
-    #[error("cannot start {threads} worker threads: with their stacks and malloc arenas they need about {need_mib} MiB of address space and the limit (ulimit -v) leaves {free_mib} MiB (use --threads {fit} or fewer, or raise the limit)")]
+    #[error("cannot start {threads} worker threads: with their stacks and malloc arenas they need about {need_mib} MiB of address space and the limit (ulimit -v) leaves {free_mib} MiB ({})", room_for(.fit))]
     AddressSpace {
         /// The count asked for.
         threads: usize,
@@ -34,7 +34,7 @@ pub enum ThreadsError {
         need_mib: u64,
         /// Address space left under the limit, in MiB.
         free_mib: u64,
-        /// The most threads that fit.
+        /// The most threads that fit (0: not even one).
         fit: usize,
     },
     /// The system refused to start the threads (too many processes, no memory).
@@ -64,6 +64,14 @@ pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Re
     Ok(pool.install(f))
 }
 
+/// What to do when a pool does not fit: how many threads do, if any.
+fn room_for(fit: &usize) -> String {
+    match fit {
+        0 => "room for none: raise the limit".into(),
+        n => format!("room for at most {n}: use fewer threads, or raise the limit"),
+    }
+}
+
 /// Address space one worker thread takes: its 2 MiB stack (Rust's default) with its
 /// guard page, signal stack and thread-local storage, rounded up.
 const THREAD_ADDRESS_SPACE: u64 = (2 << 20) + (256 << 10);
@@ -82,7 +90,7 @@ fn check_address_space(threads: usize) -> Result<(), ThreadsError> {
     if need(threads) + WORK_HEADROOM <= free {
         return Ok(());
     }
-    let fit = (1..threads).rev().find(|&n| need(n) + WORK_HEADROOM <= free).unwrap_or(1);
+    let fit = (1..threads).rev().find(|&n| need(n) + WORK_HEADROOM <= free).unwrap_or(0);
     Err(ThreadsError::AddressSpace { threads, need_mib: need(threads) >> 20, free_mib: free >> 20, fit })
 }
 
@@ -146,12 +154,13 @@ pub fn start_global_threads() -> Result<(), ThreadsError> {
     if asked > MAX_THREADS {
         return Err(ThreadsError::TooMany { threads: asked });
     }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    check_address_space(if asked == 0 { cores } else { asked })?;
+    let threads =
+        if asked == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { asked };
+    check_address_space(threads)?;
     match rayon::ThreadPoolBuilder::new().build_global() {
         Ok(()) => Ok(()),
         // rayon says so only in words: a pool already running is not an error here.
         Err(e) if e.to_string().contains("already") => Ok(()),
-        Err(source) => Err(ThreadsError::Start { threads: if asked == 0 { cores } else { asked }, source }),
+        Err(source) => Err(ThreadsError::Start { threads, source }),
     }
 }
