@@ -22,34 +22,24 @@ use std::time::Duration;
 use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::{FaceVaryingRefiner, FvarInterpolation, RefineOptions, Refiner, Scheme};
 
-/// An n×m torus of quads (or triangles), with a UV grid of (n+1)×(m+1) values, so the
-/// UV layout has two seams.
+#[path = "../tests/common/meshes.rs"]
+mod meshes;
+
+/// [`meshes::torus`] (n×m quads or 2nm triangles) with a UV grid of (n+1)×(m+1) values,
+/// so the UV layout has two seams.
 fn torus(n: u32, m: u32, tris: bool) -> Mesh {
-    let mut mesh = Mesh::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (a, b) =
-                (i as f32 / n as f32 * std::f32::consts::TAU, j as f32 / m as f32 * std::f32::consts::TAU);
-            let r = 2.0 + 0.7 * b.cos();
-            mesh.positions.push(Vec3::new(r * a.cos(), 0.7 * b.sin(), r * a.sin()));
-        }
-    }
+    let mut mesh = meshes::torus(n, m, tris);
     let uvs: Vec<Vec2> = (0..=n)
         .flat_map(|i| (0..=m).map(move |j| Vec2::new(i as f32 / n as f32, j as f32 / m as f32)))
         .collect();
-    let id = |i: u32, j: u32| (i % n) * m + (j % m);
     let t = |i: u32, j: u32| i * (m + 1) + j;
     let mut idx = Vec::new();
     for i in 0..n {
         for j in 0..m {
-            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
             let (ta, tb, tc, td) = (t(i, j), t(i, j + 1), t(i + 1, j + 1), t(i + 1, j));
             if tris {
-                mesh.push_face(&[a, b, c]);
-                mesh.push_face(&[a, c, d]);
                 idx.extend_from_slice(&[ta, tb, tc, ta, tc, td]);
             } else {
-                mesh.push_face(&[a, b, c, d]);
                 idx.extend_from_slice(&[ta, tb, tc, td]);
             }
         }

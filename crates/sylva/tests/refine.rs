@@ -10,7 +10,7 @@ use sylva::refine::{
 };
 #[path = "common/meshes.rs"]
 mod meshes;
-use meshes::{cube, mesh_from, octahedron, tetrahedron};
+use meshes::{cube, mesh_from, octahedron, tetrahedron, torus};
 
 // ---------------------------------------------------------------------------------------
 // Meshes
@@ -30,46 +30,17 @@ fn grid_quads(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
 }
 
 /// Triangulated grid with diagonals along (1, 1): the three-direction mesh of Loop's
-/// regular case.
+/// regular case (each quad of [`grid_quads`] fanned from its first corner).
 fn grid_tris(nx: u32, ny: u32, at: impl Fn(u32, u32) -> Vec3) -> Mesh {
-    let w = nx + 1;
-    let pos = (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| at(i, j)).collect();
-    let mut faces = Vec::new();
-    for j in 0..ny {
-        for i in 0..nx {
-            let a = j * w + i;
-            faces.push(vec![a, a + 1, a + w + 1]);
-            faces.push(vec![a, a + w + 1, a + w]);
-        }
-    }
-    mesh_from(pos, &faces)
+    triangulate(&grid_quads(nx, ny, at))
 }
 
-/// Torus of n×m quads (or 2nm triangles), ring `i` around the big circle.
-fn torus(n: u32, m: u32, tris: bool) -> Mesh {
-    let mut pos = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (a, b) =
-                (i as f32 / n as f32 * std::f32::consts::TAU, j as f32 / m as f32 * std::f32::consts::TAU);
-            let r = 2.0 + 0.7 * b.cos();
-            pos.push(Vec3::new(r * a.cos(), 0.7 * b.sin(), r * a.sin()));
-        }
-    }
-    let id = |i: u32, j: u32| (i % n) * m + (j % m);
-    let mut faces = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
-            if tris {
-                faces.push(vec![a, b, c]);
-                faces.push(vec![a, c, d]);
-            } else {
-                faces.push(vec![a, b, c, d]);
-            }
-        }
-    }
-    mesh_from(pos, &faces)
+/// A triangle (0, 2, 1) and a pentagon (0, 1, 3, 4, 5) sharing the edge 0–1, in the
+/// plane z = 0 but for vertex `i` lifted by `lift[i]`.
+fn triangle_and_pentagon(lift: [f32; 6]) -> Mesh {
+    let xy = [(0.0, 0.0), (1.0, 0.0), (0.5, -1.0), (1.5, 1.0), (0.5, 2.0), (-0.5, 1.0)];
+    let pos = xy.iter().zip(lift).map(|(&(x, y), z)| Vec3::new(x, y, z)).collect();
+    mesh_from(pos, &[vec![0, 2, 1], vec![0, 1, 3, 4, 5]])
 }
 
 /// Small deterministic pseudo-random numbers in [-1, 1].
@@ -99,7 +70,7 @@ fn edge_count(m: &Mesh) -> usize {
 fn hausdorff(a: &[Vec3], b: &[Vec3]) -> f32 {
     let (a, b): (Vec<[f32; 3]>, Vec<[f32; 3]>) =
         (a.iter().map(|p| p.to_array()).collect(), b.iter().map(|p| p.to_array()).collect());
-    max_nearest(&a, &b, 0.01).zip(max_nearest(&b, &a, 0.01)).map_or(f32::INFINITY, |(x, y)| x.max(y))
+    max_nearest_both_ways(&a, &b, 0.01).unwrap_or(f32::INFINITY)
 }
 
 /// The boundary loop of `m` starting at vertex `start`, following boundary edges
@@ -196,17 +167,7 @@ fn refined_faces_trace_back_to_their_control_face() {
 #[test]
 fn catmull_clark_counts_per_level() {
     // A triangle and a pentagon sharing an edge: the first level makes 3 + 5 quads.
-    let m = mesh_from(
-        vec![
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(0.5, -1.0, 0.0),
-            Vec3::new(1.5, 1.0, 0.0),
-            Vec3::new(0.5, 2.0, 0.0),
-            Vec3::new(-0.5, 1.0, 0.0),
-        ],
-        &[vec![0, 2, 1], vec![0, 1, 3, 4, 5]],
-    );
+    let m = triangle_and_pentagon([0.0; 6]);
     let one = refine(&m, Scheme::CatmullClark, 1);
     assert_eq!(one.face_count(), 8);
     assert!((0..8).all(|f| one.face(f).len() == 4));
@@ -543,30 +504,48 @@ fn catmull_clark_limit_matches_bicubic_bspline() {
     let m = grid_quads(n, n, |i, j| Vec3::new(i as f32, j as f32, h(i, j)));
     let o = SubdivideOptions { refine: opts(Scheme::CatmullClark, 3), limit: true, ..Default::default() };
     let r = subdivide(&m, &[], &o).unwrap();
-    let normals = r.normals.as_ref().unwrap();
-    let mut checked = 0;
-    for (c, &v) in r.face_indices.iter().enumerate() {
-        let p = r.positions[v as usize];
-        if p.x < 2.0 || p.y < 2.0 || p.x > (n - 2) as f32 || p.y > (n - 2) as f32 {
-            continue;
-        }
+    let (lo, hi) = (2.0, (n - 2) as f32);
+    let bicubic = |x: f32, y: f32| {
         let (mut z, mut zx, mut zy) = (0.0, 0.0, 0.0);
         for j in 0..=n {
             for i in 0..=n {
-                let (bx, dx) = bspline(p.x - i as f32);
-                let (by, dy) = bspline(p.y - j as f32);
+                let (bx, dx) = bspline(x - i as f32);
+                let (by, dy) = bspline(y - j as f32);
                 z += h(i, j) * bx * by;
                 zx += h(i, j) * dx * by;
                 zy += h(i, j) * bx * dy;
             }
         }
-        assert!((p.z - z).abs() < 1e-4, "limit height at ({}, {}): {} vs {z}", p.x, p.y, p.z);
+        (z, zx, zy)
+    };
+    assert!(limit_matches(&r, (lo, hi), bicubic, 1e-4, 1e-5) > 1000);
+}
+
+/// Checks every corner of the limit mesh `r` whose position has x and y in `[lo, hi]`
+/// against the height field `surface(x, y) = (z, ∂z/∂x, ∂z/∂y)`: height within `dz`,
+/// normal's cosine to the field's above `1 − dn`. Returns how many corners it checked.
+fn limit_matches(
+    r: &Mesh,
+    (lo, hi): (f32, f32),
+    surface: impl Fn(f32, f32) -> (f32, f32, f32),
+    dz: f32,
+    dn: f32,
+) -> usize {
+    let normals = r.normals.as_ref().unwrap();
+    let mut checked = 0;
+    for (c, &v) in r.face_indices.iter().enumerate() {
+        let p = r.positions[v as usize];
+        if p.x < lo || p.y < lo || p.x > hi || p.y > hi {
+            continue;
+        }
+        let (z, zx, zy) = surface(p.x, p.y);
+        assert!((p.z - z).abs() < dz, "limit height at ({}, {}): {} vs {z}", p.x, p.y, p.z);
         let want = Vec3::new(-zx, -zy, 1.0).normalize();
         let got = normals.values[normals.indices[c] as usize];
-        assert!(got.dot(want) > 1.0 - 1e-5, "normal at ({}, {}): {got} vs {want}", p.x, p.y);
+        assert!(got.dot(want) > 1.0 - dn, "normal at ({}, {}): {got} vs {want}", p.x, p.y);
         checked += 1;
     }
-    assert!(checked > 1000);
+    checked
 }
 
 #[test]
@@ -617,21 +596,8 @@ fn loop_limit_matches_quartic_box_spline() {
     });
     let o = SubdivideOptions { refine: opts(Scheme::Loop, 3), limit: true, ..Default::default() };
     let r = subdivide(&m, &[], &o).unwrap();
-    let normals = r.normals.as_ref().unwrap();
     let (lo, hi) = (2.5 * h, (n as f32 - 2.5) * h);
-    let mut checked = 0;
-    for (c, &v) in r.face_indices.iter().enumerate() {
-        let q = r.positions[v as usize];
-        if q.x < lo || q.y < lo || q.x > hi || q.y > hi {
-            continue;
-        }
-        assert!((q.z - s(q.x, q.y)).abs() < 2e-5, "at ({}, {}): {} vs {}", q.x, q.y, q.z, s(q.x, q.y));
-        let want = Vec3::new(-sx(q.x, q.y), -sy(q.x, q.y), 1.0).normalize();
-        let got = normals.values[normals.indices[c] as usize];
-        assert!(got.dot(want) > 1.0 - 1e-6, "normal at ({}, {}): {got} vs {want}", q.x, q.y);
-        checked += 1;
-    }
-    assert!(checked > 1000);
+    assert!(limit_matches(&r, (lo, hi), |x, y| (s(x, y), sx(x, y), sy(x, y)), 2e-5, 1e-6) > 1000);
 }
 
 #[test]
@@ -954,6 +920,12 @@ fn max_nearest(a: &[[f32; 3]], b: &[[f32; 3]], cell: f32) -> Option<f32> {
     Some(worst)
 }
 
+/// The larger of [`max_nearest`] from `a` to `b` and from `b` to `a` (a Hausdorff
+/// distance), `None` if either is.
+fn max_nearest_both_ways(a: &[[f32; 3]], b: &[[f32; 3]], cell: f32) -> Option<f32> {
+    max_nearest(a, b, cell).zip(max_nearest(b, a, cell)).map(|(x, y)| x.max(y))
+}
+
 fn diagonal(p: &[[f32; 3]]) -> f32 {
     let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
     for q in p {
@@ -1025,9 +997,7 @@ fn agree_uv(
         assert_eq!(r.vertex_count(), header[0], "{name} level {levels}: vertices");
         let ours: Vec<[f32; 3]> = r.positions.iter().map(|p| p.to_array()).collect();
         let tol = 1e-5 * diagonal(&osd_p);
-        let d = max_nearest(&ours, &osd_p, 4.0 * tol)
-            .zip(max_nearest(&osd_p, &ours, 4.0 * tol))
-            .map(|(a, b)| a.max(b));
+        let d = max_nearest_both_ways(&ours, &osd_p, 4.0 * tol);
         assert!(
             d.is_some_and(|d| d <= tol),
             "{name} level {levels}: positions differ from OpenSubdiv by {d:?} (tolerance {tol})"
@@ -1036,9 +1006,7 @@ fn agree_uv(
             assert_eq!(uv.values.len(), header[2], "{name} level {levels}: UV values");
             let ours: Vec<[f32; 3]> = uv.values.iter().map(|t| [t.x, t.y, 0.0]).collect();
             let tol = 1e-5 * diagonal(&osd_t).max(1e-3);
-            let d = max_nearest(&ours, &osd_t, 4.0 * tol)
-                .zip(max_nearest(&osd_t, &ours, 4.0 * tol))
-                .map(|(a, b)| a.max(b));
+            let d = max_nearest_both_ways(&ours, &osd_t, 4.0 * tol);
             assert!(
                 d.is_some_and(|d| d <= tol),
                 "{name} level {levels}: UVs differ from OpenSubdiv by {d:?}"
@@ -1049,19 +1017,22 @@ fn agree_uv(
 
 /// `m` with each polygon fanned into triangles from its first corner, keeping UVs and
 /// creases.
-fn triangulate_uv(m: &Mesh) -> Mesh {
-    let mut t = triangulate(m);
+fn triangulate(m: &Mesh) -> Mesh {
+    let mut t = Mesh::new();
+    t.positions = m.positions.clone();
     t.creases = m.creases.clone();
-    if let Some(uv) = &m.uvs {
-        let mut idx = Vec::new();
-        for f in 0..m.face_count() {
-            let r: Vec<u32> = m.corners(f).map(|c| uv.indices[c]).collect();
-            for k in 1..r.len() - 1 {
-                idx.extend_from_slice(&[r[0], r[k], r[k + 1]]);
+    let mut uv_indices = Vec::new();
+    for f in 0..m.face_count() {
+        let face = m.face(f);
+        let uv: Vec<u32> = m.uvs.iter().flat_map(|uv| m.corners(f).map(|c| uv.indices[c])).collect();
+        for k in 1..face.len() - 1 {
+            t.push_face(&[face[0], face[k], face[k + 1]]);
+            if !uv.is_empty() {
+                uv_indices.extend_from_slice(&[uv[0], uv[k], uv[k + 1]]);
             }
         }
-        t.uvs = Some(FaceVarying { values: uv.values.clone(), indices: idx });
     }
+    t.uvs = m.uvs.as_ref().map(|uv| FaceVarying { values: uv.values.clone(), indices: uv_indices });
     t
 }
 
@@ -1122,18 +1093,6 @@ fn grid_with_seams() -> Mesh {
     m
 }
 
-fn triangulate(m: &Mesh) -> Mesh {
-    let mut t = Mesh::new();
-    t.positions = m.positions.clone();
-    for f in 0..m.face_count() {
-        let face = m.face(f);
-        for k in 1..face.len() - 1 {
-            t.push_face(&[face[0], face[k], face[k + 1]]);
-        }
-    }
-    t
-}
-
 #[test]
 fn agrees_with_opensubdiv() {
     let Some(osd) = osd_refine() else { return };
@@ -1157,9 +1116,7 @@ fn agrees_with_opensubdiv() {
     }
     agree(&osd, "creased-cc", &creased, &[], Scheme::CatmullClark, false);
     agree(&osd, "creased-cc-chaikin", &creased, &[], Scheme::CatmullClark, true);
-    let mut tri_creased = triangulate(&creased);
-    tri_creased.creases = creased.creases.clone();
-    agree(&osd, "creased-loop", &tri_creased, &[], Scheme::Loop, false);
+    agree(&osd, "creased-loop", &triangulate(&creased), &[], Scheme::Loop, false);
     let mut ring = torus(8, 6, false);
     torus_crease_ring(&mut ring, 6, 1.7);
     agree(&osd, "torus-ring-cc", &ring, &[], Scheme::CatmullClark, true);
@@ -1176,32 +1133,11 @@ fn agrees_with_opensubdiv() {
         false,
     );
     // 7. mixed polygons.
-    let mixed = mesh_from(
-        vec![
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.2),
-            Vec3::new(0.5, -1.0, 0.0),
-            Vec3::new(1.5, 1.0, 0.0),
-            Vec3::new(0.5, 2.0, 0.3),
-            Vec3::new(-0.5, 1.0, 0.0),
-        ],
-        &[vec![0, 2, 1], vec![0, 1, 3, 4, 5]],
-    );
+    let mixed = triangle_and_pentagon([0.0, 0.2, 0.0, 0.0, 0.3, 0.0]);
     agree(&osd, "mixed-cc", &mixed, &[], Scheme::CatmullClark, false);
     // 8. face-varying UV seams (linear UVs).
     agree(&osd, "cylinder-uv-cc", &cylinder_with_seam(6, 3), &[], Scheme::CatmullClark, false);
-    let mut tri_cyl = triangulate(&cylinder_with_seam(6, 3));
-    let cyl = cylinder_with_seam(6, 3);
-    let uv = cyl.uvs.as_ref().unwrap();
-    let mut idx = Vec::new();
-    for f in 0..cyl.face_count() {
-        let r: Vec<u32> = cyl.corners(f).map(|c| uv.indices[c]).collect();
-        for k in 1..r.len() - 1 {
-            idx.extend_from_slice(&[r[0], r[k], r[k + 1]]);
-        }
-    }
-    tri_cyl.uvs = Some(FaceVarying { values: uv.values.clone(), indices: idx });
-    agree(&osd, "cylinder-uv-loop", &tri_cyl, &[], Scheme::Loop, false);
+    agree(&osd, "cylinder-uv-loop", &triangulate(&cylinder_with_seam(6, 3)), &[], Scheme::Loop, false);
     // 9. a tree control mesh from the tube mesher (triangles, bark UVs).
     let mut bark = tree_bark();
     bark.normals = None;
@@ -1244,7 +1180,7 @@ fn uv_modes_agree_with_opensubdiv() {
         ("uv-tree-tube", bark),
     ];
     for (name, m) in &meshes {
-        let tris = triangulate_uv(m);
+        let tris = triangulate(m);
         for uv in FvarInterpolation::ALL {
             agree_uv(&osd, &format!("{name}-cc"), m, &[], Scheme::CatmullClark, false, uv);
             agree_uv(&osd, &format!("{name}-loop"), &tris, &[], Scheme::Loop, false, uv);

@@ -45,3 +45,32 @@ pub fn octahedron() -> Mesh {
     let f = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
     mesh_from(p, &f)
 }
+
+/// Torus of n×m quads (or 2nm triangles, each quad split along its (i, j)–(i+1, j+1)
+/// diagonal), radii 2 and 0.7; vertex (i, j) at index i·m + j, ring `i` around the big
+/// circle.
+pub fn torus(n: u32, m: u32, tris: bool) -> Mesh {
+    let mut pos = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b) =
+                (i as f32 / n as f32 * std::f32::consts::TAU, j as f32 / m as f32 * std::f32::consts::TAU);
+            let r = 2.0 + 0.7 * b.cos();
+            pos.push(Vec3::new(r * a.cos(), 0.7 * b.sin(), r * a.sin()));
+        }
+    }
+    let id = |i: u32, j: u32| (i % n) * m + (j % m);
+    let mut faces = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (id(i, j), id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
+            if tris {
+                faces.push(vec![a, b, c]);
+                faces.push(vec![a, c, d]);
+            } else {
+                faces.push(vec![a, b, c, d]);
+            }
+        }
+    }
+    mesh_from(pos, &faces)
+}
