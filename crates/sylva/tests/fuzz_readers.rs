@@ -29,44 +29,27 @@ fn fuzz(t: Target, cases: u64) {
     assert!(failures.is_empty(), "{} fuzz failure(s):\n\n{}", failures.len(), failures.join("\n\n"));
 }
 
-#[test]
-fn fuzz_lsystem_files() {
-    fuzz(Target::Lsystem, 400);
+/// One `#[test]` per reader: `name: Target, cases;` runs [`fuzz`] on that target.
+macro_rules! fuzz_tests {
+    ($($name:ident: $target:ident, $cases:literal;)*) => {
+        $(
+            #[test]
+            fn $name() {
+                fuzz(Target::$target, $cases);
+            }
+        )*
+    };
 }
 
-#[test]
-fn fuzz_recipes() {
-    fuzz(Target::Recipe, 300);
-}
-
-#[test]
-fn fuzz_set_values() {
-    fuzz(Target::Set, 600);
-}
-
-#[test]
-fn fuzz_lst() {
-    fuzz(Target::Lst, 1500);
-}
-
-#[test]
-fn fuzz_cpfg_str() {
-    fuzz(Target::Str, 1500);
-}
-
-#[test]
-fn fuzz_json_skeletons() {
-    fuzz(Target::Json, 1500);
-}
-
-#[test]
-fn fuzz_obj() {
-    fuzz(Target::Obj, 600);
-}
-
-#[test]
-fn fuzz_gltf() {
-    fuzz(Target::Gltf, 300);
+fuzz_tests! {
+    fuzz_lsystem_files: Lsystem, 400;
+    fuzz_recipes: Recipe, 300;
+    fuzz_set_values: Set, 600;
+    fuzz_lst: Lst, 1500;
+    fuzz_cpfg_str: Str, 1500;
+    fuzz_json_skeletons: Json, 1500;
+    fuzz_obj: Obj, 600;
+    fuzz_gltf: Gltf, 300;
 }
 
 /// Replays one input: `SYLVA_FUZZ_REPLAY=file SYLVA_FUZZ_TARGET=lst cargo test -p sylva
@@ -136,6 +119,20 @@ fn assert_none(failures: Vec<String>) {
     assert!(failures.is_empty(), "{} failure(s):\n\n{}", failures.len(), failures.join("\n\n"));
 }
 
+/// Runs cases `0..n` of `class` (case `k` made by `make` from its own seeded stream and
+/// `k`) as [`run_cases`] does, and fails on any failure.
+fn check_class(
+    class: Class,
+    n: u64,
+    make: impl Fn(&mut Rng, u64) -> Case,
+    depth: Depth,
+    timeout_s: u64,
+    check: fn(&Case, &CaseRun) -> Option<String>,
+) {
+    let cases = (0..n).map(|k| make(&mut seeded(class, k), k)).collect();
+    assert_none(run_cases(cases, depth, timeout_s, check));
+}
+
 fn seeded(class: Class, k: u64) -> Rng {
     Rng::new(env_or("SYLVA_FUZZ_SEED", 39) ^ (class as u64) << 40 ^ k.wrapping_mul(0x9E37))
 }
@@ -163,6 +160,11 @@ fn refused(c: &Case, r: &CaseRun) -> Option<String> {
     no_leak(c, r).or_else(|| r.result.is_ok().then(|| "a special file was read as a model".to_string()))
 }
 
+fn names_a_key(_: &Case, r: &CaseRun) -> Option<String> {
+    let m = r.result.as_ref().err()?;
+    (!m.contains('.')).then(|| "the refusal names no key".to_string())
+}
+
 /// Every class's generator is deterministic: the same stream gives the same case.
 #[test]
 fn class_generators_are_deterministic() {
@@ -182,78 +184,65 @@ fn class_generators_are_deterministic() {
 /// renderer is the campaign's CLI lane).
 #[test]
 fn class_long_lines_fail_cleanly() {
-    let cases = (0..14).map(|k| classes::long_line(&mut seeded(Class::LongLine, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, must_fail));
+    check_class(Class::LongLine, 14, |r, _| classes::long_line(r), Depth::Reader, 60, must_fail);
 }
 
 /// Long lines, item 1's fix: the rendered message quotes a clipped excerpt, not the line.
 #[test]
 fn class_long_line_messages_are_clipped() {
-    let cases = (0..21).map(|k| classes::long_line(&mut seeded(Class::LongLine, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, clipped));
+    check_class(Class::LongLine, 21, |r, _| classes::long_line(r), Depth::Reader, 60, clipped);
 }
 
 /// Deep nesting at depths that fit today's stacks (≤ 500): no panic, no hang.
 #[test]
 fn class_deep_nesting_shallow() {
-    let cases = (0..12)
-        .map(|k| classes::deep_nesting_at(&mut seeded(Class::DeepNesting, k), 100 + 40 * k as usize))
-        .collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    let make = |r: &mut Rng, k: u64| classes::deep_nesting_at(r, 100 + 40 * k as usize);
+    check_class(Class::DeepNesting, 12, make, Depth::Reader, 60, no_check);
 }
 
 /// Deep nesting, item 2's fix: 10³–10⁵ levels are read or refused with a located
 /// error. Today this aborts the test process (stack overflow).
 #[test]
 fn class_deep_nesting_does_not_overflow() {
-    let cases = (0..24).map(|k| classes::deep_nesting(&mut seeded(Class::DeepNesting, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    check_class(Class::DeepNesting, 24, |r, _| classes::deep_nesting(r), Depth::Reader, 60, no_check);
 }
 
 /// Degenerate skeletons (coincident, zero-length, zig-zag, jittered, 1e30 and 1e-30)
 /// are read into valid skeletons or refused with a located error.
 #[test]
 fn class_degenerate_skeletons_read_cleanly() {
-    let cases = (0..18)
-        .map(|k| {
-            let mut rng = seeded(Class::Degenerate, k);
-            let n = classes::log_uniform(&mut rng, 100, 3000);
-            classes::degenerate_n(&mut rng, n)
-        })
-        .collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    let make = |r: &mut Rng, _| {
+        let n = classes::log_uniform(r, 100, 3000);
+        classes::degenerate_n(r, n)
+    };
+    check_class(Class::Degenerate, 18, make, Depth::Reader, 60, no_check);
 }
 
 /// Degenerate skeletons through the meshers and passes, items 5 and 6's fix: they
 /// grow or stop with a named error (the watchdog's limit is for debug builds).
 #[test]
 fn class_degenerate_skeletons_grow() {
-    let cases = (0..12).map(|k| classes::degenerate_n(&mut seeded(Class::Degenerate, k), 400)).collect();
-    assert_none(run_cases(cases, Depth::Pipeline, 120, no_check));
+    check_class(Class::Degenerate, 12, |r, _| classes::degenerate_n(r, 400), Depth::Pipeline, 120, no_check);
 }
 
 /// Many roots (LST with `generator.gap = new-root`, JSON): read cleanly.
 #[test]
 fn class_many_roots_read_cleanly() {
-    let cases = (0..8)
-        .map(|k| classes::many_roots_n(&mut seeded(Class::ManyRoots, k), 100 + 400 * k as usize))
-        .collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    let make = |r: &mut Rng, k: u64| classes::many_roots_n(r, 100 + 400 * k as usize);
+    check_class(Class::ManyRoots, 8, make, Depth::Reader, 60, no_check);
 }
 
 /// Many roots through the meshers, item 4's fix (per-root work local to each root).
 #[test]
 fn class_many_roots_grow() {
-    let cases = (0..4).map(|k| classes::many_roots_n(&mut seeded(Class::ManyRoots, k), 2000)).collect();
-    assert_none(run_cases(cases, Depth::Pipeline, 120, no_check));
+    check_class(Class::ManyRoots, 4, |r, _| classes::many_roots_n(r, 2000), Depth::Pipeline, 120, no_check);
 }
 
 /// Absurd numbers in `--set` (1e9, 1e30, -1, 0, NaN text, floats for integers): the
 /// recipe loads or is refused; L-systems derive under a small module budget.
 #[test]
 fn class_absurd_numbers_load_or_fail_cleanly() {
-    let cases = (0..40).map(|k| classes::absurd_numbers(&mut seeded(Class::AbsurdNumbers, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    check_class(Class::AbsurdNumbers, 40, |r, _| classes::absurd_numbers(r), Depth::Reader, 60, no_check);
 }
 
 /// Absurd numbers, item 15's fix: a refused value names its whole key.
@@ -290,11 +279,7 @@ fn class_absurd_numbers_name_their_key() {
 /// them is the campaign's (release, 10 s, 6 GiB).
 #[test]
 fn class_raised_budgets_load_or_fail_cleanly() {
-    let cases = (0..30).map(|k| classes::raised_budgets(&mut seeded(Class::RaisedBudgets, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, |_, r| {
-        let m = r.result.as_ref().err()?;
-        (!m.contains('.')).then(|| "the refusal names no key".to_string())
-    }));
+    check_class(Class::RaisedBudgets, 30, |r, _| classes::raised_budgets(r), Depth::Reader, 60, names_a_key);
 }
 
 /// glTF with a primitive repeated, or many triangles on few vertices: read, welded and
@@ -314,24 +299,21 @@ fn class_dup_gltf_reads_and_checks() {
 /// The glTF sizes, item 7's fix (`sylva check` speed).
 #[test]
 fn class_dup_gltf_full_size() {
-    let cases = (0..4).map(|k| classes::dup_gltf(&mut seeded(Class::DupGltf, k))).collect();
-    assert_none(run_cases(cases, Depth::Reader, 120, no_check));
+    check_class(Class::DupGltf, 4, |r, _| classes::dup_gltf(r), Depth::Reader, 120, no_check);
 }
 
 /// Hostile model folders (absolute, `../` and symlinked side files, `#include`) without
 /// special files: no panic, no hang.
 #[test]
 fn class_hostile_folders_run_cleanly() {
-    let cases = (0..16).map(|k| classes::hostile_with(&mut seeded(Class::Hostile, k), false)).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_check));
+    check_class(Class::Hostile, 16, |r, _| classes::hostile_with(r, false), Depth::Reader, 60, no_check);
 }
 
 /// Hostile model folders, item 14's fix: no byte of the canary file outside the folder
 /// reaches a message or an output.
 #[test]
 fn class_hostile_folders_do_not_leak() {
-    let cases = (0..40).map(|k| classes::hostile_with(&mut seeded(Class::Hostile, k), false)).collect();
-    assert_none(run_cases(cases, Depth::Reader, 60, no_leak));
+    check_class(Class::Hostile, 40, |r, _| classes::hostile_with(r, false), Depth::Reader, 60, no_leak);
 }
 
 /// Special files behind inputs and side files, item 9's fix: `/dev/zero`,

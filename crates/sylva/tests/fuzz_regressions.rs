@@ -19,6 +19,22 @@ fn derive_err(text: &str, steps: u32, budget: usize) -> Box<sylva::lsystem::Lsys
     e
 }
 
+/// [`derive_err`], checked: the error is of `kind` and its message says each of `says`.
+fn derive_fails(
+    text: &str,
+    steps: u32,
+    budget: usize,
+    kind: ErrorKind,
+    says: &[&str],
+) -> Box<sylva::lsystem::LsystemError> {
+    let e = derive_err(text, steps, budget);
+    assert_eq!(e.kind, kind, "{}", e.message);
+    for words in says {
+        assert!(e.message.contains(words), "not saying {words:?}: {}", e.message);
+    }
+    e
+}
+
 // ---------------------------------------------------------------------------------------
 // L-system files
 
@@ -44,9 +60,7 @@ fn macro_expansion_bomb_is_a_budget_error() {
         text.push_str(&format!("#define {} {} {}\n", names[i], names[i + 1], names[i + 1]));
     }
     text.push_str("#define M31 F\nLsystem: 1\nAxiom: M0\nendlsystem\n");
-    let e = derive_err(&text, 0, 1000);
-    assert_eq!(e.kind, ErrorKind::Budget, "{}", e.message);
-    assert!(e.message.contains("more than 1048576 characters"), "{}", e.message);
+    derive_fails(&text, 0, 1000, ErrorKind::Budget, &["more than 1048576 characters"]);
 }
 
 /// A recursive decomposition (`A(n) --> A(n-1)A(n-1)` from `A(40)`) doubled inside one
@@ -55,9 +69,7 @@ fn macro_expansion_bomb_is_a_budget_error() {
 fn recursive_decomposition_stops_at_the_module_budget() {
     let text = "Lsystem: 1\nAxiom: A(40)\ndecomposition\nmaximum depth: 100\n\
                 A(n) : n > 0 --> A(n-1)A(n-1)\nendlsystem\n";
-    let e = derive_err(text, 0, 100_000);
-    assert_eq!(e.kind, ErrorKind::Budget, "{}", e.message);
-    assert!(e.message.contains("more than 100000 modules"), "{}", e.message);
+    let e = derive_fails(text, 0, 100_000, ErrorKind::Budget, &["more than 100000 modules"]);
     assert!(format!("{e:?}").contains("generator.max_modules"), "{e:?}");
 }
 
@@ -66,9 +78,7 @@ fn recursive_decomposition_stops_at_the_module_budget() {
 #[test]
 fn deep_decomposition_does_not_overflow_the_stack() {
     let text = "Lsystem: 1\nAxiom: A\ndecomposition\nmaximum depth: 10000\nA --> AA\nendlsystem\n";
-    let e = derive_err(text, 0, 100_000);
-    assert_eq!(e.kind, ErrorKind::OutOfRange, "{}", e.message);
-    assert!(e.message.contains("maximum depth 10000"), "{}", e.message);
+    derive_fails(text, 0, 100_000, ErrorKind::OutOfRange, &["maximum depth 10000"]);
     // Without `maximum depth` the rule applies once per step: no error.
     let ls = LSystem::parse(
         "t.l",
@@ -107,23 +117,15 @@ fn recursive_homomorphism_stops_at_the_module_budget() {
 fn endless_work_in_productions_stops_at_the_work_budget() {
     let text = "Lsystem: 1\nderivation length: 1000\nAxiom: A(0)\n\
                 A(x) : { i = 0; while (i < 1000) { i = i + 1; } } x >= 0 --> A(x + 1)\nendlsystem\n";
-    let e = derive_err(text, 1_000_000, 10_000);
-    assert_eq!(e.kind, ErrorKind::Budget, "{}", e.message);
-    assert!(e.message.contains("work budget"), "{}", e.message);
-    assert!(
-        e.message.contains("640000 units of work") && e.message.contains("generator.max_modules = 10000"),
-        "{}",
-        e.message
-    );
+    let says = ["work budget", "640000 units of work", "generator.max_modules = 10000"];
+    derive_fails(text, 1_000_000, 10_000, ErrorKind::Budget, &says);
 }
 
 /// A string that stops growing, derived for two billion steps.
 #[test]
 fn billions_of_steps_stop_at_the_work_budget() {
     let text = "Lsystem: 1\nAxiom: A\nA --> A\nendlsystem\n";
-    let e = derive_err(text, 2_000_000_000, 10_000);
-    assert_eq!(e.kind, ErrorKind::Budget, "{}", e.message);
-    assert!(e.message.contains("work budget"), "{}", e.message);
+    derive_fails(text, 2_000_000_000, 10_000, ErrorKind::Budget, &["work budget"]);
 }
 
 /// `biran(n, p)` draws n times: charged to the work budget.
@@ -140,9 +142,7 @@ fn binomial_draws_are_charged() {
 fn parameter_explosion_is_a_budget_error() {
     let params = vec!["1"; 60].join(",");
     let text = format!("Lsystem: 1\nAxiom: A\nA --> A B({params}) A\nendlsystem\n");
-    let e = derive_err(&text, 30, 1_000_000);
-    assert_eq!(e.kind, ErrorKind::Budget, "{}", e.message);
-    assert!(e.message.contains("parameters"), "{}", e.message);
+    derive_fails(&text, 30, 1_000_000, ErrorKind::Budget, &["parameters"]);
 }
 
 /// Several arrays of the largest allowed size would add up to gigabytes.

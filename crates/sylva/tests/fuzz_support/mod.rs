@@ -42,6 +42,13 @@ impl Rng {
     pub fn pick<'a, T>(&mut self, v: &'a [T]) -> &'a T {
         &v[self.below(v.len())]
     }
+    /// A run of 1 to `max` items of a sequence of `n > 0` (shorter where it would pass
+    /// the end): its start first, then its length, drawn uniformly.
+    pub fn run(&mut self, n: usize, max: usize) -> std::ops::Range<usize> {
+        let i = self.below(n);
+        let k = (1 + self.below(max)).min(n - i);
+        i..i + k
+    }
     pub fn unit(&mut self) -> f64 {
         (self.next() >> 11) as f64 / (1u64 << 53) as f64
     }
@@ -673,6 +680,12 @@ fn token_pool(t: Target) -> &'static [&'static str] {
     }
 }
 
+/// The indices of the tokens whose first byte passes `first` (digits: the numbers;
+/// letters: the identifiers).
+fn starting_with<S: AsRef<str>>(toks: &[S], first: fn(&u8) -> bool) -> Vec<usize> {
+    (0..toks.len()).filter(|&i| toks[i].as_ref().as_bytes().first().is_some_and(first)).collect()
+}
+
 /// One to `max_ops` token-level mutations of `text`: insert, delete, duplicate or swap
 /// tokens, replace numbers by nasty ones, nest brackets deeply, repeat a line.
 pub fn mutate_text(rng: &mut Rng, text: &str, t: Target, max_ops: usize) -> String {
@@ -690,15 +703,13 @@ pub fn mutate_text(rng: &mut Rng, text: &str, t: Target, max_ops: usize) -> Stri
             }
             1 if n > 0 => {
                 // Delete a run.
-                let i = rng.below(n);
-                let k = (1 + rng.below(16)).min(n - i);
-                toks.drain(i..i + k);
+                toks.drain(rng.run(n, 16));
             }
             2 if n > 0 => {
                 // Duplicate a run (a repeated production, a doubled successor).
-                let i = rng.below(n);
-                let k = (1 + rng.below(24)).min(n - i);
-                let run: Vec<String> = toks[i..i + k].to_vec();
+                let run = rng.run(n, 24);
+                let i = run.start;
+                let run: Vec<String> = toks[run].to_vec();
                 let len: usize = run.iter().map(String::len).sum::<usize>().max(1);
                 let times = if rng.chance(0.1) { 2 + rng.below(200) } else { 1 };
                 let times = times.min(MAX_INPUT / len).max(1);
@@ -707,9 +718,7 @@ pub fn mutate_text(rng: &mut Rng, text: &str, t: Target, max_ops: usize) -> Stri
                 }
             }
             3 | 4 => {
-                let nums: Vec<usize> = (0..n)
-                    .filter(|&i| toks[i].as_bytes().first().is_some_and(|c| c.is_ascii_digit()))
-                    .collect();
+                let nums: Vec<usize> = starting_with(&toks, u8::is_ascii_digit);
                 if let Some(&i) = (!nums.is_empty()).then(|| rng.pick(&nums)) {
                     toks[i] = if rng.chance(0.5) {
                         rng.pick(NASTY_NUMBERS).to_string()
@@ -745,9 +754,7 @@ pub fn mutate_text(rng: &mut Rng, text: &str, t: Target, max_ops: usize) -> Stri
             }
             9 if n > 0 => {
                 // Replace an identifier by another of the file.
-                let ids: Vec<usize> = (0..n)
-                    .filter(|&i| toks[i].as_bytes().first().is_some_and(|c| c.is_ascii_alphabetic()))
-                    .collect();
+                let ids: Vec<usize> = starting_with(&toks, u8::is_ascii_alphabetic);
                 if ids.len() > 1 {
                     let a = *rng.pick(&ids);
                     let b = *rng.pick(&ids);
@@ -780,9 +787,7 @@ pub fn mutate_text(rng: &mut Rng, text: &str, t: Target, max_ops: usize) -> Stri
             }
             _ => {
                 // Replace a number by a nearby one (a step count, an angle, a radius).
-                let nums: Vec<usize> = (0..n)
-                    .filter(|&i| toks[i].as_bytes().first().is_some_and(|c| c.is_ascii_digit()))
-                    .collect();
+                let nums: Vec<usize> = starting_with(&toks, u8::is_ascii_digit);
                 if !nums.is_empty() {
                     let i = *rng.pick(&nums);
                     let v: f64 = toks[i].parse().unwrap_or(1.0);
@@ -819,14 +824,12 @@ pub fn mutate_bytes(rng: &mut Rng, data: &[u8], max_ops: usize) -> Vec<u8> {
                 b.insert(i, rng.next() as u8);
             }
             2 if n > 0 => {
-                let i = rng.below(n);
-                let k = (1 + rng.below(64)).min(n - i);
-                b.drain(i..i + k);
+                b.drain(rng.run(n, 64));
             }
             3 if n > 0 => {
-                let i = rng.below(n);
-                let k = (1 + rng.below(64)).min(n - i);
-                let run = b[i..i + k].to_vec();
+                let run = rng.run(n, 64);
+                let i = run.start;
+                let run = b[run].to_vec();
                 b.splice(i..i, run);
             }
             4 if n >= 4 => {
@@ -865,9 +868,7 @@ pub fn mutate_gltf(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
     for _ in 0..1 + rng.below(3) {
         // Replace a number of the document by a nasty one (counts, offsets, indices).
         let toks: Vec<&str> = tokens(&j);
-        let nums: Vec<usize> = (0..toks.len())
-            .filter(|&i| toks[i].as_bytes().first().is_some_and(|c| c.is_ascii_digit()))
-            .collect();
+        let nums: Vec<usize> = starting_with(&toks, u8::is_ascii_digit);
         if nums.is_empty() {
             break;
         }
@@ -1272,6 +1273,20 @@ pub enum Depth {
     Pipeline,
 }
 
+/// Copies the files of folder `from` into a new folder `to`, unless `to` exists (a
+/// scratch folder reused across runs).
+fn copy_files_once(from: &Path, to: &Path) -> Result<(), String> {
+    if !to.exists() {
+        std::fs::create_dir_all(to).map_err(|e| e.to_string())?;
+        if let Ok(rd) = std::fs::read_dir(from) {
+            for e in rd.flatten().filter(|e| e.path().is_file()) {
+                let _ = std::fs::copy(e.path(), to.join(e.file_name()));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Runs one input through its reader. `Ok(())` for a success or a clean error
 /// (`Err` values of the engine are expected for broken inputs); panics propagate to the
 /// caller (the watchdog catches them). `work` is a scratch folder for this run.
@@ -1304,53 +1319,33 @@ pub fn run_input(
             Ok(format!("{} nodes", g.skeleton.len()))
         }
     };
+    // The input written to `path` and loaded as a recipe or model (the file removed after).
+    let load_and_grow = |path: &Path| -> Result<String, String> {
+        std::fs::write(path, bytes).map_err(|e| e.to_string())?;
+        let mut sets = Vec::new();
+        small(&mut sets);
+        let r = recipe::load(&path.display().to_string(), &sets).map_err(|e| format!("{e}"));
+        let r = r.and_then(|loaded| grow(&loaded));
+        let _ = std::fs::remove_file(path);
+        r
+    };
     match t {
         Target::Lsystem => {
             let dir = match folder {
                 Some(f) => {
                     // The model folder's files beside the mutated model.
                     let copy = work.join("model");
-                    if !copy.exists() {
-                        std::fs::create_dir_all(&copy).map_err(|e| e.to_string())?;
-                        if let Ok(rd) = std::fs::read_dir(f) {
-                            for e in rd.flatten() {
-                                if e.path().is_file() {
-                                    let _ = std::fs::copy(e.path(), copy.join(e.file_name()));
-                                }
-                            }
-                        }
-                    }
+                    copy_files_once(f, &copy)?;
                     copy
                 }
                 None => work.to_path_buf(),
             };
-            let path = dir.join("fuzz-input.l");
-            std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
-            let mut sets = Vec::new();
-            small(&mut sets);
-            let r = recipe::load(&path.display().to_string(), &sets).map_err(|e| format!("{e}"));
-            let r = r.and_then(|loaded| grow(&loaded));
-            let _ = std::fs::remove_file(&path);
-            r
+            load_and_grow(&dir.join("fuzz-input.l"))
         }
         Target::Recipe => {
-            let lsys = work.join("lsystem");
-            if !lsys.exists() {
-                std::fs::create_dir_all(&lsys).map_err(|e| e.to_string())?;
-                if let Ok(rd) = std::fs::read_dir(repo_root().join("presets/lsystem")) {
-                    for e in rd.flatten() {
-                        let _ = std::fs::copy(e.path(), lsys.join(e.file_name()));
-                    }
-                }
-            }
-            let path = work.join("fuzz-recipe.toml");
-            std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
-            let mut sets = Vec::new();
-            small(&mut sets);
-            let r = recipe::load(&path.display().to_string(), &sets).map_err(|e| format!("{e}"));
-            let r = r.and_then(|loaded| grow(&loaded));
-            let _ = std::fs::remove_file(&path);
-            r
+            // The preset L-systems a recipe may name, beside it.
+            copy_files_once(&repo_root().join("presets/lsystem"), &work.join("lsystem"))?;
+            load_and_grow(&work.join("fuzz-recipe.toml"))
         }
         Target::Set => {
             let mut lines = text.lines();
