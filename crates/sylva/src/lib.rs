@@ -61,6 +61,7 @@ pub mod lsystem;
 pub mod mesh;
 pub mod model;
 pub mod named;
+pub mod noise;
 pub mod pipeline;
 pub mod presets;
 pub mod preview;

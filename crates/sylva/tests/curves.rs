@@ -9,8 +9,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use sylva::curves::fill::{self, FillParams, Outcome, Region, Root, EMPTY};
 use sylva::curves::magnetic::*;
-use sylva::curves::noise::Perlin;
 use sylva::curves::{self, space};
+use sylva::noise::Perlin;
 
 fn particle(profile: Profile, scale: f64, duration: f64) -> Particle {
     Particle {

@@ -48,7 +48,7 @@ use rand::RngExt;
 use rand_pcg::Pcg64;
 use serde::Deserialize;
 
-use super::noise::Perlin;
+use crate::noise::Perlin;
 
 /// Default limit on integration steps for one composition (all particles, all
 /// attempts together).

@@ -6,7 +6,7 @@
 //!  preset (TOML, kind = "curves") ─► Composition ─► layers ─► Drawing ─► Picture ─► .svg / .png
 //!   load_preset (+ --set)            compose/       magnetic.rs (trace, branching)   render.rs
 //!                                                   fill.rs (occupancy, ladder)      svg.rs
-//!                                                   noise.rs (Perlin fields)
+//!                                                   crate::noise (Perlin fields)
 //!                                                   space.rs (3D, sphere) ─► Skeleton ─► tube mesh ─► .glb …
 //! ```
 //!
@@ -14,7 +14,6 @@
 //!   constant-speed exact integrator and recursive branching (§7.2.1–§7.2.3);
 //! - [`fill`]: space filling with an occupancy grid, the parent-cell rule and the
 //!   `(T, α)` ladder (§7.2.4);
-//! - [`noise`]: seeded Perlin noise (Fig. 7.5);
 //! - [`compose`]: the `[curves]` table and its layers (§7.3's compositions);
 //! - [`render`]: tapered, outlined, coloured strokes to polygons and PNG;
 //! - [`space`]: 3D curves, skeletons and curves on a sphere (§8.1 future work);
@@ -29,7 +28,6 @@
 pub mod compose;
 pub mod fill;
 pub mod magnetic;
-pub mod noise;
 pub mod render;
 pub mod space;
 pub mod svg;

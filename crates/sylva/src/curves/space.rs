@@ -28,8 +28,8 @@ use rand::RngExt;
 use rand_pcg::Pcg64;
 
 use super::magnetic::{release_indices, Budget, Charge};
-use super::noise::Perlin;
 use crate::lsystem::expr::Evaluator;
+use crate::noise::Perlin;
 
 /// A 3D magnetic field.
 #[derive(Debug, Clone, PartialEq)]

@@ -15,8 +15,8 @@
 //! The normal map follows glTF's convention: +X towards +u, +Y towards +v of the mesh
 //! (up in the image), +Z out of the surface.
 
-use super::noise::TileNoise;
 use super::{srgb_byte, to_byte, Image};
+use crate::noise::TileNoise;
 use rayon::prelude::*;
 
 /// A bark style (`textures.bark`; serde uses the names of [`BarkStyle::NAMES`]).

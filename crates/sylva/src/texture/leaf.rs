@@ -8,8 +8,8 @@
 //! its midrib along +v. Outside a leaf the colour is the leaf's own (alpha 0), so
 //! filtering and mipmaps do not bleed a dark fringe into alpha-cut edges.
 
-use super::noise::TileNoise;
 use super::{srgb_byte, Image};
+use crate::noise::TileNoise;
 use glam::Vec2;
 use rayon::prelude::*;
 use tiny_skia::{FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};

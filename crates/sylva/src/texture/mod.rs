@@ -3,9 +3,8 @@
 //! shipped and nothing is downloaded. The exporters embed them (glTF `images`) or write
 //! them beside the model; the CPU preview samples them.
 //!
-//! Plain data below the exporters: this module imports only `error` (and `glam`).
+//! Plain data below the exporters: this module imports only `error` and `noise` (and `glam`).
 //!
-//! - [`noise`]: periodic gradient, fractal and cellular noise (seamless tiling).
 //! - [`bark`]: albedo, tangent-space normal and occlusion-roughness-metallic maps in four
 //!   styles (smooth, furrowed, plated, birch-like with lenticels).
 //! - [`leaf`]: an atlas of leaf shapes (ovate, lanceolate, lobed, compound, needle tuft,
@@ -15,7 +14,6 @@
 pub mod bark;
 pub mod cache;
 pub mod leaf;
-pub mod noise;
 
 pub use cache::TextureCache;
 

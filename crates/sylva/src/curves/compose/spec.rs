@@ -6,10 +6,10 @@ use super::style::StyleSpec;
 use super::{check_finite, check_positive, v2};
 use crate::curves::fill::Region;
 use crate::curves::magnetic::{self, Field, Integrator, Profile, Signs, UserExpr, Wave};
-use crate::curves::noise::Perlin;
 use crate::curves::render::Drawing;
 use crate::curves::space;
 use crate::error::{Error, Result};
+use crate::noise::Perlin;
 use glam::DVec3;
 use serde::Deserialize;
 

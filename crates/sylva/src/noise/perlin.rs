@@ -1,19 +1,15 @@
-//! Seeded Perlin gradient noise in 2D and 3D, for the spatially varying magnetic fields
-//! of Xu2015 §7.2.4 (Fig. 7.5: `B_z = 0.5·(1 + noise(x/50, y/50))`) and for the 3D
-//! and on-surface fields that go beyond the seed.
-//!
-//! This is Ken Perlin's "improved noise" (SIGGRAPH 2002): a permutation table of 256
-//! entries (here shuffled by a seeded PCG generator instead of Perlin's fixed table),
-//! the quintic fade `6t⁵ − 15t⁴ + 10t³` (so the field has continuous second derivatives
-//! and the curves' curvature stays continuous), and gradients from a small fixed set.
-//! The value is 0 at every lattice point. Values are scaled so the theoretical extremes
-//! are ±1 and then clamped to `[-1, 1]`, so `0.5·(1 + noise)` always lies in `[0, 1]`.
-//!
-//! Cost: one table look-up per lattice corner (4 in 2D, 8 in 3D) and no allocation.
+//! [`Perlin`]: Ken Perlin's "improved noise" (Perlin2002) over a permutation table of
+//! 256 entries shuffled by a seeded PCG generator, in 2D (the eight gradients every 45°)
+//! and 3D (the twelve cube-edge gradients). Values are scaled so the theoretical
+//! extremes are ±1 and clamped to `[-1, 1]`, so `0.5·(1 + noise)` lies in `[0, 1]`
+//! (Xu2015 Fig. 7.5: `B_z = 0.5·(1 + noise(x/50, y/50))`). One table look-up per
+//! lattice corner and no allocation.
 
 use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+
+use super::{fade, gradient2, lerp};
 
 /// A seeded Perlin noise generator (2D and 3D share one permutation table).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -74,19 +70,8 @@ impl Perlin {
         let xi = (fx.rem_euclid(256.0)) as usize;
         let yi = (fy.rem_euclid(256.0)) as usize;
         let (x, y) = (p.x - fx, p.y - fy);
-        let (u, v) = (fade(x), fade(y));
-        let g = |ix: usize, iy: usize, dx: f64, dy: f64| {
-            let h = self.hash(self.hash(ix) + iy) & 7;
-            let (gx, gy) = GRAD2[h];
-            gx * dx + gy * dy
-        };
-        let n00 = g(xi, yi, x, y);
-        let n10 = g(xi + 1, yi, x - 1.0, y);
-        let n01 = g(xi, yi + 1, x, y - 1.0);
-        let n11 = g(xi + 1, yi + 1, x - 1.0, y - 1.0);
-        let nx0 = lerp(u, n00, n10);
-        let nx1 = lerp(u, n01, n11);
-        (lerp(v, nx0, nx1) * SCALE_2D).clamp(-1.0, 1.0)
+        let n = gradient2(x, y, |i, j| GRAD2[self.hash(self.hash(xi + i as usize) + yi + j as usize) & 7]);
+        (n * SCALE_2D).clamp(-1.0, 1.0)
     }
 
     /// 3D noise at `p`, in `[-1, 1]` (Perlin's twelve cube-edge gradients); 0 at integer
@@ -131,17 +116,6 @@ impl Perlin {
         );
         r.clamp(-1.0, 1.0)
     }
-}
-
-/// Perlin's quintic fade curve.
-#[inline]
-fn fade(t: f64) -> f64 {
-    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
-}
-
-#[inline]
-fn lerp(t: f64, a: f64, b: f64) -> f64 {
-    a + t * (b - a)
 }
 
 /// Perlin 2002's gradient selection: the 12 edge midpoints of the cube (4 repeated).

@@ -1,8 +1,9 @@
-//! Periodic noise for textures that tile (issue 23): 2D gradient (Perlin) noise, its
-//! fractal sum and cellular (Worley) noise, each periodic in both axes with integer
-//! periods, so a texture sampled over \[0, 1)² with `x = s · period` meets itself at
-//! the edges exactly. Hash-based (no tables): the same seed gives the same values on
-//! every platform.
+//! [`TileNoise`]: periodic noise for textures that tile — 2D gradient noise, its fractal
+//! sum and cellular (Worley) noise, each periodic in both axes with integer periods, so
+//! a texture sampled over \[0, 1)² with `x = s · period` meets itself at the edges
+//! exactly. Hash-based (no tables).
+
+use super::gradient2;
 
 /// Noise of one seed.
 #[derive(Debug, Clone, Copy)]
@@ -32,12 +33,6 @@ fn wrap(v: i32, period: i32) -> i32 {
     } else {
         v.rem_euclid(period)
     }
-}
-
-/// Quintic fade 6t⁵ − 15t⁴ + 10t³.
-#[inline]
-fn fade(t: f32) -> f32 {
-    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 }
 
 /// The eight unit-ish gradient directions of 2D Perlin noise.
@@ -77,18 +72,11 @@ impl TileNoise {
         let (x0, y0) = (wrap(ix, px), wrap(iy, py));
         let x1 = if x0 + 1 == px { 0 } else { x0 + 1 };
         let y1 = if y0 + 1 == py { 0 } else { y0 + 1 };
-        let g = |gx: i32, gy: i32, dx: f32, dy: f32| {
-            let (a, b) = GRADIENTS[(hash(gx, gy, self.seed) & 7) as usize];
-            a * dx + b * dy
-        };
-        let n00 = g(x0, y0, tx, ty);
-        let n10 = g(x1, y0, tx - 1.0, ty);
-        let n01 = g(x0, y1, tx, ty - 1.0);
-        let n11 = g(x1, y1, tx - 1.0, ty - 1.0);
-        let (u, v) = (fade(tx), fade(ty));
-        let a = n00 + (n10 - n00) * u;
-        let b = n01 + (n11 - n01) * u;
-        (a + (b - a) * v) * std::f32::consts::SQRT_2
+        let n = gradient2(tx, ty, |i, j| {
+            let (gx, gy) = (if i == 0 { x0 } else { x1 }, if j == 0 { y0 } else { y1 });
+            GRADIENTS[(hash(gx, gy, self.seed) & 7) as usize]
+        });
+        n * std::f32::consts::SQRT_2
     }
 
     /// Fractal sum of `octaves` gradient-noise octaves, each of twice the frequency (and
