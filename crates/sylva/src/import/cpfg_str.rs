@@ -176,25 +176,16 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                 let shown_tok = quote(tok);
                 match parse_number(tok) {
                     Ok(v) => params.push(v),
-                    Err(NumberError::NonFinite) => {
-                        return Err(err(
-                            ErrorKind::NonFinite,
-                            i,
-                            tok.len(),
-                            &format!("parameter `{shown_tok}` of module `{shown}` is not a finite number"),
-                            "not finite",
-                        ));
-                    }
-                    Err(NumberError::Syntax) => {
-                        return Err(err(
-                            ErrorKind::Syntax,
-                            i,
-                            tok.len(),
-                            &format!(
-                                "parameter `{shown_tok}` of module `{shown}` is not a number (string files hold numbers, not expressions)"
-                            ),
-                            "not a number",
-                        ));
+                    Err(e) => {
+                        let why = match e {
+                            NumberError::NonFinite => "is not a finite number",
+                            NumberError::Syntax => {
+                                "is not a number (string files hold numbers, not expressions)"
+                            }
+                        };
+                        let (kind, label) = e.kind_label();
+                        let what = format!("parameter `{shown_tok}` of module `{shown}` {why}");
+                        return Err(err(kind, i, tok.len(), &what, label));
                     }
                 }
                 i = skip_ws(t_end);

@@ -385,27 +385,18 @@ impl Ops<'_> {
                         "expected a number",
                     ));
                 }
-                let v = match parse_number(tok) {
-                    Ok(v) => v,
-                    Err(NumberError::NonFinite) => {
-                        return Err(OpError::new(
-                            ErrorKind::NonFinite,
-                            t_at,
-                            tok.len(),
-                            format!("`{}` is not a finite number (argument of `{name}`)", clip(tok)),
-                            "not finite",
-                        ));
-                    }
-                    Err(NumberError::Syntax) => {
-                        return Err(OpError::new(
-                            ErrorKind::Syntax,
-                            t_at,
-                            tok.len(),
-                            format!("expected a number, found `{}` (argument of `{name}`)", clip(tok)),
-                            "not a number",
-                        ));
-                    }
-                };
+                let v = parse_number(tok).map_err(|e| {
+                    let what = match e {
+                        NumberError::NonFinite => {
+                            format!("`{}` is not a finite number (argument of `{name}`)", clip(tok))
+                        }
+                        NumberError::Syntax => {
+                            format!("expected a number, found `{}` (argument of `{name}`)", clip(tok))
+                        }
+                    };
+                    let (kind, label) = e.kind_label();
+                    OpError::new(kind, t_at, tok.len(), what, label)
+                })?;
                 if count < args.len() {
                     args[count] = Arg { v, at: t_at, len: tok.len() };
                 }

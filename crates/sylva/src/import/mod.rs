@@ -107,6 +107,16 @@ pub(crate) enum NumberError {
     NonFinite,
 }
 
+impl NumberError {
+    /// The error kind and the label under the token: `not finite` or `not a number`.
+    pub(crate) fn kind_label(&self) -> (ErrorKind, &'static str) {
+        match self {
+            NumberError::NonFinite => (ErrorKind::NonFinite, "not finite"),
+            NumberError::Syntax => (ErrorKind::Syntax, "not a number"),
+        }
+    }
+}
+
 /// Parses a decimal literal: `[+-]` digits with an optional fraction and exponent
 /// (`1`, `-0.5`, `.5`, `5.`, `1e+06`, `2.5E-3`). `nan`/`inf` and overflowing literals
 /// are [`NumberError::NonFinite`]; anything else that is not such a literal is

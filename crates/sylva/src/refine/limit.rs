@@ -28,7 +28,9 @@ use crate::geometry::FaceVarying;
 use glam::Vec3;
 use std::f64::consts::PI;
 
-fn needs_full(topo: &Topology) -> Result<(), RefineError> {
+/// What both limit evaluations need: the last level's full adjacency, one value per
+/// vertex (`what` names them), and quads for Catmull–Clark.
+fn check_input(scheme: Scheme, topo: &Topology, len: usize, what: &'static str) -> Result<(), RefineError> {
     if topo.vert_corner_offsets.len() != topo.vertex_count() + 1
         || topo.edge_corners.len() != topo.edge_count()
     {
@@ -37,6 +39,12 @@ fn needs_full(topo: &Topology) -> Result<(), RefineError> {
              (set RefineOptions::full_last_level)"
                 .into(),
         ));
+    }
+    if len != topo.vertex_count() {
+        return Err(RefineError::WrongLength { what, expected: topo.vertex_count(), got: len });
+    }
+    if scheme == Scheme::CatmullClark && topo.face_count() > 0 && topo.face_size != 4 {
+        return Err(RefineError::LimitNeedsQuads);
     }
     Ok(())
 }
@@ -70,17 +78,7 @@ pub(crate) fn limit_positions<T: Primvar>(
     src: &[T],
     par: bool,
 ) -> Result<Vec<T>, RefineError> {
-    needs_full(topo)?;
-    if src.len() != topo.vertex_count() {
-        return Err(RefineError::WrongLength {
-            what: "finest-level values",
-            expected: topo.vertex_count(),
-            got: src.len(),
-        });
-    }
-    if scheme == Scheme::CatmullClark && topo.face_count() > 0 && topo.face_size != 4 {
-        return Err(RefineError::LimitNeedsQuads);
-    }
+    check_input(scheme, topo, src.len(), "finest-level values")?;
     let mut out = vec![T::zero(); src.len()];
     fill(par, &mut out, |v, o| {
         let cs = topo.vertex_corners(v);
@@ -132,17 +130,7 @@ pub(crate) fn limit_normals(
     features: &Features,
     pos: &[Vec3],
 ) -> Result<FaceVarying<Vec3>, RefineError> {
-    needs_full(topo)?;
-    if pos.len() != topo.vertex_count() {
-        return Err(RefineError::WrongLength {
-            what: "finest-level positions",
-            expected: topo.vertex_count(),
-            got: pos.len(),
-        });
-    }
-    if scheme == Scheme::CatmullClark && topo.face_count() > 0 && topo.face_size != 4 {
-        return Err(RefineError::LimitNeedsQuads);
-    }
+    check_input(scheme, topo, pos.len(), "finest-level positions")?;
     let groups = group_by_vertex(topo, features, boundary);
     let mut gi = 0;
     let mut values = Vec::with_capacity(topo.vertex_count());

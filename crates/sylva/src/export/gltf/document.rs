@@ -2,7 +2,8 @@
 //! model with a rig or LODs (one node per level, `MSFT_lod`), glTF2 §3.5.
 
 use super::mesh::{
-    grid, position_bounds, push_instanced_node, push_mesh, push_primitive, Dequant, Positions,
+    grid, position_bounds, push_instanced_node, push_mesh, push_primitive, push_primitives, Dequant,
+    Positions,
 };
 use super::rig::{push_rig, skin_entries, Channels, Skinning};
 use super::textures::push_textures;
@@ -122,17 +123,7 @@ pub(super) fn build_levels(
             let channels = Channels { skin, ..Channels::wind(part, options) };
             primitives.push(push_primitive(&mut doc, part, data, &texture_of, positions, &channels)?);
         }
-        let mesh = doc.root.push(json::Mesh {
-            name: Some(level_name(k)),
-            primitives,
-            extensions: None,
-            extras: Default::default(),
-            weights: None,
-        });
-        let dequant = match positions {
-            Positions::Grid(d) => Some(d),
-            Positions::Float => None,
-        };
+        let (mesh, dequant) = push_primitives(&mut doc, level_name(k), primitives, positions);
         meshes.push((Some(mesh), dequant));
     }
 

@@ -35,9 +35,20 @@ pub(super) fn push_mesh(
         Positions::Float
     };
     let primitive = push_primitive(doc, part, data, texture_of, positions, channels)?;
+    Ok(push_primitives(doc, part.name.clone(), vec![primitive], positions))
+}
+
+/// Writes a mesh called `name` of `primitives`, whose positions are written as
+/// `positions` says; returns the mesh and, for quantized positions, how they decode.
+pub(super) fn push_primitives(
+    doc: &mut Doc,
+    name: String,
+    primitives: Vec<json::mesh::Primitive>,
+    positions: Positions,
+) -> (Index<json::Mesh>, Option<Dequant>) {
     let mesh = doc.root.push(json::Mesh {
-        name: Some(part.name.clone()),
-        primitives: vec![primitive],
+        name: Some(name),
+        primitives,
         extensions: None,
         extras: Default::default(),
         weights: None,
@@ -46,7 +57,7 @@ pub(super) fn push_mesh(
         Positions::Grid(d) => Some(d),
         Positions::Float => None,
     };
-    Ok((mesh, dequant))
+    (mesh, dequant)
 }
 
 /// How a primitive's positions are written.

@@ -6,6 +6,7 @@ use super::motion::{apply, capsule_hits, move_organs, subtree_hits, Motion};
 use super::Work;
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::{DQuat, DVec3};
+use std::ops::ControlFlow;
 
 /// Lengths (fractions of the internode) a colliding tip internode is shortened to,
 /// mildest first.
@@ -24,15 +25,7 @@ pub(super) fn retract_tips(
     clearance: f64,
     work: &Work,
 ) -> usize {
-    let mut bvh = Bvh::build(s, clearance);
-    let mut pulled = 0;
-    for &[a, b] in pairs {
-        if work.over() {
-            break;
-        }
-        if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
-            continue; // cleared by an earlier retraction
-        }
+    each_colliding_pair(s, topo, pairs, clearance, work, |s, bvh, a, b| {
         let mut best: Option<(usize, usize, DVec3)> = None; // (step, tip, new position)
         for x in [a, b] {
             if topo.child_count[x] != 0 {
@@ -47,10 +40,10 @@ pub(super) fn retract_tips(
                 let cm = Capsule { a: base, b: base + (tip - base) * f, r: capsule(s, x).r };
                 let mut examined = 0u64;
                 let hits =
-                    capsule_hits(s, topo, &bvh, x, (x, &cm), clearance, 1, (&mut examined, work.left()));
+                    capsule_hits(s, topo, bvh, x, (x, &cm), clearance, 1, (&mut examined, work.left()));
                 work.charge_u64(examined.saturating_add(1));
                 if work.over() {
-                    return pulled;
+                    return ControlFlow::Break(());
                 }
                 if hits == 0 {
                     best = Some((k, x, cm.b));
@@ -58,14 +51,43 @@ pub(super) fn retract_tips(
                 }
             }
         }
-        let Some((_, x, to)) = best else { continue };
+        let Some((_, x, to)) = best else { return ControlFlow::Continue(false) };
         let delta = (to - s.position[x].as_dvec3()).as_vec3();
         s.position[x] = to.as_vec3();
         move_organs(s, topo, x, |p| p + delta, |d| d);
         bvh.update(x, capsule_box(&capsule(s, x), clearance));
-        pulled += 1;
+        ControlFlow::Continue(true)
+    })
+}
+
+/// The loop both resorts share: `attempt` runs on each pair of `pairs` that still
+/// collides (an earlier move may have cleared it) with the skeleton and its capsule
+/// tree, and says whether it moved something (`Continue(true)`) or spent the work
+/// budget (`Break`). Returns the pairs moved.
+fn each_colliding_pair(
+    s: &mut Skeleton,
+    topo: &Topology,
+    pairs: &[[usize; 2]],
+    clearance: f64,
+    work: &Work,
+    mut attempt: impl FnMut(&mut Skeleton, &mut Bvh, usize, usize) -> ControlFlow<(), bool>,
+) -> usize {
+    let mut bvh = Bvh::build(s, clearance);
+    let mut moved = 0;
+    for &[a, b] in pairs {
+        if work.over() {
+            break;
+        }
+        if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
+            continue;
+        }
+        match attempt(s, &mut bvh, a, b) {
+            ControlFlow::Continue(true) => moved += 1,
+            ControlFlow::Continue(false) => {}
+            ControlFlow::Break(()) => break,
+        }
     }
-    pulled
+    moved
 }
 
 /// Moves tried by the stub resort (lengthening or bending a stub, bending a longer
@@ -102,16 +124,7 @@ pub(super) fn extend_stubs(
     clearance: f64,
     work: &Work,
 ) -> usize {
-    let mut bvh = Bvh::build(s, clearance);
-    let mut pushed = 0;
-    for &[a, b] in pairs {
-        if work.over() {
-            break;
-        }
-        let (ca, cb) = (capsule(s, a), capsule(s, b));
-        if !collide(s, topo, (a, &ca), (b, &cb), clearance) {
-            continue; // cleared by an earlier move
-        }
+    each_colliding_pair(s, topo, pairs, clearance, work, |s, bvh, a, b| {
         // Mildest step first; at one step, stubs (in the order tried), then the bends
         // of the lightest subtrees.
         let mut best: Option<((usize, usize), usize, Motion)> = None; // (rank, stub, motion)
@@ -119,20 +132,19 @@ pub(super) fn extend_stubs(
             if best.is_some_and(|(bk, ..)| bk <= (k, weight)) {
                 continue;
             }
-            let (hits, examined) = subtree_hits(s, topo, &bvh, x, &mv, clearance, 1, work.left());
+            let (hits, examined) = subtree_hits(s, topo, bvh, x, &mv, clearance, 1, work.left());
             work.charge_u64(examined.saturating_add(topo.size(x) as u64));
             if work.over() {
-                return pushed;
+                return ControlFlow::Break(());
             }
             if hits == 0 {
                 best = Some(((k, weight), x, mv));
             }
         }
-        let Some((_, x, mv)) = best else { continue };
-        apply(s, topo, &mut bvh, x, &mv, clearance);
-        pushed += 1;
-    }
-    pushed
+        let Some((_, x, mv)) = best else { return ControlFlow::Continue(false) };
+        apply(s, topo, bvh, x, &mv, clearance);
+        ControlFlow::Continue(true)
+    })
 }
 
 /// The stub motions [`extend_stubs`] tries for the pair `a`, `b`, as (step in

@@ -156,41 +156,40 @@ impl QuadOptions {
     /// Checks every option's range; the message starts with the option's name.
     pub fn check(&self) -> Result<()> {
         let bad = |why: String| Err(Error::InvalidGeometry { what: "quad mesher".into(), why });
-        if !(self.cs_scale.is_finite() && self.cs_scale > 0.0 && self.cs_scale <= 100.0) {
-            return bad(format!("cs_scale = {}; it must be in (0, 100]", self.cs_scale));
+        let o = self;
+        // (name, value, whether it is in range, the range as said)
+        for (name, v, ok, range) in [
+            ("cs_scale", o.cs_scale, o.cs_scale > 0.0 && o.cs_scale <= 100.0, "(0, 100]"),
+            (
+                "max_side_angle",
+                o.max_side_angle,
+                (10.0..=89.0).contains(&o.max_side_angle),
+                "10..=89 degrees",
+            ),
+            (
+                "max_back_angle",
+                o.max_back_angle,
+                (90.0..=150.0).contains(&o.max_back_angle),
+                "90..=150 degrees",
+            ),
+            ("min_radius", o.min_radius, (1e-6..=1.0).contains(&o.min_radius), "1e-6..=1"),
+            ("min_length", o.min_length, (1e-4..=10.0).contains(&o.min_length), "1e-4..=10"),
+            ("elbow_angle", o.elbow_angle, (0.0..=90.0).contains(&o.elbow_angle), "0..=90 degrees"),
+            ("support", o.support, (0.0..=10.0).contains(&o.support), "0..=10"),
+        ] {
+            if !(v.is_finite() && ok) {
+                return bad(format!("{name} = {v}; it must be in {range}"));
+            }
         }
-        if !(self.max_side_angle.is_finite() && (10.0..=89.0).contains(&self.max_side_angle)) {
-            return bad(format!("max_side_angle = {}; it must be in 10..=89 degrees", self.max_side_angle));
-        }
-        if !(self.max_back_angle.is_finite() && (90.0..=150.0).contains(&self.max_back_angle)) {
-            return bad(format!("max_back_angle = {}; it must be in 90..=150 degrees", self.max_back_angle));
-        }
-        if self.max_chain > 16 {
-            return bad(format!("max_chain = {}; it must be in 0..=16", self.max_chain));
-        }
-        if !(self.min_radius.is_finite() && (1e-6..=1.0).contains(&self.min_radius)) {
-            return bad(format!("min_radius = {}; it must be in 1e-6..=1", self.min_radius));
-        }
-        if !(self.min_length.is_finite() && (1e-4..=10.0).contains(&self.min_length)) {
-            return bad(format!("min_length = {}; it must be in 1e-4..=10", self.min_length));
-        }
-        if !(self.elbow_angle.is_finite() && (0.0..=90.0).contains(&self.elbow_angle)) {
-            return bad(format!("elbow_angle = {}; it must be in 0..=90 degrees", self.elbow_angle));
-        }
-        if !(self.support.is_finite() && (0.0..=10.0).contains(&self.support)) {
-            return bad(format!("support = {}; it must be in 0..=10", self.support));
-        }
-        if self.repair_rounds > 16 {
-            return bad(format!("repair_rounds = {}; it must be in 0..=16", self.repair_rounds));
-        }
-        if !(1..=3).contains(&self.check_levels) {
-            return bad(format!("check_levels = {}; it must be in 1..=3", self.check_levels));
-        }
-        if !(1..=MAX_REPAIR_WORK).contains(&self.max_repair_work) {
-            return bad(format!(
-                "max_repair_work = {}; it must be in 1..={MAX_REPAIR_WORK}",
-                self.max_repair_work
-            ));
+        for (name, v, range) in [
+            ("max_chain", u64::from(o.max_chain), 0..=16),
+            ("repair_rounds", u64::from(o.repair_rounds), 0..=16),
+            ("check_levels", u64::from(o.check_levels), 1..=3),
+            ("max_repair_work", o.max_repair_work, 1..=MAX_REPAIR_WORK),
+        ] {
+            if !range.contains(&v) {
+                return bad(format!("{name} = {v}; it must be in {}..={}", range.start(), range.end()));
+            }
         }
         Ok(())
     }
