@@ -294,27 +294,16 @@ mod tests {
         dir.join(name)
     }
 
+    /// The arguments `sylva subdivide INPUT -o OUTPUT --quiet` parses to: every other
+    /// flag at its command-line default.
     fn args(input: PathBuf, output: PathBuf) -> SubdivideArgs {
-        SubdivideArgs {
-            input,
-            output,
-            scheme: None,
-            levels: 2,
-            limit: false,
-            uv: FvarInterpolation::Linear,
-            creasing: None,
-            boundary: None,
-            max_faces: refine::DEFAULT_MAX_FACES,
-            max_memory: refine::DEFAULT_MAX_MEMORY,
-            threads: None,
-            adaptive: None,
-            pn: None,
-            pn_level: 4,
-            pn_interior: QuadInterior::Theyer,
-            pn_normals: NormalInterpolation::Quadratic,
-            noise: None,
-            quiet: true,
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: SubdivideArgs,
         }
+        let words = [PathBuf::from("subdivide"), input, "-o".into(), output, "--quiet".into()];
+        <Cli as clap::Parser>::parse_from(words).args
     }
 
     const CUBE: &str = "v -1 -1 -1\nv 1 -1 -1\nv -1 1 -1\nv 1 1 -1\nv -1 -1 1\nv 1 -1 1\nv -1 1 1\nv 1 1 1\n\
@@ -384,28 +373,38 @@ mod tests {
 
     #[test]
     fn bad_adaptive_pn_and_noise_values_are_clear_errors() {
-        for (s, want) in [
-            ("flatness=abc", "not a finite number"),
-            ("flatness=-1", "≥ 0"),
-            ("size=-2", "≥ 0"),
-            ("depth=3", "unknown key `depth`"),
-            ("flatness", "not key=value"),
-            ("size=1,size=2", "twice"),
-        ] {
-            let e = parse_adaptive(s).unwrap_err();
-            assert!(e.contains(want), "{s}: {e}");
-        }
-        for (s, want) in [
-            ("k=-1", "≥ 0"),
-            ("h=2", "[0, 1]"),
-            ("bias=1.5", "[0, 1]"),
-            ("l=0", "> 0"),
-            ("seed=-3", "integer"),
-            ("k=nan", "finite"),
-            ("q=1", "unknown key"),
-        ] {
-            let e = parse_noise(s).unwrap_err();
-            assert!(e.contains(want), "{s}: {e}");
+        let adaptive: fn(&str) -> Result<(), String> = |s| parse_adaptive(s).map(drop);
+        let noise: fn(&str) -> Result<(), String> = |s| parse_noise(s).map(drop);
+        let cases: [(_, &[(&str, &str)]); 2] = [
+            (
+                adaptive,
+                &[
+                    ("flatness=abc", "not a finite number"),
+                    ("flatness=-1", "≥ 0"),
+                    ("size=-2", "≥ 0"),
+                    ("depth=3", "unknown key `depth`"),
+                    ("flatness", "not key=value"),
+                    ("size=1,size=2", "twice"),
+                ],
+            ),
+            (
+                noise,
+                &[
+                    ("k=-1", "≥ 0"),
+                    ("h=2", "[0, 1]"),
+                    ("bias=1.5", "[0, 1]"),
+                    ("l=0", "> 0"),
+                    ("seed=-3", "integer"),
+                    ("k=nan", "finite"),
+                    ("q=1", "unknown key"),
+                ],
+            ),
+        ];
+        for (parse, bad) in cases {
+            for (s, want) in bad {
+                let e = parse(s).unwrap_err();
+                assert!(e.contains(want), "{s}: {e}");
+            }
         }
         let input = temp("cube-adaptive.obj");
         std::fs::write(&input, CUBE).unwrap();
