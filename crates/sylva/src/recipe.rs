@@ -25,7 +25,7 @@ mod tests;
 pub use modes::{
     LeafMode, LeafNormals, MeshBase, MeshMethod, RefineBoundary, RefineScheme, ViewFiles, WindPreset,
 };
-pub use read::{from_table, load, parse_set, set_key, Loaded, Origin};
+pub use read::{from_table, load, over_preset, parse_set, set_key, Loaded, Origin, PRESET_KEY};
 pub use schema::schema;
 
 use crate::error::{Error, Result};

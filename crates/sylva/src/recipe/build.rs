@@ -37,11 +37,12 @@ impl Recipe {
         Ok(Loaded::preset(name)?.recipe)
     }
 
-    /// A recipe from the text of a TOML recipe. Errors name the key (or the line and
-    /// column of a syntax error).
+    /// A recipe from the text of a TOML recipe (`preset = "name"` starts it from that
+    /// preset, [`super::over_preset`]). Errors name the key (or the line and column of a
+    /// syntax error).
     pub fn from_toml(text: &str) -> Result<Recipe> {
         let table: toml::Table = toml::from_str(text).map_err(|e| Error::Recipe(toml_error(text, &e)))?;
-        from_table(table, &[])
+        from_table(super::over_preset(table)?.0, &[])
     }
 
     /// The recipe of a file: a `.toml` recipe, or a model file (`.l`, `.lst`, `.str`,

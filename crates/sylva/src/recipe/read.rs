@@ -272,8 +272,56 @@ pub(super) fn toml_error(text: &str, e: &toml::de::Error) -> String {
     format!("TOML parse error at line {line}, column {col}\n{excerpt}\n{}", clip_quoted(e.message().trim()))
 }
 
-/// Loads the recipe for `what`: an embedded preset name, a `.toml` recipe file, or a
-/// bare model file (`.l`) that gets the default recipe. `sets` are `--set` overrides.
+/// The key of a recipe file that starts it from an embedded preset.
+pub const PRESET_KEY: &str = "preset";
+
+/// A recipe file's table with its `preset = "name"` resolved: the preset's recipe with
+/// the file's keys laid over it, table by table (a file's `generator` table of another
+/// `type` replaces the preset's whole), and the preset's name, whose embedded files the
+/// recipe's file names then resolve in. A table without the key is returned as it is.
+///
+/// Errors: `preset` that is not a string or names no tree preset.
+pub fn over_preset(mut table: toml::Table) -> Result<(toml::Table, Option<String>)> {
+    let Some(value) = table.remove(PRESET_KEY) else { return Ok((table, None)) };
+    let name = value.as_str().ok_or_else(|| {
+        Error::Recipe(format!("`{PRESET_KEY}` must be a preset's name (text), not {}", value.type_str()))
+    })?;
+    let preset = crate::presets::get(name).filter(|p| !p.is_curves()).ok_or_else(|| {
+        Error::Recipe(format!(
+            "`{PRESET_KEY}`: no tree preset is called `{}` (`sylva list` names them)",
+            crate::diagnostic::quote(name)
+        ))
+    })?;
+    let mut base: toml::Table =
+        toml::from_str(preset.recipe).map_err(|e| Error::Recipe(format!("preset `{name}`: {e}")))?;
+    let other_generator = |base: &toml::Table| {
+        let kind = |t: &toml::Table| {
+            t.get("generator").and_then(|g| g.get("type")).and_then(|v| v.as_str()).map(str::to_string)
+        };
+        kind(&table).is_some_and(|k| Some(k) != kind(base))
+    };
+    if other_generator(&base) {
+        base.remove("generator");
+    }
+    lay_over(&mut base, table);
+    Ok((base, Some(name.to_string())))
+}
+
+/// `top`'s keys laid over `base`: tables merge key by key, any other value replaces.
+fn lay_over(base: &mut toml::Table, top: toml::Table) {
+    for (k, v) in top {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(t)) => lay_over(b, t),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
+}
+
+/// Loads the recipe for `what`: an embedded preset name, a `.toml` recipe file (which
+/// may start from a preset with `preset = "name"`, [`over_preset`]), or a bare model
+/// file (`.l`) that gets the default recipe. `sets` are `--set` overrides.
 pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
     let path = Path::new(what);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
@@ -291,11 +339,16 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
         let table: toml::Table = toml::from_str(&text)
             .map_err(|e| Error::Recipe(format!("{}: {}", path.display(), toml_error(&text, &e))))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let recipe = from_table(table, sets).map_err(|e| match e {
+        let in_file = |e| match e {
             Error::Recipe(m) => Error::Recipe(format!("{}: {m}", path.display())),
             e => e,
-        })?;
-        return Ok(Loaded { recipe, origin: Origin::Folder(dir) });
+        };
+        let (table, origin) = match over_preset(table).map_err(in_file)? {
+            (table, Some(name)) => (table, Origin::Preset(name)),
+            (table, None) => (table, Origin::Folder(dir)),
+        };
+        let recipe = from_table(table, sets).map_err(in_file)?;
+        return Ok(Loaded { recipe, origin });
     }
     if ["lst", "str", "json"].contains(&ext.as_str()) {
         if !path.exists() {
