@@ -30,6 +30,15 @@ pub const MAX_EXPANDED_LINE: usize = 1 << 20;
 /// Most characters the whole preprocessed text may have.
 pub const MAX_PREPROCESSED: usize = 1 << 26;
 
+/// What the walk over the model's files carries from file to file: the `#define`
+/// overrides, the `#include` resolver, the open `#if` blocks and the include depth.
+struct Walk<'a> {
+    overrides: HashMap<String, String>,
+    resolve: IncludeResolver<'a>,
+    conds: Vec<Cond>,
+    depth: usize,
+}
+
 struct Cond {
     active: bool,
     taken: bool,
@@ -65,30 +74,23 @@ impl Source {
             defines: HashMap::new(),
             macros: HashMap::new(),
         };
-        let overrides: HashMap<String, String> = overrides.iter().cloned().collect();
-        let mut conds: Vec<Cond> = Vec::new();
-        src.process_file(0, &overrides, resolve, &mut conds, 0)?;
-        if let Some(_c) = conds.last() {
+        let mut walk =
+            Walk { overrides: overrides.iter().cloned().collect(), resolve, conds: Vec::new(), depth: 0 };
+        src.process_file(0, &mut walk)?;
+        if let Some(_c) = walk.conds.last() {
             return Err(src.error_nowhere(ErrorKind::Syntax, "`#if` without a matching `#endif`"));
         }
         Ok(src)
     }
 
-    fn process_file(
-        &mut self,
-        file: usize,
-        overrides: &HashMap<String, String>,
-        resolve: IncludeResolver,
-        conds: &mut Vec<Cond>,
-        depth: usize,
-    ) -> Result<(), Box<LsystemError>> {
+    fn process_file(&mut self, file: usize, walk: &mut Walk) -> Result<(), Box<LsystemError>> {
         let text = self.files[file].1.clone();
         let stripped = blank_comments(&text, CommentStyle::Lsystem);
         let lines = logical_lines(&stripped, file);
         for line in &lines {
             let s: String = line.iter().map(|&(c, _)| c).collect();
             let trimmed = s.trim_start();
-            let active = conds.last().map(|c| c.active).unwrap_or(true);
+            let active = walk.conds.last().map(|c| c.active).unwrap_or(true);
             // A directive is `#`, optional blanks, then a name (or nothing: the null
             // directive). `#(0.06) F(5)` — cpfg's width module opening a successor's
             // continuation line — is L-system text, not a directive (issue 26: it was
@@ -99,7 +101,7 @@ impl Source {
             if let Some(rest) = directive {
                 let lead = s.chars().count() - trimmed.chars().count();
                 let at = line.get(lead).map(|&(_, o)| o).unwrap_or(origin(file, 0));
-                self.directive(rest.trim_end(), at, active, overrides, resolve, conds, depth)?;
+                self.directive(rest.trim_end(), at, active, walk)?;
             } else if active {
                 let expanded = self.expand(line, 0)?;
                 if self.text.len() + expanded.len() > MAX_PREPROCESSED {
@@ -132,17 +134,14 @@ impl Source {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn directive(
         &mut self,
         rest: &str,
         at: u64,
         active: bool,
-        overrides: &HashMap<String, String>,
-        resolve: IncludeResolver,
-        conds: &mut Vec<Cond>,
-        depth: usize,
+        walk: &mut Walk,
     ) -> Result<(), Box<LsystemError>> {
+        let conds = &mut walk.conds;
         let rest = rest.trim_start();
         let word: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric()).collect();
         let arg = rest[word.len()..].trim();
@@ -211,7 +210,7 @@ impl Source {
                 } else {
                     (None, after.trim().to_string())
                 };
-                let body = match (&params, overrides.get(&name)) {
+                let body = match (&params, walk.overrides.get(&name)) {
                     (None, Some(v)) => v.clone(),
                     _ => body,
                 };
@@ -240,10 +239,10 @@ impl Source {
                         "lpfg header",
                     ));
                 }
-                if depth >= 16 {
+                if walk.depth >= 16 {
                     return Err(err(self, ErrorKind::Syntax, "`#include` nested more than 16 deep", "here"));
                 }
-                let (name, text) = match resolve(file) {
+                let (name, text) = match (walk.resolve)(file) {
                     Ok(found) => found,
                     Err(why) => {
                         return Err(err(
@@ -256,7 +255,10 @@ impl Source {
                 };
                 self.files.push((name, Arc::from(text.as_str())));
                 let idx = self.files.len() - 1;
-                self.process_file(idx, overrides, resolve, conds, depth + 1)
+                walk.depth += 1;
+                let done = self.process_file(idx, walk);
+                walk.depth -= 1;
+                done
             }
             "" | "pragma" | "line" => Ok(()),
             other => Err(err(
