@@ -8,11 +8,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[path = "common/folders.rs"]
+mod folders;
+
 fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sylva-pov-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    folders::tempdir("pov", name)
 }
 
 /// Renders `scene` at `w`×`h` with POV-Ray; `None` when it is not installed (and not

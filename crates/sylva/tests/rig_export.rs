@@ -8,7 +8,7 @@ use common::gltf_validator::assert_valid_gltf;
 use common::rig_tools::{blender_rig, threejs_wind};
 use glam::{Mat4, Quat, Vec2, Vec3};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use sylva::export::gltf::{to_glb, to_glb_with};
 use sylva::export::{self, Compression, ExportOptions, LodLayout};
 use sylva::geometry::FaceVarying;
@@ -271,8 +271,7 @@ fn rigged_lod_files_are_valid_in_every_layout_and_compression() {
             paths.push(path);
         }
     }
-    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
-    assert_valid_gltf(&refs);
+    assert_valid_gltf(&paths);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -552,8 +551,7 @@ fn instances_are_merged_with_a_rig_and_hang_under_lod0_without_one() {
         std::fs::write(&path, &glb).unwrap();
         paths.push(path);
     }
-    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
-    assert_valid_gltf(&refs);
+    assert_valid_gltf(&paths);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -719,8 +717,7 @@ fn blender_imports_the_rig_and_the_clip() {
             path
         })
         .collect();
-    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
-    let Some(reports) = blender_rig(&refs) else { return };
+    let Some(reports) = blender_rig(&paths) else { return };
     for r in reports {
         println!("Blender: {}", r.json);
         assert_eq!((r.armatures, r.bones), (1, 3), "{}", r.json);

@@ -2,10 +2,12 @@
 //! textures) and whatever else a run stages with them are one result
 //! ([`sylva::fsutil::OutputSet`]).
 
+#[path = "common/folders.rs"]
+mod folders;
 #[path = "common/tmpfs.rs"]
 mod tmpfs;
 
-use std::collections::BTreeMap;
+use folders::{leftovers, snapshot};
 use std::path::{Path, PathBuf};
 use sylva::export::{stage_with_options, write_with_options, ExportOptions};
 use sylva::fsutil::OutputSet;
@@ -13,26 +15,7 @@ use tmpfs::Tmpfs;
 
 /// An empty folder for one test.
 fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sylva-robust-outputs-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Every file in `dir` with its bytes (folders as empty).
-fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap_or_default())
-        })
-        .collect()
-}
-
-/// The names in `dir` that are temporaries or locks.
-fn leftovers(dir: &Path) -> Vec<String> {
-    snapshot(dir).into_keys().filter(|n| n.contains(".tmp-") || n.ends_with(".lock")).collect()
+    folders::tempdir("robust-outputs", name)
 }
 
 /// `preset` grown with `sets` (`key=value`).

@@ -607,8 +607,7 @@ fn every_leaf_shape_exports_valid_gltf() {
         std::fs::write(&path, sylva::export::gltf::to_glb(&model).unwrap()).unwrap();
         files.push(path);
     }
-    let refs: Vec<&std::path::Path> = files.iter().map(|p| p.as_path()).collect();
-    common::gltf_validator::assert_valid_gltf(&refs);
+    common::gltf_validator::assert_valid_gltf(&files);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -7,20 +7,16 @@
 //! `#[path = "../../sylva/tests/common/rig_tools.rs"] mod rig_tools;`.
 #![allow(dead_code)]
 
+#[path = "node_check.rs"]
+mod node_check;
+
+use node_check::{skip, NodeCheck};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The repository's `tools` folder.
 fn tools_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools")
-}
-
-/// Panics with `message` where `variable` is `1`, else prints it loudly.
-fn skip(message: &str, variable: &str) {
-    if std::env::var(variable).is_ok_and(|v| v == "1") {
-        panic!("{message} ({variable}=1 makes this an error)");
-    }
-    eprintln!("\n**********\n*** {message}\n**********\n");
 }
 
 /// What three.js measured playing a file's wind clip (`tools/threejs/wind.mjs`).
@@ -50,21 +46,16 @@ pub struct ThreeWind {
 /// [`ThreeWind::height`]. Panics if the script fails; `None` when Node or three.js is
 /// missing (unless `SYLVA_REQUIRE_THREEJS=1`).
 pub fn threejs_wind(path: &Path, height: Option<f64>) -> Option<ThreeWind> {
-    let dir = tools_dir().join("threejs");
-    let node_ok = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !(node_ok && dir.join("node_modules/three").is_dir()) {
-        skip("SKIPPED three.js wind check: run `npm ci --prefix tools/threejs`", "SYLVA_REQUIRE_THREEJS");
-        return None;
-    }
-    let output = Command::new("node")
-        .arg(dir.join("wind.mjs"))
-        .arg(path)
-        .args(height.map(|h| h.to_string()))
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run node wind.mjs: {e}"));
-    let report =
-        format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
-    assert!(output.status.success(), "three.js could not play {}:\n{report}", path.display());
+    let check = NodeCheck {
+        what: "three.js wind check",
+        dir: tools_dir().join("threejs"),
+        script: "wind.mjs",
+        package: "three",
+        require: "SYLVA_REQUIRE_THREEJS",
+    };
+    let height = height.map(|h| std::ffi::OsString::from(h.to_string()));
+    let (ok, report) = check.run(std::iter::once(path.as_os_str().to_owned()).chain(height))?;
+    assert!(ok, "three.js could not play {}:\n{report}", path.display());
     let line = report.lines().find(|l| l.starts_with('{')).unwrap_or_else(|| panic!("no report:\n{report}"));
     let v: serde_json::Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}: {line}"));
     let num = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("no number `{k}` in {line}"));
@@ -108,7 +99,7 @@ pub struct BlenderRig {
 /// and reports its armatures' bones and its actions' keyframe range
 /// (`tools/blender/wind_check.py`), one report per file. Panics if an import fails;
 /// `None` when `blender` is not on PATH (unless `SYLVA_REQUIRE_BLENDER=1`).
-pub fn blender_rig(paths: &[&Path]) -> Option<Vec<BlenderRig>> {
+pub fn blender_rig<P: AsRef<Path>>(paths: &[P]) -> Option<Vec<BlenderRig>> {
     let has = Command::new("blender").arg("--version").output().is_ok_and(|o| o.status.success());
     if !has {
         skip(
@@ -121,7 +112,7 @@ pub fn blender_rig(paths: &[&Path]) -> Option<Vec<BlenderRig>> {
         .args(["-b", "--factory-startup", "--python"])
         .arg(tools_dir().join("blender/wind_check.py"))
         .arg("--")
-        .args(paths)
+        .args(paths.iter().map(AsRef::as_ref))
         .output()
         .unwrap_or_else(|e| panic!("cannot run blender: {e}"));
     let text = String::from_utf8_lossy(&output.stdout);
