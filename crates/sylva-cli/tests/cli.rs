@@ -54,24 +54,31 @@ fn presets_list_every_preset_name_first() {
     }
 }
 
+/// Grows every preset into `d` as `<name>.glb` with the flags `extra`, and returns the
+/// files. Magnetic-curves compositions are rendered by `sylva curves` (tested there).
+fn grow_every_preset(d: &Path, extra: &[&str]) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for name in presets().into_iter().filter(|n| !n.starts_with("curves-")) {
+        let out = d.join(format!("{name}.glb"));
+        let r = sylva(&[&["grow", &name, "-o", out.to_str().unwrap()], extra].concat(), d);
+        assert_eq!(r.code, 0, "{name}: {}", r.stderr);
+        assert!(out.exists(), "{name} wrote its file");
+        files.push(out);
+    }
+    files
+}
+
 #[test]
 fn every_preset_grows_and_validates() {
     let d = tempdir("presets");
-    let mut files = Vec::new();
-    // Magnetic-curves compositions are rendered by `sylva curves` (tested there).
-    for name in presets().into_iter().filter(|n| !n.starts_with("curves-")) {
-        let out = d.join(format!("{name}.glb"));
-        let r = sylva(&["grow", &name, "-o", out.to_str().unwrap(), "--preview-size=64", "--quiet"], &d);
-        assert_eq!(r.code, 0, "{name}: {}", r.stderr);
-        assert!(out.exists(), "{name} wrote its file");
-        assert!(out.with_extension("png").exists());
-        files.push(out);
+    let files = grow_every_preset(&d, &["--preview-size=64", "--quiet"]);
+    for out in &files {
+        assert!(out.with_extension("png").exists(), "{} has its preview", out.display());
     }
-    let refs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
     // 0 errors, 0 warnings and 0 infos (no unused attribute) for every preset.
-    gltf_validator::assert_valid_gltf_without_infos(&refs);
+    gltf_validator::assert_valid_gltf_without_infos(&files);
     // A real client: three.js's GLTFLoader finds the bark maps and the alpha-cut cards.
-    gltf_validator::assert_threejs_loads(&refs);
+    gltf_validator::assert_threejs_loads(&files);
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -81,38 +88,27 @@ fn every_preset_grows_and_validates() {
 #[test]
 fn every_preset_with_wind_validates() {
     let d = tempdir("wind-presets");
-    let mut files = Vec::new();
-    for name in presets().into_iter().filter(|n| !n.starts_with("curves-")) {
-        let out = d.join(format!("{name}.glb"));
-        let r = sylva(
-            &[
-                "grow",
-                &name,
-                "-o",
-                out.to_str().unwrap(),
-                "--no-preview",
-                "--quiet",
-                "--wind",
-                "breeze",
-                "--set",
-                "output.wind_colors=true",
-                "--set",
-                "wind.fps=10",
-                "--lod",
-                "3000,800,impostor",
-                "--set",
-                "lod.atlas_frames=4",
-                "--set",
-                "lod.atlas_size=256",
-            ],
-            &d,
-        );
-        assert_eq!(r.code, 0, "{name}: {}", r.stderr);
-        files.push(out);
-    }
-    let refs: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
-    gltf_validator::assert_valid_gltf(&refs);
-    gltf_validator::assert_threejs_loads(&refs);
+    let files = grow_every_preset(
+        &d,
+        &[
+            "--no-preview",
+            "--quiet",
+            "--wind",
+            "breeze",
+            "--set",
+            "output.wind_colors=true",
+            "--set",
+            "wind.fps=10",
+            "--lod",
+            "3000,800,impostor",
+            "--set",
+            "lod.atlas_frames=4",
+            "--set",
+            "lod.atlas_size=256",
+        ],
+    );
+    gltf_validator::assert_valid_gltf(&files);
+    gltf_validator::assert_threejs_loads(&files);
     let _ = std::fs::remove_dir_all(&d);
 }
 

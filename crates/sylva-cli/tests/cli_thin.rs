@@ -6,22 +6,21 @@
 
 mod common;
 
-use common::{sylva, tempdir};
+use common::{assert_says, sylva, tempdir};
 
 #[test]
 fn n_on_weber_penn_says_what_n_is_and_what_to_use_instead() {
     let d = tempdir("cli-thin", "n-weber-penn");
     let r = sylva(&["grow", "wp-quaking-aspen", "-n", "5", "-o", "aspen.glb"], &d);
     assert_eq!(r.code, 1, "{}", r.stderr);
-    for want in [
+    let says = [
         "-n 5",
         "derivation steps",
         "L-system",
         "`wp-quaking-aspen` is a Weber–Penn tree",
         "--set generator.levels=N",
-    ] {
-        assert!(r.stderr.contains(want), "no `{want}` in: {}", r.stderr);
-    }
+    ];
+    assert_says("-n 5", &r.stderr, &says);
     assert!(!r.stderr.contains("unknown key"), "{}", r.stderr);
     assert!(!r.stderr.contains("generator.iterations"), "a key the user never typed: {}", r.stderr);
     assert!(!d.join("aspen.glb").exists() && !d.join("aspen.png").exists());
@@ -58,9 +57,7 @@ fn help_says_what_sylva_is() {
     let r = sylva(&["--help"], &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("sylva grows trees and plants"), "{}", r.stdout);
-    for want in ["L-system", "Weber & Penn", "space\ncolonization", "glTF", "wind"] {
-        assert!(r.stdout.contains(want), "no `{want}` in: {}", r.stdout);
-    }
+    assert_says("--help", &r.stdout, &["L-system", "Weber & Penn", "space\ncolonization", "glTF", "wind"]);
     assert!(!r.stdout.contains("The sylva command-line tool"), "{}", r.stdout);
     let r = sylva(&["-h"], &d);
     assert!(r.stdout.starts_with("sylva grows trees and plants"), "{}", r.stdout);
@@ -70,19 +67,18 @@ fn help_says_what_sylva_is() {
 #[test]
 fn the_shared_flags_are_the_same_on_every_subcommand() {
     let d = tempdir("cli-thin", "shared");
+    let shared = [
+        "[WHAT]",
+        "-n, --iterations",
+        "--seed <SEED>",
+        "--set <KEY=VALUE>",
+        "-q, --quiet",
+        "Derivation steps of an L-system",
+    ];
     for sub in [&["grow"][..], &["render"], &["lsys", "derive"]] {
         let r = sylva(&[sub, &["--help"][..]].concat(), &d);
         assert_eq!(r.code, 0, "{sub:?}: {}", r.stderr);
-        for want in [
-            "[WHAT]",
-            "-n, --iterations",
-            "--seed <SEED>",
-            "--set <KEY=VALUE>",
-            "-q, --quiet",
-            "Derivation steps of an L-system",
-        ] {
-            assert!(r.stdout.contains(want), "{sub:?}: no `{want}` in: {}", r.stdout);
-        }
+        assert_says(&format!("{sub:?}"), &r.stdout, &shared);
     }
     let r = sylva(&["lsys", "derive", "lsys-binary-tree", "-n", "2", "--seed", "3", "-q"], &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
@@ -108,9 +104,7 @@ fn value_parsers_name_the_flag_what_was_typed_and_the_form() {
     for (args, wants) in cases {
         let r = sylva(args, &d);
         assert_eq!(r.code, 1, "{args:?}: {}", r.stderr);
-        for want in *wants {
-            assert!(r.stderr.contains(want), "{args:?}: no `{want}` in: {}", r.stderr);
-        }
+        assert_says(&format!("{args:?}"), &r.stderr, wants);
     }
     let written: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
     assert!(written.is_empty(), "bad flags wrote {written:?}");

@@ -9,8 +9,8 @@ mod common;
 #[path = "../../sylva/tests/common/tmpfs.rs"]
 mod tmpfs;
 
+use common::folders::{leftovers, snapshot};
 use common::{sylva, tempdir};
-use std::collections::BTreeMap;
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -19,26 +19,6 @@ use tmpfs::Tmpfs;
 
 /// A small tree: the runs below grow it many times.
 const SMALL: &str = "lsys-honda-a";
-
-/// Every file in `dir` with its bytes.
-fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap_or_default())
-        })
-        .collect()
-}
-
-/// The names in `dir` that are temporaries or locks of an output set.
-fn leftovers(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains(".tmp-") || n.ends_with(".lock"))
-        .collect()
-}
 
 /// Starts `sylva args…` in `cwd`.
 fn spawn(args: &[&str], cwd: &Path) -> std::process::Child {
@@ -68,19 +48,22 @@ fn wait_for_temporary(child: &mut std::process::Child, dir: &Path) -> bool {
 
 /// A grow whose model stays staged for a while: the model is staged first, then the
 /// (large) preview is rendered while its temporary waits.
-fn slow_grow(preview_size: &str) -> Vec<String> {
+fn slow_grow(preview_size: &str) -> [&str; 7] {
     ["grow", "lsys-honda-d", "-o", "t.glb", "--preview-size", preview_size, "--quiet"]
-        .map(String::from)
-        .to_vec()
+}
+
+/// Starts a [`slow_grow`] with a 2048-pixel preview in `dir` and returns once its model's
+/// temporary is there.
+fn staged_grow(dir: &Path) -> std::process::Child {
+    let mut child = spawn(&slow_grow("2048"), dir);
+    assert!(wait_for_temporary(&mut child, dir), "the run ended before a temporary was seen");
+    child
 }
 
 #[test]
 fn item10_sigterm_during_a_write_leaves_no_temporary() {
     let d = tempdir("robust-out", "sigterm");
-    let args = slow_grow("2048");
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let mut child = spawn(&args, &d);
-    assert!(wait_for_temporary(&mut child, &d), "the run ended before a temporary was seen");
+    let mut child = staged_grow(&d);
     let kill = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
     assert!(kill.success());
     let status = child.wait().unwrap();
@@ -95,10 +78,7 @@ fn item10_sigterm_during_a_write_leaves_no_temporary() {
 #[test]
 fn item10_sigkill_temporaries_are_removed_by_the_next_run_into_the_name() {
     let d = tempdir("robust-out", "sigkill");
-    let args = slow_grow("2048");
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let mut child = spawn(&args, &d);
-    assert!(wait_for_temporary(&mut child, &d), "the run ended before a temporary was seen");
+    let mut child = staged_grow(&d);
     child.kill().unwrap(); // SIGKILL: no cleanup possible
     child.wait().unwrap(); // reaped, so its PID is gone
     let stale = leftovers(&d);
@@ -106,9 +86,7 @@ fn item10_sigkill_temporaries_are_removed_by_the_next_run_into_the_name() {
         stale.iter().any(|n| n.starts_with(".t.glb.tmp-")),
         "a killed run leaves its temporary: {stale:?}"
     );
-    let args = slow_grow("64");
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let r = sylva(&args, &d);
+    let r = sylva(&slow_grow("64"), &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert_eq!(leftovers(&d), Vec::<String>::new(), "the next run into t.glb removes the stale temporaries");
     let mut names: Vec<String> = snapshot(&d).into_keys().collect();

@@ -1,7 +1,7 @@
 //! The harness the `sylva` binary's integration tests share: run the binary in a folder
 //! and capture its exit code and output, and make a fresh temporary folder per test.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// One run of the binary.
@@ -30,11 +30,16 @@ pub fn sylva(args: &[&str], cwd: &Path) -> Run {
     }
 }
 
-/// An empty folder `sylva-<suite>-<name>-<pid>` in the system's temporary folder.
+#[path = "../../../sylva/tests/common/folders.rs"]
+pub mod folders;
+#[allow(unused_imports)]
+pub use folders::tempdir;
+
+/// Fails unless `text` contains each of `wants`; the message starts with `context` (what
+/// was run) and quotes `text`.
 #[allow(dead_code)]
-pub fn tempdir(suite: &str, name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sylva-{suite}-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+pub fn assert_says(context: &str, text: &str, wants: &[&str]) {
+    for want in wants {
+        assert!(text.contains(want), "{context}: no `{want}` in: {text}");
+    }
 }
