@@ -41,15 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let _ = std::fs::remove_file(&tmp);
     // Side by side.
-    let (w, h) = (images[0].width as usize, images[0].height as usize);
-    let mut rgba = Vec::with_capacity(3 * w * h * 4);
-    for row in 0..h {
-        for img in &images {
-            rgba.extend_from_slice(&img.rgba[row * w * 4..(row + 1) * w * 4]);
-        }
-    }
-    let joined = sylva::preview::Image { width: (3 * w) as u32, height: h as u32, rgba };
-    write_png(&joined, std::path::Path::new(out))?;
+    write_png(&sylva::preview::Image::side_by_side(&images)?, std::path::Path::new(out))?;
     println!("wrote {out}");
     Ok(())
 }

@@ -90,14 +90,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &opts,
         )?);
     }
-    let (w, h, n) = (size as usize, size as usize, images.len());
-    let mut rgba = Vec::with_capacity(n * w * h * 4);
-    for row in 0..h {
-        for img in &images {
-            rgba.extend_from_slice(&img.rgba[row * w * 4..(row + 1) * w * 4]);
-        }
-    }
-    write_png(&Image { width: (n * w) as u32, height: h as u32, rgba }, std::path::Path::new(out))?;
+    write_png(&Image::side_by_side(&images)?, std::path::Path::new(out))?;
     println!("wrote {out}");
     // The albedo atlas beside it, on a checkerboard so its alpha shows.
     if let Some(atlas) = model.images.iter().find(|i| i.name == "impostor_albedo") {
@@ -120,7 +113,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .unwrap_or("lod")
                 .trim_end_matches("-row")
         ));
-        write_png(&Image { width: a.width, height: a.height, rgba }, &path)?;
+        write_png(&Image::from_rgba(a.width, a.height, rgba), &path)?;
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -54,6 +54,7 @@ pub mod fit;
 pub mod fsutil;
 pub mod geometry;
 pub mod grow;
+pub mod image;
 pub mod import;
 pub mod input;
 pub mod lod;

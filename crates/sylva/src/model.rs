@@ -55,7 +55,7 @@ pub struct ModelImage {
     /// Name (`bark_albedo`, `leaf_atlas`, …): letters, digits and `_` only.
     pub name: String,
     /// The pixels.
-    pub image: crate::texture::Image,
+    pub image: crate::image::Image,
     /// Repeat (bark tiles) rather than clamp (the leaf atlas) outside \[0, 1\].
     pub repeat: bool,
 }

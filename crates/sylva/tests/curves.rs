@@ -781,21 +781,7 @@ fn regenerate_docs_pngs() {
             480,
         )
         .unwrap();
-        sylva::fsutil::write_atomic(&path, |w| {
-            let mut enc = png::Encoder::new(w, raster.width, raster.height);
-            let data: Vec<u8> = if raster.opaque {
-                enc.set_color(png::ColorType::Rgb);
-                raster.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
-            } else {
-                enc.set_color(png::ColorType::Rgba);
-                raster.rgba.clone()
-            };
-            enc.set_compression(png::Compression::High);
-            let mut wr = enc.write_header().map_err(std::io::Error::other)?;
-            wr.write_image_data(&data).map_err(std::io::Error::other)?;
-            wr.finish().map_err(std::io::Error::other)
-        })
-        .unwrap();
+        sylva::fsutil::write_atomic(&path, |w| raster.encode_png_with(w, png::Compression::High)).unwrap();
         println!(
             "{:<28} curves {:>5}  steps {:>9}  attempts {:>6}  abandoned {:>5}  {:>7.1} ms",
             name,

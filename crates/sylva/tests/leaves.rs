@@ -34,7 +34,7 @@ fn covered(model: &sylva::Model, frame: (glam::Vec3, glam::Vec3)) -> usize {
         ..Default::default()
     };
     let image = render(model, &opts).unwrap();
-    image.rgba.chunks(4).filter(|p| p[..3] != [236, 233, 225]).count()
+    image.data.chunks(4).filter(|p| p[..3] != [236, 233, 225]).count()
 }
 
 fn glb_size(model: &sylva::Model, name: &str) -> u64 {

@@ -79,7 +79,7 @@ const BACKGROUND: [u8; 3] = [236, 233, 225];
 /// The covered pixels (not the flat background) of a render.
 fn mask(model: &Model, opts: &PreviewOptions) -> Vec<bool> {
     let image = render(model, opts).unwrap();
-    image.rgba.chunks(4).map(|p| p[..3] != BACKGROUND).collect()
+    image.data.chunks(4).map(|p| p[..3] != BACKGROUND).collect()
 }
 
 fn options(

@@ -416,18 +416,9 @@ fn cap(out: &mut Vec<Vec2>, c: DVec2, t: DVec2, h: f64, end: bool, flip: &impl F
     }
 }
 
-/// An RGBA raster, not premultiplied, rows top to bottom.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Raster {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// `width × height × 4` bytes.
-    pub rgba: Vec<u8>,
-    /// Every pixel has alpha 255 (an opaque background).
-    pub opaque: bool,
-}
+/// The raster [`rasterize`] returns: the one image type, RGB (3 channels) over an opaque
+/// background, else RGBA, not premultiplied; rows top to bottom.
+pub type Raster = crate::image::Image;
 
 /// Pixel size for a picture drawn `width_px` wide (height from the aspect ratio).
 pub fn pixel_size(picture: &Picture, width_px: u32) -> Result<(u32, u32)> {
@@ -488,7 +479,10 @@ pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {
         .collect();
     let band_h = h.div_ceil(BANDS).max(1);
     let bands: Vec<(u32, u32)> = (0..h).step_by(band_h as usize).map(|y0| (y0, band_h.min(h - y0))).collect();
-    let drawn: Vec<Option<Pixmap>> = bands
+    // Over an opaque background every pixel is opaque, and premultiplied equals straight:
+    // the raster is RGB. Each band converts its own pixels.
+    let opaque = picture.background.is_some_and(|c| c[3] == 255);
+    let drawn: Vec<Option<Vec<u8>>> = bands
         .par_iter()
         .map(|&(y0, bh)| {
             let mut pixmap = Pixmap::new(w, bh)?;
@@ -501,55 +495,31 @@ pub fn rasterize(picture: &Picture, width_px: u32) -> Result<Raster> {
                 paint.set_color_rgba8(*r, *g, *b, *a);
                 pixmap.fill_path(path, &paint, FillRule::Winding, transform, None);
             }
-            Some(pixmap)
+            Some(if opaque {
+                pixmap.data().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+            } else {
+                let straight = pixmap.pixels().iter().map(|px| px.demultiply());
+                straight.flat_map(|c| [c.red(), c.green(), c.blue(), c.alpha()]).collect()
+            })
         })
         .collect();
-    // Over an opaque background every pixel is opaque, and premultiplied equals straight.
-    let opaque = picture.background.is_some_and(|c| c[3] == 255);
-    let mut rgba = Vec::with_capacity(w as usize * h as usize * 4);
+    let channels = if opaque { 3 } else { 4 };
+    let mut data = Vec::with_capacity(w as usize * h as usize * channels as usize);
     for band in drawn {
         let band = band.ok_or_else(|| Error::InvalidGeometry {
             what: "curves raster".into(),
             why: format!("cannot allocate {w} × {band_h} pixels"),
         })?;
-        if opaque {
-            rgba.extend_from_slice(band.data());
-        } else {
-            for px in band.pixels() {
-                let c = px.demultiply();
-                rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
-            }
-        }
+        data.extend_from_slice(&band);
     }
-    Ok(Raster { width: w, height: h, rgba, opaque })
+    Ok(Raster { width: w, height: h, channels, data })
 }
 
-/// Encodes a raster as an 8-bit PNG: RGB when it is opaque, RGBA otherwise.
+/// Encodes a raster as an 8-bit PNG (RGB when it is opaque, RGBA otherwise) with the
+/// "Up" filter and fdeflate's fastest mode: flat backgrounds and long strokes compress
+/// well at a fraction of the adaptive filter's cost.
 pub fn encode_png(raster: &Raster, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-    let mut enc = png::Encoder::new(w, raster.width, raster.height);
-    enc.set_depth(png::BitDepth::Eight);
-    // The "Up" filter with fdeflate's fastest mode: flat backgrounds and long strokes
-    // compress well at a fraction of the adaptive filter's cost.
-    enc.set_compression(png::Compression::Fastest);
-    if raster.opaque {
-        enc.set_color(png::ColorType::Rgb);
-        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-        use rayon::prelude::*;
-        let mut rgb = vec![0u8; raster.rgba.len() / 4 * 3];
-        // Rows of 64 k pixels per task: the copy is memory-bound and parallelises well.
-        rgb.par_chunks_mut(3 << 16).zip(raster.rgba.par_chunks(4 << 16)).for_each(|(d, s)| {
-            for (d, s) in d.chunks_exact_mut(3).zip(s.chunks_exact(4)) {
-                d.copy_from_slice(&s[..3]);
-            }
-        });
-        writer.write_image_data(&rgb).map_err(std::io::Error::other)?;
-        writer.finish().map_err(std::io::Error::other)
-    } else {
-        enc.set_color(png::ColorType::Rgba);
-        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-        writer.write_image_data(&raster.rgba).map_err(std::io::Error::other)?;
-        writer.finish().map_err(std::io::Error::other)
-    }
+    raster.encode_png_with(w, png::Compression::Fastest)
 }
 
 /// Rasterizes `picture` `width_px` wide and writes it as a PNG, atomically.
@@ -607,8 +577,9 @@ mod tests {
         d.curves[0].outline = None;
         let r = rasterize(&picture(&d, 0.0), 100).unwrap();
         assert_eq!((r.width, r.height), (100, 50));
-        let row = |y: usize| &r.rgba[y * 400..(y + 1) * 400];
-        assert!(row(0).chunks_exact(4).any(|p| p[1] < 128), "the stroke is drawn");
+        let stride = 100 * r.channels as usize;
+        let row = |y: usize| &r.data[y * stride..(y + 1) * stride];
+        assert!((0..100).any(|x| r.pixel(x, 0).unwrap()[1] < 128), "the stroke is drawn");
         for y in 1..50 {
             assert_eq!(row(y), row(0), "row {y} differs (band height {})", 50u32.div_ceil(BANDS));
         }
@@ -626,7 +597,7 @@ mod tests {
         low.points.iter_mut().for_each(|p| p.y = 37.5);
         d.curves.push(low);
         let r = rasterize(&picture(&d, 0.0), 100).unwrap();
-        let px = |x: usize, y: usize| &r.rgba[(y * 100 + x) * 4..(y * 100 + x) * 4 + 4];
+        let px = |x: u32, y: u32| r.pixel(x, y).unwrap();
         // Pixel centres sit at half-integers, so the stroke at 13 covers [10.5, 14.5]: rows
         // 11–13 fully (across the boundary), rows 10 and 14 half.
         let green: Vec<u8> = (0..50).map(|y| px(50, y)[1]).collect();
@@ -646,11 +617,11 @@ mod tests {
         assert_eq!(pic.shapes.len(), 2);
         let r = rasterize(&pic, 100).unwrap();
         assert_eq!((r.width, r.height), (100, 50));
-        let px = |x: usize, y: usize| &r.rgba[(y * 100 + x) * 4..(y * 100 + x) * 4 + 4];
-        assert_eq!(px(50, 25), &[255, 0, 0, 255]);
-        assert_eq!(px(50, 5), &[255, 255, 255, 255]);
+        let px = |x: u32, y: u32| r.pixel(x, y).unwrap();
+        assert_eq!(px(50, 25), [255, 0, 0, 255]);
+        assert_eq!(px(50, 5), [255, 255, 255, 255]);
         // The outline ring: 5..7 px from the centre line.
-        assert_eq!(px(50, 19), &[0, 0, 0, 255]);
+        assert_eq!(px(50, 19), [0, 0, 0, 255]);
     }
 
     #[test]

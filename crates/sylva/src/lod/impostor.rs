@@ -15,9 +15,9 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::{FaceVarying, Mesh};
+use crate::image::Image;
 use crate::model::{Material, MaterialMaps, ModelImage, Part};
 use crate::preview::{render_layers, view_basis, LayerView};
-use crate::texture::Image;
 use glam::{Vec2, Vec3};
 
 /// Samples per pixel along each axis of an atlas frame.

@@ -124,19 +124,19 @@ pub fn stage_animation_with<E: From<Error>>(
     // The first error of `frame` (or a frame of the wrong size), kept whole; the
     // encoder sees a plain I/O error and stops.
     let mut failed: Option<E> = None;
+    // Frames are RGBA (GIF and APNG both take RGBA here); an RGB frame gains alpha 255.
     let mut next = |k: usize| -> std::io::Result<Image> {
-        match frame(k) {
-            Ok(f) if f.width == w && f.height == h && f.rgba.len() as u64 == w as u64 * h as u64 * 4 => Ok(f),
-            Ok(f) => {
-                let why = format!("frame {k} is {}x{}, not {w}x{h}", f.width, f.height);
-                failed = Some(bad(why).into());
-                Err(std::io::Error::other("a frame failed"))
+        let checked = frame(k).map(Image::into_rgba).and_then(|f| {
+            if (f.width, f.height) != (w, h) {
+                return Err(bad(format!("frame {k} is {}x{}, not {w}x{h}", f.width, f.height)).into());
             }
-            Err(e) => {
-                failed = Some(e);
-                Err(std::io::Error::other("a frame failed"))
-            }
-        }
+            f.check(&format!("frame {k} of animation {}", path.display()))?;
+            Ok(f)
+        });
+        checked.map_err(|e| {
+            failed = Some(e);
+            std::io::Error::other("a frame failed")
+        })
     };
     let staged = match ext.as_str() {
         "gif" => {
@@ -148,7 +148,7 @@ pub fn stage_animation_with<E: From<Error>>(
                 let mut enc = gif::Encoder::new(out, gw, gh, &[]).map_err(|e| io(&e))?;
                 enc.set_repeat(gif::Repeat::Infinite).map_err(|e| io(&e))?;
                 for k in 0..count {
-                    let mut rgba = next(k)?.rgba;
+                    let mut rgba = next(k)?.data;
                     let mut frame = gif::Frame::from_rgba_speed(gw, gh, &mut rgba, 10);
                     frame.delay = (100 / fps) as u16;
                     enc.write_frame(&frame).map_err(|e| io(&e))?;
@@ -165,7 +165,7 @@ pub fn stage_animation_with<E: From<Error>>(
             enc.set_frame_delay(1, fps as u16).map_err(|e| io(&e))?;
             let mut writer = enc.write_header().map_err(|e| io(&e))?;
             for k in 0..count {
-                writer.write_image_data(&next(k)?.rgba).map_err(|e| io(&e))?;
+                writer.write_image_data(&next(k)?.data).map_err(|e| io(&e))?;
             }
             writer.finish().map_err(|e| io(&e))
         }),
@@ -182,7 +182,7 @@ mod tests {
     use super::*;
 
     fn frame(v: u8) -> Image {
-        Image { width: 4, height: 3, rgba: vec![v; 48] }
+        Image::from_rgba(4, 3, vec![v; 48])
     }
 
     #[test]
@@ -198,9 +198,7 @@ mod tests {
         let bytes = std::fs::read(&png).unwrap();
         assert!(bytes.windows(4).any(|w| w == b"acTL"), "an animated PNG");
         assert!(write_animation(&[], 15, &gif).is_err());
-        assert!(
-            write_animation(&[frame(1), Image { width: 2, height: 2, rgba: vec![0; 16] }], 15, &gif).is_err()
-        );
+        assert!(write_animation(&[frame(1), Image::from_rgba(2, 2, vec![0; 16])], 15, &gif).is_err());
         let e = write_animation(&frames, 15, &dir.join("a.bmp")).unwrap_err();
         assert!(e.to_string().contains(".bmp"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();

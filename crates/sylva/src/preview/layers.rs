@@ -3,7 +3,7 @@
 //! maps ([`render_layers`]).
 
 use super::raster::{base_colour, colour_map, edge, Coverage, ScreenVertex, Srgb, Texture};
-use super::{MAX_SIZE, SUBPIXEL};
+use super::{Image, MAX_SIZE, SUBPIXEL};
 use crate::error::{Error, Result};
 use glam::Vec3;
 
@@ -134,7 +134,7 @@ impl LayerTarget {
 
 /// `image` box-filtered (colour weighted by alpha) by the smallest power of two that
 /// brings both sides to at most `most` pixels (and divides them).
-fn reduce(image: &crate::texture::Image, most: u32) -> crate::texture::Image {
+fn reduce(image: &Image, most: u32) -> Image {
     let c = image.channels as usize;
     let mut f = 1u32;
     while (image.width / f > most || image.height / f > most)
@@ -147,7 +147,7 @@ fn reduce(image: &crate::texture::Image, most: u32) -> crate::texture::Image {
         return image.clone();
     }
     let (w, h, fu) = ((image.width / f) as usize, (image.height / f) as usize, f as usize);
-    let mut out = crate::texture::Image::new(w as u32, h as u32, image.channels);
+    let mut out = Image::new(w as u32, h as u32, image.channels);
     let mut sum = vec![[0u64; 4]; w];
     for y in 0..h {
         sum.iter_mut().for_each(|s| *s = [0; 4]);

@@ -24,6 +24,8 @@ mod raster;
 use self::camera::{auto_view, Camera};
 pub use self::layers::{render_layers, view_basis, LayerView, Layers};
 use self::raster::{draw_model, resolve, Srgb, Target};
+/// The image [`render`] returns (4 channels, RGBA) and [`write_png`] writes.
+pub use crate::image::Image;
 
 /// Largest accepted image width or height, in pixels.
 pub const MAX_SIZE: u32 = 8192;
@@ -84,29 +86,6 @@ impl Default for PreviewOptions {
     }
 }
 
-/// An 8-bit RGBA image, rows top to bottom.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Image {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// `width × height × 4` bytes, row-major from the top-left pixel.
-    pub rgba: Vec<u8>,
-}
-
-impl Image {
-    /// The pixel at column `x`, row `y` (0 = top), or `None` outside the image.
-    pub fn pixel(&self, x: u32, y: u32) -> Option<[u8; 4]> {
-        if x >= self.width || y >= self.height {
-            return None;
-        }
-        let i = (y as usize * self.width as usize + x as usize) * 4;
-        let p = self.rgba.get(i..i + 4)?;
-        Some([p[0], p[1], p[2], p[3]])
-    }
-}
-
 /// Renders `model` (see the module docs for camera, shading and anti-aliasing).
 ///
 /// Errors: [`Error::InvalidGeometry`] for a width or height outside `1..=8192`, a bad
@@ -164,48 +143,59 @@ pub fn render(model: &Model, opts: &PreviewOptions) -> Result<Image> {
     Ok(resolve(&target, w, h, ss, opts, &srgb))
 }
 
-/// Writes `image` as an 8-bit RGBA PNG at `path`, atomically.
+/// Writes `image` as an 8-bit PNG (RGBA, or RGB for a 3-channel image) at `path`,
+/// atomically.
 ///
 /// Errors: [`Error::InvalidGeometry`] when the pixel buffer does not match the size;
 /// [`Error::Write`] when the file cannot be written.
 pub fn write_png(image: &Image, path: &Path) -> Result<()> {
-    check_image(image)?;
-    write_atomic(path, |w| encode_png(image, w))
+    image.check("preview image")?;
+    write_atomic(path, |w| image.encode_png(w))
 }
 
 /// [`write_png`], staged into `set` (written to a temporary that reaches `path` when the
 /// set is committed with the run's other outputs, [`crate::fsutil::OutputSet`]).
 pub fn stage_png(image: &Image, path: &Path, set: &mut crate::fsutil::OutputSet) -> Result<()> {
-    check_image(image)?;
-    set.stage(path, |w| encode_png(image, w))
+    image.check("preview image")?;
+    set.stage(path, |w| image.encode_png(w))
 }
 
-/// Checks that `image`'s pixel buffer matches its size.
-fn check_image(image: &Image) -> Result<()> {
-    let expected = image.width as u64 * image.height as u64 * 4;
-    if image.width == 0 || image.height == 0 || image.rgba.len() as u64 != expected {
-        return Err(Error::InvalidGeometry {
-            what: "preview image".into(),
-            why: format!(
-                "{}×{} image has {} bytes, expected {expected}",
-                image.width,
-                image.height,
-                image.rgba.len()
-            ),
-        });
+/// The sRGB background colour of row `y` (0 = top) of a picture `height` rows tall:
+/// `top` on the first row, `bottom` on the last, a gradient in sRGB bytes between — what
+/// [`render`] and the GPU renderer paint behind the model.
+pub fn background_row(bottom: [u8; 3], top: [u8; 3], y: u32, height: u32) -> [u8; 3] {
+    let f = if height > 1 { y as f32 / (height - 1) as f32 } else { 1.0 };
+    std::array::from_fn(|c| {
+        let (a, b) = (top[c] as f32, bottom[c] as f32);
+        (a + (b - a) * f + 0.5).clamp(0.0, 255.0) as u8
+    })
+}
+
+/// Pixels of `image` that differ from the background gradient (see [`background_row`])
+/// in any colour channel by more than `tolerance`: the silhouette of what was drawn,
+/// row-major. Compares renderers (CPU preview, GPU) that paint the same background.
+pub fn silhouette(image: &Image, background: [u8; 3], background_top: [u8; 3], tolerance: u8) -> Vec<bool> {
+    let (w, c) = (image.width as usize, image.channels.max(1) as usize);
+    if w == 0 {
+        return Vec::new();
     }
-    Ok(())
+    let mut out = Vec::with_capacity(w * image.height as usize);
+    for (y, row) in image.data.chunks_exact(w * c).enumerate() {
+        let bg = background_row(background, background_top, y as u32, image.height);
+        out.extend(row.chunks_exact(c).map(|p| (0..3).any(|k| p[k].abs_diff(bg[k]) > tolerance)));
+    }
+    out
 }
 
-/// Encodes `image` as an 8-bit RGBA PNG into `w`.
-fn encode_png(image: &Image, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-    let mut enc = png::Encoder::new(w, image.width, image.height);
-    enc.set_color(png::ColorType::Rgba);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_compression(png::Compression::Fast);
-    let mut writer = enc.write_header().map_err(std::io::Error::other)?;
-    writer.write_image_data(&image.rgba).map_err(std::io::Error::other)?;
-    writer.finish().map_err(std::io::Error::other)
+/// Intersection over union of two silhouettes of the same size (1 where both are empty).
+pub fn iou(a: &[bool], b: &[bool]) -> f64 {
+    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
+    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
+    if union == 0 {
+        1.0
+    } else {
+        inter as f64 / union as f64
+    }
 }
 
 #[cfg(test)]
@@ -261,7 +251,7 @@ mod tests {
         let opts = small();
         let img = render(&tube_model(), &opts).unwrap();
         assert_eq!((img.width, img.height), (96, 128));
-        assert_eq!(img.rgba.len(), 96 * 128 * 4);
+        assert_eq!(img.data.len(), 96 * 128 * 4);
         // The trunk runs through the middle of the frame.
         let bg = background(&opts);
         let centre_hits = model_pixels(&img, &bg, 40..56, 50..78);
@@ -284,7 +274,7 @@ mod tests {
     fn empty_model_is_background_only() {
         let opts = PreviewOptions { width: 7, height: 5, ..Default::default() };
         let img = render(&Model::default(), &opts).unwrap();
-        assert_eq!(img.rgba.len(), 7 * 5 * 4);
+        assert_eq!(img.data.len(), 7 * 5 * 4);
         for y in 0..5 {
             let row = img.pixel(0, y).unwrap();
             assert!((0..7).all(|x| img.pixel(x, y) == Some(row)));
@@ -378,7 +368,7 @@ mod tests {
         let uv = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
         quad.uvs = Some(FaceVarying { values: uv.to_vec(), indices: vec![0, 1, 2, 0, 2, 3] });
         // Left texel opaque red, right texel transparent.
-        let mut image = crate::texture::Image::new(2, 1, 4);
+        let mut image = Image::new(2, 1, 4);
         image.data = vec![255, 0, 0, 255, 0, 0, 255, 0];
         let opts = PreviewOptions { width: 64, height: 64, supersample: 1, ..Default::default() };
         let bg = background(&opts);
@@ -443,10 +433,10 @@ mod tests {
         let info = reader.next_frame(&mut buf).unwrap();
         assert_eq!((info.width, info.height), (96, 128));
         assert_eq!(info.color_type, png::ColorType::Rgba);
-        assert_eq!(&buf[..info.buffer_size()], &img.rgba[..]);
+        assert_eq!(&buf[..info.buffer_size()], &img.data[..]);
         std::fs::remove_dir_all(&dir).unwrap();
         // A buffer that does not match its size is refused.
-        let broken = Image { width: 2, height: 2, rgba: vec![0; 3] };
+        let broken = Image::from_rgba(2, 2, vec![0; 3]);
         assert!(write_png(&broken, &dir.join("x.png")).is_err());
     }
 

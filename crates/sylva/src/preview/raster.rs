@@ -313,7 +313,7 @@ pub(super) struct ScreenVertex {
 /// A triangle's colour map: the image, its corners' UVs and the alpha cut-off.
 #[derive(Clone, Copy)]
 pub(super) struct Texture<'a> {
-    pub(super) image: &'a crate::texture::Image,
+    pub(super) image: &'a Image,
     pub(super) uv: [glam::Vec2; 3],
     pub(super) cutoff: Option<f32>,
 }
@@ -417,11 +417,7 @@ pub(super) fn resolve(t: &Target, w: u32, h: u32, ss: u32, opts: &PreviewOptions
     let mut rgba = vec![0u8; w as usize * h as usize * 4];
     let n = (ss * ss) as f32;
     for y in 0..h {
-        let f = if h > 1 { y as f32 / (h - 1) as f32 } else { 1.0 };
-        let bg: [u8; 3] = std::array::from_fn(|c| {
-            let (a, b) = (opts.background_top[c] as f32, opts.background[c] as f32);
-            (a + (b - a) * f + 0.5).clamp(0.0, 255.0) as u8
-        });
+        let bg = super::background_row(opts.background, opts.background_top, y, h);
         let bg_lin = bg.map(|v| srgb.decode[v as usize]);
         for x in 0..w {
             let mut sum = [0.0f32; 3];
@@ -449,7 +445,7 @@ pub(super) fn resolve(t: &Target, w: u32, h: u32, ss: u32, opts: &PreviewOptions
             rgba[o + 3] = 255;
         }
     }
-    Image { width: w, height: h, rgba }
+    Image::from_rgba(w, h, rgba)
 }
 
 // ---------------------------------------------------------------------------------------

@@ -3,7 +3,8 @@
 //! shipped and nothing is downloaded. The exporters embed them (glTF `images`) or write
 //! them beside the model; the CPU preview samples them.
 //!
-//! Plain data below the exporters: this module imports only `error` and `noise` (and `glam`).
+//! Plain data below the exporters: this module imports only `error`, `image` and
+//! `noise` (and `glam`).
 //!
 //! - [`bark`]: albedo, tangent-space normal and occlusion-roughness-metallic maps in four
 //!   styles (smooth, furrowed, plated, birch-like with lenticels).
@@ -15,80 +16,10 @@ pub mod bark;
 pub mod cache;
 pub mod leaf;
 
+pub use crate::image::Image;
 pub use cache::TextureCache;
 
 use crate::error::{Error, Result};
-
-/// An 8-bit image, rows top to bottom (image convention), `channels` bytes per pixel.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Image {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// 3 (RGB) or 4 (RGBA).
-    pub channels: u8,
-    /// `width · height · channels` bytes, row-major from the top row.
-    pub data: Vec<u8>,
-}
-
-impl Image {
-    /// A black (transparent) image.
-    pub fn new(width: u32, height: u32, channels: u8) -> Self {
-        Image { width, height, channels, data: vec![0; width as usize * height as usize * channels as usize] }
-    }
-
-    /// Encodes the image as PNG (fast DEFLATE: textures are regenerated, not archived).
-    pub fn to_png(&self) -> Result<Vec<u8>> {
-        let mut out = Vec::new();
-        {
-            let mut enc = png::Encoder::new(&mut out, self.width, self.height);
-            enc.set_color(if self.channels == 4 { png::ColorType::Rgba } else { png::ColorType::Rgb });
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_compression(png::Compression::Fast);
-            let err = |e: png::EncodingError| Error::InvalidGeometry {
-                what: "texture".into(),
-                why: format!("PNG encoding failed: {e}"),
-            };
-            let mut w = enc.write_header().map_err(err)?;
-            w.write_image_data(&self.data).map_err(err)?;
-        }
-        Ok(out)
-    }
-
-    /// The texel at (x, y), wrapped, as RGBA in \[0, 1\] (alpha 1 for RGB images).
-    pub fn texel(&self, x: i64, y: i64) -> [f32; 4] {
-        let (w, h) = (self.width.max(1) as i64, self.height.max(1) as i64);
-        let (x, y) = (x.rem_euclid(w) as usize, y.rem_euclid(h) as usize);
-        let c = self.channels as usize;
-        let i = (y * w as usize + x) * c;
-        let Some(p) = self.data.get(i..i + c) else {
-            return [0.0; 4];
-        };
-        let a = if c == 4 { p[3] as f32 / 255.0 } else { 1.0 };
-        [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, a]
-    }
-
-    /// Bilinear sample at texture coordinate (u, v) with the mesh convention (origin
-    /// bottom left, v up), repeating outside \[0, 1\].
-    pub fn sample(&self, u: f32, v: f32) -> [f32; 4] {
-        let x = u * self.width as f32 - 0.5;
-        let y = (1.0 - v) * self.height as f32 - 0.5;
-        if !x.is_finite() || !y.is_finite() {
-            return [0.0; 4];
-        }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (xi, yi) = (x0 as i64, y0 as i64);
-        let (a, b, c, d) =
-            (self.texel(xi, yi), self.texel(xi + 1, yi), self.texel(xi, yi + 1), self.texel(xi + 1, yi + 1));
-        std::array::from_fn(|k| {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bottom = c[k] + (d[k] - c[k]) * fx;
-            top + (bottom - top) * fy
-        })
-    }
-}
 
 /// Linear → sRGB transfer (IEC 61966-2-1), for colour maps (glTF base colour textures
 /// are sRGB; factors and the other maps are linear).
@@ -223,20 +154,6 @@ mod tests {
             let x = i as f32 / 20.0;
             assert!((srgb_to_linear(linear_to_srgb(x)) - x).abs() < 1e-5);
         }
-    }
-
-    #[test]
-    fn sampling_wraps_and_interpolates() {
-        let mut im = Image::new(2, 1, 3);
-        im.data = vec![0, 0, 0, 255, 255, 255];
-        // The centre of the left texel is u = 0.25; halfway to the right one is u = 0.5.
-        assert!(im.sample(0.25, 0.5)[0] < 1e-6);
-        assert!((im.sample(0.5, 0.5)[0] - 0.5).abs() < 1e-6);
-        // u = 1.0 lies between the right texel and the wrapped left one.
-        assert!((im.sample(1.0, 0.5)[0] - 0.5).abs() < 1e-6);
-        assert_eq!(im.sample(0.75, 0.5)[3], 1.0);
-        let png = im.to_png().unwrap();
-        assert_eq!(&png[1..4], b"PNG");
     }
 
     #[test]
