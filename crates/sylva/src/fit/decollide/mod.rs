@@ -90,7 +90,7 @@ mod rotate;
 mod thin;
 
 use self::detect::{charge_search, collisions, near_joint, Topology};
-use self::resort::{extend_stubs, retract_tips};
+use self::resort::Resort;
 use self::rotate::{rotate_pairs, trade};
 use self::thin::thin;
 pub(crate) use self::thin::{apply_caps, floor_of, raise_to_floor};
@@ -326,15 +326,14 @@ pub fn decollide(skeleton: &mut Skeleton, opts: &DecollideOptions) -> Result<Dec
             work.charge(skeleton.len());
             left = collisions(skeleton, &topo, opts.clearance, &work);
         }
-        report.retracted = retract_tips(skeleton, &topo, &left, opts.clearance, &work);
-        if report.retracted > 0 {
-            work.charge(skeleton.len());
-            left = collisions(skeleton, &topo, opts.clearance, &work);
-        }
-        report.extended = extend_stubs(skeleton, &topo, &left, opts.clearance, &work);
-        if report.extended > 0 {
-            work.charge(skeleton.len());
-            left = collisions(skeleton, &topo, opts.clearance, &work);
+        for (resort, count) in
+            [(Resort::RetractTips, &mut report.retracted), (Resort::ExtendStubs, &mut report.extended)]
+        {
+            *count = resort.run(skeleton, &topo, &left, opts.clearance, &work);
+            if *count > 0 {
+                work.charge(skeleton.len());
+                left = collisions(skeleton, &topo, opts.clearance, &work);
+            }
         }
         if !left.is_empty() && !work.over() {
             report.traded = trade(skeleton, &topo, &left, opts, &mut report.rotations, &work);

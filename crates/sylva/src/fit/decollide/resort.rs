@@ -12,82 +12,98 @@ use std::ops::ControlFlow;
 /// mildest first.
 const RETRACT: [f64; 5] = [0.9, 0.8, 0.7, 0.6, 0.5];
 
+/// The two last resorts after the rounds, tried in this order.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Resort {
+    /// Pull colliding tips back ([`retract_tip`]).
+    RetractTips,
+    /// Lengthen or bend short stubs ([`extend_stub`]).
+    ExtendStubs,
+}
+
+impl Resort {
+    /// Runs the resort on each pair of `pairs` that still collides (an earlier move may
+    /// have cleared it), until the work budget runs out. Returns the pairs it changed:
+    /// tips pulled back, or stubs moved and internodes bent.
+    pub(super) fn run(
+        self,
+        s: &mut Skeleton,
+        topo: &Topology,
+        pairs: &[[usize; 2]],
+        clearance: f64,
+        work: &Work,
+    ) -> usize {
+        let mut cx = Ctx { topo, clearance, work, bvh: Bvh::build(s, clearance) };
+        let mut moved = 0;
+        for &[a, b] in pairs {
+            if work.over() {
+                break;
+            }
+            if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
+                continue;
+            }
+            let step = match self {
+                Resort::RetractTips => retract_tip(s, &mut cx, [a, b]),
+                Resort::ExtendStubs => extend_stub(s, &mut cx, [a, b]),
+            };
+            match step {
+                ControlFlow::Continue(true) => moved += 1,
+                ControlFlow::Continue(false) => {}
+                ControlFlow::Break(()) => break,
+            }
+        }
+        moved
+    }
+}
+
+/// What a resort works with: the skeleton's topology, the clearance, the work budget
+/// and the capsule tree, kept up to date with every move.
+struct Ctx<'a> {
+    topo: &'a Topology,
+    clearance: f64,
+    work: &'a Work,
+    bvh: Bvh,
+}
+
 /// The last resort for what rotation left: a pair where one internode ends at a tip
 /// (a node without children) is cleared by pulling that tip back along its internode,
 /// by the mildest of [`RETRACT`] that leaves it with no collision (the shorter change
 /// of the two when both are tips). This is what frees a closed figure such as the Koch
 /// snowflake, whose last internode ends on its first and has no joint to rotate about.
-/// Returns the tips pulled back.
-pub(super) fn retract_tips(
-    s: &mut Skeleton,
-    topo: &Topology,
-    pairs: &[[usize; 2]],
-    clearance: f64,
-    work: &Work,
-) -> usize {
-    each_colliding_pair(s, topo, pairs, clearance, work, |s, bvh, a, b| {
-        let mut best: Option<(usize, usize, DVec3)> = None; // (step, tip, new position)
-        for x in [a, b] {
-            if topo.child_count[x] != 0 {
-                continue;
-            }
-            let base = s.position[s.parent[x] as usize].as_dvec3();
-            let tip = s.position[x].as_dvec3();
-            for (k, &f) in RETRACT.iter().enumerate() {
-                if best.is_some_and(|(bk, ..)| bk <= k) {
-                    break;
-                }
-                let cm = Capsule { a: base, b: base + (tip - base) * f, r: capsule(s, x).r };
-                let mut examined = 0u64;
-                let hits =
-                    capsule_hits(s, topo, bvh, x, (x, &cm), clearance, 1, (&mut examined, work.left()));
-                work.charge_u64(examined.saturating_add(1));
-                if work.over() {
-                    return ControlFlow::Break(());
-                }
-                if hits == 0 {
-                    best = Some((k, x, cm.b));
-                    break;
-                }
-            }
-        }
-        let Some((_, x, to)) = best else { return ControlFlow::Continue(false) };
-        let delta = (to - s.position[x].as_dvec3()).as_vec3();
-        s.position[x] = to.as_vec3();
-        move_organs(s, topo, x, |p| p + delta, |d| d);
-        bvh.update(x, capsule_box(&capsule(s, x), clearance));
-        ControlFlow::Continue(true)
-    })
-}
-
-/// The loop both resorts share: `attempt` runs on each pair of `pairs` that still
-/// collides (an earlier move may have cleared it) with the skeleton and its capsule
-/// tree, and says whether it moved something (`Continue(true)`) or spent the work
-/// budget (`Break`). Returns the pairs moved.
-fn each_colliding_pair(
-    s: &mut Skeleton,
-    topo: &Topology,
-    pairs: &[[usize; 2]],
-    clearance: f64,
-    work: &Work,
-    mut attempt: impl FnMut(&mut Skeleton, &mut Bvh, usize, usize) -> ControlFlow<(), bool>,
-) -> usize {
-    let mut bvh = Bvh::build(s, clearance);
-    let mut moved = 0;
-    for &[a, b] in pairs {
-        if work.over() {
-            break;
-        }
-        if !collide(s, topo, (a, &capsule(s, a)), (b, &capsule(s, b)), clearance) {
+/// Says whether it pulled a tip back (`Break` when the work budget ran out).
+fn retract_tip(s: &mut Skeleton, cx: &mut Ctx, [a, b]: [usize; 2]) -> ControlFlow<(), bool> {
+    let Ctx { topo, clearance, work, .. } = *cx;
+    let mut best: Option<(usize, usize, DVec3)> = None; // (step, tip, new position)
+    for x in [a, b] {
+        if topo.child_count[x] != 0 {
             continue;
         }
-        match attempt(s, &mut bvh, a, b) {
-            ControlFlow::Continue(true) => moved += 1,
-            ControlFlow::Continue(false) => {}
-            ControlFlow::Break(()) => break,
+        let base = s.position[s.parent[x] as usize].as_dvec3();
+        let tip = s.position[x].as_dvec3();
+        for (k, &f) in RETRACT.iter().enumerate() {
+            if best.is_some_and(|(bk, ..)| bk <= k) {
+                break;
+            }
+            let cm = Capsule { a: base, b: base + (tip - base) * f, r: capsule(s, x).r };
+            let mut examined = 0u64;
+            let hits =
+                capsule_hits(s, topo, &cx.bvh, x, (x, &cm), clearance, 1, (&mut examined, work.left()));
+            work.charge_u64(examined.saturating_add(1));
+            if work.over() {
+                return ControlFlow::Break(());
+            }
+            if hits == 0 {
+                best = Some((k, x, cm.b));
+                break;
+            }
         }
     }
-    moved
+    let Some((_, x, to)) = best else { return ControlFlow::Continue(false) };
+    let delta = (to - s.position[x].as_dvec3()).as_vec3();
+    s.position[x] = to.as_vec3();
+    move_organs(s, topo, x, |p| p + delta, |d| d);
+    cx.bvh.update(x, capsule_box(&capsule(s, x), clearance));
+    ControlFlow::Continue(true)
 }
 
 /// Moves tried by the stub resort (lengthening or bending a stub, bending a longer
@@ -116,38 +132,31 @@ const STUB_HOPS: usize = 3;
 /// the same way, by steps that turn it by at most [`BEND_MAX_DEG`]; at one step stubs
 /// come first, then the lightest subtree (see [`stub_motions`]). Moves ignore
 /// [`DecollideOptions::max_moved`]: they are translations of a few radii, which keep a
-/// subtree's shape. Returns the stubs moved and internodes bent.
-pub(super) fn extend_stubs(
-    s: &mut Skeleton,
-    topo: &Topology,
-    pairs: &[[usize; 2]],
-    clearance: f64,
-    work: &Work,
-) -> usize {
-    each_colliding_pair(s, topo, pairs, clearance, work, |s, bvh, a, b| {
-        // Mildest step first; at one step, stubs (in the order tried), then the bends
-        // of the lightest subtrees.
-        let mut best: Option<((usize, usize), usize, Motion)> = None; // (rank, stub, motion)
-        for (k, x, mv, weight) in stub_motions(s, topo, [a, b], clearance) {
-            if best.is_some_and(|(bk, ..)| bk <= (k, weight)) {
-                continue;
-            }
-            let (hits, examined) = subtree_hits(s, topo, bvh, x, &mv, clearance, 1, work.left());
-            work.charge_u64(examined.saturating_add(topo.size(x) as u64));
-            if work.over() {
-                return ControlFlow::Break(());
-            }
-            if hits == 0 {
-                best = Some(((k, weight), x, mv));
-            }
+/// subtree's shape. Says whether it moved a stub or bent an internode (`Break` when the work budget ran out).
+fn extend_stub(s: &mut Skeleton, cx: &mut Ctx, [a, b]: [usize; 2]) -> ControlFlow<(), bool> {
+    let Ctx { topo, clearance, work, .. } = *cx;
+    // Mildest step first; at one step, stubs (in the order tried), then the bends
+    // of the lightest subtrees.
+    let mut best: Option<((usize, usize), usize, Motion)> = None; // (rank, stub, motion)
+    for (k, x, mv, weight) in stub_motions(s, topo, [a, b], clearance) {
+        if best.is_some_and(|(bk, ..)| bk <= (k, weight)) {
+            continue;
         }
-        let Some((_, x, mv)) = best else { return ControlFlow::Continue(false) };
-        apply(s, topo, bvh, x, &mv, clearance);
-        ControlFlow::Continue(true)
-    })
+        let (hits, examined) = subtree_hits(s, topo, &cx.bvh, x, &mv, clearance, 1, work.left());
+        work.charge_u64(examined.saturating_add(topo.size(x) as u64));
+        if work.over() {
+            return ControlFlow::Break(());
+        }
+        if hits == 0 {
+            best = Some(((k, weight), x, mv));
+        }
+    }
+    let Some((_, x, mv)) = best else { return ControlFlow::Continue(false) };
+    apply(s, topo, &mut cx.bvh, x, &mv, clearance);
+    ControlFlow::Continue(true)
 }
 
-/// The stub motions [`extend_stubs`] tries for the pair `a`, `b`, as (step in
+/// The stub motions [`extend_stub`] tries for the pair `a`, `b`, as (step in
 /// [`EXTEND`], stub, motion, weight), in the order tried: for the pair's own internodes
 /// and those joining them ([`STUB_HOPS`] per side) whose subtree carries one of
 /// the two but not the other (a tip among them too: its end moves), each step moves the
