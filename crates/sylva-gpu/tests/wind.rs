@@ -3,9 +3,9 @@
 //! both lag modes; properties 20–24 hold on the GPU"; Skjermo2008-spec §4, §10). Each test skips
 //! with a printed reason where no adapter exists, unless `SYLVA_REQUIRE_GPU=1`.
 
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec2, DVec3};
 use sylva::model::BranchCurves;
-use sylva::skeleton::{Skeleton, NO_PARENT};
+use sylva::wind::samples::{chain, small_tree};
 use sylva::wind::{WindOptions, WindRig};
 use sylva_gpu::{Gpu, GpuWind};
 
@@ -30,31 +30,6 @@ fn honda() -> WindRig {
 /// parameters inside their parent's segments with rest offsets.
 fn aspen() -> WindRig {
     preset_rig("wp-quaking-aspen")
-}
-
-/// A trunk of three segments with a side branch at each inner node (the CPU tests' tree).
-fn small_tree() -> WindRig {
-    let mut s = Skeleton::new();
-    let mut prev = s.push(Vec3::ZERO, 0.2, NO_PARENT, Vec3::X, 0);
-    for k in 1..=3 {
-        let n = s.push(Vec3::new(0.0, k as f32, 0.0), 0.2, prev, Vec3::X, 0);
-        if k < 3 {
-            let a = s.push(Vec3::new(0.8, k as f32 + 0.5, 0.0), 0.05, n, Vec3::Y, 1);
-            s.push(Vec3::new(1.5, k as f32 + 1.2, 0.3), 0.03, a, Vec3::Y, 1);
-        }
-        prev = n;
-    }
-    WindRig::new(&BranchCurves::fit(&s))
-}
-
-/// A vertical chain of `k` unit segments on one axis.
-fn chain(k: usize) -> WindRig {
-    let mut s = Skeleton::new();
-    let mut prev = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
-    for i in 1..=k {
-        prev = s.push(Vec3::new(0.0, i as f32, 0.0), 0.1, prev, Vec3::X, 0);
-    }
-    WindRig::new(&BranchCurves::fit(&s))
 }
 
 fn height(rig: &WindRig) -> f64 {

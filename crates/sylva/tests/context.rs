@@ -75,16 +75,21 @@ fn derive_text(text: &str, n: u32) -> String {
     ls.format(&m)
 }
 
+/// Checks that `text` (with `ignore: +-F`) derives, at each of steps 1 to 8, what
+/// [`reference_step`] makes of `axiom` with `prods`.
+fn matches_the_reference(text: &str, axiom: &str, prods: &[(Option<u8>, u8, Option<u8>, &str)]) {
+    let mut s = axiom.as_bytes().to_vec();
+    for n in 1..=8 {
+        s = reference_step(&s, prods, b"+-F");
+        assert_eq!(derive_text(text, n), String::from_utf8(s.clone()).unwrap(), "step {n}");
+    }
+}
+
 #[test]
 fn acropetal_signal() {
     let axiom = "Fb[+Fa]Fa[+Fa]Fa[+Fa]Fa";
     let text = format!("Lsystem: 1\nignore: +-F\nAxiom: {axiom}\nb < a --> b\nb --> a\nendlsystem\n");
-    let prods = [(Some(b'b'), b'a', None, "b"), (None, b'b', None, "a")];
-    let mut s = axiom.as_bytes().to_vec();
-    for n in 1..=8 {
-        s = reference_step(&s, &prods, b"+-F");
-        assert_eq!(derive_text(&text, n), String::from_utf8(s.clone()).unwrap(), "step {n}");
-    }
+    matches_the_reference(&text, axiom, &[(Some(b'b'), b'a', None, "b"), (None, b'b', None, "a")]);
     // The book's first step, by hand: the signal enters the first branch and the next
     // internode of the main axis.
     assert_eq!(derive_text(&text, 1), "Fa[+Fb]Fb[+Fa]Fa[+Fa]Fa");
@@ -94,12 +99,7 @@ fn acropetal_signal() {
 fn basipetal_signal() {
     let axiom = "Fa[+Fa]Fa[+Fa]Fa[+Fa]Fb";
     let text = format!("Lsystem: 1\nignore: +-F\nAxiom: {axiom}\na > b --> b\nb --> a\nendlsystem\n");
-    let prods = [(None, b'a', Some(b'b'), "b"), (None, b'b', None, "a")];
-    let mut s = axiom.as_bytes().to_vec();
-    for n in 1..=8 {
-        s = reference_step(&s, &prods, b"+-F");
-        assert_eq!(derive_text(&text, n), String::from_utf8(s.clone()).unwrap(), "step {n}");
-    }
+    matches_the_reference(&text, axiom, &[(None, b'a', Some(b'b'), "b"), (None, b'b', None, "a")]);
     assert_eq!(derive_text(&text, 1), "Fa[+Fa]Fa[+Fa]Fb[+Fa]Fa");
 }
 

@@ -11,6 +11,10 @@ use sylva::skeleton::{OrganKind, Skeleton, SweptSurface};
 
 #[path = "common/cpfg_corpus.rs"]
 mod cpfg_corpus;
+#[path = "common/folders.rs"]
+mod folders;
+#[path = "common/recipes.rs"]
+mod recipes;
 use cpfg_corpus::corpus;
 
 fn data() -> PathBuf {
@@ -18,8 +22,7 @@ fn data() -> PathBuf {
 }
 
 fn grow(l: &Path) -> sylva::Result<sylva::pipeline::Grown> {
-    let loaded = sylva::recipe::load(l.to_str().unwrap(), &[])?;
-    sylva::pipeline::grow(&loaded)
+    recipes::grow(l, &[])
 }
 
 /// The error growing `dir/plant.l` gives (it must fail).
@@ -42,13 +45,7 @@ fn swept(sk: &Skeleton) -> Vec<&SweptSurface> {
 
 /// A fresh folder under the target's temporary directory with the given files.
 fn folder(name: &str, files: &[(&str, &str)]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sylva-cpfg-contours-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    for (f, text) in files {
-        std::fs::write(dir.join(f), text).unwrap();
-    }
-    dir
+    folders::with_files("cpfg-contours", name, files)
 }
 
 const FLAT: &str = "cver 1 3\nname: flat\npoints: 2 6\ntype: or\nsamples: 8\n-1 0 0 3\n1 0 0 3\n";

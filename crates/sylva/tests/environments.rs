@@ -4,34 +4,22 @@
 //! `.e`, its spec file and data files), loaded as a user would: `sylva::recipe::load`
 //! and `sylva::pipeline::grow`. docs/environments.md defines the programs.
 
+#[path = "common/folders.rs"]
+mod folders;
+#[path = "common/recipes.rs"]
+mod recipes;
+
+use recipes::{derive, grow};
 use std::path::{Path, PathBuf};
 use sylva::lsystem::ErrorKind;
-use sylva::recipe::{self, Generator};
 
 fn data(program: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cpfg").join(program)
 }
 
-fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
-    kv.iter().map(|s| recipe::parse_set(s).unwrap()).collect()
-}
-
-fn grow(file: &Path, kv: &[&str]) -> sylva::Result<sylva::pipeline::Grown> {
-    let l = recipe::load(file.to_str().unwrap(), &sets(kv))?;
-    sylva::pipeline::grow(&l)
-}
-
-fn derive(file: &Path, kv: &[&str]) -> sylva::Result<sylva::pipeline::Derived> {
-    let l = recipe::load(file.to_str().unwrap(), &sets(kv))?;
-    let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
-    sylva::pipeline::derive_lsystem(&l, g)
-}
-
 /// A copy of the model folder `program` in a fresh temp folder, to break.
 fn copy(program: &str, tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sylva-env-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = folders::tempdir("env", tag);
     for e in std::fs::read_dir(data(program)).unwrap() {
         let p = e.unwrap().path();
         std::fs::copy(&p, dir.join(p.file_name().unwrap())).unwrap();
@@ -324,11 +312,9 @@ fn the_corpus_clover_grows_and_its_leaves_shade() {
 /// are not silently dropped: the run warns that they are unused.
 #[test]
 fn environment_settings_without_a_program_warn() {
-    let dir = std::env::temp_dir().join(format!("sylva-env-noprogram-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let plain = "Lsystem: 1\nderivation length: 2\nAxiom: F(1)A\nA --> F(1)A\nendlsystem\n";
+    let dir = folders::with_files("env", "noprogram", &[("plain.l", plain)]);
     let file = dir.join("plain.l");
-    std::fs::write(&file, "Lsystem: 1\nderivation length: 2\nAxiom: F(1)A\nA --> F(1)A\nendlsystem\n")
-        .unwrap();
     let d = derive(&file, &["generator.environment.transmittance=0.5"]).unwrap();
     assert!(
         d.warnings.iter().any(|w| w.contains("[generator.environment]") && w.contains("not used")),

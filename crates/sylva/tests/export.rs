@@ -2,8 +2,11 @@
 //! `tobj`), binary PLY, determinism, and failures that must leave no file behind.
 
 mod common;
+#[path = "common/folders.rs"]
+mod folders;
 
 use common::gltf_validator::assert_valid_gltf;
+use folders::names;
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use sylva::export::{self, gltf, obj, ply, Format};
@@ -12,20 +15,7 @@ use sylva::{Error, Material, Mesh, Model, Part};
 
 /// A fresh, empty scratch folder for one test.
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sylva-export-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// Names of the files in `dir`.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
+    folders::tempdir("export", test)
 }
 
 /// The unit cube of six quads (counter-clockwise from outside). UVs: the four sides
@@ -290,7 +280,7 @@ fn obj_reads_back_with_tobj() {
     let path = dir.join("tree.obj");
     let model = model();
     export::write(&model, &path).unwrap();
-    assert_eq!(listing(&dir), ["tree.mtl", "tree.obj"]);
+    assert_eq!(names(&dir), ["tree.mtl", "tree.obj"]);
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("mtllib tree.mtl\n"));
     assert!(text.contains("f 1/1/1 4/2/1 3/4/1 2/3/1\n"), "{text}");
@@ -465,8 +455,8 @@ fn same_model_gives_identical_bytes() {
         export::write(&a, &one.join(name)).unwrap();
         export::write(&b, &two.join(name)).unwrap();
     }
-    assert_eq!(listing(&one), ["tree.glb", "tree.gltf", "tree.mtl", "tree.obj", "tree.ply"]);
-    for name in listing(&one) {
+    assert_eq!(names(&one), ["tree.glb", "tree.gltf", "tree.mtl", "tree.obj", "tree.ply"]);
+    for name in names(&one) {
         let bytes = |d: &Path| std::fs::read(d.join(&name)).unwrap();
         assert!(bytes(&one) == bytes(&two), "{name} differs");
     }
@@ -494,7 +484,7 @@ fn unknown_extension_is_a_clear_error() {
     assert!(matches!(e, Error::UnknownFormat { .. }), "{e}");
     let shown = e.to_string();
     assert!(shown.contains("tree.xyz") && shown.contains(".glb, .gltf, .obj, .ply"), "{shown}");
-    assert!(listing(&dir).is_empty());
+    assert!(names(&dir).is_empty());
     assert!(Format::from_path(Path::new("TREE.GLB")).is_ok());
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -510,7 +500,7 @@ fn nan_position_is_an_error_and_writes_nothing() {
         let shown = e.to_string();
         assert!(shown.contains("blade") && shown.contains("vertex 2"), "{shown}");
     }
-    assert!(listing(&dir).is_empty(), "{:?}", listing(&dir));
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
     assert!(gltf::to_glb(&model).is_err());
     assert!(gltf::to_gltf_json(&model).is_err());
     assert!(obj::write_obj(&model, &mut Vec::new(), "x.mtl").is_err());
@@ -527,7 +517,7 @@ fn model_without_triangles_is_an_error() {
         assert!(matches!(e, Error::InvalidGeometry { .. }), "{e}");
         assert!(e.to_string().contains("no triangles"), "{e}");
     }
-    assert!(listing(&dir).is_empty());
+    assert!(names(&dir).is_empty());
     assert!(gltf::to_glb(&Model::default()).is_err());
     assert!(ply::write_ply(&Model::default(), &mut Vec::new()).is_err());
     std::fs::remove_dir_all(&dir).unwrap();
@@ -576,7 +566,7 @@ fn textures_are_embedded_written_beside_or_left_out() {
     export::write(&big_model, &big).unwrap();
     export::write(&model, &dir.join("t.obj")).unwrap();
     assert_eq!(
-        listing(&dir),
+        names(&dir),
         [
             "big.glb",
             "f.glb",

@@ -2,30 +2,18 @@
 //! environmental program `honda81`, the model folder's `.e` file, and the cpfg
 //! statements models use around them (`stop`, file output, the cut `%`).
 
+#[path = "common/folders.rs"]
+mod folders;
+#[path = "common/recipes.rs"]
+mod recipes;
+
+use recipes::derive;
 use std::path::PathBuf;
 use sylva::lsystem::ErrorKind;
-use sylva::recipe::{self, Generator};
 
 /// A fresh folder under the system temp dir holding `files`.
 fn folder(tag: &str, files: &[(&str, &str)]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sylva-open-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    for (name, text) in files {
-        std::fs::write(dir.join(name), text).unwrap();
-    }
-    dir
-}
-
-fn sets(kv: &[&str]) -> Vec<(String, toml::Value)> {
-    kv.iter().map(|s| recipe::parse_set(s).unwrap()).collect()
-}
-
-/// Derives `file` (a model on disk) and returns the L-system and its derived string.
-fn derive(file: &std::path::Path, kv: &[&str]) -> sylva::Result<sylva::pipeline::Derived> {
-    let l = recipe::load(file.to_str().unwrap(), &sets(kv))?;
-    let Generator::Lsystem(g) = &l.recipe.generator else { panic!("an L-system recipe") };
-    sylva::pipeline::derive_lsystem(&l, g)
+    folders::with_files("open", tag, files)
 }
 
 fn derive_err(file: &std::path::Path, kv: &[&str]) -> sylva::Error {

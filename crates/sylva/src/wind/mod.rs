@@ -35,6 +35,7 @@ use glam::{DQuat, DVec2, DVec3};
 
 pub mod clip;
 pub mod rig;
+pub mod samples;
 
 pub use clip::{bake_clip, posed};
 pub use rig::{rig_model, JointPlan};
@@ -334,34 +335,8 @@ impl WindRig {
 
 #[cfg(test)]
 mod tests {
+    use super::samples::{chain, small_tree as tree};
     use super::*;
-    use crate::skeleton::{Skeleton, NO_PARENT};
-    use glam::Vec3;
-
-    /// A trunk of three segments with a side branch at each inner node (two levels).
-    fn tree() -> WindRig {
-        let mut s = Skeleton::new();
-        let mut prev = s.push(Vec3::ZERO, 0.2, NO_PARENT, Vec3::X, 0);
-        for k in 1..=3 {
-            let n = s.push(Vec3::new(0.0, k as f32, 0.0), 0.2, prev, Vec3::X, 0);
-            if k < 3 {
-                let a = s.push(Vec3::new(0.8, k as f32 + 0.5, 0.0), 0.05, n, Vec3::Y, 1);
-                s.push(Vec3::new(1.5, k as f32 + 1.2, 0.3), 0.03, a, Vec3::Y, 1);
-            }
-            prev = n;
-        }
-        WindRig::new(&BranchCurves::fit(&s))
-    }
-
-    /// A vertical chain of `k` unit segments on one axis.
-    fn chain(k: usize) -> WindRig {
-        let mut s = Skeleton::new();
-        let mut prev = s.push(Vec3::ZERO, 0.1, NO_PARENT, Vec3::X, 0);
-        for i in 1..=k {
-            prev = s.push(Vec3::new(0.0, i as f32, 0.0), 0.1, prev, Vec3::X, 0);
-        }
-        WindRig::new(&BranchCurves::fit(&s))
-    }
 
     #[test]
     fn property_20_zero_wind_is_the_rest_pose_exactly() {

@@ -24,14 +24,27 @@ pub fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
         .collect()
 }
 
-/// The names in `dir` that are temporaries or locks of an output set, sorted (names
-/// only: cheap enough to poll).
-pub fn leftovers(dir: &Path) -> Vec<String> {
+/// The names of the entries of `dir`, sorted.
+pub fn names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains(".tmp-") || n.ends_with(".lock"))
         .collect();
     names.sort();
     names
+}
+
+/// The names in `dir` that are temporaries or locks of an output set, sorted (names
+/// only: cheap enough to poll).
+pub fn leftovers(dir: &Path) -> Vec<String> {
+    names(dir).into_iter().filter(|n| n.contains(".tmp-") || n.ends_with(".lock")).collect()
+}
+
+/// [`tempdir`] holding `files` (name, text).
+pub fn with_files(suite: &str, name: &str, files: &[(&str, &str)]) -> PathBuf {
+    let d = tempdir(suite, name);
+    for (file, text) in files {
+        std::fs::write(d.join(file), text).unwrap();
+    }
+    d
 }
