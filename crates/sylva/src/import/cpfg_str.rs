@@ -148,29 +148,28 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
         if k < b.len() && b[k] == b'(' {
             let open = k;
             i = open + 1;
+            let unclosed = || {
+                err(
+                    ErrorKind::Syntax,
+                    open,
+                    1,
+                    &format!("unclosed `(` after module `{shown}`"),
+                    "opened here",
+                )
+            };
+            // The character at `i` where `expected` should be.
+            let unexpected = |i: usize, expected: &str| {
+                let c = text[i..].chars().next().unwrap_or(' ');
+                let what = format!("expected {expected} in the parameters of `{shown}`, found `{c}`");
+                err(ErrorKind::Syntax, i, c.len_utf8(), &what, &format!("expected {expected}"))
+            };
             loop {
                 i = skip_ws(i);
                 let t_end = text[i..]
                     .find(|c: char| !(c.is_ascii_alphanumeric() || c == '.' || c == '+' || c == '-'))
                     .map_or(text.len(), |n| i + n);
                 if t_end == i {
-                    if i >= text.len() {
-                        return Err(err(
-                            ErrorKind::Syntax,
-                            open,
-                            1,
-                            &format!("unclosed `(` after module `{shown}`"),
-                            "opened here",
-                        ));
-                    }
-                    let c = text[i..].chars().next().unwrap_or(' ');
-                    return Err(err(
-                        ErrorKind::Syntax,
-                        i,
-                        c.len_utf8(),
-                        &format!("expected a number in the parameters of `{shown}`, found `{c}`"),
-                        "expected a number",
-                    ));
+                    return Err(if i >= text.len() { unclosed() } else { unexpected(i, "a number") });
                 }
                 let tok = &text[i..t_end];
                 let shown_tok = quote(tok);
@@ -195,25 +194,8 @@ pub fn parse_with_symbols(name: &str, text: &str, symbols: &mut Symbols) -> SRes
                         i += 1;
                         break;
                     }
-                    None => {
-                        return Err(err(
-                            ErrorKind::Syntax,
-                            open,
-                            1,
-                            &format!("unclosed `(` after module `{shown}`"),
-                            "opened here",
-                        ));
-                    }
-                    Some(_) => {
-                        let c = text[i..].chars().next().unwrap_or(' ');
-                        return Err(err(
-                            ErrorKind::Syntax,
-                            i,
-                            c.len_utf8(),
-                            &format!("expected `,` or `)` in the parameters of `{shown}`, found `{c}`"),
-                            "expected `,` or `)`",
-                        ));
-                    }
+                    None => return Err(unclosed()),
+                    Some(_) => return Err(unexpected(i, "`,` or `)`")),
                 }
             }
         }
