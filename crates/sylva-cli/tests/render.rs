@@ -12,6 +12,7 @@
 //! skipped with a printed reason, unless `SYLVA_REQUIRE_GPU=1` makes that a failure.
 
 use std::path::{Path, PathBuf};
+use sylva::preview::{iou, Image};
 
 mod common;
 use common::{sylva, Run};
@@ -48,43 +49,21 @@ fn render_or_skip(what: &str, args: &[&str], cwd: &Path) -> Option<Run> {
     Some(r)
 }
 
-/// (width, height, RGBA rows) of a PNG.
-fn read_png(p: &Path) -> (u32, u32, Vec<u8>) {
+/// An RGBA PNG as an image.
+fn read_png(p: &Path) -> Image {
     let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));
     let mut reader = dec.read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
     assert_eq!(info.color_type, png::ColorType::Rgba);
     buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
+    Image::from_rgba(info.width, info.height, buf)
 }
 
-/// The silhouette (see the module docs) of an RGBA picture over the preview background.
-fn silhouette(w: u32, h: u32, rgba: &[u8]) -> Vec<bool> {
+/// The silhouette (see the module docs) of a picture over the preview background.
+fn silhouette(image: &Image) -> Vec<bool> {
     let d = sylva::preview::PreviewOptions::default();
-    let mut out = Vec::with_capacity((w * h) as usize);
-    for y in 0..h as usize {
-        let f = if h > 1 { y as f32 / (h - 1) as f32 } else { 1.0 };
-        let bg: [u8; 3] = std::array::from_fn(|c| {
-            let (a, b) = (d.background_top[c] as f32, d.background[c] as f32);
-            (a + (b - a) * f + 0.5).clamp(0.0, 255.0) as u8
-        });
-        for x in 0..w as usize {
-            let p = &rgba[(y * w as usize + x) * 4..][..3];
-            out.push((0..3).any(|c| p[c].abs_diff(bg[c]) > 6));
-        }
-    }
-    out
-}
-
-fn iou(a: &[bool], b: &[bool]) -> f64 {
-    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
-    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
-    if union == 0 {
-        1.0
-    } else {
-        inter as f64 / union as f64
-    }
+    sylva::preview::silhouette(image, d.background, d.background_top, 6)
 }
 
 #[test]
@@ -95,8 +74,8 @@ fn four_presets_match_the_cpu_preview_silhouette() {
         let out = format!("{preset}.png");
         let args = ["render", preset, "-o", &out, "--size", "512x512", "--camera", "orbit:30,15", "-q"];
         let Some(_) = render_or_skip("sylva render (four presets)", &args, &d) else { return };
-        let (w, h, gpu) = read_png(&d.join(&out));
-        assert_eq!((w, h), (size, size));
+        let gpu = read_png(&d.join(&out));
+        assert_eq!((gpu.width, gpu.height), (size, size));
         let loaded = sylva::recipe::load(preset, &[]).unwrap();
         let model = sylva::pipeline::grow(&loaded).unwrap().model;
         let opts = sylva::preview::PreviewOptions {
@@ -106,7 +85,7 @@ fn four_presets_match_the_cpu_preview_silhouette() {
             ..Default::default()
         };
         let cpu = sylva::preview::render(&model, &opts).unwrap();
-        let (a, b) = (silhouette(w, h, &gpu), silhouette(w, h, &cpu.rgba));
+        let (a, b) = (silhouette(&gpu), silhouette(&cpu));
         let overlap = iou(&a, &b);
         let filled = a.iter().filter(|&&x| x).count() as f64 / a.len() as f64;
         eprintln!("{preset}: silhouette IoU {overlap:.4}, GPU coverage {filled:.3}");
@@ -136,8 +115,8 @@ fn wind_frames_move_and_animations_are_written() {
     ];
     let Some(_) = render_or_skip("sylva render --wind", &args, &d) else { return };
     let (a, b) = (read_png(&d.join("f_00.png")), read_png(&d.join("f_01.png")));
-    assert_eq!((a.0, a.1), (200, 160));
-    let changed = a.2.chunks(4).zip(b.2.chunks(4)).filter(|(p, q)| p != q).count();
+    assert_eq!((a.width, a.height), (200, 160));
+    let changed = a.data.chunks(4).zip(b.data.chunks(4)).filter(|(p, q)| p != q).count();
     assert!(changed > 50, "only {changed} pixels changed between wind frames");
     let r = sylva(
         &["render", "lsys-honda-a", "--wind", "breeze", "--frames", "3", "--size", "64x64", "-o", "w.gif"],
@@ -163,8 +142,7 @@ fn a_forest_is_drawn_instanced() {
     assert!(r.stdout.contains("12 tree(s)"), "{}", r.stdout);
     // One draw per (level, part, material) however many trees: honda has one bark part.
     assert!(r.stdout.contains(" 1 draw call(s) per frame"), "{}", r.stdout);
-    let (w, h, rgba) = read_png(&d.join("forest.png"));
-    let filled = silhouette(w, h, &rgba).iter().filter(|&&x| x).count();
+    let filled = silhouette(&read_png(&d.join("forest.png"))).iter().filter(|&&x| x).count();
     assert!(filled > 1000, "{filled} pixels of trees");
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -244,7 +244,7 @@ fn main() {
     );
     if let Some(path) = a.png {
         let rgba = out.read_rgba(&gpu);
-        let img = sylva::texture::Image { width: a.width, height: a.height, channels: 4, data: rgba };
+        let img = sylva::image::Image::from_rgba(a.width, a.height, rgba);
         std::fs::write(&path, img.to_png().expect("png encodes")).expect("png written");
         eprintln!("wrote {path}");
     }

@@ -30,8 +30,8 @@ use crate::GpuWind;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 use sylva::deform::{branch_records, BranchRecord, Grids, NO_AXIS};
+use sylva::image::Image;
 use sylva::model::Model;
-use sylva::texture::Image;
 
 /// The shader source (see its header for how the parts are put together).
 pub const BRANCHES_WGSL: &str = include_str!("branches.wgsl");
@@ -386,7 +386,7 @@ impl BranchRenderer {
         let material = gpu.uniform_buffer("branch material", &[[tint[0], tint[1], tint[2], 1.0]]);
 
         // The bark texture (or 1 × 1 white) with its mips.
-        let white = Image { width: 1, height: 1, channels: 4, data: vec![255; 4] };
+        let white = Image::from_rgba(1, 1, vec![255; 4]);
         let mips = mip_chain(bark.unwrap_or(&white));
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("bark"),
@@ -475,7 +475,9 @@ impl BranchRenderer {
         let module = |label: &str, part: &str| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(format!("{}\n{header}\n{part}", shared_wgsl()).into()),
+                source: wgpu::ShaderSource::Wgsl(
+                    format!("{}\n{}\n{header}\n{part}", shared_wgsl(), crate::render::FRAME_WGSL).into(),
+                ),
             })
         };
         let lod_module = module("branch lod", lod_src);
@@ -763,16 +765,8 @@ impl BranchRenderer {
             self.gpu.storage_buffer("capture range", &[[l.first_vertex, l.vertex_count, width, height]]);
         let capture_group = self.gpu.bind_buffers("branch capture", &self.capture_layout, &[&params]);
         let target = |label| {
-            self.gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: CAPTURE_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            })
+            let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+            crate::gpu::texture_2d(&self.gpu.device, label, (width, height), 1, CAPTURE_FORMAT, usage)
         };
         let (pos_tex, nor_tex) = (target("capture positions"), target("capture normals"));
         let (pos_view, nor_view) =
@@ -805,25 +799,16 @@ impl BranchRenderer {
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.draw(l.first_vertex..l.first_vertex + l.vertex_count, 0..ids.len() as u32);
         }
-        let row_bytes = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let readback = |tex: &wgpu::Texture, encoder: &mut wgpu::CommandEncoder| {
-            let buffer = self.gpu.storage_buffer_zeroed("capture readback", row_bytes as u64 * height as u64);
-            crate::gpu::copy_texture_rows(encoder, tex, &buffer, (width, height), 16);
-            buffer
+        // Texel i of the capture is vertex i (row-major); past `total` the rows are empty.
+        let texels = |encoder, tex: &wgpu::Texture| -> Vec<Vec3> {
+            let (device, queue) = (&self.gpu.device, &self.gpu.queue);
+            let raw = crate::gpu::read_texture(device, queue, encoder, tex, (width, height), 16);
+            let texel = |t: &[u8]| bytemuck::pod_read_unaligned::<[f32; 4]>(t);
+            raw.chunks_exact(16).take(total as usize).map(|t| Vec3::from_slice(&texel(t)[..3])).collect()
         };
-        let pos_buf = readback(&pos_tex, &mut encoder);
-        let nor_buf = readback(&nor_tex, &mut encoder);
-        self.gpu.queue.submit([encoder.finish()]);
-        let texels = |buf: &wgpu::Buffer| -> Vec<Vec3> {
-            let raw = self.gpu.read_buffer::<[f32; 4]>(buf, (row_bytes / 16 * height) as usize);
-            (0..total)
-                .map(|i| {
-                    let t = raw[((i / width) * (row_bytes / 16) + i % width) as usize];
-                    Vec3::new(t[0], t[1], t[2])
-                })
-                .collect()
-        };
-        texels(&pos_buf).into_iter().zip(texels(&nor_buf)).collect()
+        let positions = texels(encoder, &pos_tex);
+        let normals = texels(self.gpu.device.create_command_encoder(&Default::default()), &nor_tex);
+        positions.into_iter().zip(normals).collect()
     }
 }
 
@@ -868,16 +853,7 @@ impl Offscreen {
     /// The textures of a `width` × `height` target.
     pub fn new(gpu: &Gpu, width: u32, height: u32, format: TargetFormat) -> Offscreen {
         let make = |label, fmt, samples, usage| {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format: fmt,
-                usage,
-                view_formats: &[],
-            })
+            crate::gpu::texture_2d(&gpu.device, label, (width, height), samples, fmt, usage)
         };
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let resolved = make("offscreen colour", format.color, 1, attach | wgpu::TextureUsages::COPY_SRC);
@@ -894,40 +870,27 @@ impl Offscreen {
 
     /// Begins a render pass that clears to `clear` (linear rgb) and depth 1.
     pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, clear: [f64; 3]) -> wgpu::RenderPass<'e> {
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("offscreen"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &self.color,
-                depth_slice: None,
-                resolve_target: self.resolve.as_ref(),
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r: clear[0], g: clear[1], b: clear[2], a: 1.0 }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
+        crate::gpu::begin_colour_depth_pass(
+            encoder,
+            "offscreen",
+            (&self.color, self.resolve.as_ref()),
+            &self.depth,
+            wgpu::Color { r: clear[0], g: clear[1], b: clear[2], a: 1.0 },
+            wgpu::StoreOp::Store,
+        )
     }
 
     /// The resolved colour as tightly packed RGBA8 rows, top row first (waits for the
     /// GPU; the colour format must have 4 bytes per pixel).
     pub fn read_rgba(&self, gpu: &Gpu) -> Vec<u8> {
-        let row = (self.width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let buffer = gpu.storage_buffer_zeroed("offscreen readback", row as u64 * self.height as u64);
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        crate::gpu::copy_texture_rows(&mut encoder, &self.resolved, &buffer, (self.width, self.height), 4);
-        gpu.queue.submit([encoder.finish()]);
-        let raw = gpu.read_buffer::<u8>(&buffer, (row * self.height) as usize);
-        raw.chunks_exact(row as usize).flat_map(|r| r[..(self.width * 4) as usize].to_vec()).collect()
+        let encoder = gpu.device.create_command_encoder(&Default::default());
+        crate::gpu::read_texture(
+            &gpu.device,
+            &gpu.queue,
+            encoder,
+            &self.resolved,
+            (self.width, self.height),
+            4,
+        )
     }
 }

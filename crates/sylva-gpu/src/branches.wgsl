@@ -2,24 +2,9 @@
 // projected size (compute) and the instanced vertex shader over the shared (v, θ) grid
 // buffer, Lambert + hemispherical ambient shading with bark UVs (θ/2π, arc length /
 // circumference). src/branches.rs prepends the shared deformer functions of deform.wgsl
-// and this header, then takes the part between the lod and draw marker lines below for
-// the LOD module and the part after the draw marker for the drawing module.
-
-// The camera and light (shared with the mesh renderer): params.x = time (s),
-// params.y = viewport height (px), params.z = tan(fov / 2). light_dir.xyz points from
-// the surface toward the light; light_color.rgb is its colour times intensity; sky and
-// ground are the hemispherical ambient's two colours (rgb).
-struct Frame {
-    view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    light_dir: vec4<f32>,
-    light_color: vec4<f32>,
-    sky: vec4<f32>,
-    ground: vec4<f32>,
-    params: vec4<f32>,
-}
-
-@group(0) @binding(0) var<uniform> frame: Frame;
+// and the camera and light (`Frame`) of render/frame.wgsl to this header, then takes the
+// part between the lod and draw marker lines below for the LOD module and the part after
+// the draw marker for the drawing module.
 
 fn cubic_of(i: u32) -> Cubic {
     let k = 4u * i;

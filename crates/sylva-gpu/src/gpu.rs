@@ -309,20 +309,29 @@ pub(crate) fn map_read(device: &wgpu::Device, staging: &wgpu::Buffer) -> Vec<u8>
     out
 }
 
-/// Records a copy of `texture` (`width` × `height` texels of `texel_bytes` bytes) into
-/// `buffer`, rows padded to wgpu's copy alignment; returns the padded row length in bytes.
-pub(crate) fn copy_texture_rows(
-    encoder: &mut wgpu::CommandEncoder,
+/// Submits `encoder` with a copy of `texture` (`width` × `height` texels of
+/// `texel_bytes` bytes) appended, waits for the GPU and returns the texels as tightly
+/// packed rows, top row first (the copy's rows are padded to wgpu's alignment).
+pub(crate) fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut encoder: wgpu::CommandEncoder,
     texture: &wgpu::Texture,
-    buffer: &wgpu::Buffer,
     (width, height): (u32, u32),
     texel_bytes: u32,
-) -> u32 {
-    let row = (width * texel_bytes).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+) -> Vec<u8> {
+    let (tight, row) =
+        (width * texel_bytes, (width * texel_bytes).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("sylva-gpu texture readback"),
+        size: row as u64 * height as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
     encoder.copy_texture_to_buffer(
         texture.as_image_copy(),
         wgpu::TexelCopyBufferInfo {
-            buffer,
+            buffer: &staging,
             layout: wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(row),
@@ -331,7 +340,63 @@ pub(crate) fn copy_texture_rows(
         },
         wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
     );
-    row
+    queue.submit([encoder.finish()]);
+    let raw = map_read(device, &staging);
+    raw.chunks_exact(row as usize).flat_map(|r| &r[..tight as usize]).copied().collect()
+}
+
+/// A 2D texture of `width` × `height` with one mip level and `samples` samples.
+pub(crate) fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    samples: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: samples,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// Begins a render pass into `color` (resolved into `resolve` where multisampled),
+/// cleared to `clear` and then stored as `store` says, with `depth` cleared to 1 and
+/// discarded after the pass.
+pub(crate) fn begin_colour_depth_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    (color, resolve): (&wgpu::TextureView, Option<&wgpu::TextureView>),
+    depth: &wgpu::TextureView,
+    clear: wgpu::Color,
+    store: wgpu::StoreOp,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: resolve,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(1.0),
+                store: wgpu::StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
 /// A compute-stage storage buffer binding (`read_only`: `var<storage, read>`).

@@ -349,8 +349,8 @@ fn a_lit_cylinder_shows_its_outside() {
 
 #[test]
 fn for_model_draws_the_models_curves_with_its_bark() {
+    use sylva::image::Image;
     use sylva::model::{Model, ModelImage};
-    use sylva::texture::Image;
     use sylva_gpu::branches::model_bark;
     let mut model = Model { curves: honda_curves(), ..Default::default() };
     assert!(model_bark(&model).is_none(), "no texture stage, no bark");

@@ -73,7 +73,7 @@ fn card_model() -> Model {
     let mut material = Material::leaf();
     material.maps.base_color = Some(0);
     material.alpha_cutoff = Some(0.5);
-    let mut image = sylva::texture::Image::new(8, 8, 4);
+    let mut image = Image::new(8, 8, 4);
     for y in 0..8 {
         for x in 0..8 {
             let i = (y * 8 + x) * 4;
@@ -137,7 +137,7 @@ fn a_box_is_drawn_over_the_background_with_the_preview_silhouette() {
     let r = Renderer::new(&gpu, &model).unwrap();
     let o = opts(320, 240, 30.0, 15.0);
     let out = r.render(&o, &[Mat4::IDENTITY], 0.0).unwrap();
-    assert_eq!((out.image.width, out.image.height, out.image.rgba.len()), (320, 240, 320 * 240 * 4));
+    assert_eq!((out.image.width, out.image.height, out.image.data.len()), (320, 240, 320 * 240 * 4));
     let gpu_shape = shape(&out.image);
     let c = covered(&gpu_shape);
     assert!((0.1..0.9).contains(&c), "the box covers {c} of the picture");
@@ -179,7 +179,7 @@ fn msaa_softens_edges_and_rendering_is_deterministic() {
     // colour; with MSAA many edge pixels take in-between colours, without none do.
     let distinct = |im: &Image| {
         let mut colours = std::collections::HashSet::new();
-        for p in im.rgba.chunks(4) {
+        for p in im.data.chunks(4) {
             colours.insert([p[0], p[1], p[2]]);
         }
         colours.len()

@@ -1,17 +1,7 @@
 // sylva-gpu's mesh pipeline (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10): instanced,
 // GPU-skinned trees with a directional light and a sky/ground ambient, colour maps and
-// alpha-cut leaves; plus the background gradient. Shares group(0) binding(0) (`Frame`)
-// with the branch deformer's renderer.
-
-struct Frame {
-    view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    light_dir: vec4<f32>,
-    light_color: vec4<f32>,
-    sky: vec4<f32>,
-    ground: vec4<f32>,
-    params: vec4<f32>, // x: time (s), y: viewport height (px), z: tan(fov / 2)
-}
+// alpha-cut leaves; plus the background gradient. render/mod.rs prepends frame.wgsl
+// (group(0) binding(0), `Frame`, shared with the branch deformer's renderer).
 
 struct Material {
     base_color: vec4<f32>,
@@ -25,7 +15,6 @@ struct Background {
     size: vec4<f32>,   // x: width, y: height (px)
 }
 
-@group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> joints: array<mat4x4<f32>>;
 @group(0) @binding(2) var<uniform> background: Background;
 

@@ -46,12 +46,13 @@ pub mod window;
 
 pub use camera::{Camera, Orbit};
 
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::{begin_colour_depth_pass, read_texture, texture_2d, Gpu, GpuError};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::sync::Mutex;
 use sylva::model::Model;
 use sylva::preview::Image;
+pub use sylva::preview::{iou, silhouette};
 use wgpu::util::DeviceExt;
 
 /// The camera and light uniform at `@group(0) @binding(0)` of every sylva render
@@ -91,6 +92,10 @@ impl Frame {
         }
     }
 }
+
+/// The WGSL of [`Frame`] bound at group(0) binding(0), prepended to the mesh shader and
+/// the branch deformer's (one declaration for both pipelines, which share the uniform).
+pub(crate) const FRAME_WGSL: &str = include_str!("frame.wgsl");
 
 /// Material uniform of `mesh.wgsl`.
 #[repr(C)]
@@ -353,17 +358,10 @@ impl Renderer {
                     im.name, i.width, i.height
                 )));
             }
-            let rgba: Vec<u8> = match i.channels {
-                4 => i.data.clone(),
-                3 => i.data.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect(),
-                c => return Err(invalid(format!("texture `{}` has {c} channels; 3 or 4 expected", im.name))),
-            };
-            if rgba.len() != (i.width * i.height * 4) as usize {
-                return Err(invalid(format!("texture `{}` has the wrong number of bytes", im.name)));
-            }
-            views.push((texture(gpu, &im.name, i.width, i.height, &rgba), im.repeat));
+            i.check(&format!("texture `{}`", im.name)).map_err(|e| invalid(e.to_string()))?;
+            views.push((texture(gpu, &im.name, i), im.repeat));
         }
-        let white = texture(gpu, "white", 1, 1, &[255; 4]);
+        let white = texture(gpu, "white", &Image::from_rgba(1, 1, vec![255; 4]));
         let sampler = |mode| {
             device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("sylva-gpu render sampler"),
@@ -531,7 +529,7 @@ impl Renderer {
         });
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("sylva-gpu mesh.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("mesh.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(format!("{FRAME_WGSL}\n{}", include_str!("mesh.wgsl")).into()),
         });
         let msaa_ok = gpu.msaa_ok(COLOR_FORMAT);
         let fit_points: Vec<Vec3> =
@@ -780,20 +778,9 @@ impl Renderer {
         let samples = if opts.msaa && self.gpu.msaa_ok(format) { 4 } else { 1 };
         let mut guard = self.view_targets.lock().unwrap_or_else(|e| e.into_inner());
         if guard.as_ref().is_none_or(|t| t.key != (w, h, samples, format)) {
-            let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
             let make = |label, format| {
-                self.gpu
-                    .device
-                    .create_texture(&wgpu::TextureDescriptor {
-                        label: Some(label),
-                        size,
-                        mip_level_count: 1,
-                        sample_count: samples,
-                        dimension: wgpu::TextureDimension::D2,
-                        format,
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                        view_formats: &[],
-                    })
+                let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+                texture_2d(&self.gpu.device, label, (w, h), samples, format, attach)
                     .create_view(&Default::default())
             };
             let msaa = (samples > 1).then(|| make("sylva-gpu view msaa colour", format));
@@ -894,29 +881,15 @@ impl Renderer {
         let pipelines = self.pipelines(samples, target.format);
         let mut stats = Stats { instances_per_level: counts.clone(), samples, ..Default::default() };
         let resolve = target.resolve;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("sylva-gpu render"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target.color,
-                depth_slice: None,
-                resolve_target: resolve,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: target.depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+        let mut pass = begin_colour_depth_pass(
+            encoder,
+            "sylva-gpu render",
+            (target.color, resolve),
+            target.depth,
+            wgpu::Color::BLACK,
+            store,
+        );
         pass.set_bind_group(0, &self.group0, &[]);
         pass.set_pipeline(&pipelines.background);
         pass.draw(0..3, 0..1);
@@ -950,19 +923,7 @@ impl Renderer {
 
     fn make_targets(&self, w: u32, h: u32, samples: u32) -> Targets {
         let device = &self.gpu.device;
-        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
-        let make = |label, samples, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        let make = |label, samples, format, usage| texture_2d(device, label, (w, h), samples, format, usage);
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let depth = make("sylva-gpu depth", samples, DEPTH_FORMAT, attach).create_view(&Default::default());
         let readable = attach | wgpu::TextureUsages::COPY_SRC;
@@ -980,20 +941,9 @@ impl Renderer {
     }
 
     /// Submits `encoder` with a copy of `texture` into a buffer and reads it back.
-    fn read_back(&self, mut encoder: wgpu::CommandEncoder, texture: &wgpu::Texture, w: u32, h: u32) -> Image {
-        let row = w * 4;
-        let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let staging = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("sylva-gpu render readback"),
-            size: padded as u64 * h as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        crate::gpu::copy_texture_rows(&mut encoder, texture, &staging, (w, h), 4);
-        self.gpu.queue.submit([encoder.finish()]);
-        let raw = crate::gpu::map_read(&self.gpu.device, &staging);
-        let rgba = raw.chunks_exact(padded as usize).flat_map(|r| &r[..row as usize]).copied().collect();
-        Image { width: w, height: h, rgba }
+    fn read_back(&self, encoder: wgpu::CommandEncoder, texture: &wgpu::Texture, w: u32, h: u32) -> Image {
+        let rgba = read_texture(&self.gpu.device, &self.gpu.queue, encoder, texture, (w, h), 4);
+        Image::from_rgba(w, h, rgba)
     }
 }
 
@@ -1008,54 +958,23 @@ pub fn frame_memory(w: u32, h: u32, samples: u32) -> u64 {
     px * (samples as u64 * per_sample + if samples > 1 { 4 } else { 0 } + 4)
 }
 
-/// An sRGB RGBA texture of `rgba` and its view.
-fn texture(gpu: &Ctx, label: &str, w: u32, h: u32, rgba: &[u8]) -> wgpu::TextureView {
-    let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
-    let tex = gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: COLOR_FORMAT,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+/// An sRGB RGBA texture of `image` (an RGB image gains alpha 255) and its view.
+fn texture(gpu: &Ctx, label: &str, image: &Image) -> wgpu::TextureView {
+    let (w, h) = (image.width, image.height);
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+    let tex = texture_2d(&gpu.device, label, (w, h), 1, COLOR_FORMAT, usage);
+    let expanded;
+    let rgba = if image.channels == 4 {
+        &image.data
+    } else {
+        expanded = image.clone().into_rgba();
+        &expanded.data
+    };
     gpu.queue.write_texture(
         tex.as_image_copy(),
         rgba,
         wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 4), rows_per_image: Some(h) },
-        size,
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     tex.create_view(&Default::default())
-}
-
-/// Pixels of `image` that differ from the background `opts` paints (any channel by more
-/// than `tolerance`): the silhouette of what was drawn, row-major.
-pub fn silhouette(image: &Image, background: [u8; 3], background_top: [u8; 3], tolerance: u8) -> Vec<bool> {
-    let (w, h) = (image.width as usize, image.height as usize);
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let f = if h > 1 { y as f32 / (h - 1) as f32 } else { 1.0 };
-        let bg: [u8; 3] = std::array::from_fn(|c| {
-            let (a, b) = (background_top[c] as f32, background[c] as f32);
-            (a + (b - a) * f + 0.5).clamp(0.0, 255.0) as u8
-        });
-        for x in 0..w {
-            let p = &image.rgba[(y * w + x) * 4..(y * w + x) * 4 + 3];
-            out.push((0..3).any(|c| p[c].abs_diff(bg[c]) > tolerance));
-        }
-    }
-    out
-}
-
-/// Intersection over union of two silhouettes of the same size (1 where both are empty).
-pub fn iou(a: &[bool], b: &[bool]) -> f64 {
-    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
-    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
-    if union == 0 {
-        1.0
-    } else {
-        inter as f64 / union as f64
-    }
 }
