@@ -10,6 +10,7 @@
 mod args;
 mod check_cmd;
 mod curves_cmd;
+mod edit_cmd;
 mod grow_cmd;
 mod lsys_cmd;
 mod progress;
@@ -55,6 +56,9 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// List every embedded preset with a one-line description.
     Presets,
+    /// Open the live editor: settings on the left, the tree regrown as you change them,
+    /// wind playing; save the recipe, export the tree.
+    Edit(edit_cmd::EditArgs),
     /// Render a magnetic-curves composition (Xu2015 ch. 7) to SVG or PNG.
     Curves(curves_cmd::CurvesArgs),
     /// Subdivide a control mesh (OBJ) with Loop or Catmull–Clark.
@@ -99,6 +103,7 @@ fn main() -> ExitCode {
         Command::Subdivide(args) => subdivide::run(args),
         Command::Check(args) => check_cmd::run(args),
         Command::Curves(args) => curves_cmd::run(args),
+        Command::Edit(args) => edit_cmd::run(args),
         Command::Presets => {
             for p in sylva::presets::all() {
                 println!("{:<24} {}", p.name, p.description());

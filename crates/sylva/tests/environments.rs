@@ -122,7 +122,7 @@ fn ecosystem_kills_the_smaller_of_overlapping_plants() {
 
     // Self-thinning on a random field: survivors never overlap, and every dominated
     // plant overlaps a larger one (larger radius, or equal and earlier).
-    let d = derive(&data("ecosystem").join("field.l"), &[]).unwrap();
+    let d = derive(data("ecosystem").join("field.l"), &[]).unwrap();
     let plants: Vec<(f64, f64, f64, f64)> = branches(&text(&d))
         .iter()
         .filter_map(|b| {
@@ -226,12 +226,12 @@ fn honda81_takes_its_radius_from_the_spec_file() {
     let answers = |radius: &str| {
         std::fs::write(dir.join("density.spec"), format!("verbose: off\nradius: {radius}\n3d case: on\n"))
             .unwrap();
-        let d = derive(&dir.join("plant.l"), &[]).unwrap();
+        let d = derive(dir.join("plant.l"), &[]).unwrap();
         params(&text(&d), "?E").into_iter().map(|p| p[0]).collect::<Vec<_>>()
     };
     assert_eq!(answers("0.01"), vec![1.0, 1.0], "0.3 apart: no collision at 0.01");
     assert_eq!(answers("1.0"), vec![0.0, 1.0], "collision at 1: the stronger wins");
-    let e = derive(&dir.join("plant.l"), &["generator.environment.radius=0.01"]).unwrap();
+    let e = derive(dir.join("plant.l"), &["generator.environment.radius=0.01"]).unwrap();
     assert_eq!(params(&text(&e), "?E")[0][0], 1.0, "the recipe overrides the spec file");
 }
 
@@ -240,26 +240,26 @@ fn environment_errors_name_the_file_and_why() {
     // A missing spec file.
     let dir = copy("obcheck", "nospec");
     std::fs::remove_file(dir.join("obstacles.spec")).unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("no spec file").to_string();
+    let e = derive(dir.join("plant.l"), &[]).err().expect("no spec file").to_string();
     assert!(e.contains("obstacles.spec") && e.contains("cannot read"), "{e}");
     // A missing obstacle file.
     let dir = copy("obcheck", "noobst");
     std::fs::remove_file(dir.join("obstacles.txt")).unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("no obstacle file").to_string();
+    let e = derive(dir.join("plant.l"), &[]).err().expect("no obstacle file").to_string();
     assert!(e.contains("obstacles.txt") && e.contains("obcheck"), "{e}");
     // A broken obstacle line.
     std::fs::write(dir.join("obstacles.txt"), "# x\nsphere 1 2\n").unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("bad obstacle").to_string();
+    let e = derive(dir.join("plant.l"), &[]).err().expect("bad obstacle").to_string();
     assert!(e.contains("obstacles.txt:2:") && e.contains("4 numbers"), "{e}");
     // A bad spec value names file:line and why; an unknown key is a warning.
     let dir = copy("clover", "badvalue");
     let spec = std::fs::read_to_string(dir.join("enviro.spec")).unwrap();
     std::fs::write(dir.join("enviro.spec"), spec.replace("transmittance: 0.1", "transmittance: lots"))
         .unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("bad transmittance").to_string();
+    let e = derive(dir.join("plant.l"), &[]).err().expect("bad transmittance").to_string();
     assert!(e.contains("enviro.spec:5:") && e.contains("transmittance") && e.contains("not a number"), "{e}");
     std::fs::write(dir.join("enviro.spec"), format!("{spec}colour: green\n")).unwrap();
-    let d = derive(&dir.join("plant.l"), &[]).unwrap();
+    let d = derive(dir.join("plant.l"), &[]).unwrap();
     assert!(
         d.warnings.iter().any(|w| w.contains("enviro.spec:7:") && w.contains("colour")),
         "{:?}",
@@ -269,18 +269,18 @@ fn environment_errors_name_the_file_and_why() {
     assert!(f.ignored.iter().any(|w| w.contains("colour")), "{:?}", f.ignored);
     // A corrupt image is an error naming it.
     std::fs::write(dir.join("light.rgb"), b"\x01\xdanot really").unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("corrupt image").to_string();
+    let e = derive(dir.join("plant.l"), &[]).err().expect("corrupt image").to_string();
     assert!(e.contains("light.rgb"), "{e}");
     // An unknown program is unsupported, listing the five sylva has.
     std::fs::write(dir.join("plant.e"), "executable: lightning enviro.spec\n").unwrap();
-    let e = derive(&dir.join("plant.l"), &[]).err().expect("unknown program");
+    let e = derive(dir.join("plant.l"), &[]).err().expect("unknown program");
     let msg = e.to_string();
     assert!(matches!(&e, sylva::Error::Lsystem(l) if l.kind == ErrorKind::Unsupported), "{msg}");
     for p in ["`lightning`", "honda81", "clover", "ecosystem", "chiba", "obcheck"] {
         assert!(msg.contains(p), "{msg}");
     }
     // A recipe key the environment does not have is an unknown key.
-    let e = derive(&data("chiba").join("plant.l"), &["generator.environment.colour=1"]).err().unwrap();
+    let e = derive(data("chiba").join("plant.l"), &["generator.environment.colour=1"]).err().unwrap();
     assert!(e.to_string().contains("colour"), "{e}");
 }
 

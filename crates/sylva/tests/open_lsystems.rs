@@ -36,7 +36,7 @@ fn honda81_grows_pascals_triangle_mod_two() {
     let dir = folder("sierpinski", &[("fractal.l", SIERPINSKI)]);
     for n in 1..=12u32 {
         let d = derive(
-            &dir.join("fractal.l"),
+            dir.join("fractal.l"),
             &["generator.environment.program=\"honda81\"", &format!("generator.iterations={n}")],
         )
         .unwrap();
@@ -61,7 +61,7 @@ fn honda81_stronger_primordium_wins() {
     let dir = folder("vogel", &[("plant.l", model)]);
     for radius in [0.8, 0.91, 1.1] {
         let d = derive(
-            &dir.join("plant.l"),
+            dir.join("plant.l"),
             &["generator.environment.program=\"honda81\"", &format!("generator.environment.radius={radius}")],
         )
         .unwrap();
@@ -97,7 +97,7 @@ fn the_model_folders_environment_file_names_the_program() {
             ("fractal.e", "executable: honda81 -e density.spec\ncommunication type: pipes\n"),
         ],
     );
-    let d = derive(&dir.join("fractal.l"), &["generator.iterations=4"]).unwrap();
+    let d = derive(dir.join("fractal.l"), &["generator.iterations=4"]).unwrap();
     assert_eq!(d.folder.as_ref().unwrap().environment_program.as_deref(), Some("honda81"));
     assert_eq!(d.lsystem.format(&d.string).matches('F').count(), 2 * (1 + 2 + 2 + 4));
     // A program sylva does not have is unsupported, named, at the model's `?E`.
@@ -125,7 +125,7 @@ fn stop_ends_the_derivation_after_its_step() {
     let model = "Lsystem: 1\nderivation length: 50\nAxiom: A(0)\n\
                  A(n) : n < 100 {stop(n >= 6);} --> FA(n+1)\nendlsystem\n";
     let dir = folder("stop", &[("p.l", model)]);
-    let d = derive(&dir.join("p.l"), &[]).unwrap();
+    let d = derive(dir.join("p.l"), &[]).unwrap();
     // stop(1) is called while rewriting A(6) in step 7: that step completes.
     assert_eq!(d.steps, 7);
     assert_eq!(d.lsystem.format(&d.string), "FFFFFFFA(7)");
@@ -138,7 +138,7 @@ fn file_output_is_accepted_discarded_and_reported() {
                  EndEach: {fprintf(fp, \"%f\\n\", 1); fflush(fp);}\nEnd: {fclose(fp);}\n\
                  Axiom: A\nA --> FA\nendlsystem\n";
     let dir = folder("fopen", &[("p.l", model)]);
-    let d = derive(&dir.join("p.l"), &[]).unwrap();
+    let d = derive(dir.join("p.l"), &[]).unwrap();
     assert_eq!(d.lsystem.format(&d.string), "FFFA");
     assert!(d.warnings.iter().any(|w| w.contains("fopen")), "{:?}", d.warnings);
     assert!(!dir.join("out.txt").exists(), "sylva writes no file for the model");
@@ -148,8 +148,8 @@ fn file_output_is_accepted_discarded_and_reported() {
 fn cut_erases_the_rest_of_the_branch_one_step_later() {
     let model = "Lsystem: 1\nderivation length: 2\nAxiom: F[FX[F]F]FX\nX --> %\nendlsystem\n";
     let dir = folder("cut", &[("p.l", model)]);
-    let one = derive(&dir.join("p.l"), &["generator.iterations=1"]).unwrap();
+    let one = derive(dir.join("p.l"), &["generator.iterations=1"]).unwrap();
     assert_eq!(one.lsystem.format(&one.string), "F[F%[F]F]F%");
-    let two = derive(&dir.join("p.l"), &[]).unwrap();
+    let two = derive(dir.join("p.l"), &[]).unwrap();
     assert_eq!(two.lsystem.format(&two.string), "F[F]F");
 }

@@ -9,6 +9,9 @@
 //! [`assert_threejs_loads`] is the same for three.js's `GLTFLoader` (`tools/threejs`).
 #![allow(dead_code)]
 
+// Self-contained for other crates' #[path] includes; a test that loads both helpers
+// loads this file twice, harmlessly.
+#[allow(clippy::duplicate_mod)]
 #[path = "node_check.rs"]
 mod node_check;
 

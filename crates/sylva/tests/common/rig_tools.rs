@@ -7,6 +7,9 @@
 //! `#[path = "../../sylva/tests/common/rig_tools.rs"] mod rig_tools;`.
 #![allow(dead_code)]
 
+// Self-contained for other crates' #[path] includes; a test that loads both helpers
+// loads this file twice, harmlessly.
+#[allow(clippy::duplicate_mod)]
 #[path = "node_check.rs"]
 mod node_check;
 

@@ -1,0 +1,449 @@
+//! The editor window: the settings panel on the left, the view in the middle, a status
+//! bar with triangles, vertices, per-stage times and warnings at the bottom, and a menu
+//! bar (presets, undo/redo, reset, new seed, play/pause, save, export).
+//!
+//! Every frame applies the panel's edits to the [`Document`], submits a changed recipe
+//! to the [`Worker`] (which cancels the stale run) and takes any finished tree; the UI
+//! thread never waits on the engine. A recipe the engine refuses, or a run that fails,
+//! shows its message and the last good tree stays. [`FrameLog`] records the latency
+//! figures of docs/editor.md.
+
+use crate::document::{Document, Source};
+use crate::frame_log::FrameLog;
+use crate::panel;
+use crate::viewport::Viewport;
+use crate::watch::Watch;
+use crate::worker::{Outcome, Worker};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use sylva::pipeline::Tree;
+
+/// How the editor starts.
+#[derive(Debug, Clone, Default)]
+pub struct EditOptions {
+    /// A preset name, a recipe or a model file; `None`: the default tree.
+    pub what: Option<String>,
+    /// `key=value` settings applied on top (as `--set`).
+    pub sets: Vec<String>,
+    /// Reload when the recipe file (or its `.l` file) changes on disk.
+    pub watch: bool,
+    /// Write the frame log (JSON lines) here when the editor closes.
+    pub frame_log: Option<PathBuf>,
+    /// Close after this many frames (tests, demos); `None` keeps the window open.
+    pub close_after_frames: Option<u64>,
+    /// Close once the first tree is shown and this many frames have passed after it.
+    pub close_after_tree: Option<u64>,
+}
+
+/// The editor's state.
+pub struct EditorApp {
+    doc: Document,
+    worker: Worker,
+    viewport: Viewport,
+    tree: Option<Box<Tree>>,
+    /// The job whose tree is shown (or 0).
+    shown_job: u64,
+    /// The revision of the document last submitted.
+    submitted: u64,
+    filter: String,
+    /// The last error (a refused value, a failed run, a file that vanished).
+    message: Option<String>,
+    /// The stages the last run computed, and its time.
+    last_run: Option<(Vec<sylva::Stage>, Duration)>,
+    watch: Option<Watch>,
+    save_path: String,
+    log: FrameLog,
+    opts: EditOptions,
+    frames: u64,
+    frames_since_tree: Option<u64>,
+    seed_counter: u64,
+}
+
+impl std::fmt::Debug for EditorApp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EditorApp").field("source", self.doc.source()).finish_non_exhaustive()
+    }
+}
+
+impl EditorApp {
+    /// The editor on `doc`, drawing with `gpu` (egui's wgpu state; `None`: no view).
+    /// `ctx` is woken when the worker finishes a tree. Starts growing at once.
+    pub fn new(
+        ctx: &egui::Context,
+        gpu: Option<egui_wgpu::RenderState>,
+        doc: Document,
+        opts: EditOptions,
+    ) -> EditorApp {
+        let woken = ctx.clone();
+        let worker = Worker::new(move || woken.request_repaint());
+        let watch = if opts.watch {
+            match &doc.source() {
+                Source::File(path) => match Watch::new(path, doc.folder()) {
+                    Ok(w) => Some(w),
+                    Err(e) => {
+                        eprintln!("sylva edit: --watch: {e}");
+                        None
+                    }
+                },
+                Source::Preset(_) => None,
+            }
+        } else {
+            None
+        };
+        let save_path = match doc.source() {
+            Source::File(p) => p.display().to_string(),
+            Source::Preset(name) => format!("{name}-edited.toml"),
+        };
+        let mut app = EditorApp {
+            doc,
+            worker,
+            viewport: Viewport::new(gpu),
+            tree: None,
+            shown_job: 0,
+            submitted: u64::MAX,
+            filter: String::new(),
+            message: None,
+            last_run: None,
+            watch,
+            save_path,
+            log: FrameLog::new(),
+            opts,
+            frames: 0,
+            frames_since_tree: None,
+            seed_counter: 0,
+        };
+        app.submit(true);
+        app
+    }
+
+    /// The document (tests read the recipe from it).
+    pub fn document(&self) -> &Document {
+        &self.doc
+    }
+
+    /// The tree shown, if one has been grown.
+    pub fn tree(&self) -> Option<&Tree> {
+        self.tree.as_deref()
+    }
+
+    /// The message shown in the status bar, if any.
+    pub fn message(&self) -> Option<&str> {
+        self.message.as_deref()
+    }
+
+    /// The stages the last finished run computed.
+    pub fn last_stages(&self) -> Option<&[sylva::Stage]> {
+        self.last_run.as_ref().map(|(s, _)| s.as_slice())
+    }
+
+    /// Whether the newest submitted recipe has been grown (or has failed).
+    pub fn settled(&self) -> bool {
+        self.shown_job == self.worker.latest()
+    }
+
+    /// The frame log.
+    pub fn log(&self) -> &FrameLog {
+        &self.log
+    }
+
+    /// Applies an edit as the panel would (tests; scripted use).
+    pub fn apply(&mut self, key: &str, value: toml::Value, dragging: bool) {
+        let started = Instant::now();
+        match self.doc.set(key, value, dragging) {
+            Ok(()) => self.message = None,
+            Err(e) => self.message = Some(e),
+        }
+        self.log.event("edit", key, started.elapsed());
+    }
+
+    /// Waits (tests) until the newest recipe is grown or `timeout` passes, taking the
+    /// outcomes as frames would.
+    pub fn wait_settled(&mut self, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        self.submit(false);
+        while !self.settled() {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return false;
+            }
+            if let Some(o) = self.worker.wait(left.min(Duration::from_millis(50))) {
+                self.take(o);
+            }
+        }
+        true
+    }
+
+    /// Submits the document when it changed since the last submission.
+    fn submit(&mut self, fresh: bool) {
+        if fresh || self.submitted != self.doc.revision() {
+            self.submitted = self.doc.revision();
+            self.worker.submit(self.doc.loaded().clone(), fresh);
+            self.log.mark_submitted();
+        }
+    }
+
+    /// Takes one outcome of the worker.
+    fn take(&mut self, outcome: Outcome) {
+        let job = outcome.job();
+        match outcome {
+            Outcome::Grown { tree, stages, elapsed, .. } => {
+                self.viewport.set_model(&tree.model);
+                self.last_run = Some((stages, elapsed));
+                self.tree = Some(tree);
+                self.shown_job = job;
+                self.log.tree_shown(elapsed);
+                if job == self.worker.latest() {
+                    self.message = None;
+                }
+                self.frames_since_tree.get_or_insert(0);
+            }
+            Outcome::Failed { message, .. } => {
+                self.shown_job = job;
+                self.message = Some(message);
+            }
+            Outcome::Cancelled { .. } => {}
+        }
+    }
+
+    /// One frame of the whole window.
+    pub fn frame(&mut self, ui: &mut egui::Ui) {
+        let started = Instant::now();
+        self.frames += 1;
+        while let Some(o) = self.worker.poll() {
+            self.take(o);
+        }
+        self.poll_watch();
+        self.menu(ui);
+        self.status(ui);
+        let edits = egui::Panel::left("settings")
+            .resizable(true)
+            .default_size(340.0)
+            .show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    ui.label("find");
+                    ui.add(
+                        egui::TextEdit::singleline(&mut self.filter)
+                            .hint_text("key or words")
+                            .desired_width(200.0),
+                    );
+                });
+                ui.separator();
+                egui::ScrollArea::vertical().show(ui, |ui| panel::show(ui, &self.doc, &self.filter)).inner
+            })
+            .inner;
+        let dragging = edits.iter().any(|e| e.dragging);
+        for e in edits {
+            self.apply(&e.key, e.value, e.dragging);
+        }
+        if !dragging && !ui.input(|i| i.pointer.any_down()) {
+            self.doc.end_join();
+        }
+        egui::CentralPanel::no_frame().show(ui, |ui| {
+            self.viewport.show(ui);
+        });
+        self.shortcuts(ui);
+        self.submit(false);
+        if !self.settled() {
+            ui.ctx().request_repaint_after(Duration::from_millis(30));
+        }
+        if let Some(n) = self.frames_since_tree.as_mut() {
+            *n += 1;
+        }
+        self.log.frame(started.elapsed());
+        self.close_when_done(ui);
+    }
+
+    fn close_when_done(&mut self, ui: &egui::Ui) {
+        let by_frames = self.opts.close_after_frames.is_some_and(|n| self.frames >= n);
+        let by_tree =
+            self.opts.close_after_tree.is_some_and(|n| self.frames_since_tree.is_some_and(|k| k >= n));
+        if by_frames || by_tree {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        if self.opts.close_after_tree.is_some() {
+            ui.ctx().request_repaint();
+        }
+    }
+
+    fn menu(&mut self, ui: &mut egui::Ui) {
+        egui::Panel::top("menu").show(ui, |ui| {
+            ui.horizontal_wrapped(|ui| {
+                let mut chosen = None;
+                egui::ComboBox::from_id_salt("preset")
+                    .selected_text(self.doc.source().to_string())
+                    .show_ui(ui, |ui| {
+                        for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
+                            if ui.selectable_label(false, p.name).on_hover_text(p.description()).clicked() {
+                                chosen = Some(p.name.to_string());
+                            }
+                        }
+                    })
+                    .response
+                    .accessible_name("preset picker");
+                if let Some(name) = chosen {
+                    self.open(Some(&name));
+                }
+                if ui.add_enabled(self.doc.can_undo(), egui::Button::new("Undo")).clicked() {
+                    self.doc.undo();
+                }
+                if ui.add_enabled(self.doc.can_redo(), egui::Button::new("Redo")).clicked() {
+                    self.doc.redo();
+                }
+                if ui.button("Reset").on_hover_text("back to the preset or file").clicked() {
+                    self.result(|d| d.reset());
+                }
+                if ui.button("New seed").clicked() {
+                    self.seed_counter += 1;
+                    let seed = self.doc.recipe().seed.wrapping_mul(6364136223846793005).wrapping_add(self.seed_counter);
+                    self.result(|d| d.new_seed(seed));
+                }
+                let play = if self.viewport.playing { "Pause wind" } else { "Play wind" };
+                if ui.button(play).clicked() {
+                    self.viewport.toggle_play();
+                }
+                if ui.button("Frame").clicked() {
+                    self.viewport.reframe();
+                }
+                ui.separator();
+                ui.add(egui::TextEdit::singleline(&mut self.save_path).desired_width(180.0))
+                    .on_hover_text("file to save the recipe to (.toml) or export the tree to (.glb, .gltf, .obj, .ply, .usda)");
+                if ui.button("Save recipe").clicked() {
+                    self.save();
+                }
+                if ui.button("Export").clicked() {
+                    self.export();
+                }
+            });
+        });
+    }
+
+    fn status(&mut self, ui: &mut egui::Ui) {
+        egui::Panel::bottom("status").show(ui, |ui| {
+            ui.horizontal_wrapped(|ui| {
+                match &self.tree {
+                    Some(t) => {
+                        ui.label(format!("{} triangles, {} vertices", t.report.triangles, t.report.vertices));
+                        if let Some((stages, time)) = &self.last_run {
+                            let names: Vec<&str> = stages.iter().map(|s| s.name()).collect();
+                            ui.label(format!("· {:.0} ms ({})", time.as_secs_f64() * 1e3, names.join(", ")))
+                                .on_hover_text(stage_times(t));
+                        }
+                        if !t.report.warnings.is_empty() {
+                            ui.label(
+                                egui::RichText::new(format!("· {} warnings", t.report.warnings.len()))
+                                    .color(egui::Color32::from_rgb(160, 110, 0)),
+                            )
+                            .on_hover_text(t.report.warnings.join("\n"));
+                        }
+                    }
+                    None => {
+                        ui.label("growing…");
+                    }
+                }
+                if !self.settled() {
+                    ui.spinner();
+                }
+                if let Some(a) = self.viewport.adapter() {
+                    ui.label(egui::RichText::new(a).weak());
+                }
+            });
+            if let Some(m) = &self.message {
+                ui.label(egui::RichText::new(m).color(egui::Color32::DARK_RED));
+            }
+        });
+    }
+
+    fn shortcuts(&mut self, ui: &egui::Ui) {
+        let (undo, redo) = ui.input_mut(|i| {
+            let redo = i.consume_key(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z)
+                || i.consume_key(egui::Modifiers::COMMAND, egui::Key::Y);
+            (i.consume_key(egui::Modifiers::COMMAND, egui::Key::Z), redo)
+        });
+        if undo {
+            self.doc.undo();
+        }
+        if redo {
+            self.doc.redo();
+        }
+    }
+
+    fn result(&mut self, f: impl FnOnce(&mut Document) -> Result<(), String>) {
+        if let Err(e) = f(&mut self.doc) {
+            self.message = Some(e);
+        }
+    }
+
+    /// Opens another preset or file (a new session); on error the current one stays.
+    pub fn open(&mut self, what: Option<&str>) {
+        match Document::open(what) {
+            Ok(doc) => {
+                self.doc = doc;
+                self.submit(true);
+            }
+            Err(e) => self.message = Some(e),
+        }
+    }
+
+    /// Saves the recipe to the path in the menu bar.
+    pub fn save(&mut self) {
+        let path = PathBuf::from(self.save_path.trim());
+        let written = self.doc.to_toml().and_then(|text| {
+            sylva::fsutil::write_atomic(&path, |w| w.write_all(text.as_bytes())).map_err(|e| e.to_string())
+        });
+        self.message = Some(match written {
+            Ok(()) => format!("saved {}", path.display()),
+            Err(e) => format!("cannot save {}: {e}", path.display()),
+        });
+    }
+
+    /// Exports the shown tree to the path in the menu bar (format by extension).
+    pub fn export(&mut self) {
+        let path = PathBuf::from(self.save_path.trim());
+        let Some(tree) = &self.tree else {
+            self.message = Some("no tree to export yet".into());
+            return;
+        };
+        self.message = Some(match tree.write(&path) {
+            Ok(()) => format!("exported {}", path.display()),
+            Err(e) => format!("cannot export {}: {e}", path.display()),
+        });
+    }
+
+    fn poll_watch(&mut self) {
+        let Some(w) = &self.watch else { return };
+        if w.changed() {
+            match self.doc.reload() {
+                Ok(()) => self.message = Some("reloaded from disk".into()),
+                Err(e) => self.message = Some(format!("not reloaded: {e}")),
+            }
+        }
+    }
+
+    /// Writes the frame log if the options ask for it.
+    pub fn write_log(&self) {
+        if let Some(path) = &self.opts.frame_log {
+            if let Err(e) = self.log.write(path) {
+                eprintln!("sylva edit: cannot write the frame log {}: {e}", path.display());
+            }
+        }
+    }
+}
+
+fn stage_times(t: &Tree) -> String {
+    t.report
+        .stage_times
+        .iter()
+        .map(|(name, d)| format!("{name}: {:.1} ms", d.as_secs_f64() * 1e3))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+impl eframe::App for EditorApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.frame(ui);
+    }
+
+    fn on_exit(&mut self) {
+        self.write_log();
+    }
+}

@@ -1,0 +1,341 @@
+//! The document being edited: a [`Loaded`] recipe (the recipe and where its files are),
+//! the preset or file it started from, undo/redo, and the keys that differ from the
+//! start (what "save" writes). No UI and no GPU: the panel and the tests drive it.
+//!
+//! Every change goes through [`Recipe::set`], the path of the CLI's `--set`, so a value
+//! out of range is an error naming the key and leaves the recipe as it was. A run of
+//! changes to one key (a slider being dragged) is one undo step.
+
+use std::path::{Path, PathBuf};
+use sylva::recipe::{Loaded, Origin, Recipe};
+
+/// Where the document started: what "reset" returns to and what "save" compares with.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// An embedded preset, by name.
+    Preset(String),
+    /// A recipe or model file on disk.
+    File(PathBuf),
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Source::Preset(name) => f.write_str(name),
+            Source::File(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+/// One undo step: the recipe before a change and the key the change set.
+#[derive(Debug, Clone)]
+struct Step {
+    before: Recipe,
+    key: Option<String>,
+}
+
+/// The recipe being edited and its history.
+#[derive(Debug, Clone)]
+pub struct Document {
+    source: Source,
+    start: Loaded,
+    loaded: Loaded,
+    table: toml::Table,
+    undo: Vec<Step>,
+    redo: Vec<Recipe>,
+    /// Whether the next change to the same key joins the last undo step (a drag).
+    joining: bool,
+    revision: u64,
+}
+
+/// The most undo steps kept.
+pub const MAX_UNDO: usize = 500;
+
+impl Document {
+    /// A document from `what`: a preset name, a `.toml` recipe or a model file (`.l`,
+    /// `.lst`, `.str`, `.json`); `None` is the default tree. Errors are the engine's
+    /// messages (an unknown preset lists the way to see them).
+    pub fn open(what: Option<&str>) -> Result<Document, String> {
+        let what = what.unwrap_or(sylva::presets::DEFAULT_PRESET);
+        let (source, loaded) = if sylva::presets::get(what).is_some() {
+            (Source::Preset(what.to_string()), Loaded::preset(what))
+        } else if Path::new(what).exists() {
+            (Source::File(PathBuf::from(what)), Loaded::from_file(what))
+        } else {
+            return Err(format!(
+                "`{what}` is neither a preset (`sylva list` names them) nor a file that exists"
+            ));
+        };
+        let loaded = loaded.map_err(|e| e.to_string())?;
+        Document::from_loaded(source, loaded)
+    }
+
+    /// A document from a recipe already loaded.
+    pub fn from_loaded(source: Source, loaded: Loaded) -> Result<Document, String> {
+        let table = loaded.recipe.to_table().map_err(|e| e.to_string())?;
+        Ok(Document {
+            source,
+            start: loaded.clone(),
+            loaded,
+            table,
+            undo: Vec::new(),
+            redo: Vec::new(),
+            joining: false,
+            revision: 0,
+        })
+    }
+
+    /// Where the document started.
+    pub fn source(&self) -> &Source {
+        &self.source
+    }
+
+    /// The recipe with its origin (what the worker grows).
+    pub fn loaded(&self) -> &Loaded {
+        &self.loaded
+    }
+
+    /// The recipe.
+    pub fn recipe(&self) -> &Recipe {
+        &self.loaded.recipe
+    }
+
+    /// Counts every change, undo and redo (the editor regrows when it moves).
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
+    /// The recipe as a TOML table (kept in step with the recipe; the panel reads the
+    /// current values from it).
+    pub fn table(&self) -> &toml::Table {
+        &self.table
+    }
+
+    /// The value of the dotted `key` in the recipe, `None` when the recipe leaves it
+    /// out (then the schema's default applies).
+    pub fn value(&self, key: &str) -> Option<&toml::Value> {
+        lookup(&self.table, key)
+    }
+
+    /// Sets the dotted `key` (see [`Recipe::set`]); `joining` makes it part of the last
+    /// undo step when that step set the same key (a slider drag). An error leaves the
+    /// recipe as it was and says which key and why.
+    pub fn set(&mut self, key: &str, value: toml::Value, joining: bool) -> Result<(), String> {
+        if self.value(key) == Some(&value) {
+            return Ok(());
+        }
+        let mut next = self.loaded.recipe.clone();
+        next.set(key, value).map_err(|e| e.to_string())?;
+        let join = joining && self.joining && self.undo.last().is_some_and(|s| s.key.as_deref() == Some(key));
+        if !join {
+            self.push_undo(Some(key.to_string()));
+        }
+        self.joining = joining;
+        self.replace(next)
+    }
+
+    /// Ends a run of joined changes (the drag stopped).
+    pub fn end_join(&mut self) {
+        self.joining = false;
+    }
+
+    /// Replaces the recipe (a file reloaded, a reset) as one undo step.
+    pub fn set_recipe(&mut self, recipe: Recipe) -> Result<(), String> {
+        self.push_undo(None);
+        self.joining = false;
+        self.replace(recipe)
+    }
+
+    /// A new random seed (one undo step).
+    pub fn new_seed(&mut self, seed: u64) -> Result<(), String> {
+        self.set("seed", toml::Value::Integer((seed & (i64::MAX as u64)) as i64), false)
+    }
+
+    /// Back to the recipe the document started from.
+    pub fn reset(&mut self) -> Result<(), String> {
+        let start = self.start.recipe.clone();
+        self.set_recipe(start)
+    }
+
+    /// Undoes the last step; `false` when there is none.
+    pub fn undo(&mut self) -> bool {
+        let Some(step) = self.undo.pop() else { return false };
+        self.redo.push(self.loaded.recipe.clone());
+        self.joining = false;
+        self.replace(step.before).is_ok()
+    }
+
+    /// Redoes the last undone step; `false` when there is none.
+    pub fn redo(&mut self) -> bool {
+        let Some(next) = self.redo.pop() else { return false };
+        self.undo.push(Step { before: self.loaded.recipe.clone(), key: None });
+        self.joining = false;
+        self.replace(next).is_ok()
+    }
+
+    /// Whether there is a step to undo / redo.
+    pub fn can_undo(&self) -> bool {
+        !self.undo.is_empty()
+    }
+
+    /// See [`Document::can_undo`].
+    pub fn can_redo(&self) -> bool {
+        !self.redo.is_empty()
+    }
+
+    /// The dotted keys whose values differ from the start, with the current values
+    /// (removed keys are not listed), in key order.
+    pub fn changed(&self) -> Vec<(String, toml::Value)> {
+        let start = self.start.recipe.to_table().unwrap_or_default();
+        let mut out = Vec::new();
+        diff(&start, &self.table, "", &mut out);
+        out
+    }
+
+    /// The recipe to save: a preset's document writes `preset = "name"` and only the keys
+    /// that differ from it (sylva reads such a file as the preset with those keys set);
+    /// a file's document writes the whole recipe.
+    pub fn to_toml(&self) -> Result<String, String> {
+        match &self.source {
+            Source::Preset(name) => {
+                let mut text = format!("# sylva recipe: the preset `{name}` with these keys changed\n");
+                text.push_str(&format!("preset = {}\n", toml::Value::String(name.clone())));
+                let mut table = toml::Table::new();
+                for (key, value) in self.changed() {
+                    insert(&mut table, &key, value);
+                }
+                text.push_str(&toml::to_string(&table).map_err(|e| e.to_string())?);
+                Ok(text)
+            }
+            Source::File(_) => self.recipe().to_toml().map_err(|e| e.to_string()),
+        }
+    }
+
+    /// A file on disk changed (`--watch`): read it again and make it the current recipe
+    /// (one undo step). The document keeps its origin folder.
+    pub fn reload(&mut self) -> Result<(), String> {
+        let Source::File(path) = &self.source else {
+            return Err("a preset has no file to reload".into());
+        };
+        let loaded = Loaded::from_file(path).map_err(|e| e.to_string())?;
+        self.start = loaded.clone();
+        self.push_undo(None);
+        self.loaded.origin = loaded.origin;
+        self.replace(loaded.recipe)
+    }
+
+    /// The folder relative file names resolve in, for a document from a file.
+    pub fn folder(&self) -> Option<&Path> {
+        match &self.loaded.origin {
+            Origin::Folder(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    fn push_undo(&mut self, key: Option<String>) {
+        self.undo.push(Step { before: self.loaded.recipe.clone(), key });
+        if self.undo.len() > MAX_UNDO {
+            self.undo.remove(0);
+        }
+        self.redo.clear();
+    }
+
+    fn replace(&mut self, recipe: Recipe) -> Result<(), String> {
+        self.table = recipe.to_table().map_err(|e| e.to_string())?;
+        self.loaded.recipe = recipe;
+        self.revision += 1;
+        Ok(())
+    }
+}
+
+/// The value at dotted `key` in `table`.
+pub fn lookup<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
+    let mut parts = key.split('.');
+    let mut value = table.get(parts.next()?)?;
+    for part in parts {
+        value = value.as_table()?.get(part)?;
+    }
+    Some(value)
+}
+
+fn insert(table: &mut toml::Table, key: &str, value: toml::Value) {
+    match key.split_once('.') {
+        None => {
+            table.insert(key.to_string(), value);
+        }
+        Some((head, rest)) => {
+            let entry =
+                table.entry(head.to_string()).or_insert_with(|| toml::Value::Table(Default::default()));
+            if let toml::Value::Table(t) = entry {
+                insert(t, rest, value);
+            }
+        }
+    }
+}
+
+fn diff(start: &toml::Table, now: &toml::Table, prefix: &str, out: &mut Vec<(String, toml::Value)>) {
+    for (k, v) in now {
+        let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        match (start.get(k), v) {
+            (Some(toml::Value::Table(a)), toml::Value::Table(b)) => diff(a, b, &key, out),
+            (Some(a), b) if a == b => {}
+            _ => out.push((key, v.clone())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_undo_redo_and_joined_drags() {
+        let mut doc = Document::open(Some("wp-quaking-aspen")).unwrap();
+        let sides = doc.value("mesh.sides").cloned();
+        doc.set("mesh.sides", toml::Value::Integer(6), false).unwrap();
+        assert_eq!(doc.recipe().mesh.sides, 6);
+        // A drag: three values, one undo step.
+        for v in [0.5, 0.6, 0.7] {
+            doc.set("leaves.alpha_cutoff", toml::Value::Float(v), true).unwrap();
+        }
+        doc.end_join();
+        assert!(doc.undo());
+        assert_eq!(doc.recipe().mesh.sides, 6, "the drag was one step");
+        assert!(doc.undo());
+        assert_eq!(doc.value("mesh.sides").cloned(), sides);
+        assert!(!doc.undo());
+        assert!(doc.redo());
+        assert_eq!(doc.recipe().mesh.sides, 6);
+    }
+
+    #[test]
+    fn a_bad_value_names_the_key_and_changes_nothing() {
+        let mut doc = Document::open(None).unwrap();
+        let before = doc.revision();
+        let e = doc.set("mesh.sides", toml::Value::Integer(2), false).unwrap_err();
+        assert!(e.contains("mesh.sides"), "{e}");
+        assert_eq!(doc.revision(), before);
+        assert!(!doc.can_undo());
+    }
+
+    #[test]
+    fn a_preset_saves_only_what_changed_and_reads_back() {
+        let mut doc = Document::open(Some("wp-quaking-aspen")).unwrap();
+        doc.set("mesh.sides", toml::Value::Integer(6), false).unwrap();
+        doc.new_seed(99).unwrap();
+        assert_eq!(doc.changed().len(), 2, "{:?}", doc.changed());
+        let text = doc.to_toml().unwrap();
+        assert!(text.contains("preset = \"wp-quaking-aspen\""), "{text}");
+        let back = Recipe::from_toml(&text).unwrap();
+        assert_eq!(back.mesh.sides, 6);
+        assert_eq!(back.seed, 99);
+        doc.reset().unwrap();
+        assert!(doc.changed().is_empty());
+    }
+
+    #[test]
+    fn unknown_input_is_an_error() {
+        let e = Document::open(Some("no-such-tree")).unwrap_err();
+        assert!(e.contains("no-such-tree"), "{e}");
+    }
+}

@@ -1,0 +1,154 @@
+//! The editor's frame log: how long each UI frame took, when a changed recipe was
+//! submitted and when its tree was on screen, so the latency figures of docs/editor.md
+//! (launch to first tree, change to visible tree, longest frame during a regeneration)
+//! come from the editor itself. Written as JSON lines with `--frame-log FILE`.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// One entry.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Entry {
+    /// A UI frame and its duration.
+    Frame {
+        /// Since the editor started.
+        at: Duration,
+        /// How long the frame's code ran.
+        took: Duration,
+        /// Whether a regeneration was running.
+        busy: bool,
+    },
+    /// A recipe was handed to the worker.
+    Submitted {
+        /// Since the editor started.
+        at: Duration,
+    },
+    /// A grown tree reached the view.
+    TreeShown {
+        /// Since the editor started.
+        at: Duration,
+        /// Since the last submission.
+        latency: Duration,
+        /// The worker's time for the run.
+        grow: Duration,
+    },
+    /// Something named happened (an edit, a file reload).
+    Event {
+        /// Since the editor started.
+        at: Duration,
+        /// What.
+        what: String,
+        /// Which key or file.
+        about: String,
+        /// How long handling it took on the UI thread.
+        took: Duration,
+    },
+}
+
+/// The log.
+#[derive(Debug, Clone)]
+pub struct FrameLog {
+    start: Instant,
+    submitted: Option<Instant>,
+    entries: Vec<Entry>,
+}
+
+/// The most entries kept (older ones are dropped).
+pub const MAX_ENTRIES: usize = 100_000;
+
+impl Default for FrameLog {
+    fn default() -> Self {
+        FrameLog::new()
+    }
+}
+
+impl FrameLog {
+    /// An empty log starting now.
+    pub fn new() -> FrameLog {
+        FrameLog { start: Instant::now(), submitted: None, entries: Vec::new() }
+    }
+
+    fn push(&mut self, e: Entry) {
+        if self.entries.len() >= MAX_ENTRIES {
+            self.entries.drain(..MAX_ENTRIES / 2);
+        }
+        self.entries.push(e);
+    }
+
+    /// A frame took `took`.
+    pub fn frame(&mut self, took: Duration) {
+        let busy = self.submitted.is_some();
+        self.push(Entry::Frame { at: self.start.elapsed(), took, busy });
+    }
+
+    /// A recipe was submitted now.
+    pub fn mark_submitted(&mut self) {
+        self.submitted = Some(Instant::now());
+        self.push(Entry::Submitted { at: self.start.elapsed() });
+    }
+
+    /// A tree the worker grew in `grow` is shown now.
+    pub fn tree_shown(&mut self, grow: Duration) {
+        let latency = self.submitted.take().map_or(Duration::ZERO, |s| s.elapsed());
+        self.push(Entry::TreeShown { at: self.start.elapsed(), latency, grow });
+    }
+
+    /// A named event.
+    pub fn event(&mut self, what: &str, about: &str, took: Duration) {
+        self.push(Entry::Event { at: self.start.elapsed(), what: what.into(), about: about.into(), took });
+    }
+
+    /// Every entry, oldest first.
+    pub fn entries(&self) -> &[Entry] {
+        &self.entries
+    }
+
+    /// From start to the first tree on screen.
+    pub fn first_tree(&self) -> Option<Duration> {
+        self.entries.iter().find_map(|e| match e {
+            Entry::TreeShown { at, .. } => Some(*at),
+            _ => None,
+        })
+    }
+
+    /// The longest frame while a regeneration ran.
+    pub fn longest_busy_frame(&self) -> Option<Duration> {
+        self.entries
+            .iter()
+            .filter_map(|e| match e {
+                Entry::Frame { took, busy: true, .. } => Some(*took),
+                _ => None,
+            })
+            .max()
+    }
+
+    /// Writes the log as JSON lines (milliseconds).
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let ms = |d: &Duration| d.as_secs_f64() * 1e3;
+        let mut text = String::new();
+        for e in &self.entries {
+            let line = match e {
+                Entry::Frame { at, took, busy } => {
+                    format!(r#"{{"frame":{:.3},"took_ms":{:.3},"busy":{busy}}}"#, ms(at), ms(took))
+                }
+                Entry::Submitted { at } => format!(r#"{{"submitted":{:.3}}}"#, ms(at)),
+                Entry::TreeShown { at, latency, grow } => format!(
+                    r#"{{"tree_shown":{:.3},"latency_ms":{:.3},"grow_ms":{:.3}}}"#,
+                    ms(at),
+                    ms(latency),
+                    ms(grow)
+                ),
+                Entry::Event { at, what, about, took } => format!(
+                    r#"{{"event":{:?},"about":{:?},"at":{:.3},"took_ms":{:.3}}}"#,
+                    what,
+                    about,
+                    ms(at),
+                    ms(took)
+                ),
+            };
+            text.push_str(&line);
+            text.push('\n');
+        }
+        sylva::fsutil::write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(std::io::Error::other)
+    }
+}

@@ -1,0 +1,191 @@
+//! The regeneration worker: one thread that owns a [`Session`] and grows the newest
+//! recipe it is given, so the UI thread never waits on the engine.
+//!
+//! [`Worker::submit`] cancels the run in flight (the session's checkpoints stop it within
+//! milliseconds) and queues the new job; the thread drains its queue to the newest job
+//! before it starts, so while a slider is dragged only the last value is grown. Each run
+//! ends in one [`Outcome`] read with [`Worker::poll`]. A session keeps every stage whose
+//! inputs the change did not touch (docs/architecture.md, "Sessions"), so a leaf or wind
+//! change does not regrow the skeleton.
+
+use std::sync::mpsc::{channel, Receiver, Sender};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use sylva::cancel::Cancel;
+use sylva::pipeline::Tree;
+use sylva::recipe::Loaded;
+use sylva::session::{Session, Stage};
+
+/// What one job ended in.
+#[derive(Debug)]
+pub enum Outcome {
+    /// The tree was grown.
+    Grown {
+        /// The job's number ([`Worker::submit`]'s return).
+        job: u64,
+        /// The tree (model, skeleton, report, recipe).
+        tree: Box<Tree>,
+        /// The stages this run computed (the others were kept).
+        stages: Vec<Stage>,
+        /// Wall time of the run.
+        elapsed: Duration,
+    },
+    /// The recipe could not be grown: the engine's message (the last good tree stays).
+    Failed {
+        /// The job's number.
+        job: u64,
+        /// What went wrong, as the CLI would print it.
+        message: String,
+    },
+    /// A newer job replaced this one before it finished.
+    Cancelled {
+        /// The job's number.
+        job: u64,
+    },
+}
+
+impl Outcome {
+    /// The job this outcome belongs to.
+    pub fn job(&self) -> u64 {
+        match self {
+            Outcome::Grown { job, .. } | Outcome::Failed { job, .. } | Outcome::Cancelled { job } => *job,
+        }
+    }
+}
+
+/// A job: grow `loaded` (a new origin, such as another preset or file, starts a new
+/// session; the same origin updates the current one).
+struct Job {
+    id: u64,
+    loaded: Loaded,
+    fresh: bool,
+}
+
+/// The worker thread and its two channels.
+pub struct Worker {
+    jobs: Option<Sender<Job>>,
+    outcomes: Receiver<Outcome>,
+    current: Arc<Mutex<Cancel>>,
+    next: u64,
+    thread: Option<JoinHandle<()>>,
+    wake: Arc<dyn Fn() + Send + Sync>,
+}
+
+impl std::fmt::Debug for Worker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Worker").field("next", &self.next).finish_non_exhaustive()
+    }
+}
+
+impl Worker {
+    /// Starts the thread. `wake` is called after each outcome is sent (the editor asks
+    /// egui for a repaint there, so a finished tree shows without input).
+    pub fn new(wake: impl Fn() + Send + Sync + 'static) -> Worker {
+        let (jobs, queue) = channel::<Job>();
+        let (send, outcomes) = channel();
+        let current = Arc::new(Mutex::new(Cancel::new()));
+        let wake: Arc<dyn Fn() + Send + Sync> = Arc::new(wake);
+        let (token, woken) = (current.clone(), wake.clone());
+        let thread = std::thread::Builder::new()
+            .name("sylva-edit worker".into())
+            .spawn(move || run(queue, send, token, woken))
+            .expect("the editor's worker thread starts");
+        Worker { jobs: Some(jobs), outcomes, current, next: 0, thread: Some(thread), wake }
+    }
+
+    /// Queues `loaded` and cancels the job in flight; `fresh` starts a new session (a
+    /// different preset or file) instead of updating the current one. Returns the job's
+    /// number.
+    pub fn submit(&mut self, loaded: Loaded, fresh: bool) -> u64 {
+        self.next += 1;
+        lock(&self.current).cancel();
+        if let Some(jobs) = &self.jobs {
+            // A closed channel means the thread has ended (it only ends on drop).
+            let _ = jobs.send(Job { id: self.next, loaded, fresh });
+        }
+        self.next
+    }
+
+    /// The next outcome, if one is ready.
+    pub fn poll(&self) -> Option<Outcome> {
+        self.outcomes.try_recv().ok()
+    }
+
+    /// Waits up to `timeout` for the next outcome (tests and headless runs).
+    pub fn wait(&self, timeout: Duration) -> Option<Outcome> {
+        self.outcomes.recv_timeout(timeout).ok()
+    }
+
+    /// The number of the newest job submitted.
+    pub fn latest(&self) -> u64 {
+        self.next
+    }
+
+    /// Calls the wake function (as after an outcome).
+    pub fn wake(&self) {
+        (self.wake)()
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        lock(&self.current).cancel();
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn lock(m: &Mutex<Cancel>) -> std::sync::MutexGuard<'_, Cancel> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The thread: take the newest queued job, grow it with a fresh token, send the outcome.
+fn run(
+    queue: Receiver<Job>,
+    send: Sender<Outcome>,
+    current: Arc<Mutex<Cancel>>,
+    wake: Arc<dyn Fn() + Send + Sync>,
+) {
+    let mut session: Option<Session> = None;
+    while let Ok(mut job) = queue.recv() {
+        let mut skipped = Vec::new();
+        while let Ok(newer) = queue.try_recv() {
+            // A newer job after a `fresh` one must still start a new session.
+            let fresh = job.fresh || newer.fresh;
+            skipped.push(job.id);
+            job = Job { fresh, ..newer };
+        }
+        for id in skipped {
+            let _ = send.send(Outcome::Cancelled { job: id });
+        }
+        let token = Cancel::new();
+        *lock(&current) = token.clone();
+        let started = Instant::now();
+        let result = match session.as_mut() {
+            Some(s) if !job.fresh => {
+                let recipe = job.loaded.recipe.clone();
+                s.update_with(recipe, &token).cloned().map(|t| (t, s.last_run().to_vec()))
+            }
+            _ => {
+                let mut s = Session::new(job.loaded);
+                let r = s.run_with(&token).cloned().map(|t| (t, s.last_run().to_vec()));
+                session = Some(s);
+                r
+            }
+        };
+        let outcome = match result {
+            Ok((tree, stages)) => {
+                Outcome::Grown { job: job.id, tree: Box::new(tree), stages, elapsed: started.elapsed() }
+            }
+            Err(sylva::Error::Cancelled) => Outcome::Cancelled { job: job.id },
+            Err(e) => Outcome::Failed { job: job.id, message: e.to_string() },
+        };
+        if send.send(outcome).is_err() {
+            return;
+        }
+        wake();
+    }
+}
