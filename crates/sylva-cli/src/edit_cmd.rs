@@ -24,11 +24,20 @@ pub struct EditArgs {
     /// Close by itself this many frames after the first tree is shown (tests, demos).
     #[arg(long, value_name = "FRAMES", hide = true)]
     pub close_after_tree: Option<u64>,
+    /// Once a tree is shown, set these keys one at a time, each after the previous
+    /// one's tree is shown (latency measurements with `--frame-log`).
+    #[arg(long = "script-set", value_name = "KEY=VALUE", hide = true)]
+    pub script: Vec<String>,
 }
 
 /// Runs the editor until its window closes.
 #[cfg(feature = "edit")]
 pub fn run(args: EditArgs) -> miette::Result<()> {
+    let script = args
+        .script
+        .iter()
+        .map(|kv| sylva::recipe::parse_set(kv).map_err(|e| miette::miette!("edit: --script-set: {e}")))
+        .collect::<miette::Result<Vec<_>>>()?;
     let opts = sylva_editor::EditOptions {
         what: args.what,
         sets: args.sets,
@@ -36,6 +45,7 @@ pub fn run(args: EditArgs) -> miette::Result<()> {
         frame_log: args.frame_log,
         close_after_frames: None,
         close_after_tree: args.close_after_tree,
+        script,
     };
     sylva_editor::run(opts).map_err(|e| miette::miette!("edit: {e}"))
 }

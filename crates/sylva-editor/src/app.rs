@@ -31,8 +31,12 @@ pub struct EditOptions {
     pub frame_log: Option<PathBuf>,
     /// Close after this many frames (tests, demos); `None` keeps the window open.
     pub close_after_frames: Option<u64>,
-    /// Close once the first tree is shown and this many frames have passed after it.
+    /// Close once the first tree is shown and this many frames have passed after it
+    /// (after the `script`, when there is one).
     pub close_after_tree: Option<u64>,
+    /// Changes applied one at a time once a tree is shown, each after the previous
+    /// one's tree (latency measurements: the frame log times each).
+    pub script: Vec<(String, toml::Value)>,
 }
 
 /// The editor's state.
@@ -250,10 +254,27 @@ impl EditorApp {
             *n += 1;
         }
         self.log.frame(started.elapsed());
+        self.run_script(ui);
         self.close_when_done(ui);
     }
 
+    /// Applies the next scripted change once the last one's tree is shown and a few
+    /// frames have drawn it.
+    fn run_script(&mut self, ui: &egui::Ui) {
+        if self.opts.script.is_empty() || !self.settled() || self.frames_since_tree.is_none_or(|n| n < 10) {
+            return;
+        }
+        let (key, value) = self.opts.script.remove(0);
+        self.apply(&key, value, false);
+        self.frames_since_tree = Some(0);
+        ui.ctx().request_repaint();
+    }
+
     fn close_when_done(&mut self, ui: &egui::Ui) {
+        if !self.opts.script.is_empty() {
+            ui.ctx().request_repaint();
+            return;
+        }
         let by_frames = self.opts.close_after_frames.is_some_and(|n| self.frames >= n);
         let by_tree =
             self.opts.close_after_tree.is_some_and(|n| self.frames_since_tree.is_some_and(|k| k >= n));

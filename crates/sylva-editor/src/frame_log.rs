@@ -15,6 +15,9 @@ pub enum Entry {
         at: Duration,
         /// How long the frame's code ran.
         took: Duration,
+        /// Since the previous frame began (what the user sees: the frame's whole cost,
+        /// painting included, or the idle wait between frames).
+        gap: Duration,
         /// Whether a regeneration was running.
         busy: bool,
     },
@@ -50,6 +53,7 @@ pub enum Entry {
 pub struct FrameLog {
     start: Instant,
     submitted: Option<Instant>,
+    last_frame: Option<Instant>,
     entries: Vec<Entry>,
 }
 
@@ -65,7 +69,7 @@ impl Default for FrameLog {
 impl FrameLog {
     /// An empty log starting now.
     pub fn new() -> FrameLog {
-        FrameLog { start: Instant::now(), submitted: None, entries: Vec::new() }
+        FrameLog { start: Instant::now(), submitted: None, last_frame: None, entries: Vec::new() }
     }
 
     fn push(&mut self, e: Entry) {
@@ -75,10 +79,13 @@ impl FrameLog {
         self.entries.push(e);
     }
 
-    /// A frame took `took`.
+    /// A frame that began `took` ago ended now.
     pub fn frame(&mut self, took: Duration) {
         let busy = self.submitted.is_some();
-        self.push(Entry::Frame { at: self.start.elapsed(), took, busy });
+        let began = Instant::now() - took;
+        let gap = self.last_frame.map_or(Duration::ZERO, |t| began.saturating_duration_since(t));
+        self.last_frame = Some(began);
+        self.push(Entry::Frame { at: self.start.elapsed(), took, gap, busy });
     }
 
     /// A recipe was submitted now.
@@ -128,9 +135,12 @@ impl FrameLog {
         let mut text = String::new();
         for e in &self.entries {
             let line = match e {
-                Entry::Frame { at, took, busy } => {
-                    format!(r#"{{"frame":{:.3},"took_ms":{:.3},"busy":{busy}}}"#, ms(at), ms(took))
-                }
+                Entry::Frame { at, took, gap, busy } => format!(
+                    r#"{{"frame":{:.3},"took_ms":{:.3},"gap_ms":{:.3},"busy":{busy}}}"#,
+                    ms(at),
+                    ms(took),
+                    ms(gap)
+                ),
                 Entry::Submitted { at } => format!(r#"{{"submitted":{:.3}}}"#, ms(at)),
                 Entry::TreeShown { at, latency, grow } => format!(
                     r#"{{"tree_shown":{:.3},"latency_ms":{:.3},"grow_ms":{:.3}}}"#,

@@ -33,6 +33,12 @@ fn triangles(h: &Harness<'_, EditorApp>) -> usize {
     h.state().tree().expect("a tree is shown").report.triangles
 }
 
+/// Scrolls the control named `name` into view and draws two frames.
+fn reveal(h: &mut Harness<'_, EditorApp>, name: &str) {
+    h.get_by_label(name).scroll_to_me();
+    h.run_steps(2);
+}
+
 /// The rendered window (the view and the panel).
 fn snapshot(h: &mut Harness<'_, EditorApp>) -> Vec<u8> {
     h.render().expect("the window renders").into_raw()
@@ -46,8 +52,7 @@ fn pick_slider_mesher_seed() {
     // Pick a preset from the menu bar.
     h.get_by_label("preset picker").click_accesskit();
     h.run_steps(2);
-    h.get_by_label("wp-quaking-aspen").scroll_to_me();
-    h.run_steps(2);
+    reveal(&mut h, "wp-quaking-aspen");
     h.get_by_label("wp-quaking-aspen").click_accesskit();
     h.run_steps(2);
     settle(&mut h);
@@ -55,12 +60,18 @@ fn pick_slider_mesher_seed() {
     let aspen = triangles(&h);
     assert!(aspen > 1000, "{aspen}");
     let before = snapshot(&mut h);
+    // `SYLVA_EDITOR_SCREENSHOT=docs/images/editor.png` saves this view for docs/editor.md.
+    if let Ok(path) = std::env::var("SYLVA_EDITOR_SCREENSHOT") {
+        let image = h.render().expect("the window renders");
+        let (w, ht) = image.dimensions();
+        let png = sylva::image::Image::from_rgba(w, ht, image.into_raw()).to_png().unwrap();
+        std::fs::write(path, png).unwrap();
+    }
 
     // Move a leaf slider (accessibility increments; a pointer drag did not move it in
     // kittest): only the stages after the skeleton run again.
     let cutoff = h.state().document().recipe().leaves.alpha_cutoff;
-    h.get_by_label("leaves.alpha_cutoff").scroll_to_me();
-    h.run_steps(2);
+    reveal(&mut h, "leaves.alpha_cutoff");
     for _ in 0..5 {
         h.get_by_label("leaves.alpha_cutoff").increment_accesskit();
         h.run_steps(1);
@@ -72,8 +83,7 @@ fn pick_slider_mesher_seed() {
     assert!(!stages.contains(&Stage::Generate), "a leaf setting does not regrow the skeleton: {stages:?}");
 
     // Change the mesher from its drop-down.
-    h.get_by_label("mesh.method").scroll_to_me();
-    h.run_steps(2);
+    reveal(&mut h, "mesh.method");
     h.get_by_label("mesh.method").click_accesskit();
     h.run_steps(2);
     h.get_by_label("quad").click_accesskit();
