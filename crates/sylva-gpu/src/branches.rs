@@ -25,7 +25,7 @@
 //! instance (an optional feature) is needed.
 
 use crate::deform::{record_words, rest_points, shared_wgsl};
-use crate::gpu::{workgroups, Gpu, GpuError};
+use crate::gpu::{buffer_entry, workgroups, Gpu, GpuError};
 use crate::GpuWind;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
@@ -248,20 +248,6 @@ pub struct BranchRenderer {
     capture_pipeline: wgpu::RenderPipeline,
 }
 
-fn buffer_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    ty: wgpu::BufferBindingType,
-    dynamic: bool,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: dynamic, min_binding_size: None },
-        count: None,
-    }
-}
-
 fn storage(read_only: bool) -> wgpu::BufferBindingType {
     wgpu::BufferBindingType::Storage { read_only }
 }
@@ -439,6 +425,7 @@ impl BranchRenderer {
                 buffer_entry(4, cs, storage(false), false),
             ],
         );
+        let [map, map_sampler] = crate::gpu::texture_sampler_entries(4, fs);
         let draw_layout = gpu.bind_group_layout(
             "branch draw",
             &[
@@ -446,22 +433,8 @@ impl BranchRenderer {
                 buffer_entry(1, vs, storage(true), false),
                 buffer_entry(2, vs, storage(true), false),
                 buffer_entry(3, vs, storage(true), true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: fs,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: fs,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                map,
+                map_sampler,
                 buffer_entry(6, fs, wgpu::BufferBindingType::Uniform, false),
             ],
         );

@@ -399,46 +399,63 @@ pub(crate) fn begin_colour_depth_pass<'e>(
     })
 }
 
-/// A compute-stage storage buffer binding (`read_only`: `var<storage, read>`).
-pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+/// A buffer binding of type `ty` seen by the `visibility` stages, bound at a dynamic
+/// offset if `dynamic`.
+pub fn buffer_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    ty: wgpu::BufferBindingType,
+    dynamic: bool,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
+        visibility,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: dynamic, min_binding_size: None },
         count: None,
     }
+}
+
+/// A compute-stage storage buffer binding (`read_only`: `var<storage, read>`).
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    let ty = wgpu::BufferBindingType::Storage { read_only };
+    buffer_entry(binding, wgpu::ShaderStages::COMPUTE, ty, false)
 }
 
 /// A compute-stage read-only storage buffer binding bound at a dynamic offset.
 pub fn dynamic_storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: true,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    let ty = wgpu::BufferBindingType::Storage { read_only: true };
+    buffer_entry(binding, wgpu::ShaderStages::COMPUTE, ty, true)
 }
 
 /// A compute-stage uniform buffer binding, with a dynamic offset if `dynamic`.
 pub fn uniform_entry(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: dynamic,
-            min_binding_size: None,
+    buffer_entry(binding, wgpu::ShaderStages::COMPUTE, wgpu::BufferBindingType::Uniform, dynamic)
+}
+
+/// A filterable 2D float texture at `binding` and its filtering sampler at `binding + 1`,
+/// seen by the `visibility` stages (a colour map and how it is sampled).
+pub(crate) fn texture_sampler_entries(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+) -> [wgpu::BindGroupLayoutEntry; 2] {
+    [
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
         },
-        count: None,
-    }
+        wgpu::BindGroupLayoutEntry {
+            binding: binding + 1,
+            visibility,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        },
+    ]
 }
 
 /// Workgroup counts `(x, y)` covering `threads` invocations of [`WORKGROUP`] threads,

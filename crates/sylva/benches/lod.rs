@@ -6,32 +6,19 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 
+#[path = "../examples/support/lod_chain.rs"]
+mod lod_chain;
+
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("lod");
     g.sample_size(10);
-    let budgets = [30000i64, 8000, 2000].map(toml::Value::Integer).to_vec();
     for (name, impostor) in [("levels_and_impostor", true), ("levels_only", false)] {
-        let sets = vec![
-            ("lod.levels".to_string(), toml::Value::Array(budgets.clone())),
-            ("lod.impostor".to_string(), toml::Value::Boolean(impostor)),
-        ];
-        let loaded = sylva::recipe::load("wp-quaking-aspen", &sets).expect("preset loads");
-        let mut plain = loaded.clone();
-        plain.recipe.lod = Default::default();
-        let full = sylva::pipeline::grow(&plain).expect("grows");
+        let (loaded, full) = lod_chain::grow_without_chain("wp-quaking-aspen", impostor).expect("grows");
         eprintln!("wp-quaking-aspen: {} triangles before the chain", full.model.triangle_count());
         g.bench_function(format!("wp-quaking-aspen/{name}"), |b| {
             b.iter(|| {
                 let mut model = full.model.clone();
-                let mut report = sylva::pipeline::Report::default();
-                let levels = sylva::pipeline::lod_stage(
-                    &loaded,
-                    &full.skeleton,
-                    &Default::default(),
-                    &mut model,
-                    &mut report,
-                )
-                .expect("chain builds");
+                let levels = lod_chain::build_chain(&loaded, &full, &mut model).expect("chain builds");
                 black_box((model, levels))
             })
         });

@@ -11,6 +11,11 @@
 use std::time::Instant;
 use sylva::model::Model;
 
+mod support {
+    pub mod lod_chain;
+}
+use support::lod_chain;
+
 /// CPU time of the process so far (user + system), ms: the machine may be busy.
 fn cpu_ms() -> f64 {
     // SAFETY: getrusage fills the zeroed struct it is given.
@@ -28,29 +33,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => return Err("usage: lod_row PRESET OUT.png [RUNS]".into()),
     };
     let runs: usize = args.get(2).map(|r| r.parse()).transpose()?.unwrap_or(1).max(1);
-    let budgets = [30000i64, 8000, 2000].map(toml::Value::Integer).to_vec();
-    let sets = vec![
-        ("lod.levels".to_string(), toml::Value::Array(budgets)),
-        ("lod.impostor".to_string(), toml::Value::Boolean(true)),
-    ];
-    let loaded = sylva::recipe::load(preset, &sets)?;
-    let mut plain = loaded.clone();
-    plain.recipe.lod = Default::default();
-    let full = sylva::pipeline::grow(&plain)?;
+    let (loaded, full) = lod_chain::grow_without_chain(preset, true)?;
     // The chain on the grown model, `runs` times; the fastest counts.
     let mut best: Option<(f64, Model, Vec<sylva::lod::LevelReport>)> = None;
     let mut best_cpu = f64::INFINITY;
     for _ in 0..runs {
         let mut model = full.model.clone();
-        let mut report = sylva::pipeline::Report::default();
         let (t, cpu) = (Instant::now(), cpu_ms());
-        let levels = sylva::pipeline::lod_stage(
-            &loaded,
-            &full.skeleton,
-            &Default::default(),
-            &mut model,
-            &mut report,
-        )?;
+        let levels = lod_chain::build_chain(&loaded, &full, &mut model)?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         best_cpu = best_cpu.min(cpu_ms() - cpu);
         if best.as_ref().is_none_or(|b| ms < b.0) {

@@ -84,6 +84,19 @@ impl Mesh {
         self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize
     }
 
+    /// Face `f` split into a fan from its first corner: `[first, k, k + 1]` corner
+    /// indices (into `face_indices` and face-varying indices) per triangle, none for a
+    /// face of fewer than three corners.
+    pub fn fan(&self, f: usize) -> impl Iterator<Item = [usize; 3]> {
+        let c = self.corners(f);
+        (c.start + 1..c.end.saturating_sub(1)).map(move |k| [c.start, k, k + 1])
+    }
+
+    /// [`Mesh::fan`] of every face, in face order.
+    pub fn fan_corners(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
+        (0..self.face_count()).flat_map(|f| self.fan(f))
+    }
+
     /// Signed volume enclosed by the faces (each fanned from its first corner), in f64:
     /// positive for a closed mesh oriented counter-clockwise seen from outside; for an
     /// open mesh it is the volume of the cone from the origin over its faces.

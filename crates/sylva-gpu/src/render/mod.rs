@@ -376,12 +376,7 @@ impl Renderer {
         let clamp = sampler(wgpu::AddressMode::ClampToEdge);
 
         let visible = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let buffer_entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: visible,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
+        let buffer_entry = |binding, ty| crate::gpu::buffer_entry(binding, visible, ty, false);
         let frame_layout = gpu.bind_group_layout(
             "sylva-gpu render frame",
             &[
@@ -390,27 +385,10 @@ impl Renderer {
                 buffer_entry(2, wgpu::BufferBindingType::Uniform),
             ],
         );
+        let [map, map_sampler] = crate::gpu::texture_sampler_entries(1, wgpu::ShaderStages::FRAGMENT);
         let material_layout = gpu.bind_group_layout(
             "sylva-gpu render material",
-            &[
-                buffer_entry(0, wgpu::BufferBindingType::Uniform),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
+            &[buffer_entry(0, wgpu::BufferBindingType::Uniform), map, map_sampler],
         );
 
         // Levels: LOD0 (the flattened parts), then the model's LOD chain.

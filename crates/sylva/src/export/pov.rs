@@ -84,23 +84,10 @@ fn pov_vec(v: Vec3) -> String {
     format!("<{},{},{}>", v.x, v.y, -v.z)
 }
 
-/// Fan triangles of `mesh`'s faces as corner positions in `face_indices`.
-fn fan_corners(mesh: &Mesh) -> Vec<[usize; 3]> {
-    let mut tris = Vec::with_capacity(mesh.triangle_count());
-    for f in 0..mesh.face_count() {
-        let start = mesh.face_offsets[f] as usize;
-        let n = mesh.face_offsets[f + 1] as usize - start;
-        for k in 1..n.saturating_sub(1) {
-            tris.push([start, start + k, start + k + 1]);
-        }
-    }
-    tris
-}
-
 /// Smooth area-weighted normals per position (for parts without normals).
 fn smooth_normals(mesh: &Mesh) -> Vec<Vec3> {
     let mut acc = vec![Vec3::ZERO; mesh.positions.len()];
-    for t in fan_corners(mesh) {
+    for t in mesh.fan_corners() {
         let [a, b, c] = t.map(|i| mesh.face_indices[i] as usize);
         let n = (mesh.positions[b] - mesh.positions[a]).cross(mesh.positions[c] - mesh.positions[a]);
         for v in [a, b, c] {
@@ -113,7 +100,7 @@ fn smooth_normals(mesh: &Mesh) -> Vec<Vec3> {
 /// Writes the include file declaring `ident` as a `mesh2` of `mesh`. The mesh must be
 /// valid ([`Mesh::validate`]) and have at least one triangle.
 pub fn write_inc(mesh: &Mesh, ident: &str, out: &mut dyn Write) -> std::io::Result<()> {
-    let tris = fan_corners(mesh);
+    let tris: Vec<[usize; 3]> = mesh.fan_corners().collect();
     let mut b = String::with_capacity(64 * (mesh.positions.len() + tris.len()));
     use std::fmt::Write as _;
     let _ = writeln!(b, "// {GENERATOR}: {} triangles\n#declare {ident} = mesh2 {{", tris.len());

@@ -34,11 +34,8 @@ fn triangles(mesh: &Mesh) -> Triangles {
     let u = crate::export::unify(mesh);
     let keys = u.vertices.iter().map(|k| [k.position, k.uv, k.normal]).collect();
     let mut indices = Vec::with_capacity(mesh.triangle_count() * 3);
-    for f in 0..mesh.face_count() {
-        let c = mesh.corners(f);
-        for k in c.start + 1..c.end.saturating_sub(1) {
-            indices.extend([u.corner_vertex[c.start], u.corner_vertex[k], u.corner_vertex[k + 1]]);
-        }
+    for cs in mesh.fan_corners() {
+        indices.extend(cs.map(|c| u.corner_vertex[c]));
     }
     Triangles { indices, keys }
 }

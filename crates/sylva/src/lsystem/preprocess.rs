@@ -467,25 +467,52 @@ fn leading_ident(s: &str) -> String {
     s.chars().take_while(|&c| is_ident(c)).collect()
 }
 
-/// Rewrites every identifier of `text` through `f(identifier, rest of the text)`, which
-/// returns the replacement and how many characters of the rest it consumed.
-fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usize)) -> String {
+/// A piece of text as [`scan_identifiers`] walks it.
+enum Piece<'a> {
+    /// An identifier and the text after it.
+    Ident(&'a str, &'a [char]),
+    /// A character outside identifiers.
+    Other(char),
+}
+
+/// Walks `text`, handing `f` each identifier (with the rest of the text) and each other
+/// character; `f` returns how many characters after the piece it consumed, or `None`
+/// to stop.
+fn scan_identifiers(text: &str, mut f: impl FnMut(Piece<'_>) -> Option<usize>) {
     let b: Vec<char> = text.chars().collect();
-    let mut out = String::with_capacity(text.len());
     let mut i = 0;
     while i < b.len() {
-        if b[i].is_ascii_alphabetic() || b[i] == '_' {
+        let used = if b[i].is_ascii_alphabetic() || b[i] == '_' {
             let st = i;
             i = ident_end(&b, i);
             let ident: String = b[st..i].iter().collect();
-            let (rep, used) = f(&ident, &b[i..]);
-            out.push_str(&rep);
-            i += used;
+            f(Piece::Ident(&ident, &b[i..]))
         } else {
-            out.push(b[i]);
             i += 1;
+            f(Piece::Other(b[i - 1]))
+        };
+        match used {
+            Some(n) => i += n,
+            None => return,
         }
     }
+}
+
+/// Rewrites every identifier of `text` through `f(identifier, rest of the text)`, which
+/// returns the replacement and how many characters of the rest it consumed.
+fn map_identifiers(text: &str, mut f: impl FnMut(&str, &[char]) -> (String, usize)) -> String {
+    let mut out = String::with_capacity(text.len());
+    scan_identifiers(text, |piece| match piece {
+        Piece::Ident(ident, rest) => {
+            let (rep, used) = f(ident, rest);
+            out.push_str(&rep);
+            Some(used)
+        }
+        Piece::Other(c) => {
+            out.push(c);
+            Some(0)
+        }
+    });
     out
 }
 
@@ -548,28 +575,24 @@ fn split_macro_args(line: &[Ch], open: usize) -> Option<(Vec<Vec<Ch>>, usize)> {
 
 /// Replaces parameter identifiers in `body` by the argument texts.
 fn substitute(body: &str, params: &[String], args: &[Vec<Ch>], o: u64) -> Vec<Ch> {
-    let b: Vec<char> = body.chars().collect();
     let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        if b[i].is_ascii_alphabetic() || b[i] == '_' {
-            let st = i;
-            i = ident_end(&b, i);
-            let ident: String = b[st..i].iter().collect();
-            match params.iter().position(|p| *p == ident) {
-                Some(k) => out.extend_from_slice(&args[k]),
-                None => out.extend(ident.chars().map(|c| (c, o))),
+    scan_identifiers(body, |piece| {
+        match piece {
+            Piece::Ident(ident, _) => {
+                match params.iter().position(|p| *p == ident) {
+                    Some(k) => out.extend_from_slice(&args[k]),
+                    None => out.extend(ident.chars().map(|c| (c, o))),
+                }
+                if out.len() > MAX_EXPANDED_LINE {
+                    // The caller's rescan reports the line as too long.
+                    out.truncate(MAX_EXPANDED_LINE + 1);
+                    return None;
+                }
             }
-            if out.len() > MAX_EXPANDED_LINE {
-                // The caller's rescan reports the line as too long.
-                out.truncate(MAX_EXPANDED_LINE + 1);
-                return out;
-            }
-        } else {
-            out.push((b[i], o));
-            i += 1;
+            Piece::Other(c) => out.push((c, o)),
         }
-    }
+        Some(0)
+    });
     out
 }
 

@@ -191,6 +191,43 @@ struct Kept<T> {
     value: Arc<T>,
 }
 
+/// One run of [`Session::compute`]: the first stage to rerun, the cancellation flag,
+/// and the time of every stage run so far.
+struct Run<'c> {
+    first: Stage,
+    cancel: &'c Cancel,
+    times: Vec<(Stage, Duration)>,
+}
+
+/// A stage result with a slot in the [`Cache`].
+trait Staged: Sized {
+    /// The stage that makes it.
+    const STAGE: Stage;
+    /// Its slot.
+    fn slot(cache: &mut Cache) -> &mut Option<Kept<Self>>;
+}
+
+macro_rules! staged {
+    ($($ty:ident: $stage:ident, $field:ident;)+) => {
+        $(impl Staged for $ty {
+            const STAGE: Stage = Stage::$stage;
+            fn slot(cache: &mut Cache) -> &mut Option<Kept<Self>> {
+                &mut cache.$field
+            }
+        })+
+    };
+}
+
+staged! {
+    Generate: Generate, generate;
+    Fit: Fit, fit;
+    Bark: Bark, bark;
+    Assemble: Assemble, assemble;
+    Dress: Dress, dress;
+    Lod: Lod, lod;
+    Rig: Rig, rig;
+}
+
 /// The kept results, one slot per stage.
 #[derive(Default)]
 struct Cache {
@@ -369,27 +406,25 @@ impl Session {
         }
     }
 
-    /// Runs stage `s` if it is at or after `first` (timed, with progress and a
+    /// Runs stage `s` if it is at or after `run.first` (timed, with progress and a
     /// cancellation check after it); `Ok(None)` when it is kept.
     fn stage<T>(
         &mut self,
+        run: &mut Run,
         s: Stage,
-        first: Stage,
-        cancel: &Cancel,
-        times: &mut Vec<(Stage, Duration)>,
         f: impl FnOnce(&mut Self) -> Result<T>,
     ) -> Result<Option<T>> {
-        if s < first {
+        if s < run.first {
             return Ok(None);
         }
-        cancel.check()?;
+        run.cancel.check()?;
         if let Some(p) = self.progress.as_mut() {
             p(s, 0.0);
         }
         let t = Instant::now();
         let value = f(self)?;
-        cancel.check()?;
-        times.push((s, t.elapsed()));
+        run.cancel.check()?;
+        run.times.push((s, t.elapsed()));
         self.last_run.push(s);
         if let Some(p) = self.progress.as_mut() {
             p(s, 1.0);
@@ -399,28 +434,22 @@ impl Session {
 
     fn compute(&mut self, first: Stage, cancel: &Cancel) -> Result<Tree> {
         let recipe = self.loaded.recipe.clone();
-        let mut times = Vec::new();
+        let mut run = Run { first, cancel, times: Vec::new() };
 
-        let generate = match self.stage(Stage::Generate, first, cancel, &mut times, |me| {
+        let generate = self.cached(&mut run, |me| {
             let mut report = Report::default();
             let generated = pipeline::skeleton(&me.loaded, &mut report)?;
             Ok(Generate { generated, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.generate),
-            None => kept(&self.cache.generate)?,
-        };
+        })?;
 
-        let fit = match self.stage(Stage::Fit, first, cancel, &mut times, |_| {
+        let fit = self.cached(&mut run, |_| {
             let mut report = generate.report.clone();
             let mut skeleton = generate.generated.skeleton.clone();
             let (sunk, cleared) = pipeline::fit_stage(&recipe, &mut skeleton, &mut report)?;
             Ok(Fit { skeleton, sunk, cleared, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.fit),
-            None => kept(&self.cache.fit)?,
-        };
+        })?;
 
-        let bark = match self.stage(Stage::Bark, first, cancel, &mut times, |_| {
+        let bark = self.cached(&mut run, |_| {
             let mut report = fit.report.clone();
             let fitted = match &fit.cleared {
                 Some(f) => f.clone(),
@@ -428,13 +457,10 @@ impl Session {
             };
             let bark = pipeline::bark_stage(&recipe, fitted, &fit.sunk, &mut report)?;
             Ok(Bark { bark, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.bark),
-            None => kept(&self.cache.bark)?,
-        };
+        })?;
 
         let (generate_ref, fit_ref, recipe_ref) = (&generate, &fit, &recipe);
-        let assemble = match self.stage(Stage::Assemble, first, cancel, &mut times, move |_| {
+        let assemble = self.cached(&mut run, move |_| {
             let mut report = bark.report.clone();
             let mesh = take(bark, |b| b.bark, |b| b.bark.clone());
             let (model, card_nodes) = pipeline::assemble_stage(
@@ -445,23 +471,17 @@ impl Session {
                 &mut report,
             );
             Ok(Assemble { model, card_nodes, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.assemble),
-            None => kept(&self.cache.assemble)?,
-        };
+        })?;
 
-        let dress = match self.stage(Stage::Dress, first, cancel, &mut times, move |me| {
+        let dress = self.cached(&mut run, move |me| {
             let mut report = assemble.report.clone();
             let card_nodes = assemble.card_nodes.clone();
             let mut model = take(assemble, |a| a.model, |a| a.model.clone());
             pipeline::dress_stage(recipe_ref, &mut model, &card_nodes, &mut me.textures, &mut report)?;
             Ok(Dress { model, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.dress),
-            None => kept(&self.cache.dress)?,
-        };
+        })?;
 
-        let lod = match self.stage(Stage::Lod, first, cancel, &mut times, move |me| {
+        let lod = self.cached(&mut run, move |me| {
             let mut report = dress.report.clone();
             let mut skeleton = fit_ref.skeleton.clone();
             crate::mesh::ground::restore_roots(&mut skeleton, &fit_ref.sunk);
@@ -477,24 +497,18 @@ impl Session {
                 &mut report,
             )?;
             Ok(Lod { skeleton, model, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.lod),
-            None => kept(&self.cache.lod)?,
-        };
+        })?;
 
-        let rig = match self.stage(Stage::Rig, first, cancel, &mut times, move |_| {
+        let rig = self.cached(&mut run, move |_| {
             let mut report = lod.report.clone();
             let (skeleton, mut model) =
                 take(lod, |l| (l.skeleton, l.model), |l| (l.skeleton.clone(), l.model.clone()));
             let plan = pipeline::rig_stage(recipe_ref, &mut model, &mut report);
             Ok(Rig { skeleton, model, plan, report })
-        })? {
-            Some(v) => self.keep(v, |c| &mut c.rig),
-            None => kept(&self.cache.rig)?,
-        };
+        })?;
 
         let mut tree = self
-            .stage(Stage::Clip, first, cancel, &mut times, move |_| {
+            .stage(&mut run, Stage::Clip, move |_| {
                 let mut report = rig.report.clone();
                 let plan = rig.plan.clone();
                 let (skeleton, mut model) =
@@ -506,9 +520,18 @@ impl Session {
                 Ok(Tree { skeleton, model, report, recipe: recipe_ref.clone() })
             })?
             .expect("the last stage always runs");
-        tree.report.stage_times = times.into_iter().map(|(s, t)| (s.name(), t)).collect();
+        tree.report.stage_times = run.times.into_iter().map(|(s, t)| (s.name(), t)).collect();
         tree.report.warnings = pipeline::clip_warnings(std::mem::take(&mut tree.report.warnings));
         Ok(tree)
+    }
+
+    /// [`Session::stage`] for the stage that makes a `T`: its new result, kept in its
+    /// slot when the session keeps stages, or the kept one when it did not run.
+    fn cached<T: Staged>(&mut self, run: &mut Run, f: impl FnOnce(&mut Self) -> Result<T>) -> Result<Arc<T>> {
+        match self.stage(run, T::STAGE, f)? {
+            Some(v) => Ok(self.keep(v, T::slot)),
+            None => kept(T::slot(&mut self.cache)),
+        }
     }
 
     /// Keeps `value` in its slot when the session keeps stages; returns it shared.

@@ -2,7 +2,7 @@
 //! along given view directions, one rasterization per view, written to layered texture
 //! maps ([`render_layers`]).
 
-use super::raster::{base_colour, colour_map, edge, Coverage, ScreenVertex, Srgb, Texture};
+use super::raster::{edge, Coverage, Paint, ScreenVertex, Srgb, Texture};
 use super::{Image, MAX_SIZE, SUBPIXEL};
 use crate::error::{Error, Result};
 use glam::Vec3;
@@ -200,59 +200,41 @@ fn layer_view(
     };
     for part in parts {
         let m = &part.mesh;
-        let base = base_colour(part);
-        let normals = m.normals.as_ref();
-        let map = colour_map(part, images);
+        let paint = Paint::new(part, images);
         let screen: Vec<ScreenVertex> = m.positions.iter().map(|&p| to_screen(p)).collect();
         // Single-sided materials show their front faces only (glTF's back-face culling).
         let cull = !part.material.double_sided;
-        for f in 0..m.face_count() {
-            let corners = m.corners(f);
-            if corners.len() < 3 {
+        for cs in m.fan_corners() {
+            let vi = cs.map(|c| m.face_indices[c] as usize);
+            let s = vi.map(|v| screen[v]);
+            let area = edge((s[0].x, s[0].y), (s[1].x, s[1].y), s[2].x, s[2].y);
+            // Nothing to draw, or a culled back face (y points down: front is negative).
+            if area == 0 || (cull && area > 0) {
                 continue;
             }
-            let c0 = corners.start;
-            for c1 in c0 + 1..corners.end - 1 {
-                let cs = [c0, c1, c1 + 1];
-                let vi = cs.map(|c| m.face_indices[c] as usize);
-                let s = vi.map(|v| screen[v]);
-                let area = edge((s[0].x, s[0].y), (s[1].x, s[1].y), s[2].x, s[2].y);
-                // Nothing to draw, or a culled back face (y points down: front is negative).
-                if area == 0 || (cull && area > 0) {
-                    continue;
+            let world = vi.map(|v| m.positions[v]);
+            let face_normal = || (world[1] - world[0]).cross(world[2] - world[0]).normalize_or(view.toward);
+            let ns = paint.normals(cs, face_normal);
+            let tex = paint.texture(cs);
+            for_each_sample(side, side, s, cull, |idx, z, back, w| {
+                if z <= depth[idx] {
+                    return;
                 }
-                let world = vi.map(|v| m.positions[v]);
-                let face_normal =
-                    || (world[1] - world[0]).cross(world[2] - world[0]).normalize_or(view.toward);
-                let ns = match normals {
-                    Some(fv) => cs.map(|c| fv.values[fv.indices[c] as usize]),
-                    None => [face_normal(); 3],
+                let w = w.get();
+                let c = match &tex {
+                    Some(t) => match t.colour_fast(w, srgb) {
+                        Some(c) => c,
+                        None => return,
+                    },
+                    None => paint.base,
                 };
-                let tex = map.map(|(im, uv)| Texture {
-                    image: &im.image,
-                    uv: cs.map(|c| uv.values.get(uv.indices[c] as usize).copied().unwrap_or_default()),
-                    cutoff: part.material.alpha_cutoff,
-                });
-                for_each_sample(side, side, s, cull, |idx, z, back, w| {
-                    if z <= depth[idx] {
-                        return;
-                    }
-                    let w = w.get();
-                    let c = match &tex {
-                        Some(t) => match t.colour_fast(w, srgb) {
-                            Some(c) => c,
-                            None => return,
-                        },
-                        None => base,
-                    };
-                    let flip = if back { -1.0 } else { 1.0 };
-                    depth[idx] = z;
-                    colour[idx] = c;
-                    // Normalized per pixel, after the box filter.
-                    let nn = ns[0] * w[0] + ns[1] * w[1] + ns[2] * w[2];
-                    normal[idx] = if nn.length_squared() > 1e-12 { nn } else { face_normal() } * flip;
-                });
-            }
+                let flip = if back { -1.0 } else { 1.0 };
+                depth[idx] = z;
+                colour[idx] = c;
+                // Normalized per pixel, after the box filter.
+                let nn = ns[0] * w[0] + ns[1] * w[1] + ns[2] * w[2];
+                normal[idx] = if nn.length_squared() > 1e-12 { nn } else { face_normal() } * flip;
+            });
         }
     }
     // Box filter down to `size`.

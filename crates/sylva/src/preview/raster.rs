@@ -145,32 +145,21 @@ pub(super) fn draw_model(model: &Model, cam: &Camera, fit: Option<Vec<Vec3>>, sr
     let shader = Shader { light, srgb };
     for (part, screen) in model.parts.iter().zip(&screen) {
         let m = &part.mesh;
-        let base = base_colour(part);
-        let normals = m.normals.as_ref();
-        // The colour map, where the part has UVs (the file's look: issue 23).
-        let map = colour_map(part, &model.images);
-        for f in 0..m.face_count() {
-            let corners = m.corners(f);
-            if corners.len() < 3 {
-                continue;
-            }
-            let c0 = corners.start;
-            for c1 in c0 + 1..corners.end - 1 {
-                let cs = [c0, c1, c1 + 1];
-                let vi = cs.map(|c| m.face_indices[c] as usize);
-                let world = vi.map(|v| m.positions[v]);
-                let face_n = (world[1] - world[0]).cross(world[2] - world[0]).normalize_or_zero();
-                let ns = match normals {
-                    Some(fv) => cs.map(|c| fv.values[fv.indices[c] as usize]),
-                    None => [face_n; 3],
-                };
-                let tex = map.map(|(im, uv)| Texture {
-                    image: &im.image,
-                    uv: cs.map(|c| uv.values.get(uv.indices[c] as usize).copied().unwrap_or_default()),
-                    cutoff: part.material.alpha_cutoff,
-                });
-                draw_triangle(t, &shader, vi.map(|v| screen[v]), ns, face_n, base, tex.as_ref());
-            }
+        let paint = Paint::new(part, &model.images);
+        for cs in m.fan_corners() {
+            let vi = cs.map(|c| m.face_indices[c] as usize);
+            let world = vi.map(|v| m.positions[v]);
+            let face_n = (world[1] - world[0]).cross(world[2] - world[0]).normalize_or_zero();
+            let ns = paint.normals(cs, || face_n);
+            draw_triangle(
+                t,
+                &shader,
+                vi.map(|v| screen[v]),
+                ns,
+                face_n,
+                paint.base,
+                paint.texture(cs).as_ref(),
+            );
         }
     }
 }
@@ -275,25 +264,53 @@ impl Coverage {
     }
 }
 
-/// A part's base colour, each channel clamped to 0..=1 (0 where it is not finite).
-pub(super) fn base_colour(part: &crate::model::Part) -> Vec3 {
-    let c = part.material.base_color;
-    let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
-    Vec3::new(ch(c[0]), ch(c[1]), ch(c[2]))
+/// What the rasterizers read of one part: its base colour (clamped to [0, 1]), its
+/// normals, and its colour map with the UVs that place it, where it has both (UVs with
+/// one index per face corner; the file's look: issue 23).
+pub(super) struct Paint<'a> {
+    /// The material's base colour.
+    pub(super) base: Vec3,
+    normals: Option<&'a crate::geometry::FaceVarying<Vec3>>,
+    map: Option<(&'a crate::model::ModelImage, &'a crate::geometry::FaceVarying<glam::Vec2>)>,
+    cutoff: Option<f32>,
 }
 
-/// A part's colour map from `images` and the UVs that place it, where it has both (UVs
-/// with one index per face corner).
-pub(super) fn colour_map<'a>(
-    part: &'a crate::model::Part,
-    images: &'a [crate::model::ModelImage],
-) -> Option<(&'a crate::model::ModelImage, &'a crate::geometry::FaceVarying<glam::Vec2>)> {
-    let m = &part.mesh;
-    part.material
-        .maps
-        .base_color
-        .and_then(|i| images.get(i as usize))
-        .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len()))
+impl<'a> Paint<'a> {
+    /// The paint of `part`, its colour map taken from `images`.
+    pub(super) fn new(part: &'a crate::model::Part, images: &'a [crate::model::ModelImage]) -> Paint<'a> {
+        let c = part.material.base_color;
+        let ch = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+        let m = &part.mesh;
+        Paint {
+            base: Vec3::new(ch(c[0]), ch(c[1]), ch(c[2])),
+            normals: m.normals.as_ref(),
+            map: part
+                .material
+                .maps
+                .base_color
+                .and_then(|i| images.get(i as usize))
+                .zip(m.uvs.as_ref().filter(|u| u.indices.len() == m.face_indices.len())),
+            cutoff: part.material.alpha_cutoff,
+        }
+    }
+
+    /// The normals at corners `cs` (indices into the face-varying indices); `flat()` at
+    /// each when the part has none.
+    pub(super) fn normals(&self, cs: [usize; 3], flat: impl FnOnce() -> Vec3) -> [Vec3; 3] {
+        match self.normals {
+            Some(fv) => cs.map(|c| fv.values[fv.indices[c] as usize]),
+            None => [flat(); 3],
+        }
+    }
+
+    /// The colour map over the triangle of corners `cs`, where the part has one.
+    pub(super) fn texture(&self, cs: [usize; 3]) -> Option<Texture<'a>> {
+        self.map.map(|(im, uv)| Texture {
+            image: &im.image,
+            uv: cs.map(|c| uv.values.get(uv.indices[c] as usize).copied().unwrap_or_default()),
+            cutoff: self.cutoff,
+        })
+    }
 }
 
 /// `E_ab(p)`: twice the signed area of (a, b, p) in fixed point, y down.
