@@ -306,12 +306,15 @@ impl EditorApp {
                 }
                 if ui.add_enabled(self.doc.can_undo(), egui::Button::new("Undo")).clicked() {
                     self.doc.undo();
+                    drop_focus(ui);
                 }
                 if ui.add_enabled(self.doc.can_redo(), egui::Button::new("Redo")).clicked() {
                     self.doc.redo();
+                    drop_focus(ui);
                 }
                 if ui.button("Reset").on_hover_text("back to the preset or file").clicked() {
                     self.result(|d| d.reset());
+                    drop_focus(ui);
                 }
                 if ui.button("New seed").clicked() {
                     self.seed_counter += 1;
@@ -386,6 +389,9 @@ impl EditorApp {
         if redo {
             self.doc.redo();
         }
+        if undo || redo {
+            drop_focus(ui);
+        }
     }
 
     fn result(&mut self, f: impl FnOnce(&mut Document) -> Result<(), String>) {
@@ -398,6 +404,10 @@ impl EditorApp {
     pub fn open(&mut self, what: Option<&str>) {
         match Document::open(what) {
             Ok(doc) => {
+                self.save_path = match doc.source() {
+                    Source::File(p) => p.display().to_string(),
+                    Source::Preset(name) => format!("{name}-edited.toml"),
+                };
                 self.doc = doc;
                 self.submit(true);
             }
@@ -448,6 +458,17 @@ impl EditorApp {
             }
         }
     }
+}
+
+/// Takes the keyboard focus from the control that has it: after an undo, a reset or a
+/// reload the recipe changed under the controls, and a focused slider or drop-down item
+/// would otherwise report its old value again on the next frame.
+fn drop_focus(ui: &egui::Ui) {
+    ui.memory_mut(|m| {
+        if let Some(id) = m.focused() {
+            m.surrender_focus(id);
+        }
+    });
 }
 
 fn stage_times(t: &Tree) -> String {
