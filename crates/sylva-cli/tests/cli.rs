@@ -7,7 +7,7 @@ mod gltf_validator;
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::sylva;
+use common::{sylva, with_sets};
 
 fn tempdir(name: &str) -> PathBuf {
     common::tempdir("cli", name)
@@ -54,32 +54,34 @@ fn presets_list_every_preset_name_first() {
     }
 }
 
-/// Grows every preset into `d` as `<name>.glb` with the flags `extra`, and returns the
-/// files. Magnetic-curves compositions are rendered by `sylva curves` (tested there).
-fn grow_every_preset(d: &Path, extra: &[&str]) -> Vec<PathBuf> {
+/// Grows every preset into a fresh folder `tag` as `<name>.glb` with the flags `extra`,
+/// runs `check` on the files, and has three.js's GLTFLoader (a real client) load them:
+/// it finds the bark maps and the alpha-cut cards. Magnetic-curves compositions are
+/// rendered by `sylva curves` (tested there).
+fn grow_every_preset(tag: &str, extra: &[&str], check: impl FnOnce(&[PathBuf])) {
+    let d = tempdir(tag);
     let mut files = Vec::new();
     for name in presets().into_iter().filter(|n| !n.starts_with("curves-")) {
         let out = d.join(format!("{name}.glb"));
-        let r = sylva(&[&["grow", &name, "-o", out.to_str().unwrap()], extra].concat(), d);
+        let r = sylva(&[&["grow", &name, "-o", out.to_str().unwrap()], extra].concat(), &d);
         assert_eq!(r.code, 0, "{name}: {}", r.stderr);
         assert!(out.exists(), "{name} wrote its file");
         files.push(out);
     }
-    files
+    check(&files);
+    gltf_validator::assert_threejs_loads(&files);
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn every_preset_grows_and_validates() {
-    let d = tempdir("presets");
-    let files = grow_every_preset(&d, &["--preview-size=64", "--quiet"]);
-    for out in &files {
-        assert!(out.with_extension("png").exists(), "{} has its preview", out.display());
-    }
-    // 0 errors, 0 warnings and 0 infos (no unused attribute) for every preset.
-    gltf_validator::assert_valid_gltf_without_infos(&files);
-    // A real client: three.js's GLTFLoader finds the bark maps and the alpha-cut cards.
-    gltf_validator::assert_threejs_loads(&files);
-    let _ = std::fs::remove_dir_all(&d);
+    grow_every_preset("presets", &["--preview-size=64", "--quiet"], |files| {
+        for out in files {
+            assert!(out.with_extension("png").exists(), "{} has its preview", out.display());
+        }
+        // 0 errors, 0 warnings and 0 infos (no unused attribute) for every preset.
+        gltf_validator::assert_valid_gltf_without_infos(files);
+    });
 }
 
 /// Issue 24's acceptance: every preset written with a wind rig, its clip and the `_WIND` /
@@ -87,29 +89,11 @@ fn every_preset_grows_and_validates() {
 /// with 0 errors and 0 warnings, and three.js loads it.
 #[test]
 fn every_preset_with_wind_validates() {
-    let d = tempdir("wind-presets");
-    let files = grow_every_preset(
-        &d,
-        &[
-            "--no-preview",
-            "--quiet",
-            "--wind",
-            "breeze",
-            "--set",
-            "output.wind_colors=true",
-            "--set",
-            "wind.fps=10",
-            "--lod",
-            "3000,800,impostor",
-            "--set",
-            "lod.atlas_frames=4",
-            "--set",
-            "lod.atlas_size=256",
-        ],
-    );
-    gltf_validator::assert_valid_gltf(&files);
-    gltf_validator::assert_threejs_loads(&files);
-    let _ = std::fs::remove_dir_all(&d);
+    let flags = ["--no-preview", "--quiet", "--wind", "breeze", "--lod", "3000,800,impostor"];
+    let sets = ["output.wind_colors=true", "wind.fps=10", "lod.atlas_frames=4", "lod.atlas_size=256"];
+    grow_every_preset("wind-presets", &with_sets(&flags, &sets), |files| {
+        gltf_validator::assert_valid_gltf(files)
+    });
 }
 
 #[test]
@@ -184,8 +168,9 @@ fn readme_commands() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     gltf_validator::assert_valid_gltf(&[d.join("fern.gltf").as_path()]);
     // The joint mesher line: de-collided, then cleared at level 2, with nothing left.
-    let args = ["grow", "mig-k-literal", "--set", "mesh.method=quad", "--set", "refine.scheme=catmull-clark"];
-    let r = sylva(&[&args[..], &["--set", "refine.levels=2", "-o", "mig.glb", "--no-preview"]].concat(), &d);
+    let args = ["grow", "mig-k-literal", "-o", "mig.glb", "--no-preview"];
+    let sets = ["mesh.method=quad", "refine.scheme=catmull-clark", "refine.levels=2"];
+    let r = sylva(&with_sets(&args, &sets), &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("decollide: 256 skeleton collision(s)"), "{}", r.stdout);
     assert!(r.stdout.contains("clear: 0 crossing face pair(s) in the refined mesh, 0 left"), "{}", r.stdout);
@@ -197,11 +182,8 @@ fn readme_commands() {
 fn game_asset_keys_reach_the_file() {
     // The README's instanced, compressed aspen: the keys go through `--set` to the writer.
     let d = tempdir("game-asset");
-    let sets = ["--set", "leaves.mode=\"instanced\"", "--set", "output.compress=\"meshopt\""];
-    let r = sylva(
-        &[&["grow", "wp-quaking-aspen", "-o", "aspen.glb", "--no-preview"][..], &sets[..]].concat(),
-        &d,
-    );
+    let args = ["grow", "wp-quaking-aspen", "-o", "aspen.glb", "--no-preview"];
+    let r = sylva(&with_sets(&args, &["leaves.mode=\"instanced\"", "output.compress=\"meshopt\""]), &d);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let bytes = std::fs::read(d.join("aspen.glb")).unwrap();
     let json = String::from_utf8_lossy(
@@ -389,38 +371,23 @@ fn quad_cage_of_a_chain_and_a_fork_is_the_seeds_own() {
     // chain of k segments gives V = 4(k+1), F = 4k+2; one fork with two leaf children
     // gives V = 20, F = 18. Set through the CLI's `--set` keys of `[mesh.quad]`.
     let d = tempdir("quad-cage");
-    let sets = [
-        "--set",
-        "mesh.method=quad",
-        "--set",
-        "mesh.quad.support=0",
-        "--set",
-        "mesh.quad.elbow_angle=90",
-        "--set",
-        "refine.levels=0",
-        "--set",
-        "mesh.base=\"round\"",
-    ];
+    let quad = ["mesh.method=quad", "mesh.quad.support=0", "mesh.quad.elbow_angle=90"];
+    let sets = [&quad[..], &["refine.levels=0", "mesh.base=\"round\""]].concat();
+    // The vertex and face counts of the quad cage of the LST `text`, written to `file`.
+    let cage = |file: &str, text: &str| {
+        std::fs::write(d.join(file), text).unwrap();
+        let r = sylva(&with_sets(&["grow", file, "-o", "q.obj"], &sets), &d);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        obj_counts(&d.join("q.obj"))
+    };
     for k in 1..=3usize {
         let lst = format!("LST 0.1\n{}", "Cylinder(0.2, 0.2, 1) MovRel3f(0, 1, 0)\n".repeat(k));
-        std::fs::write(d.join("chain.lst"), lst).unwrap();
-        let mut args = vec!["grow", "chain.lst"];
-        args.extend_from_slice(&sets);
-        args.extend_from_slice(&["-o", "q.obj"]);
-        let r = sylva(&args, &d);
-        assert_eq!(r.code, 0, "{}", r.stderr);
-        assert_eq!(obj_counts(&d.join("q.obj")), (4 * (k + 1), 4 * k + 2), "chain of {k}");
+        assert_eq!(cage("chain.lst", &lst), (4 * (k + 1), 4 * k + 2), "chain of {k}");
     }
     let fork = "LST 0.1\nCylinder(0.2, 0.2, 2) MovRel3f(0, 2, 0)\n\
                 SB() RotRel3f(0.7, 0, 0, 1) Cylinder(0.1, 0.1, 1.5) EB()\n\
                 SB() RotRel3f(-0.7, 0, 0, 1) Cylinder(0.1, 0.1, 1.5) EB()\n";
-    std::fs::write(d.join("fork.lst"), fork).unwrap();
-    let mut args = vec!["grow", "fork.lst"];
-    args.extend_from_slice(&sets);
-    args.extend_from_slice(&["-o", "q.obj"]);
-    let r = sylva(&args, &d);
-    assert_eq!(r.code, 0, "{}", r.stderr);
-    assert_eq!(obj_counts(&d.join("q.obj")), (20, 18), "one fork, two leaf children");
+    assert_eq!(cage("fork.lst", fork), (20, 18), "one fork, two leaf children");
 }
 
 /// Hex SHA-256 of a file's bytes.

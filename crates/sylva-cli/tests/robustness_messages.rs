@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{sylva, tempdir, Run};
+use common::{sylva, sylva_env, tempdir, Run};
 use std::path::Path;
 use std::process::Command;
 
@@ -92,15 +92,10 @@ fn item08_thread_counts_are_bounded_and_named() {
     assert_eq!(r.code, 0, "{}", r.stderr);
 
     // rayon's own setting is bounded the same way (it panicked at the first parallel step).
-    let out = Command::new(env!("CARGO_BIN_EXE_sylva"))
-        .args(["subdivide", "t.obj", "-o", "o2.obj"])
-        .current_dir(&dir)
-        .env("NO_COLOR", "1")
-        .env("RAYON_NUM_THREADS", "100000")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let r =
+        sylva_env(&["subdivide", "t.obj", "-o", "o2.obj"], &dir, &[("RAYON_NUM_THREADS", Some("100000"))]);
+    let err = &r.stderr;
+    assert_eq!(r.code, 1, "{err}");
     assert!(err.contains("RAYON_NUM_THREADS=100000") && err.contains("1024"), "{err}");
     assert!(!dir.join("o2.obj").exists());
 

@@ -33,8 +33,7 @@ fn without_the_feature_window_names_it() {
 #[cfg(feature = "window")]
 mod window {
     use super::*;
-    use common::Run;
-    use std::process::Command;
+    use common::{sylva_env, Run};
 
     fn flag(name: &str) -> bool {
         std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "0")
@@ -126,16 +125,10 @@ mod window {
         assert_ne!(r.code, 0);
         assert!(r.stderr.contains("--window") || r.stderr.contains("cannot be used"), "{}", r.stderr);
         // No display: refused with the reason, before growing anything.
-        let out = Command::new(env!("CARGO_BIN_EXE_sylva"))
-            .args(["render", "lsys-honda-a", "--window", "--frames", "1"])
-            .current_dir(&dir)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .env("NO_COLOR", "1")
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        let no_display = [("DISPLAY", None), ("WAYLAND_DISPLAY", None)];
+        let r = sylva_env(&["render", "lsys-honda-a", "--window", "--frames", "1"], &dir, &no_display);
+        let stderr = &r.stderr;
+        assert_eq!(r.code, 1, "{stderr}");
         assert!(stderr.contains("no display") && stderr.contains("xvfb-run"), "{stderr}");
         assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "nothing is written");
         let _ = std::fs::remove_dir_all(&dir);

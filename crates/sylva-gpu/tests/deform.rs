@@ -108,6 +108,14 @@ fn compare(records: &[BranchRecord], samples: &[DeformSample], got: &[(Vec3, Vec
     (dp, dn)
 }
 
+/// Prints `what` with the largest errors `(dp, dn)` of [`compare`] and fails unless
+/// both are within [`TOL`].
+fn assert_within_tol(what: &str, (dp, dn): (f32, f32)) {
+    eprintln!("{what}: max |ΔX| / r = {dp:.2e}, max |ΔN| = {dn:.2e}");
+    assert!(dp <= TOL, "{what}: positions differ by {dp:e} of the radius");
+    assert!(dn <= TOL, "{what}: normals differ by {dn:e}");
+}
+
 #[test]
 fn property_19_compute_pass_equals_the_cpu_reference_on_1000_random_branches() {
     let Some(gpu) = Gpu::or_skip("property_19 compute") else { return };
@@ -129,14 +137,12 @@ fn property_19_compute_pass_equals_the_cpu_reference_on_1000_random_branches() {
     }
     let got = GpuDeformer::new(&gpu).deform(&records, &samples);
     assert_eq!(got.len(), samples.len());
-    let (dp, dn) = compare(&records, &samples, &got);
-    eprintln!(
-        "property 19 (compute): {} samples on {} branches ({fallbacks} with the frame fallback): max |ΔX| / r = {dp:.2e}, max |ΔN| = {dn:.2e}",
+    let what = format!(
+        "property 19 (compute): {} samples on {} branches ({fallbacks} with the frame fallback)",
         samples.len(),
         records.len()
     );
-    assert!(dp <= TOL, "positions differ by {dp:e} of the radius");
-    assert!(dn <= TOL, "normals differ by {dn:e}");
+    assert_within_tol(&what, compare(&records, &samples, &got));
 }
 
 /// The renderer's vertex shader, captured, against the CPU over a level's grid.
@@ -164,14 +170,12 @@ fn property_19_vertex_shader_equals_the_cpu_reference_at_every_level() {
         BranchRenderer::new(&gpu, &records, None, [0.5; 3], TargetFormat::default()).expect("fits");
     // A scrambled subset: instance k must draw branch ids[k], not branch k.
     let ids: Vec<u32> = (0..records.len() as u32).rev().step_by(3).collect();
-    let (dp, dn) = capture_matches(&renderer, &records, &ids);
-    eprintln!(
-        "property 19 (vertex shader): {} branches × {} levels: max |ΔX| / r = {dp:.2e}, max |ΔN| = {dn:.2e}",
+    let what = format!(
+        "property 19 (vertex shader): {} branches × {} levels",
         ids.len(),
         renderer.grids().lods.len()
     );
-    assert!(dp <= TOL, "positions differ by {dp:e} of the radius");
-    assert!(dn <= TOL, "normals differ by {dn:e}");
+    assert_within_tol(&what, capture_matches(&renderer, &records, &ids));
 }
 
 #[test]

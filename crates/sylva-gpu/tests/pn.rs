@@ -7,20 +7,14 @@
 use glam::Vec3;
 use std::collections::HashMap;
 use sylva::geometry::{FaceVarying, Mesh};
-use sylva::refine::pn::{
-    pn_tessellate, EdgeRule, NormalInterpolation, NormalSource, PnOptions, QuadInterior,
-};
+use sylva::refine::pn::{pn_tessellate, NormalSource, PnOptions, QuadInterior};
 use sylva_gpu::pn::{Patch, PatchKind, PnCorner, PnSamples};
 use sylva_gpu::{Gpu, GpuPn, PatchGrid, PnPatches};
-
-fn mesh(positions: Vec<Vec3>, faces: &[&[u32]]) -> Mesh {
-    let mut m = Mesh::new();
-    m.positions = positions;
-    for f in faces {
-        m.push_face(f);
-    }
-    m
-}
+#[path = "../../sylva/tests/common/meshes.rs"]
+mod meshes;
+#[path = "../../sylva/tests/common/pn_options.rs"]
+mod pn_options;
+use meshes::mesh_from as mesh;
 
 /// The unit cube as six outward quads.
 fn cube() -> Mesh {
@@ -135,26 +129,12 @@ fn compare(gpu: &Gpu, cage: &Mesh, opts: &PnOptions) -> (f32, f32) {
     (dp, dn)
 }
 
+/// Every rule combination (`common/pn_options.rs`) with smooth vertex normals.
 fn all_options(level: u32) -> Vec<PnOptions> {
-    let mut out = Vec::new();
-    for edge_rule in [EdgeRule::Standard, EdgeRule::Rounder] {
-        for diagonal_rule in [EdgeRule::Standard, EdgeRule::Rounder] {
-            for interior in [QuadInterior::Theyer, QuadInterior::ZeroTwist] {
-                for normals in [NormalInterpolation::Quadratic, NormalInterpolation::Linear] {
-                    out.push(PnOptions {
-                        level,
-                        edge_rule,
-                        diagonal_rule,
-                        interior,
-                        normals,
-                        source: NormalSource::Smooth,
-                        ..Default::default()
-                    });
-                }
-            }
-        }
-    }
-    out
+    pn_options::all_options(level)
+        .into_iter()
+        .map(|o| PnOptions { source: NormalSource::Smooth, ..o })
+        .collect()
 }
 
 fn size(m: &Mesh) -> f32 {

@@ -126,6 +126,17 @@ fn shape(image: &Image) -> Vec<bool> {
     silhouette(image, d.background, d.background_top, 6)
 }
 
+/// The engine's CPU preview of `model` at the size and from the orbit of `o`.
+fn cpu_preview(model: &Model, o: &RenderOptions) -> Image {
+    let view = PreviewOptions {
+        width: o.width,
+        height: o.height,
+        view: Some(o.orbit.expect("an orbit view").to_preview()),
+        ..Default::default()
+    };
+    sylva::preview::render(model, &view).unwrap()
+}
+
 fn covered(s: &[bool]) -> f64 {
     s.iter().filter(|&&x| x).count() as f64 / s.len() as f64
 }
@@ -147,13 +158,7 @@ fn a_box_is_drawn_over_the_background_with_the_preview_silhouette() {
     assert_eq!(out.image.pixel(0, 0).unwrap(), [190, 208, 226, 255], "the preview's sky colour at the top");
     assert_eq!(out.stats.draw_calls, 1);
     assert_eq!(out.stats.triangles, 12);
-    let preview = PreviewOptions {
-        width: 320,
-        height: 240,
-        view: Some(o.orbit.unwrap().to_preview()),
-        ..Default::default()
-    };
-    let cpu = sylva::preview::render(&model, &preview).unwrap();
+    let cpu = cpu_preview(&model, &o);
     let overlap = iou(&gpu_shape, &shape(&cpu));
     assert!(overlap >= 0.97, "silhouette IoU with the CPU preview {overlap}");
     // The lit colours agree with the preview's too (same light and ambient).
@@ -211,13 +216,7 @@ fn alpha_cut_leaves_show_only_their_opaque_half() {
     assert!(s[row + 160], "the opaque half is drawn");
     let px = out.image.pixel(160, 100).unwrap();
     assert!(px[1] > px[0] && px[1] > px[2], "leaf green from the colour map: {px:?}");
-    let preview = PreviewOptions {
-        width: 200,
-        height: 200,
-        view: Some(o.orbit.unwrap().to_preview()),
-        ..Default::default()
-    };
-    let cpu = sylva::preview::render(&model, &preview).unwrap();
+    let cpu = cpu_preview(&model, &o);
     let overlap = iou(&s, &shape(&cpu));
     assert!(overlap >= 0.95, "silhouette IoU with the CPU preview {overlap}");
 }

@@ -38,6 +38,16 @@ fn height(rig: &WindRig) -> f64 {
     hi - lo
 }
 
+/// Runs `check` on the small tree and on the aspen, each with its height and a fresh GPU
+/// wind blowing the `storm` preset.
+fn in_a_storm(gpu: &Gpu, check: impl Fn(&WindRig, f64, &mut GpuWind)) {
+    let storm = WindOptions::preset("storm").unwrap();
+    for rig in [small_tree(), aspen()] {
+        let mut w = GpuWind::new(gpu, &rig, &storm);
+        check(&rig, height(&rig), &mut w);
+    }
+}
+
 fn bezier(p: &[DVec3; 4], t: f64) -> DVec3 {
     let s = 1.0 - t;
     p[0] * (s * s * s) + p[1] * (3.0 * s * s * t) + p[2] * (3.0 * s * t * t) + p[3] * (t * t * t)
@@ -108,10 +118,7 @@ fn property_20_zero_wind_keeps_the_rest_pose_exactly() {
 #[test]
 fn property_21_storm_keeps_the_spacing() {
     let Some(gpu) = Gpu::or_skip("property_21") else { return };
-    let storm = WindOptions::preset("storm").unwrap();
-    for rig in [small_tree(), aspen()] {
-        let h = height(&rig);
-        let mut w = GpuWind::new(&gpu, &rig, &storm);
+    in_a_storm(&gpu, |rig, h, w| {
         for _ in 0..10_000 {
             w.step(DT);
         }
@@ -137,7 +144,7 @@ fn property_21_storm_keeps_the_spacing() {
         );
         assert!(of_height < 1e-5, "spacing drifts by {of_height:e} of the height");
         assert!(moved > 0.01, "the storm moves the tips ({moved})");
-    }
+    });
 }
 
 #[test]
@@ -200,10 +207,7 @@ fn property_23_no_lag_moves_every_level_in_the_same_step_legacy_k_steps_later() 
 #[test]
 fn property_24_each_child_starts_on_its_parents_animated_curve() {
     let Some(gpu) = Gpu::or_skip("property_24") else { return };
-    let storm = WindOptions::preset("storm").unwrap();
-    for rig in [small_tree(), aspen()] {
-        let h = height(&rig);
-        let mut w = GpuWind::new(&gpu, &rig, &storm);
+    in_a_storm(&gpu, |rig, h, w| {
         let mut worst = 0.0f64;
         for step in 0..200 {
             w.step(DT);
@@ -226,7 +230,7 @@ fn property_24_each_child_starts_on_its_parents_animated_curve() {
             rig.branches.len()
         );
         assert!(worst < 1e-5, "{worst:e}");
-    }
+    });
 }
 
 #[test]

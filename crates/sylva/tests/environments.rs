@@ -72,11 +72,15 @@ fn text(d: &sylva::pipeline::Derived) -> String {
     d.lsystem.format(&d.string)
 }
 
+/// The top-level branches of the L-system `file` with `kv`, derived.
+fn derived_branches(file: &Path, kv: &[&str]) -> Vec<String> {
+    branches(&text(&derive(file, kv).unwrap()))
+}
+
 #[test]
 fn clover_grows_by_the_light_of_its_image_and_leaves() {
     let file = data("clover").join("plant.l");
-    let d = derive(&file, &[]).unwrap();
-    let b = branches(&text(&d));
+    let b = derived_branches(&file, &[]);
     assert_eq!(b.len(), 3);
     assert!(!b[2].contains("?E"), "the leaf's ?E(1,la) is gone after step 1: {b:?}");
     let length = |s: &str| params(s, "F").iter().map(|p| p[0]).sum::<f64>();
@@ -88,8 +92,7 @@ fn clover_grows_by_the_light_of_its_image_and_leaves() {
     let g = grow(&file, &[]).unwrap();
     assert!(g.report.skeleton.segments > 0);
     // The same model under a PNG of the opposite light: the left stolon is now the long one.
-    let d = derive(&file, &["generator.environment.image=\"light.png\""]).unwrap();
-    let b = branches(&text(&d));
+    let b = derived_branches(&file, &["generator.environment.image=\"light.png\""]);
     assert!((length(&b[0]) - 10.0).abs() < 1e-4 && (length(&b[1]) - 2.0).abs() < 1e-4, "{b:?}");
     // Without the image: uniform full light, and a warning saying so.
     let d = derive(&file, &["generator.environment.image=\"nowhere.rgb\""]).unwrap();
@@ -101,8 +104,7 @@ fn clover_grows_by_the_light_of_its_image_and_leaves() {
     let b = branches(&text(&d));
     assert!((length(&b[0]) - 10.0).abs() < 1e-4, "{b:?}");
     // An opaque leaf stops the bright stolon under it.
-    let d = derive(&file, &["generator.environment.transmittance=0"]).unwrap();
-    let b = branches(&text(&d));
+    let b = derived_branches(&file, &["generator.environment.transmittance=0"]);
     assert!((length(&b[1]) - 4.0).abs() < 1e-4, "{b:?}");
 }
 
@@ -160,8 +162,7 @@ fn ecosystem_kills_the_smaller_of_overlapping_plants() {
 #[test]
 fn chiba_shaded_leaves_get_less_light_and_grow_less() {
     let file = data("chiba").join("plant.l");
-    let d = derive(&file, &[]).unwrap();
-    let b = branches(&text(&d));
+    let b = derived_branches(&file, &[]);
     assert_eq!(b.len(), 3);
     let light = |s: &str| params(s, "?E")[0][0];
     let height = |s: &str| params(s, "F").iter().map(|p| p[0]).sum::<f64>();
@@ -186,8 +187,7 @@ fn chiba_shaded_leaves_get_less_light_and_grow_less() {
     let (tall, short) = ((ya - y0).max(yb - y0), (ya - y0).min(yb - y0));
     assert!(tall > 1.5 * short && short > 0.0, "shoot heights {tall} and {short}");
     // A translucent canopy lets more light through.
-    let d = derive(&file, &["generator.environment.transmittance=0.8"]).unwrap();
-    assert!(light(&branches(&text(&d))[1]) > shaded);
+    assert!(light(&derived_branches(&file, &["generator.environment.transmittance=0.8"])[1]) > shaded);
 }
 
 #[test]

@@ -90,24 +90,23 @@ fn ci_entries(config: &str) -> Vec<(String, String)> {
     CI_PRESETS.iter().map(|p| (config.to_string(), p.to_string())).collect()
 }
 
-#[test]
-fn golden_ci_default() {
-    check(&ci_entries("default"));
+/// One `#[test]` per configuration: `name: config;` checks the CI presets with it.
+macro_rules! golden_ci_tests {
+    ($($name:ident: $config:literal;)*) => {
+        $(
+            #[test]
+            fn $name() {
+                check(&ci_entries($config));
+            }
+        )*
+    };
 }
 
-#[test]
-fn golden_ci_hull() {
-    check(&ci_entries("hull"));
-}
-
-#[test]
-fn golden_ci_sweep() {
-    check(&ci_entries("sweep"));
-}
-
-#[test]
-fn golden_ci_quad() {
-    check(&ci_entries("quad"));
+golden_ci_tests! {
+    golden_ci_default: "default";
+    golden_ci_hull: "hull";
+    golden_ci_sweep: "sweep";
+    golden_ci_quad: "quad";
 }
 
 #[test]

@@ -16,7 +16,7 @@ mod random_tree;
 mod skeletons;
 use cage_topo::{refined, Topo};
 use det_tree::tree;
-use preset_skeletons::{each_preset_skeleton, named_preset_skeleton};
+use preset_skeletons::{named_preset_skeleton, par_map_presets};
 use skeletons::{chain, seg, whorl};
 
 use glam::{DVec3, Vec3};
@@ -595,53 +595,48 @@ fn bad_options_and_skeletons_are_errors() {
 fn every_preset_meshes_into_a_valid_manifold() {
     println!("| preset | nodes | vertices | faces | boundary loops | fallbacks | collapsed | ms |");
     println!("|---|---|---|---|---|---|---|---|");
-    let mut skeletons = Vec::new();
-    each_preset_skeleton(|_| true, |name, sk| skeletons.push((name, sk.clone())));
-    // The presets mesh on the rayon pool (CI has two cores); rows are printed in order.
-    let rows: Vec<String> = {
-        use rayon::prelude::*;
-        skeletons
-            .par_iter()
-            .map(|(name, sk)| {
-                let t0 = std::time::Instant::now();
-                let full = hull_mesh(sk, &HullOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
-                let ms = t0.elapsed().as_secs_f64() * 1e3;
-                let (v_full, f_full) = (full.mesh.positions.len(), full.mesh.face_count());
-                // Very large trees are checked with coarse branches (2 segments at most): the
-                // joints, which are what can go wrong, are the same.
-                let big = f_full > 1_000_000;
-                let coarse = HullOptions { max_segments: 2, ..Default::default() };
-                let m = if big { hull_mesh(sk, &coarse).unwrap() } else { full };
-                let t = check(name, &m.mesh);
-                assert_eq!(t.boundary_loops, m.open_loops, "{}", name);
-                if m.mesh.face_count() < 400_000 {
-                    let capped = hull_mesh(
-                        sk,
-                        &HullOptions { caps: true, ..if big { coarse } else { Default::default() } },
-                    )
-                    .unwrap();
-                    let tc = check(name, &capped.mesh);
-                    assert_eq!(tc.boundary_loops, 0);
-                    if capped.mesh.face_count() > 0 {
-                        assert!(capped.mesh.signed_volume() > 0.0, "{}: volume", name);
-                    }
-                }
-                if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {
-                    check(&format!("{} Loop 2", name), &loop2(&m.mesh));
-                }
-                format!(
-                    "| {} | {} | {} | {} | {} | {} | {} | {ms:.1} |",
-                    name,
-                    sk.len(),
-                    v_full,
-                    f_full,
-                    t.boundary_loops,
-                    m.fallbacks.len(),
-                    m.collapsed.len()
+    // The presets mesh in parallel; rows are printed in order.
+    let rows: Vec<String> = par_map_presets(
+        |_| true,
+        |name, sk| {
+            let t0 = std::time::Instant::now();
+            let full = hull_mesh(sk, &HullOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let (v_full, f_full) = (full.mesh.positions.len(), full.mesh.face_count());
+            // Very large trees are checked with coarse branches (2 segments at most): the
+            // joints, which are what can go wrong, are the same.
+            let big = f_full > 1_000_000;
+            let coarse = HullOptions { max_segments: 2, ..Default::default() };
+            let m = if big { hull_mesh(sk, &coarse).unwrap() } else { full };
+            let t = check(name, &m.mesh);
+            assert_eq!(t.boundary_loops, m.open_loops, "{}", name);
+            if m.mesh.face_count() < 400_000 {
+                let capped = hull_mesh(
+                    sk,
+                    &HullOptions { caps: true, ..if big { coarse } else { Default::default() } },
                 )
-            })
-            .collect()
-    };
+                .unwrap();
+                let tc = check(name, &capped.mesh);
+                assert_eq!(tc.boundary_loops, 0);
+                if capped.mesh.face_count() > 0 {
+                    assert!(capped.mesh.signed_volume() > 0.0, "{}: volume", name);
+                }
+            }
+            if m.mesh.face_count() < 60_000 && m.mesh.face_count() > 0 {
+                check(&format!("{} Loop 2", name), &loop2(&m.mesh));
+            }
+            format!(
+                "| {} | {} | {} | {} | {} | {} | {} | {ms:.1} |",
+                name,
+                sk.len(),
+                v_full,
+                f_full,
+                t.boundary_loops,
+                m.fallbacks.len(),
+                m.collapsed.len()
+            )
+        },
+    );
     for row in &rows {
         println!("{row}");
     }

@@ -141,61 +141,55 @@ fn two_axis_rotation_composes_in_the_local_frame() {
 
 #[test]
 fn malformed_lst_gives_file_line_column() {
-    let cases: &[(&str, &str, ErrorKind)] = &[
-        ("", "t.lst:1:1: missing `LST <version>` header: the file is empty", ErrorKind::Syntax),
-        ("\n\nCylinder(1, 1, 1)\n", "t.lst:3:1: missing `LST <version>` header", ErrorKind::Syntax),
-        ("LST\n", "t.lst:1:1: missing version after `LST`", ErrorKind::Syntax),
-        ("LST x1\n", "t.lst:1:5: LST version `x1` is not a number", ErrorKind::Syntax),
-        ("LST 0.1 SB()\n", "t.lst:1:9: unexpected `SB()` after the LST version", ErrorKind::Syntax),
-        ("LST 0.1\n  Sphere(1)\n", "t.lst:2:3: unknown LST operation `Sphere`", ErrorKind::Syntax),
-        ("LST 0.1\nSB() movrel3f(1, 2, 3)", "t.lst:2:6: unknown LST operation `movrel3f`", ErrorKind::Syntax),
-        ("LST 0.1\nMovRel3f(1, 2)\n", "t.lst:2:1: `MovRel3f` takes 3 argument(s), got 2", ErrorKind::Arity),
-        ("LST 0.1\nSB(1)\n", "t.lst:2:1: `SB` takes 0 argument(s), got 1", ErrorKind::Arity),
+    // Each kind of error with its texts and the start of its located message.
+    let cases: [(ErrorKind, &[(&str, &str)]); 3] = [
         (
-            "LST 0.1\nRotRel3f(1, 0, 0, 1, 5, 6)\n",
-            "t.lst:2:1: `RotRel3f` takes 4 argument(s), got 6",
+            ErrorKind::Syntax,
+            &[
+                ("", "t.lst:1:1: missing `LST <version>` header: the file is empty"),
+                ("\n\nCylinder(1, 1, 1)\n", "t.lst:3:1: missing `LST <version>` header"),
+                ("LST\n", "t.lst:1:1: missing version after `LST`"),
+                ("LST x1\n", "t.lst:1:5: LST version `x1` is not a number"),
+                ("LST 0.1 SB()\n", "t.lst:1:9: unexpected `SB()` after the LST version"),
+                ("LST 0.1\n  Sphere(1)\n", "t.lst:2:3: unknown LST operation `Sphere`"),
+                ("LST 0.1\nSB() movrel3f(1, 2, 3)", "t.lst:2:6: unknown LST operation `movrel3f`"),
+                ("LST 0.1\nCylinder(1, one, 2)\n", "t.lst:2:13: expected a number, found `one`"),
+                ("LST 0.1\nCylinder(1, , 2)\n", "t.lst:2:12: missing number"),
+                ("LST 0.1\nCylinder(-1, 1, 2)\n", "t.lst:2:10: negative cylinder start radius -1"),
+                ("LST 0.1\nCylinder(1, -0.5, 2)\n", "t.lst:2:13: negative cylinder end radius -0.5"),
+                ("LST 0.1\nCylinder(1, 1, -2)\n", "t.lst:2:16: negative cylinder length -2"),
+                ("LST 0.1\nRotRel3f(1, 0, 0, 0)\n", "t.lst:2:13: `RotRel3f` has a zero rotation axis"),
+                ("LST 0.1\nSB() EB()\nEB()\n", "t.lst:3:1: `EB()` without a matching `SB()`"),
+                ("LST 0.1\nSB() SB() EB()\n", "t.lst:2:1: `SB()` is never closed by an `EB()` (1 still open"),
+                ("LST 0.1\nSB\n", "t.lst:2:1: expected `(` after `SB`"),
+                ("LST 0.1\nMovRel3f(0, 1,\n 0)\n", "t.lst:2:9: unclosed `(` after `MovRel3f`"),
+                ("LST 0.1\nMovRel3f(0, (1), 0)\n", "t.lst:2:13: unexpected `(` inside an argument list"),
+                ("LST 0.1\n) SB()\n", "t.lst:2:1: unexpected `)`: expected an LST operation"),
+            ],
+        ),
+        (
             ErrorKind::Arity,
+            &[
+                ("LST 0.1\nMovRel3f(1, 2)\n", "t.lst:2:1: `MovRel3f` takes 3 argument(s), got 2"),
+                ("LST 0.1\nSB(1)\n", "t.lst:2:1: `SB` takes 0 argument(s), got 1"),
+                ("LST 0.1\nRotRel3f(1, 0, 0, 1, 5, 6)\n", "t.lst:2:1: `RotRel3f` takes 4 argument(s), got 6"),
+            ],
         ),
-        ("LST 0.1\nCylinder(1, one, 2)\n", "t.lst:2:13: expected a number, found `one`", ErrorKind::Syntax),
-        ("LST 0.1\nCylinder(1, , 2)\n", "t.lst:2:12: missing number", ErrorKind::Syntax),
-        ("LST 0.1\nMovRel3f(0, NaN, 0)\n", "t.lst:2:13: `NaN` is not a finite number", ErrorKind::NonFinite),
         (
-            "LST 0.1\nMovRel3f(0, 1e999, 0)\n",
-            "t.lst:2:13: `1e999` is not a finite number",
             ErrorKind::NonFinite,
+            &[
+                ("LST 0.1\nMovRel3f(0, NaN, 0)\n", "t.lst:2:13: `NaN` is not a finite number"),
+                ("LST 0.1\nMovRel3f(0, 1e999, 0)\n", "t.lst:2:13: `1e999` is not a finite number"),
+            ],
         ),
-        ("LST 0.1\nCylinder(-1, 1, 2)\n", "t.lst:2:10: negative cylinder start radius -1", ErrorKind::Syntax),
-        (
-            "LST 0.1\nCylinder(1, -0.5, 2)\n",
-            "t.lst:2:13: negative cylinder end radius -0.5",
-            ErrorKind::Syntax,
-        ),
-        ("LST 0.1\nCylinder(1, 1, -2)\n", "t.lst:2:16: negative cylinder length -2", ErrorKind::Syntax),
-        (
-            "LST 0.1\nRotRel3f(1, 0, 0, 0)\n",
-            "t.lst:2:13: `RotRel3f` has a zero rotation axis",
-            ErrorKind::Syntax,
-        ),
-        ("LST 0.1\nSB() EB()\nEB()\n", "t.lst:3:1: `EB()` without a matching `SB()`", ErrorKind::Syntax),
-        (
-            "LST 0.1\nSB() SB() EB()\n",
-            "t.lst:2:1: `SB()` is never closed by an `EB()` (1 still open",
-            ErrorKind::Syntax,
-        ),
-        ("LST 0.1\nSB\n", "t.lst:2:1: expected `(` after `SB`", ErrorKind::Syntax),
-        ("LST 0.1\nMovRel3f(0, 1,\n 0)\n", "t.lst:2:9: unclosed `(` after `MovRel3f`", ErrorKind::Syntax),
-        (
-            "LST 0.1\nMovRel3f(0, (1), 0)\n",
-            "t.lst:2:13: unexpected `(` inside an argument list",
-            ErrorKind::Syntax,
-        ),
-        ("LST 0.1\n) SB()\n", "t.lst:2:1: unexpected `)`: expected an LST operation", ErrorKind::Syntax),
     ];
-    for (text, want, kind) in cases {
-        let e = lst::parse("t.lst", text, &LstOptions::default()).unwrap_err();
-        assert!(e.message.starts_with(want), "{text:?}\n got: {}\nwant: {want}", e.message);
-        assert_eq!(e.kind, *kind, "{text:?}");
-        assert!(e.span.is_some(), "{text:?}");
+    for (kind, texts) in cases {
+        for (text, want) in texts {
+            let e = lst::parse("t.lst", text, &LstOptions::default()).unwrap_err();
+            assert!(e.message.starts_with(want), "{text:?}\n got: {}\nwant: {want}", e.message);
+            assert_eq!(e.kind, kind, "{text:?}");
+            assert!(e.span.is_some(), "{text:?}");
+        }
     }
 }
 

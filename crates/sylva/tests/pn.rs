@@ -7,13 +7,15 @@ use glam::{Vec2, Vec3};
 use std::collections::HashSet;
 use sylva::geometry::{FaceVarying, Mesh};
 use sylva::refine::pn::{
-    control_point, pn_tessellate, smooth_vertex_normals, EdgeRule, NormalInterpolation, NormalSource,
-    PnOptions, QuadInterior,
+    control_point, pn_tessellate, smooth_vertex_normals, EdgeRule, NormalSource, PnOptions,
 };
 use sylva::refine::Topology;
 #[path = "common/meshes.rs"]
 mod meshes;
 use meshes::{cube, mesh_from, octahedron};
+#[path = "common/pn_options.rs"]
+mod pn_options;
+use pn_options::all_options;
 
 /// A cube whose top face is split into two triangles: quads and triangles side by side.
 fn mixed() -> Mesh {
@@ -31,27 +33,6 @@ fn mixed() -> Mesh {
     }
     m = out;
     m
-}
-
-fn all_options(level: u32) -> Vec<PnOptions> {
-    let mut v = Vec::new();
-    for edge_rule in [EdgeRule::Standard, EdgeRule::Rounder] {
-        for interior in [QuadInterior::ZeroTwist, QuadInterior::Theyer] {
-            for normals in [NormalInterpolation::Linear, NormalInterpolation::Quadratic] {
-                for diagonal_rule in [EdgeRule::Standard, EdgeRule::Rounder] {
-                    v.push(PnOptions {
-                        level,
-                        edge_rule,
-                        diagonal_rule,
-                        interior,
-                        normals,
-                        ..Default::default()
-                    });
-                }
-            }
-        }
-    }
-    v
 }
 
 fn topology(m: &Mesh) -> Topology {

@@ -7,12 +7,30 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use sylva::export::TextureMode;
+use sylva::Model;
 
 #[path = "common/folders.rs"]
 mod folders;
 
 fn tempdir(name: &str) -> PathBuf {
     folders::tempdir("pov", name)
+}
+
+/// `preset` grown and written to `dir/file` as a POV-Ray scene with `textures`: the
+/// model, the scene's path and its text.
+fn write_scene(dir: &Path, preset: &str, file: &str, textures: TextureMode) -> (Model, PathBuf, String) {
+    let model = sylva::pipeline::grow(&sylva::recipe::load(preset, &[]).unwrap()).unwrap().model;
+    let scene = dir.join(file);
+    sylva::export::write_with(&model, &scene, &textures).unwrap();
+    let text = std::fs::read_to_string(&scene).unwrap();
+    (model, scene, text)
+}
+
+/// The pixels of a render that are not sky: sky is blue-grey (blue ≥ red), bark and
+/// leaves are not.
+fn tree_pixels(rgba: &[u8]) -> usize {
+    rgba.chunks(4).filter(|p| p[2] as i32 + 8 < p[0].max(p[1]) as i32).count()
 }
 
 /// Renders `scene` at `w`×`h` with POV-Ray; `None` when it is not installed (and not
@@ -62,11 +80,7 @@ fn povray(scene: &Path, w: u32, h: u32) -> Option<Vec<u8>> {
 #[test]
 fn aspen_scene_renders_in_povray() {
     let d = tempdir("aspen");
-    let loaded = sylva::recipe::load("wp-quaking-aspen", &[]).unwrap();
-    let model = sylva::pipeline::grow(&loaded).unwrap().model;
-    let scene = d.join("aspen.pov");
-    sylva::export::write(&model, &scene).unwrap();
-    let text = std::fs::read_to_string(&scene).unwrap();
+    let (model, scene, text) = write_scene(&d, "wp-quaking-aspen", "aspen.pov", TextureMode::Embed);
     assert!(text.contains("#version 3.7;"), "{text}");
     let incs = sylva::export::pov::includes(&model, "aspen");
     assert_eq!(incs.len(), model.flattened().parts.iter().filter(|p| p.mesh.face_count() > 0).count());
@@ -88,9 +102,7 @@ fn aspen_scene_renders_in_povray() {
         assert!(d.join(format!("aspen_{}.png", im.name)).exists(), "{}", im.name);
     }
     if let Some(rgba) = povray(&scene, 160, 120) {
-        // Sky pixels are blue-grey (blue ≥ red); bark and leaves are not.
-        let tree = rgba.chunks(4).filter(|p| p[2] as i32 + 8 < p[0].max(p[1]) as i32).count();
-        let share = tree as f64 / (160.0 * 120.0);
+        let share = tree_pixels(&rgba) as f64 / (160.0 * 120.0);
         println!("POV-Ray: {:.1} % of the picture is the tree", share * 100.0);
         assert!(share > 0.05, "only {:.1} % of the picture is not sky", share * 100.0);
     }
@@ -102,14 +114,10 @@ fn aspen_scene_renders_in_povray() {
 #[test]
 fn flat_colours_and_no_half_written_scene() {
     let d = tempdir("flat");
-    let loaded = sylva::recipe::load("lsys-honda-a", &[]).unwrap();
-    let model = sylva::pipeline::grow(&loaded).unwrap().model;
-    let scene = d.join("honda.pov");
-    sylva::export::write_with(&model, &scene, &sylva::export::TextureMode::None).unwrap();
-    let text = std::fs::read_to_string(&scene).unwrap();
+    let (model, scene, text) = write_scene(&d, "lsys-honda-a", "honda.pov", TextureMode::None);
     assert!(text.contains("pigment { color rgbt <") && !text.contains("image_map"), "{text}");
     if let Some(rgba) = povray(&scene, 96, 72) {
-        let tree = rgba.chunks(4).filter(|p| p[2] as i32 + 8 < p[0].max(p[1]) as i32).count();
+        let tree = tree_pixels(&rgba);
         assert!(tree > 50, "{tree} tree pixels");
     }
     // The scene's folder does not exist: an error, and nothing written anywhere.

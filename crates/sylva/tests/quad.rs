@@ -15,7 +15,7 @@ use skeletons::{chain, seg, whorl};
 
 use cage_topo::{refined, Topo};
 use glam::Vec3;
-use preset_skeletons::{each_preset_skeleton, named_preset_skeleton};
+use preset_skeletons::{named_preset_skeleton, par_map_presets};
 use proptest::prelude::*;
 use random_tree::random_tree;
 use sylva::mesh::check::{check_mesh, skeleton_collisions, CheckOptions};
@@ -405,45 +405,40 @@ fn output_is_deterministic() {
 fn every_preset_meshes_into_a_closed_manifold() {
     println!("| preset | nodes | vertices | faces | components | fallbacks (detached/chain/short box/short/separated/unboxed) | merged | repair rounds | ms |");
     println!("|---|---|---|---|---|---|---|---|---|");
-    let mut skeletons = Vec::new();
-    each_preset_skeleton(|p| !p.is_curves(), |name, sk| skeletons.push((name, sk.clone())));
-    // The presets mesh on the rayon pool (CI has two cores); rows are printed in order.
-    let rows: Vec<(String, usize)> = {
-        use rayon::prelude::*;
-        skeletons
-            .par_iter()
-            .map(|(name, sk)| {
-                let t0 = std::time::Instant::now();
-                let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
-                let ms = t0.elapsed().as_secs_f64() * 1e3;
-                let t = check(name, &q.mesh);
-                assert_eq!(t.components, expected_components(sk, &q), "{}", name);
-                if t.faces > 0 {
-                    assert!(q.mesh.signed_volume() > 0.0, "{}: volume", name);
-                    check(&format!("{} CC 1", name), &catmull_clark(&q.mesh, 1));
-                }
-                let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
-                let row = format!(
-                    "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}/{}/{}) | {} | {} | {ms:.1} |",
-                    name,
-                    sk.len(),
-                    t.vertices,
-                    t.faces,
-                    t.components,
-                    q.fallbacks.len(),
-                    by(FallbackReason::Detached),
-                    by(FallbackReason::ChainLimit),
-                    by(FallbackReason::ShortBox),
-                    by(FallbackReason::Short),
-                    by(FallbackReason::Separated),
-                    by(FallbackReason::Unboxed),
-                    q.merged.len(),
-                    q.repair_rounds
-                );
-                (row, q.fallbacks.len())
-            })
-            .collect()
-    };
+    // The presets mesh in parallel; rows are printed in order.
+    let rows: Vec<(String, usize)> = par_map_presets(
+        |p| !p.is_curves(),
+        |name, sk| {
+            let t0 = std::time::Instant::now();
+            let q = quad_mesh(sk, &QuadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", name));
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let t = check(name, &q.mesh);
+            assert_eq!(t.components, expected_components(sk, &q), "{}", name);
+            if t.faces > 0 {
+                assert!(q.mesh.signed_volume() > 0.0, "{}: volume", name);
+                check(&format!("{} CC 1", name), &catmull_clark(&q.mesh, 1));
+            }
+            let by = |r: FallbackReason| q.fallbacks.iter().filter(|f| f.reason == r).count();
+            let row = format!(
+                "| {} | {} | {} | {} | {} | {} ({}/{}/{}/{}/{}/{}) | {} | {} | {ms:.1} |",
+                name,
+                sk.len(),
+                t.vertices,
+                t.faces,
+                t.components,
+                q.fallbacks.len(),
+                by(FallbackReason::Detached),
+                by(FallbackReason::ChainLimit),
+                by(FallbackReason::ShortBox),
+                by(FallbackReason::Short),
+                by(FallbackReason::Separated),
+                by(FallbackReason::Unboxed),
+                q.merged.len(),
+                q.repair_rounds
+            );
+            (row, q.fallbacks.len())
+        },
+    );
     for (row, _) in &rows {
         println!("{row}");
     }

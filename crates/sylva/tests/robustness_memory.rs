@@ -16,6 +16,8 @@ use sylva::refine::{
     peak_memory, subdivide, FvarInterpolation, RefineError, RefineOptions, Scheme, SubdivideOptions,
 };
 use sylva::Mesh;
+#[path = "common/recipes.rs"]
+mod recipes;
 
 /// The system allocator, counting live bytes and their peak, refusing any single
 /// allocation over `REFUSE_ABOVE`.
@@ -30,29 +32,27 @@ fn add(n: usize) {
     PEAK.fetch_max(now, SeqCst);
 }
 
+/// A new allocation of `l` made by `system`, counted; refused (null) over `REFUSE_ABOVE`.
+fn counted(l: Layout, system: impl FnOnce() -> *mut u8) -> *mut u8 {
+    if l.size() > REFUSE_ABOVE.load(SeqCst) {
+        return std::ptr::null_mut();
+    }
+    let p = system();
+    if !p.is_null() {
+        add(l.size());
+    }
+    p
+}
+
 // SAFETY: every call is forwarded to `System`; the counters only observe.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        if l.size() > REFUSE_ABOVE.load(SeqCst) {
-            return std::ptr::null_mut();
-        }
         // SAFETY: forwarded with the caller's layout.
-        let p = unsafe { System.alloc(l) };
-        if !p.is_null() {
-            add(l.size());
-        }
-        p
+        counted(l, || unsafe { System.alloc(l) })
     }
     unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
-        if l.size() > REFUSE_ABOVE.load(SeqCst) {
-            return std::ptr::null_mut();
-        }
         // SAFETY: forwarded with the caller's layout.
-        let p = unsafe { System.alloc_zeroed(l) };
-        if !p.is_null() {
-            add(l.size());
-        }
-        p
+        counted(l, || unsafe { System.alloc_zeroed(l) })
     }
     unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
         LIVE.fetch_sub(l.size(), SeqCst);
@@ -89,6 +89,17 @@ fn measure<R>(f: impl FnOnce() -> R) -> (usize, R) {
     PEAK.store(base, SeqCst);
     let r = f();
     (PEAK.load(SeqCst) - base, r)
+}
+
+/// The error of growing `what` with the settings `kv` (which must fail), and the bytes
+/// allocated at the peak of the attempt.
+fn grow_error(what: &str, kv: &[&str]) -> (String, usize) {
+    let loaded = recipes::load(what, kv).unwrap();
+    let (peak, r) = measure(|| sylva::pipeline::grow(&loaded));
+    match r {
+        Ok(_) => panic!("{what} with {kv:?} grew: expected an error"),
+        Err(e) => (e.to_string(), peak),
+    }
 }
 
 /// A `n × m` grid of quads in the plane (open: a boundary all round), with UVs split
@@ -151,52 +162,20 @@ fn cube() -> Mesh {
 #[test]
 fn item_3_refinement_memory_estimate_bounds_the_measured_peak() {
     let _one = lock();
+    use FvarInterpolation::{CornersPlus, Linear, Smooth};
+    use Scheme::{CatmullClark, Loop};
+    // (name, mesh, scheme, levels, limit positions and normals, UV interpolation)
     let cases: Vec<(&str, Mesh, Scheme, u32, bool, FvarInterpolation)> = vec![
-        ("quad grid", grid(40, 30, false, false), Scheme::CatmullClark, 3, false, FvarInterpolation::Linear),
-        (
-            "quad grid, limit",
-            grid(40, 30, false, false),
-            Scheme::CatmullClark,
-            3,
-            true,
-            FvarInterpolation::Linear,
-        ),
-        (
-            "quad grid, UVs",
-            grid(40, 30, false, true),
-            Scheme::CatmullClark,
-            3,
-            false,
-            FvarInterpolation::Linear,
-        ),
-        (
-            "quad grid, smooth UVs, limit",
-            grid(40, 30, false, true),
-            Scheme::CatmullClark,
-            3,
-            true,
-            FvarInterpolation::CornersPlus,
-        ),
-        ("cube", cube(), Scheme::CatmullClark, 6, false, FvarInterpolation::Linear),
-        ("cube, limit", cube(), Scheme::CatmullClark, 6, true, FvarInterpolation::Linear),
-        ("triangle grid", grid(40, 30, true, false), Scheme::Loop, 3, false, FvarInterpolation::Linear),
-        ("triangle grid, limit", grid(40, 30, true, false), Scheme::Loop, 3, true, FvarInterpolation::Linear),
-        (
-            "triangle grid, smooth UVs",
-            grid(40, 30, true, true),
-            Scheme::Loop,
-            3,
-            false,
-            FvarInterpolation::Smooth,
-        ),
-        (
-            "triangle grid, 1 level",
-            grid(60, 60, true, true),
-            Scheme::Loop,
-            1,
-            false,
-            FvarInterpolation::Linear,
-        ),
+        ("quad grid", grid(40, 30, false, false), CatmullClark, 3, false, Linear),
+        ("quad grid, limit", grid(40, 30, false, false), CatmullClark, 3, true, Linear),
+        ("quad grid, UVs", grid(40, 30, false, true), CatmullClark, 3, false, Linear),
+        ("quad grid, smooth UVs, limit", grid(40, 30, false, true), CatmullClark, 3, true, CornersPlus),
+        ("cube", cube(), CatmullClark, 6, false, Linear),
+        ("cube, limit", cube(), CatmullClark, 6, true, Linear),
+        ("triangle grid", grid(40, 30, true, false), Loop, 3, false, Linear),
+        ("triangle grid, limit", grid(40, 30, true, false), Loop, 3, true, Linear),
+        ("triangle grid, smooth UVs", grid(40, 30, true, true), Loop, 3, false, Smooth),
+        ("triangle grid, 1 level", grid(60, 60, true, true), Loop, 1, false, Linear),
     ];
     for (name, mesh, scheme, levels, limit, uv) in cases {
         let opts = SubdivideOptions {
@@ -273,18 +252,9 @@ fn item_3_levels_6_over_the_memory_budget_fail_before_allocating() {
 #[test]
 fn item_3_pipeline_memory_error_names_the_keys() {
     let _one = lock();
-    let sets = [
-        ("refine.levels".to_string(), toml::Value::Integer(6)),
-        ("refine.max_faces".to_string(), toml::Value::Integer(1_000_000_000)),
-        ("refine.max_memory".to_string(), toml::Value::Integer(50_000_000)),
-        ("mesh.clear".to_string(), toml::Value::Boolean(false)),
-    ];
-    let loaded = sylva::recipe::load("lsys-binary-tree", &sets).unwrap();
-    let (peak, r) = measure(|| sylva::pipeline::grow(&loaded));
-    let msg = match r {
-        Ok(_) => panic!("6 levels fit in 50 MB"),
-        Err(e) => e.to_string(),
-    };
+    let sets =
+        ["refine.levels=6", "refine.max_faces=1000000000", "refine.max_memory=50000000", "mesh.clear=false"];
+    let (msg, peak) = grow_error("lsys-binary-tree", &sets);
     assert!(
         msg.contains("refine.max_memory") && msg.contains("refine.levels") && msg.contains("bytes"),
         "{msg}"
@@ -413,21 +383,12 @@ fn mesh_stage_memory_estimate_bounds_grow_and_export() {
 #[test]
 fn mesh_stage_memory_budget_is_checked_before_meshing() {
     let _one = lock();
-    let sets = [
-        ("generator.iterations".to_string(), toml::Value::Integer(10)),
-        ("mesh.max_memory".to_string(), toml::Value::Integer(100_000)),
-    ];
-    let loaded = sylva::recipe::load("lsys-honda-a", &sets).unwrap();
-    let (peak, r) = measure(|| sylva::pipeline::grow(&loaded));
-    let msg = match r {
-        Ok(_) => panic!("a 1,000-internode tree in 100 kB"),
-        Err(e) => e.to_string(),
-    };
+    // A 1,000-internode tree in 100 kB.
+    let (msg, peak) = grow_error("lsys-honda-a", &["generator.iterations=10", "mesh.max_memory=100000"]);
     assert!(
         msg.contains("mesh.max_memory") && msg.contains("at least") && msg.contains("generator.iterations"),
         "{msg}"
     );
     assert!(peak < 50 << 20, "{peak} bytes allocated before the error");
-    let ok = sylva::recipe::load("lsys-honda-a", &sets[..1]).unwrap();
-    assert!(sylva::pipeline::grow(&ok).is_ok());
+    assert!(recipes::grow("lsys-honda-a", &["generator.iterations=10"]).is_ok());
 }

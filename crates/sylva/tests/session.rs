@@ -153,6 +153,24 @@ fn progress_hears_every_stage_start_and_end_in_order() {
     assert_eq!(times.iter().map(|(s, _)| *s).collect::<Vec<_>>(), Stage::ALL.map(Stage::name));
 }
 
+/// Runs a new session on `loaded` in a thread and cancels it after `delay_ms`: the run's
+/// result, when the cancellation was asked for and when the run returned.
+fn cancel_after(loaded: &sylva::recipe::Loaded, delay_ms: u64) -> (sylva::Result<()>, Instant, Instant) {
+    let token = sylva::cancel::Cancel::new();
+    let worker = {
+        let (loaded, token) = (loaded.clone(), token.clone());
+        std::thread::spawn(move || {
+            let r = Session::new(loaded).run_with(&token).map(|_| ());
+            (r, Instant::now())
+        })
+    };
+    std::thread::sleep(Duration::from_millis(delay_ms));
+    let asked = Instant::now();
+    token.cancel();
+    let (r, returned) = worker.join().unwrap();
+    (r, asked, returned)
+}
+
 /// Cancelling a running update of the aspen (default 1024² textures) returns
 /// `Error::Cancelled` soon after, wherever the update was. The bound is generous (the
 /// machines running the tests are shared); `benches/session.rs` measures the latency.
@@ -160,19 +178,7 @@ fn progress_hears_every_stage_start_and_end_in_order() {
 fn cancelling_a_running_update_returns_soon() {
     let loaded = sylva::recipe::load("wp-quaking-aspen", &[]).unwrap();
     for delay_ms in [5u64, 40, 120] {
-        let token = sylva::cancel::Cancel::new();
-        let worker = {
-            let (loaded, token) = (loaded.clone(), token.clone());
-            std::thread::spawn(move || {
-                let mut session = Session::new(loaded);
-                let r = session.run_with(&token).map(|_| ());
-                (r, Instant::now())
-            })
-        };
-        std::thread::sleep(Duration::from_millis(delay_ms));
-        let asked = Instant::now();
-        token.cancel();
-        let (r, returned) = worker.join().unwrap();
+        let (r, asked, returned) = cancel_after(&loaded, delay_ms);
         match r {
             Err(sylva::Error::Cancelled) => {
                 let latency = returned.saturating_duration_since(asked);
@@ -221,18 +227,7 @@ fn cancel_latency() {
     let mut worst = Duration::ZERO;
     let mut all = Vec::new();
     for delay_ms in (0..700).step_by(10) {
-        let token = sylva::cancel::Cancel::new();
-        let worker = {
-            let (loaded, token) = (loaded.clone(), token.clone());
-            std::thread::spawn(move || {
-                let r = Session::new(loaded).run_with(&token).map(|_| ());
-                (r, Instant::now())
-            })
-        };
-        std::thread::sleep(Duration::from_millis(delay_ms));
-        let asked = Instant::now();
-        token.cancel();
-        let (r, returned) = worker.join().unwrap();
+        let (r, asked, returned) = cancel_after(&loaded, delay_ms);
         if let Err(sylva::Error::Cancelled) = r {
             let latency = returned.saturating_duration_since(asked);
             all.push((delay_ms, latency));

@@ -17,17 +17,36 @@ pub struct Run {
 
 /// Runs `sylva args…` in `cwd` without colours.
 pub fn sylva(args: &[&str], cwd: &Path) -> Run {
-    let out = Command::new(env!("CARGO_BIN_EXE_sylva"))
-        .args(args)
-        .current_dir(cwd)
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("the sylva binary runs");
+    sylva_env(args, cwd, &[])
+}
+
+/// Runs `sylva args…` in `cwd` without colours, with each `(name, value)` of `env` set
+/// in its environment (`None`: removed).
+pub fn sylva_env(args: &[&str], cwd: &Path, env: &[(&str, Option<&str>)]) -> Run {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_sylva"));
+    cmd.args(args).current_dir(cwd).env("NO_COLOR", "1");
+    for (name, value) in env {
+        match value {
+            Some(v) => cmd.env(name, v),
+            None => cmd.env_remove(name),
+        };
+    }
+    let out = cmd.output().expect("the sylva binary runs");
     Run {
         code: out.status.code().unwrap_or(-1),
         stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
         stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
     }
+}
+
+/// `args` followed by `--set key=value` for each `key=value` of `sets`.
+#[allow(dead_code)]
+pub fn with_sets<'a>(args: &[&'a str], sets: &[&'a str]) -> Vec<&'a str> {
+    let mut all = args.to_vec();
+    for kv in sets {
+        all.extend(["--set", kv]);
+    }
+    all
 }
 
 #[path = "../../../sylva/tests/common/folders.rs"]

@@ -25,6 +25,18 @@ pub fn each_preset_skeleton(keep: impl Fn(&Preset) -> bool, mut f: impl FnMut(&'
     }
 }
 
+/// What `f` makes of the name and skeleton of every preset that [`each_preset_skeleton`]
+/// gives for `keep`, run on the rayon pool (CI has two cores), in preset order.
+pub fn par_map_presets<R: Send>(
+    keep: impl Fn(&Preset) -> bool,
+    f: impl Fn(&'static str, &Skeleton) -> R + Sync,
+) -> Vec<R> {
+    use rayon::prelude::*;
+    let mut skeletons = Vec::new();
+    each_preset_skeleton(keep, |name, sk| skeletons.push((name, sk.clone())));
+    skeletons.par_iter().map(|(name, sk)| f(name, sk)).collect()
+}
+
 /// The name and skeleton of the preset that environment variable `var` names (`default`
 /// when it is unset), for the ignored diagnostic tests.
 pub fn named_preset_skeleton(var: &str, default: &str) -> (String, Skeleton) {
