@@ -9,10 +9,9 @@ cd "$(dirname "$0")/.."
 preset="${1:-wp-quaking-aspen}"
 log="$(mktemp -d)/frames.jsonl"
 xvfb-run -a -s "-screen 0 1280x800x24" target/release/sylva edit "$preset" \
-  --frame-log "$log" --close-after-tree 30 \
-  --script-set wind.preset=breeze \
+  --frame-log "$log" --close-after-tree 5 \
   --script-set leaves.alpha_cutoff=0.6 \
-  --script-set wind.strength=2.0 \
+  --script-set wind.preset=breeze \
   --script-set seed=7
 python3 - "$log" <<'PY'
 import json, sys

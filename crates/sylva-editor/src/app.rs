@@ -246,6 +246,7 @@ impl EditorApp {
             self.viewport.show(ui);
         });
         self.shortcuts(ui);
+        self.run_script(ui);
         self.submit(false);
         if !self.settled() {
             ui.ctx().request_repaint_after(Duration::from_millis(30));
@@ -254,7 +255,6 @@ impl EditorApp {
             *n += 1;
         }
         self.log.frame(started.elapsed());
-        self.run_script(ui);
         self.close_when_done(ui);
     }
 

@@ -126,6 +126,11 @@ impl Document {
         }
         let mut next = self.loaded.recipe.clone();
         next.set(key, value).map_err(|e| e.to_string())?;
+        if next == self.loaded.recipe {
+            // The same recipe (a value that rounds to the stored one, such as 0.6 into
+            // an f32 key holding 0.6000000238): nothing to undo or regrow.
+            return Ok(());
+        }
         let join = joining && self.joining && self.undo.last().is_some_and(|s| s.key.as_deref() == Some(key));
         if !join {
             self.push_undo(Some(key.to_string()));
@@ -306,6 +311,18 @@ mod tests {
         assert!(!doc.undo());
         assert!(doc.redo());
         assert_eq!(doc.recipe().mesh.sides, 6);
+    }
+
+    #[test]
+    fn a_value_equal_after_rounding_is_no_change() {
+        let mut doc = Document::open(Some("wp-quaking-aspen")).unwrap();
+        doc.set("leaves.alpha_cutoff", toml::Value::Float(0.6), false).unwrap();
+        let (rev, steps) = (doc.revision(), doc.undo.len());
+        // The key is an f32: the table now holds 0.6000000238418579, and 0.6 again is
+        // the same recipe (an editor slider rounding to its decimals sends it).
+        assert_ne!(doc.value("leaves.alpha_cutoff"), Some(&toml::Value::Float(0.6)));
+        doc.set("leaves.alpha_cutoff", toml::Value::Float(0.6), false).unwrap();
+        assert_eq!((doc.revision(), doc.undo.len()), (rev, steps));
     }
 
     #[test]

@@ -149,6 +149,7 @@ fn control(ui: &mut egui::Ui, key: &Key, doc: &Document) -> Option<Edit> {
             let mut v = current
                 .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
                 .unwrap_or(0.0);
+            let before = v;
             let (lo, hi) = inner(min, max);
             let r = match (lo, hi) {
                 (Some(lo), Some(hi)) if hi - lo < 1e6 => {
@@ -167,8 +168,10 @@ fn control(ui: &mut egui::Ui, key: &Key, doc: &Document) -> Option<Edit> {
             }
             .on_hover_text(tip)
             .accessible_name(key.key);
-            // Open bounds are nudged inside by the engine's check: refuse at the bound.
-            number_edit(&r).map(|dragging| edit(toml::Value::Float(v), dragging))
+            // A slider rounds what it shows (its decimals): a value the user did not move
+            // is no edit, or an f32 key (0.6000000238) would be set to 0.6 every frame.
+            let moved = (v - before).abs() > 1e-6 * before.abs().max(1.0);
+            number_edit(&r).filter(|_| moved).map(|dragging| edit(toml::Value::Float(v), dragging))
         }
         Kind::Mode(names) => {
             let now = current.and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();

@@ -1,5 +1,5 @@
 //! The editor driven headless through its real UI (egui_kittest on wgpu — lavapipe in
-//! `.ci/run`): pick a preset, move a leaf slider, change the mesher, set a seed;
+//! `.ci/run`): pick a preset, move a leaf slider, undo, change the mesher, set a seed;
 //! each step checks what the session grew and that the rendered window changed. Skips
 //! with a printed reason where no GPU adapter exists, unless `SYLVA_REQUIRE_GPU=1`.
 
@@ -41,8 +41,7 @@ fn reveal(h: &mut Harness<'_, EditorApp>, name: &str) {
 
 /// Closes the drop-down `name` (an accessibility click picks an item but leaves the
 /// popup open, where a pointer click would close it): a second click on its button.
-/// (Undo is tested on the document: through kittest's accessibility actions the last
-/// control touched reported its value again after an Undo click.)
+
 fn close_popup(h: &mut Harness<'_, EditorApp>, name: &str) {
     h.get_by_label(name).click_accesskit();
     h.run_steps(2);
@@ -54,7 +53,7 @@ fn snapshot(h: &mut Harness<'_, EditorApp>) -> Vec<u8> {
 }
 
 #[test]
-fn pick_slider_mesher_seed() {
+fn pick_slider_undo_mesher_seed() {
     let Some(mut h) = harness(sylva::presets::DEFAULT_PRESET) else { return };
     settle(&mut h);
 
@@ -91,6 +90,19 @@ fn pick_slider_mesher_seed() {
     assert!(dragged > cutoff, "the slider moved the value up: {cutoff} → {dragged}");
     let stages = h.state().last_stages().expect("a run finished").to_vec();
     assert!(!stages.contains(&Stage::Generate), "a leaf setting does not regrow the skeleton: {stages:?}");
+
+    // Undo from the menu bar: the last slider step goes back, and is grown again.
+    h.get_by_label("Undo").click_accesskit();
+    h.run_steps(2);
+    settle(&mut h);
+    let undone = h.state().document().recipe().leaves.alpha_cutoff;
+    assert!(cutoff < undone && undone < dragged, "one step undone: {cutoff} < {undone} < {dragged}");
+    assert!(h.state().document().can_redo());
+    assert_eq!(
+        h.state().tree().unwrap().recipe.leaves.alpha_cutoff,
+        undone,
+        "the tree shown is the undone recipe's"
+    );
 
     // Change the mesher from its drop-down.
     reveal(&mut h, "mesh.method");
