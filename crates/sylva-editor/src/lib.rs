@@ -5,7 +5,7 @@
 //!
 //! - [`document`]: the recipe being edited, undo/redo, save (no UI);
 //! - [`worker`]: the regeneration thread (newest change wins, stale runs cancelled);
-//! - [`panel`]: the controls, from [`sylva::recipe::schema`];
+//! - [`panel`]: the controls, from [`sylva::recipe::schema()`];
 //! - [`viewport`]: the 3D view on egui's wgpu device;
 //! - [`app`]: the window, menu and status bar ([`EditorApp`]);
 //! - [`frame_log`]: frame times and change-to-tree latencies;

@@ -1,4 +1,4 @@
-//! The settings panel, generated from the recipe schema ([`sylva::recipe::schema`]): one
+//! The settings panel, generated from the recipe schema ([`sylva::recipe::schema()`]): one
 //! collapsible group per section, one control per key — a checkbox for a bool, a slider
 //! (logarithmic over wide ranges) or a drag value for a number, a drop-down for a mode,
 //! a text field for text and file names, a row of numbers for a fixed-length list — with

@@ -41,7 +41,6 @@ fn reveal(h: &mut Harness<'_, EditorApp>, name: &str) {
 
 /// Closes the drop-down `name` (an accessibility click picks an item but leaves the
 /// popup open, where a pointer click would close it): a second click on its button.
-
 fn close_popup(h: &mut Harness<'_, EditorApp>, name: &str) {
     h.get_by_label(name).click_accesskit();
     h.run_steps(2);
