@@ -41,7 +41,14 @@ pub struct Viewport {
     pub error: Option<String>,
     /// Frames drawn.
     pub frames: u64,
+    /// Counts the trees uploaded (part of what a drawn frame shows).
+    model_generation: u64,
+    /// What the texture shows now: a frame with the same key is not drawn again.
+    drawn: Option<DrawKey>,
 }
+
+/// What a drawn frame depends on: size, view angles, zoom, clip time and tree.
+type DrawKey = (u32, u32, [u32; 4], u64);
 
 impl std::fmt::Debug for Viewport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -66,6 +73,8 @@ impl Viewport {
             paused_at: 0.0,
             error: None,
             frames: 0,
+            model_generation: 0,
+            drawn: None,
         }
     }
 
@@ -94,6 +103,7 @@ impl Viewport {
                     }
                 }
                 self.renderer = Some(r);
+                self.model_generation += 1;
                 self.error = None;
             }
             Err(e) => self.error = Some(format!("cannot draw this tree: {e}")),
@@ -221,6 +231,18 @@ impl Viewport {
             self.target = Some(Target { size: (w, h), texture, id });
         }
         let target = self.target.as_ref().expect("the target was just made");
+        // Nothing moved since the last frame drawn: the texture already shows it (on a
+        // software renderer a frame of a big tree costs hundreds of milliseconds).
+        let o = self.control.orbit;
+        let key = (
+            w,
+            h,
+            [o.azimuth_deg.to_bits(), o.elevation_deg.to_bits(), self.control.zoom.to_bits(), time.to_bits()],
+            self.model_generation,
+        );
+        if self.drawn == Some(key) {
+            return Ok(Some(target.id));
+        }
         let opts = RenderOptions {
             width: w,
             height: h,
@@ -236,6 +258,7 @@ impl Viewport {
         renderer
             .render_to_view(&camera, &opts, &instances, time, &view, VIEW_FORMAT)
             .map_err(|e| format!("drawing failed: {e}"))?;
+        self.drawn = Some(key);
         self.frames += 1;
         Ok(Some(target.id))
     }
