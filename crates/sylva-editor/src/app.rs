@@ -330,7 +330,7 @@ impl EditorApp {
                 }
                 ui.separator();
                 ui.add(egui::TextEdit::singleline(&mut self.save_path).desired_width(180.0))
-                    .on_hover_text("file to save the recipe to (.toml) or export the tree to (.glb, .gltf, .obj, .ply, .usda)");
+                    .on_hover_text("file to save the recipe to (.toml) or export the tree to (.glb, .gltf, .obj, .ply, .pov, .lst, .skel.json; .png: a picture of the view)");
                 if ui.button("Save recipe").clicked() {
                     self.save();
                 }
@@ -427,9 +427,26 @@ impl EditorApp {
         });
     }
 
-    /// Exports the shown tree to the path in the menu bar (format by extension).
+    /// The file name in the menu bar that "Save recipe" and "Export" write.
+    pub fn set_file_name(&mut self, name: &str) {
+        self.save_path = name.to_string();
+    }
+
+    /// Exports the shown tree to the path in the menu bar (format by extension; `.png`:
+    /// a 1024² picture of the view).
     pub fn export(&mut self) {
         let path = PathBuf::from(self.save_path.trim());
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            let written = self.viewport.picture(1024, 1024).and_then(|image| {
+                let png = image.to_png().map_err(|e| e.to_string())?;
+                sylva::fsutil::write_atomic(&path, |w| w.write_all(&png)).map_err(|e| e.to_string())
+            });
+            self.message = Some(match written {
+                Ok(()) => format!("saved a picture of the view to {}", path.display()),
+                Err(e) => format!("cannot save {}: {e}", path.display()),
+            });
+            return;
+        }
         let Some(tree) = &self.tree else {
             self.message = Some("no tree to export yet".into());
             return;

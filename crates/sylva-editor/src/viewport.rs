@@ -263,6 +263,20 @@ impl Viewport {
         Ok(Some(target.id))
     }
 
+    /// A picture of the tree from the view's angles (without its zoom), `width × height`
+    /// pixels, at the clip time shown: "Export" to a `.png`.
+    pub fn picture(&mut self, width: u32, height: u32) -> Result<sylva::image::Image, String> {
+        let time = self.time();
+        let renderer =
+            self.renderer.as_ref().ok_or("no tree is shown (no GPU adapter, or nothing grown yet)")?;
+        let opts =
+            RenderOptions { width, height, orbit: Some(self.control.orbit), ..RenderOptions::default() };
+        renderer
+            .render(&opts, &[Mat4::IDENTITY], time)
+            .map(|r| r.image)
+            .map_err(|e| format!("drawing failed: {e}"))
+    }
+
     /// The tree's box, for the status bar.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         self.renderer.as_ref().and_then(|r| r.bounds())

@@ -142,3 +142,31 @@ fn a_refused_value_keeps_the_last_tree_and_says_why() {
     assert!(h.state().message().is_some(), "the failed run says why");
     assert_eq!(triangles(&h), shown);
 }
+
+#[test]
+fn exports_the_tree_and_a_picture_of_the_view() {
+    let Some(mut h) = harness("lsys-honda-a") else { return };
+    settle(&mut h);
+    let dir = std::env::temp_dir().join(format!("sylva-edit-export-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (glb, png) = (dir.join("tree.glb"), dir.join("view.png"));
+    h.state_mut().set_file_name(glb.to_str().unwrap());
+    h.state_mut().export();
+    assert_eq!(&std::fs::read(&glb).unwrap()[..4], b"glTF", "{:?}", h.state().message());
+    h.state_mut().set_file_name(png.to_str().unwrap());
+    h.state_mut().export();
+    let bytes = std::fs::read(&png).unwrap_or_else(|e| panic!("{e}: {:?}", h.state().message()));
+    assert_eq!(&bytes[1..4], b"PNG");
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut pixels).unwrap();
+    let corner = &pixels[..4];
+    let tree = pixels.chunks(4).filter(|p| p != &corner).count();
+    assert!(tree > 1000, "the picture shows the tree ({tree} pixels differ from the corner)");
+    // An unwritable name is a message, not a crash.
+    h.state_mut().set_file_name(dir.join("missing-folder/x.png").to_str().unwrap());
+    h.state_mut().export();
+    assert!(h.state().message().is_some_and(|m| m.starts_with("cannot save")), "{:?}", h.state().message());
+    let _ = std::fs::remove_dir_all(&dir);
+}
