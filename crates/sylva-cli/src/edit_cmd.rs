@@ -43,7 +43,6 @@ pub fn run(args: EditArgs) -> miette::Result<()> {
         sets: args.sets,
         watch: args.watch,
         frame_log: args.frame_log,
-        close_after_frames: None,
         close_after_tree: args.close_after_tree,
         script,
     };

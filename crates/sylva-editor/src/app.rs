@@ -29,8 +29,6 @@ pub struct EditOptions {
     pub watch: bool,
     /// Write the frame log (JSON lines) here when the editor closes.
     pub frame_log: Option<PathBuf>,
-    /// Close after this many frames (tests, demos); `None` keeps the window open.
-    pub close_after_frames: Option<u64>,
     /// Close once the first tree is shown and this many frames have passed after it
     /// (after the `script`, when there is one).
     pub close_after_tree: Option<u64>,
@@ -58,7 +56,6 @@ pub struct EditorApp {
     save_path: String,
     log: FrameLog,
     opts: EditOptions,
-    frames: u64,
     frames_since_tree: Option<u64>,
     seed_counter: u64,
 }
@@ -94,10 +91,7 @@ impl EditorApp {
         } else {
             None
         };
-        let save_path = match doc.source() {
-            Source::File(p) => p.display().to_string(),
-            Source::Preset(name) => format!("{name}-edited.toml"),
-        };
+        let save_path = file_name(doc.source());
         let mut app = EditorApp {
             doc,
             worker,
@@ -112,12 +106,21 @@ impl EditorApp {
             save_path,
             log: FrameLog::new(),
             opts,
-            frames: 0,
             frames_since_tree: None,
             seed_counter: 0,
         };
         app.submit(true);
         app
+    }
+
+    /// The editor inside eframe (a window, or egui_kittest's headless harness): egui's
+    /// context and wgpu state come from `cc`.
+    pub fn from_creation_context(
+        cc: &eframe::CreationContext<'_>,
+        doc: Document,
+        opts: EditOptions,
+    ) -> EditorApp {
+        EditorApp::new(&cc.egui_ctx, cc.wgpu_render_state.clone(), doc, opts)
     }
 
     /// The document (tests read the recipe from it).
@@ -212,7 +215,6 @@ impl EditorApp {
     /// One frame of the whole window.
     pub fn frame(&mut self, ui: &mut egui::Ui) {
         let started = Instant::now();
-        self.frames += 1;
         while let Some(o) = self.worker.poll() {
             self.take(o);
         }
@@ -275,10 +277,9 @@ impl EditorApp {
             ui.ctx().request_repaint();
             return;
         }
-        let by_frames = self.opts.close_after_frames.is_some_and(|n| self.frames >= n);
         let by_tree =
             self.opts.close_after_tree.is_some_and(|n| self.frames_since_tree.is_some_and(|k| k >= n));
-        if by_frames || by_tree {
+        if by_tree {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
         if self.opts.close_after_tree.is_some() {
@@ -404,10 +405,7 @@ impl EditorApp {
     pub fn open(&mut self, what: Option<&str>) {
         match Document::open(what) {
             Ok(doc) => {
-                self.save_path = match doc.source() {
-                    Source::File(p) => p.display().to_string(),
-                    Source::Preset(name) => format!("{name}-edited.toml"),
-                };
+                self.save_path = file_name(doc.source());
                 self.doc = doc;
                 self.submit(true);
             }
@@ -458,7 +456,7 @@ impl EditorApp {
     }
 
     fn poll_watch(&mut self) {
-        let Some(w) = &self.watch else { return };
+        let Some(w) = self.watch.as_mut() else { return };
         if w.changed() {
             match self.doc.reload() {
                 Ok(()) => self.message = Some("reloaded from disk".into()),
@@ -474,6 +472,15 @@ impl EditorApp {
                 eprintln!("sylva edit: cannot write the frame log {}: {e}", path.display());
             }
         }
+    }
+}
+
+/// The file "Save recipe" writes until the user names another: the recipe file itself,
+/// or `<preset>-edited.toml`.
+fn file_name(source: &Source) -> String {
+    match source {
+        Source::File(p) => p.display().to_string(),
+        Source::Preset(name) => format!("{name}-edited.toml"),
     }
 }
 

@@ -110,25 +110,6 @@ impl FrameLog {
         &self.entries
     }
 
-    /// From start to the first tree on screen.
-    pub fn first_tree(&self) -> Option<Duration> {
-        self.entries.iter().find_map(|e| match e {
-            Entry::TreeShown { at, .. } => Some(*at),
-            _ => None,
-        })
-    }
-
-    /// The longest frame while a regeneration ran.
-    pub fn longest_busy_frame(&self) -> Option<Duration> {
-        self.entries
-            .iter()
-            .filter_map(|e| match e {
-                Entry::Frame { took, busy: true, .. } => Some(*took),
-                _ => None,
-            })
-            .max()
-    }
-
     /// Writes the log as JSON lines (milliseconds).
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         let ms = |d: &Duration| d.as_secs_f64() * 1e3;

@@ -63,21 +63,16 @@ pub fn run(opts: EditOptions) -> Result<(), EditError> {
                 .into(),
         ));
     }
+    let title = format!("sylva edit — {}", doc.source());
     let native = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default()
-            .with_title(format!("sylva edit — {}", doc.source()))
-            .with_inner_size([1280.0, 800.0]),
+        viewport: egui::ViewportBuilder::default().with_title(title.clone()).with_inner_size([1280.0, 800.0]),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
-    let title = format!("sylva edit — {}", doc.source());
     eframe::run_native(
         &title,
         native,
-        Box::new(move |cc| {
-            let gpu = cc.wgpu_render_state.clone();
-            Ok(Box::new(EditorApp::new(&cc.egui_ctx, gpu, doc, opts)))
-        }),
+        Box::new(move |cc| Ok(Box::new(EditorApp::from_creation_context(cc, doc, opts)))),
     )
     .map_err(|e| EditError::Window(e.to_string()))
 }

@@ -8,7 +8,7 @@
 //! device (no adapter) the view says so and the rest of the editor works.
 
 use egui_wgpu::wgpu;
-use glam::{Mat4, Vec3};
+use glam::Mat4;
 use std::time::Instant;
 use sylva::Model;
 use sylva_gpu::render::window::OrbitControl;
@@ -76,11 +76,6 @@ impl Viewport {
             model_generation: 0,
             drawn: None,
         }
-    }
-
-    /// Whether a GPU draws the view.
-    pub fn has_gpu(&self) -> bool {
-        self.gpu.is_some()
     }
 
     /// The adapter's name, for the status bar.
@@ -275,10 +270,5 @@ impl Viewport {
             .render(&opts, &[Mat4::IDENTITY], time)
             .map(|r| r.image)
             .map_err(|e| format!("drawing failed: {e}"))
-    }
-
-    /// The tree's box, for the status bar.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.renderer.as_ref().and_then(|r| r.bounds())
     }
 }

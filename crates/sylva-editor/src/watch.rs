@@ -15,7 +15,7 @@ pub const QUIET: Duration = Duration::from_millis(120);
 pub struct Watch {
     _watcher: notify::RecommendedWatcher,
     events: Receiver<notify::Result<notify::Event>>,
-    pending: std::cell::Cell<Option<Instant>>,
+    pending: Option<Instant>,
     file: PathBuf,
 }
 
@@ -35,25 +35,23 @@ impl Watch {
         watcher
             .watch(&dir, RecursiveMode::NonRecursive)
             .map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
-        Ok(Watch { _watcher: watcher, events, pending: Default::default(), file: file.to_path_buf() })
+        Ok(Watch { _watcher: watcher, events, pending: None, file: file.to_path_buf() })
     }
 
     /// Whether the watched files changed and have been quiet for [`QUIET`] since.
-    pub fn changed(&self) -> bool {
+    pub fn changed(&mut self) -> bool {
         while let Ok(e) = self.events.try_recv() {
             let Ok(e) = e else { continue };
             if matches!(e.kind, notify::EventKind::Access(_)) {
                 continue;
             }
-            self.pending.set(Some(Instant::now()));
+            self.pending = Some(Instant::now());
         }
-        match self.pending.get() {
-            Some(t) if t.elapsed() >= QUIET => {
-                self.pending.set(None);
-                true
-            }
-            _ => false,
+        if self.pending.is_some_and(|t| t.elapsed() >= QUIET) {
+            self.pending = None;
+            return true;
         }
+        false
     }
 
     /// The watched recipe file.

@@ -69,7 +69,6 @@ pub struct Worker {
     current: Arc<Mutex<Cancel>>,
     next: u64,
     thread: Option<JoinHandle<()>>,
-    wake: Arc<dyn Fn() + Send + Sync>,
 }
 
 impl std::fmt::Debug for Worker {
@@ -85,13 +84,12 @@ impl Worker {
         let (jobs, queue) = channel::<Job>();
         let (send, outcomes) = channel();
         let current = Arc::new(Mutex::new(Cancel::new()));
-        let wake: Arc<dyn Fn() + Send + Sync> = Arc::new(wake);
-        let (token, woken) = (current.clone(), wake.clone());
+        let token = current.clone();
         let thread = std::thread::Builder::new()
             .name("sylva-edit worker".into())
-            .spawn(move || run(queue, send, token, woken))
+            .spawn(move || run(queue, send, token, wake))
             .expect("the editor's worker thread starts");
-        Worker { jobs: Some(jobs), outcomes, current, next: 0, thread: Some(thread), wake }
+        Worker { jobs: Some(jobs), outcomes, current, next: 0, thread: Some(thread) }
     }
 
     /// Queues `loaded` and cancels the job in flight; `fresh` starts a new session (a
@@ -121,11 +119,6 @@ impl Worker {
     pub fn latest(&self) -> u64 {
         self.next
     }
-
-    /// Calls the wake function (as after an outcome).
-    pub fn wake(&self) {
-        (self.wake)()
-    }
 }
 
 impl Drop for Worker {
@@ -143,12 +136,7 @@ fn lock(m: &Mutex<Cancel>) -> std::sync::MutexGuard<'_, Cancel> {
 }
 
 /// The thread: take the newest queued job, grow it with a fresh token, send the outcome.
-fn run(
-    queue: Receiver<Job>,
-    send: Sender<Outcome>,
-    current: Arc<Mutex<Cancel>>,
-    wake: Arc<dyn Fn() + Send + Sync>,
-) {
+fn run(queue: Receiver<Job>, send: Sender<Outcome>, current: Arc<Mutex<Cancel>>, wake: impl Fn()) {
     let mut session: Option<Session> = None;
     while let Ok(mut job) = queue.recv() {
         let mut skipped = Vec::new();

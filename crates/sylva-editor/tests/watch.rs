@@ -46,7 +46,7 @@ fn a_rewritten_recipe_is_reloaded_and_grown() {
     let mut h = Harness::builder()
         .with_size([900.0, 600.0])
         .wgpu()
-        .build_eframe(move |cc| EditorApp::new(&cc.egui_ctx, cc.wgpu_render_state.clone(), doc, opts));
+        .build_eframe(move |cc| EditorApp::from_creation_context(cc, doc, opts));
     assert!(h.state_mut().wait_settled(Duration::from_secs(120)));
     h.run_steps(2);
     let before = h.state().tree().unwrap().report.triangles;
