@@ -63,7 +63,7 @@ impl Document {
             (Source::File(PathBuf::from(what)), Loaded::from_file(what))
         } else {
             return Err(format!(
-                "`{what}` is neither a preset (`sylva list` names them) nor a file that exists"
+                "`{what}` is neither a preset (`sylva presets` lists them) nor a file that exists"
             ));
         };
         let loaded = loaded.map_err(|e| e.to_string())?;

@@ -30,7 +30,7 @@ impl Default for Recipe {
 }
 
 impl Recipe {
-    /// The recipe of the embedded preset `name` (`sylva list`). Its files are inside the
+    /// The recipe of the embedded preset `name` (`sylva presets`). Its files are inside the
     /// presets: grow it through [`Loaded::preset`] or `Loaded::new(recipe,
     /// Origin::Preset(name))`.
     pub fn preset(name: &str) -> Result<Recipe> {

@@ -288,7 +288,7 @@ pub fn over_preset(mut table: toml::Table) -> Result<(toml::Table, Option<String
     })?;
     let preset = crate::presets::get(name).filter(|p| !p.is_curves()).ok_or_else(|| {
         Error::Recipe(format!(
-            "`{PRESET_KEY}`: no tree preset is called `{}` (`sylva list` names them)",
+            "`{PRESET_KEY}`: no tree preset is called `{}` (`sylva presets` lists them)",
             crate::diagnostic::quote(name)
         ))
     })?;
