@@ -488,7 +488,11 @@ impl Session {
             let mut model = take(dress, |d| d.model, |d| d.model.clone());
             model.curves =
                 generate_ref.generated.curves.clone().unwrap_or_else(|| BranchCurves::fit(&skeleton));
-            let loaded = Loaded { recipe: recipe_ref.clone(), origin: me.loaded.origin.clone() };
+            let loaded = Loaded {
+                recipe: recipe_ref.clone(),
+                origin: me.loaded.origin.clone(),
+                overlay: me.loaded.overlay.clone(),
+            };
             pipeline::lod_stage(
                 &loaded,
                 &skeleton,

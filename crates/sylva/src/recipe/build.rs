@@ -201,7 +201,7 @@ impl Loaded {
     /// `recipe` with its files at `origin`, checked ([`Recipe::check`]).
     pub fn new(recipe: Recipe, origin: Origin) -> Result<Loaded> {
         recipe.check()?;
-        Ok(Loaded { recipe, origin })
+        Ok(Loaded { recipe, origin, overlay: BTreeMap::new() })
     }
 
     /// The embedded preset `name`.
@@ -246,7 +246,7 @@ impl Loaded {
         super::set_key(&mut table, "generator.file", toml::Value::String(MEMORY_LSYSTEM.into()))?;
         let recipe = from_table(table, &[])?;
         let files = BTreeMap::from([(MEMORY_LSYSTEM.to_string(), text.to_string())]);
-        Ok(Loaded { recipe, origin: Origin::Memory(files) })
+        Ok(Loaded { recipe, origin: Origin::Memory(files), overlay: BTreeMap::new() })
     }
 
     /// `recipe` with the files it names given in memory (name → text), checked.

@@ -26,12 +26,19 @@ pub struct Loaded {
     pub recipe: Recipe,
     /// Where it came from.
     pub origin: Origin,
+    /// Files whose text is given here instead of read from the origin, by the name the
+    /// recipe gives them (an editor's unsaved grammar, [`Loaded::with_overlay`]); empty
+    /// for every recipe read from a file or a preset.
+    pub overlay: BTreeMap<String, String>,
 }
 
 impl Loaded {
-    /// Reads a file the recipe names, from the embedded presets, from disk or from
-    /// memory. Returns the display name used in messages and the text.
+    /// Reads a file the recipe names, from the [`Loaded::overlay`], the embedded
+    /// presets, disk or memory. Returns the display name used in messages and the text.
     pub fn read(&self, file: &str) -> Result<(String, String)> {
+        if let Some(text) = self.overlay.get(file) {
+            return Ok((self.display_name(file), text.clone()));
+        }
         match &self.origin {
             Origin::Preset(name) => match crate::presets::file(file) {
                 Some(text) => Ok((format!("presets/{file}"), text.to_string())),
@@ -54,6 +61,26 @@ impl Loaded {
                         .join(", ")
                 ))),
             },
+        }
+    }
+
+    /// `self` with `text` read in place of the file `file` ([`Loaded::read`]), whatever
+    /// the origin holds: the editor grows an edited grammar before it is saved. Only
+    /// `read` sees the overlay: the file's `#include`s, and on disk its model folder's
+    /// view, function and surface files, still come from the origin, and messages name
+    /// the file as they would the original.
+    pub fn with_overlay(mut self, file: &str, text: &str) -> Loaded {
+        self.overlay.insert(file.to_string(), text.to_string());
+        self
+    }
+
+    /// The name messages give the file `file` of this origin (what [`Loaded::read`]
+    /// returns with the text).
+    fn display_name(&self, file: &str) -> String {
+        match &self.origin {
+            Origin::Preset(_) => format!("presets/{file}"),
+            Origin::Folder(dir) => dir.join(file).display().to_string(),
+            Origin::Memory(_) => file.to_string(),
         }
     }
 }
@@ -348,7 +375,7 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
             (table, None) => (table, Origin::Folder(dir)),
         };
         let recipe = from_table(table, sets).map_err(in_file)?;
-        return Ok(Loaded { recipe, origin });
+        return Ok(Loaded { recipe, origin, overlay: BTreeMap::new() });
     }
     if ["lst", "str", "json"].contains(&ext.as_str()) {
         if !path.exists() {
@@ -364,7 +391,11 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
         set_key(&mut table, "generator.type", toml::Value::String("import".into()))?;
         set_key(&mut table, "generator.file", toml::Value::String(stem))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Folder(dir) });
+        return Ok(Loaded {
+            recipe: from_table(table, sets)?,
+            origin: Origin::Folder(dir),
+            overlay: BTreeMap::new(),
+        });
     }
     if ext == "l" {
         let mut table = toml::Table::new();
@@ -380,7 +411,11 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
                 source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
             });
         }
-        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Folder(dir) });
+        return Ok(Loaded {
+            recipe: from_table(table, sets)?,
+            origin: Origin::Folder(dir),
+            overlay: BTreeMap::new(),
+        });
     }
     if let Some(p) = crate::presets::get(what).filter(|p| p.is_curves()) {
         return Err(Error::Recipe(format!(
@@ -391,7 +426,11 @@ pub fn load(what: &str, sets: &[(String, toml::Value)]) -> Result<Loaded> {
     if let Some(p) = crate::presets::get(what) {
         let table: toml::Table =
             toml::from_str(p.recipe).map_err(|e| Error::Recipe(format!("preset {what}: {e}")))?;
-        return Ok(Loaded { recipe: from_table(table, sets)?, origin: Origin::Preset(what.to_string()) });
+        return Ok(Loaded {
+            recipe: from_table(table, sets)?,
+            origin: Origin::Preset(what.to_string()),
+            overlay: BTreeMap::new(),
+        });
     }
     if path.exists() || what.contains('/') || what.contains('.') {
         if !path.exists() {

@@ -83,3 +83,20 @@ fn unknown_keys_are_named() {
     assert!(load("no-such-preset", &[]).unwrap_err().to_string().contains("unknown preset"));
     assert!(load("missing.l", &[]).unwrap_err().to_string().contains("missing.l"));
 }
+
+#[test]
+fn an_overlay_replaces_the_file_and_keeps_the_origin() {
+    let loaded = load("lsys-honda-a", &[]).unwrap();
+    let Generator::Lsystem(g) = &loaded.recipe.generator else { panic!("an L-system recipe") };
+    let file = g.file.clone();
+    let (name, original) = loaded.read(&file).unwrap();
+    let edited = original.replace("#define N 10", "#define N 3");
+    assert_ne!(edited, original, "the preset's grammar has the line");
+    let over = loaded.clone().with_overlay(&file, &edited);
+    assert_eq!(over.origin, loaded.origin, "the origin stays, so #includes still resolve there");
+    assert_eq!(over.read(&file).unwrap(), (name, edited), "the same name in messages, the edited text");
+    // Other files still come from the origin; a name the origin lacks is still an error.
+    assert!(over.read("lsystem/binary-tree.l").unwrap().1.contains("b --> bb"));
+    assert!(over.read("lsystem/no-such.l").is_err());
+    assert_ne!(over, loaded);
+}
