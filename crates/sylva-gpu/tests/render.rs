@@ -8,7 +8,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 use sylva::geometry::{FaceVarying, Mesh};
 use sylva::model::{Clip, Joint, Lod, Material, Model, ModelImage, Part, Rig, SkinWeights};
 use sylva::preview::{Image, PreviewOptions};
-use sylva_gpu::render::{forest, iou, silhouette, Orbit, RenderOptions, Renderer};
+use sylva_gpu::render::{forest, iou, silhouette, Lines, Orbit, RenderOptions, Renderer};
 use sylva_gpu::Gpu;
 
 /// An axis-aligned box `lo..hi` of `rings + 1` levels of four vertices along y, with
@@ -295,4 +295,146 @@ fn a_forest_is_one_draw_per_level_part_and_material() {
     assert!(r.render(&o, &[], 0.0).is_err(), "no trees");
     assert!(r.render(&RenderOptions { width: 0, ..o.clone() }, &[Mat4::IDENTITY], 0.0).is_err());
     assert!(r.render(&RenderOptions { height: 9000, ..o }, &[Mat4::IDENTITY], 0.0).is_err());
+}
+
+// The viewer's options (issue 41 item 2): ground, wireframe, fixed level, overlays.
+
+/// Relative luminance-ish brightness of an RGBA pixel (sum of its channels).
+fn brightness(p: [u8; 4]) -> u32 {
+    p[0] as u32 + p[1] as u32 + p[2] as u32
+}
+
+/// The pixel at `p`'s projection in `out`.
+fn at(out: &sylva_gpu::render::Rendered, p: Vec3) -> [u8; 4] {
+    let q = out.camera.pixel(p);
+    out.image.pixel(q.x as u32, q.y as u32).unwrap()
+}
+
+/// A tree-like model: a thin 1.5 m trunk under a 2 × 1.5 × 2 m crown.
+fn lollipop_model() -> Model {
+    let trunk = column(Vec3::new(-0.1, 0.0, -0.1), Vec3::new(0.1, 1.5, 0.1), 1);
+    let crown = column(Vec3::new(-1.0, 1.5, -1.0), Vec3::new(1.0, 3.0, 1.0), 1);
+    Model::from_parts(vec![
+        Part::new("bark", trunk, Material::bark()),
+        Part::new("leaves", crown, Material::leaf()),
+    ])
+}
+
+#[test]
+fn the_ground_darkens_the_floor_most_under_the_crown() {
+    let Some(gpu) = Gpu::or_skip("render: ground") else { return };
+    let r = Renderer::new(&gpu, &lollipop_model()).unwrap();
+    let plain = opts(320, 240, 0.0, 12.0);
+    let off = r.render(&plain, &[Mat4::IDENTITY], 0.0).unwrap();
+    let on = r.render(&RenderOptions { ground: true, ..plain.clone() }, &[Mat4::IDENTITY], 0.0).unwrap();
+    assert_eq!(off.camera, r.render(&plain, &[Mat4::IDENTITY], 0.0).unwrap().camera);
+    assert_eq!(on.stats.draw_calls, off.stats.draw_calls, "the ground is not a tree's draw");
+    // Under the crown, in front of the trunk: the ground is drawn there, darker than the
+    // background it replaces and darker than the open ground beside the crown.
+    let under = Vec3::new(0.0, 0.0, 0.4);
+    let beside = Vec3::new(1.5, 0.0, 0.0);
+    let (b_off, b_on, b_beside) =
+        (brightness(at(&off, under)), brightness(at(&on, under)), brightness(at(&on, beside)));
+    assert!(b_on + 60 < b_off, "the ground under the tree is darker than the sky behind: {b_on} vs {b_off}");
+    assert!(b_on + 40 < b_beside, "the contact shadow: {b_on} under the crown vs {b_beside} beside it");
+    assert!(
+        brightness(at(&on, beside)) < brightness(at(&off, beside)),
+        "the floor is drawn beside the tree too"
+    );
+    // The sky above is untouched, and the tree itself still covers the same pixels.
+    assert_eq!(on.image.pixel(5, 5), off.image.pixel(5, 5));
+    let top = Vec3::new(0.0, 2.9, 1.0);
+    assert_eq!(at(&on, top), at(&off, top), "the crown's front is drawn as before");
+}
+
+#[test]
+fn the_wireframe_draws_each_unique_triangle_edge_once() {
+    let Some(gpu) = Gpu::or_skip("render: wireframe") else { return };
+    let r = Renderer::new(&gpu, &box_model()).unwrap();
+    let plain = RenderOptions { msaa: false, ..opts(240, 200, 30.0, 20.0) };
+    let off = r.render(&plain, &[Mat4::IDENTITY], 0.0).unwrap();
+    let on = r.render(&RenderOptions { wireframe: true, ..plain.clone() }, &[Mat4::IDENTITY], 0.0).unwrap();
+    assert_eq!(off.stats.lines, 0);
+    // Six quads, twelve triangles: the box's 12 edges and one diagonal per face.
+    assert_eq!(on.stats.lines, 18);
+    assert_eq!(on.stats.triangles, off.stats.triangles, "the shaded box is still drawn");
+    assert_ne!(on.image, off.image);
+    let dark = |im: &Image| im.data.chunks(4).filter(|p| brightness([p[0], p[1], p[2], 255]) < 120).count();
+    assert!(
+        dark(&on.image) > dark(&off.image) + 100,
+        "edges: {} dark pixels vs {}",
+        dark(&on.image),
+        dark(&off.image)
+    );
+    // A forest draws the edges once per tree, still one draw per part.
+    let trees = forest::grid(3, 1, r.bounds().unwrap());
+    let o = RenderOptions { wireframe: true, lod: Some(0), ..plain };
+    assert_eq!(r.render(&o, &trees, 0.0).unwrap().stats.lines, 54);
+}
+
+#[test]
+fn a_fixed_level_of_detail_draws_that_level() {
+    let Some(gpu) = Gpu::or_skip("render: fixed lod") else { return };
+    let mut model = box_model();
+    let lod1 =
+        Part::new("bark", column(Vec3::new(-0.4, 0.0, -0.2), Vec3::new(0.4, 2.0, 0.2), 3), Material::bark());
+    let card = card_model();
+    model.images = card.images.clone();
+    model.lod0_coverage = 0.25;
+    model.lods = vec![
+        Lod { parts: vec![lod1], screen_coverage: 0.08 },
+        Lod { parts: card.parts.clone(), screen_coverage: 0.0 },
+    ];
+    let r = Renderer::new(&gpu, &model).unwrap();
+    let tris: Vec<u64> = (0..3).map(|l| r.level_triangles(l)).collect();
+    assert_eq!(tris, [12, 28, 2]);
+    let o = opts(200, 200, 20.0, 10.0);
+    let auto = r.render(&o, &[Mat4::IDENTITY], 0.0).unwrap();
+    assert_eq!(
+        (auto.stats.instances_per_level.clone(), auto.stats.triangles),
+        (vec![1, 0, 0], 12),
+        "close up: LOD0"
+    );
+    let mut images = vec![auto.image];
+    for level in 0..3 {
+        let out = r.render(&RenderOptions { lod: Some(level), ..o.clone() }, &[Mat4::IDENTITY], 0.0).unwrap();
+        let mut per = vec![0; 3];
+        per[level] = 1;
+        assert_eq!(out.stats.instances_per_level, per);
+        assert_eq!(out.stats.triangles, tris[level], "level {level}");
+        images.push(out.image);
+    }
+    assert_eq!(images[0], images[1], "level 0 fixed is the automatic choice here");
+    assert_ne!(images[1], images[3], "the card is another picture");
+    let e = r.render(&RenderOptions { lod: Some(3), ..o }, &[Mat4::IDENTITY], 0.0).unwrap_err().to_string();
+    assert!(e.contains("lod is 3") && e.contains("0..=2"), "{e}");
+}
+
+#[test]
+fn overlay_lines_show_on_top_or_behind_the_tree() {
+    let Some(gpu) = Gpu::or_skip("render: overlays") else { return };
+    let r = Renderer::new(&gpu, &box_model()).unwrap();
+    let plain = RenderOptions { msaa: false, ..opts(240, 200, 0.0, 0.0) };
+    let red = |im: &Image| im.data.chunks(4).filter(|p| p[0] > 200 && p[1] < 80 && p[2] < 80).count();
+    let base = r.render(&plain, &[Mat4::IDENTITY], 0.0).unwrap();
+    assert_eq!(red(&base.image), 0);
+    // A horizontal segment 0.5 m behind the box, wider than it: on top, all of it shows;
+    // depth-tested, the box hides its middle.
+    let behind = Lines::new(vec![[Vec3::new(-0.9, 1.0, -0.8), Vec3::new(0.9, 1.0, -0.8)]], [255, 0, 0]);
+    let top = Lines { on_top: true, ..behind.clone() };
+    let with = |l: Lines| {
+        r.render(&RenderOptions { overlays: vec![l], ..plain.clone() }, &[Mat4::IDENTITY], 0.0).unwrap()
+    };
+    let (shown, hidden) = (with(top), with(behind.clone()));
+    assert_eq!(shown.stats.lines, 1);
+    let (n_top, n_tested) = (red(&shown.image), red(&hidden.image));
+    assert!(n_top > 60, "the line on top crosses the picture: {n_top} red pixels");
+    assert!(n_tested > 10 && n_tested + 30 < n_top, "the box hides the middle: {n_tested} vs {n_top}");
+    let front = Lines::new(vec![[Vec3::new(-0.9, 1.0, 0.8), Vec3::new(0.9, 1.0, 0.8)]], [255, 0, 0]);
+    assert!(red(&with(front).image) + 5 >= n_top, "in front, depth-tested lines show whole");
+    let bad = Lines::new(vec![[Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0)]], [0, 0, 0]);
+    let e = r
+        .render(&RenderOptions { overlays: vec![behind, bad], ..plain }, &[Mat4::IDENTITY], 0.0)
+        .unwrap_err();
+    assert!(e.to_string().contains("overlay 1: segment 0"), "{e}");
 }

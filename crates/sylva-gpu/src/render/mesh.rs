@@ -124,6 +124,35 @@ pub fn mesh_data(part: &Part) -> MeshData {
     out
 }
 
+/// The unique edges of `data`'s triangles as a line-list index stream (two indices per
+/// edge), for drawing a wireframe without `POLYGON_MODE_LINE` (which software and some
+/// mobile adapters lack). Vertices at the same position (split by normal or UV seams)
+/// count as one, so an edge shared by two faces is drawn once; each edge indexes the
+/// first vertex at each of its ends.
+/// `positions` are the vertices' (as [`Vertex::position`]), `indices` the triangles';
+/// an index past the vertices is skipped.
+pub fn edge_indices(positions: &[[f32; 3]], indices: &[u32]) -> Vec<u32> {
+    let mut first_at: HashMap<[u32; 3], u32> = HashMap::new();
+    let canonical: Vec<u32> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| *first_at.entry(p.map(f32::to_bits)).or_insert(i as u32))
+        .collect();
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    for tri in indices.chunks_exact(3) {
+        for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
+            let (Some(&a), Some(&b)) = (canonical.get(a as usize), canonical.get(b as usize)) else {
+                continue;
+            };
+            if a != b && seen.insert((a.min(b), a.max(b))) {
+                out.extend([a, b]);
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,5 +182,28 @@ mod tests {
         assert_eq!(d.vertices.len(), 7);
         assert!(d.vertices.iter().all(|v| v.normal == [0.0, 0.0, 1.0] && v.joints[0] == 1));
         assert_eq!(std::mem::size_of::<Vertex>(), 56);
+    }
+
+    #[test]
+    fn edges_are_unique_across_seams() {
+        // A unit cube of six flat-shaded quads: 12 triangles whose corners are split by
+        // normal (24 vertices), 12 cube edges plus one diagonal per face.
+        let mut m = Mesh::new();
+        m.positions =
+            (0..8).map(|k| Vec3::new((k & 1) as f32, ((k >> 1) & 1) as f32, (k >> 2) as f32)).collect();
+        let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        for f in faces {
+            m.face_indices.extend(f);
+            m.face_offsets.push(m.face_indices.len() as u32);
+        }
+        let d = mesh_data(&Part::new("cube", m, Material::bark()));
+        assert_eq!(d.vertices.len(), 24);
+        let positions: Vec<[f32; 3]> = d.vertices.iter().map(|v| v.position).collect();
+        let e = edge_indices(&positions, &d.indices);
+        assert_eq!(e.len(), 2 * 18);
+        let mut pairs: Vec<(u32, u32)> = e.chunks(2).map(|p| (p[0].min(p[1]), p[0].max(p[1]))).collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        assert_eq!(pairs.len(), 18, "no edge twice");
     }
 }

@@ -1,6 +1,8 @@
 // sylva-gpu's mesh pipeline (issue 25 item 4; Skjermo2008 §4, Skjermo2008-spec §10): instanced,
 // GPU-skinned trees with a directional light and a sky/ground ambient, colour maps and
-// alpha-cut leaves; plus the background gradient. render/mod.rs prepends frame.wgsl
+// alpha-cut leaves; plus the background gradient and, for a viewer (issue 41 item 2;
+// render/overlay.rs), the ground disc with its contact shadow, the wireframe's edges and
+// line overlays. render/mod.rs prepends frame.wgsl
 // (group(0) binding(0), `Frame`, shared with the branch deformer's renderer).
 
 struct Material {
@@ -17,6 +19,16 @@ struct Background {
 
 @group(0) @binding(1) var<storage, read> joints: array<mat4x4<f32>>;
 @group(0) @binding(2) var<uniform> background: Background;
+
+struct Ground {
+    centre: vec4<f32>, // xyz: disc centre (model space), w: radius
+    crown: vec4<f32>,  // xy: crown shadow half extents (x, z), z: strength
+    trunk: vec4<f32>,  // xy: trunk foot (x, z), z: contact radius, w: contact strength
+    color: vec4<f32>,  // linear ground colour
+    wire: vec4<f32>,   // linear wireframe colour
+}
+
+@group(0) @binding(3) var<uniform> ground: Ground;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_map: texture_2d<f32>;
@@ -54,8 +66,9 @@ fn joint_matrix(j: u32) -> mat4x4<f32> {
     return joints[min(j, n - 1u)];
 }
 
-fn transform(v: VertexIn) -> VertexOut {
-    // Linear blend skinning (as glTF readers do); a vertex without weights stays put.
+// The instance transform times the vertex's skinning matrix: linear blend skinning (as
+// glTF readers do); a vertex without weights stays put.
+fn world_matrix(v: VertexIn) -> mat4x4<f32> {
     let wsum = v.weight.x + v.weight.y + v.weight.z + v.weight.w;
     var skin = mat4x4<f32>(
         vec4<f32>(1.0, 0.0, 0.0, 0.0),
@@ -68,7 +81,11 @@ fn transform(v: VertexIn) -> VertexOut {
             + joint_matrix(v.joint.z) * v.weight.z + joint_matrix(v.joint.w) * v.weight.w;
     }
     let instance = mat4x4<f32>(v.m0, v.m1, v.m2, v.m3);
-    let world = instance * skin;
+    return instance * skin;
+}
+
+fn transform(v: VertexIn) -> VertexOut {
+    let world = world_matrix(v);
     var out: VertexOut;
     out.clip = frame.view_proj * (world * vec4<f32>(v.position, 1.0));
     out.normal = (world * vec4<f32>(v.normal, 0.0)).xyz;
@@ -157,4 +174,103 @@ fn fs_background(in: BackgroundOut) -> @location(0) vec4<f32> {
     }
     let c = floor((background.top.rgb + (background.bottom.rgb - background.top.rgb) * f) * 255.0 + 0.5) / 255.0;
     return vec4<f32>(srgb_to_linear(c), 1.0);
+}
+
+// The ground disc: two triangles of a square around the model's base, per instance;
+// `local` is the offset from the disc's centre (model space, x and z).
+struct InstanceIn {
+    @location(5) m0: vec4<f32>,
+    @location(6) m1: vec4<f32>,
+    @location(7) m2: vec4<f32>,
+    @location(8) m3: vec4<f32>,
+}
+
+struct GroundOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) local: vec2<f32>,
+}
+
+@vertex
+fn vs_ground(@builtin(vertex_index) i: u32, inst: InstanceIn) -> GroundOut {
+    var corners = array<vec2<f32>, 6>(
+        vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
+        vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
+    );
+    let local = corners[i] * ground.centre.w;
+    let p = vec3<f32>(ground.centre.x + local.x, ground.centre.y, ground.centre.z + local.y);
+    let instance = mat4x4<f32>(inst.m0, inst.m1, inst.m2, inst.m3);
+    var out: GroundOut;
+    out.clip = frame.view_proj * (instance * vec4<f32>(p, 1.0));
+    out.local = local;
+    return out;
+}
+
+@fragment
+fn fs_ground(in: GroundOut) -> @location(0) vec4<f32> {
+    // A flat floor fading into the background over the outer quarter of its radius.
+    let r = length(in.local) / ground.centre.w;
+    if (r > 1.0) {
+        discard;
+    }
+    return vec4<f32>(ground.color.rgb, 1.0 - smoothstep(0.75, 1.0, r));
+}
+
+@fragment
+fn fs_shadow(in: GroundOut) -> @location(0) vec4<f32> {
+    // Drawn with blend dst × (1 − a): a soft ellipse under the crown plus a tighter
+    // darkening at the trunk's foot.
+    let q = in.local / max(ground.crown.xy, vec2<f32>(1e-4));
+    let crown = ground.crown.z * (1.0 - smoothstep(0.0, 1.0, length(q)));
+    let foot = ground.centre.xz + in.local - ground.trunk.xy;
+    let t = length(foot) / max(ground.trunk.z, 1e-4);
+    let contact = ground.trunk.w * exp(-t * t);
+    return vec4<f32>(0.0, 0.0, 0.0, clamp(crown + contact, 0.0, 0.8));
+}
+
+// Depth-tested lines are pulled this fraction of their distance towards the eye, so an
+// edge lying on a surface is drawn over it.
+const LINE_PULL: f32 = 0.0015;
+
+fn pulled(world: vec4<f32>) -> vec4<f32> {
+    let p = world.xyz / world.w;
+    return vec4<f32>(p + (frame.eye.xyz - p) * LINE_PULL, 1.0);
+}
+
+// The wireframe: the mesh's unique triangle edges (a line-list index buffer built on the
+// CPU), skinned and instanced like the mesh.
+@vertex
+fn vs_wire(v: VertexIn) -> GroundOut {
+    var out: GroundOut;
+    out.clip = frame.view_proj * pulled(world_matrix(v) * vec4<f32>(v.position, 1.0));
+    out.local = vec2<f32>(0.0);
+    return out;
+}
+
+@fragment
+fn fs_wire(in: GroundOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(ground.wire.rgb, 1.0);
+}
+
+// Line overlays: world-space segments in one colour each.
+struct LineIn {
+    @location(0) position: vec3<f32>,
+    @location(1) color: vec4<f32>,
+}
+
+struct LineOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+}
+
+@vertex
+fn vs_line(v: LineIn) -> LineOut {
+    var out: LineOut;
+    out.clip = frame.view_proj * pulled(vec4<f32>(v.position, 1.0));
+    out.color = v.color;
+    return out;
+}
+
+@fragment
+fn fs_line(in: LineOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(in.color.rgb, 1.0);
 }

@@ -31,6 +31,14 @@
 //!   draw per (level, part, material) over all the instances of that level — never one
 //!   draw per tree or per branch.
 //!
+//! - **For a viewer** (issue 41 item 2; all off by default, so a plain render is
+//!   unchanged; [`overlay`]): a ground disc with a contact shadow under each instance,
+//!   the wireframe (each part's unique triangle edges, a line-list index buffer built on
+//!   the first wireframe frame, drawn depth-tested over the shaded mesh — not
+//!   `POLYGON_MODE_LINE`, which lavapipe and others lack), line overlays (depth-tested
+//!   or on top, [`Lines`]), and a fixed level of detail instead of the choice by
+//!   distance ([`RenderOptions::lod`]).
+//!
 //! - **Window** (cargo feature `window`): `render::window` draws the same pass into a
 //!   winit window's surface through [`Renderer::render_to_view`], resolving the MSAA
 //!   colour into the surface texture (docs/render.md, "Window").
@@ -41,15 +49,17 @@
 pub mod camera;
 pub mod forest;
 pub mod mesh;
+pub mod overlay;
 #[cfg(feature = "window")]
 pub mod window;
 
 pub use camera::{Camera, Orbit};
+pub use overlay::Lines;
 
 use crate::gpu::{begin_colour_depth_pass, read_texture, texture_2d, Gpu, GpuError};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 use sylva::model::Model;
 use sylva::preview::Image;
 pub use sylva::preview::{iou, silhouette};
@@ -120,7 +130,9 @@ pub const MAX_SIZE: u32 = sylva::preview::MAX_SIZE;
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// What to draw and how: image size, view, anti-aliasing and background.
+/// What to draw and how: image size, view, anti-aliasing and background; for a viewer,
+/// the ground, the wireframe, a fixed level of detail and line overlays (all off by
+/// default).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
     /// Image width in pixels, `1..=8192` (and the adapter's texture limit).
@@ -140,6 +152,17 @@ pub struct RenderOptions {
     /// Box to frame (fitted by its corners); `None` frames one tree by its vertices as
     /// the CPU preview does, or a forest by its instances' boxes.
     pub frame: Option<(Vec3, Vec3)>,
+    /// A ground disc with a soft contact shadow under each tree (default off;
+    /// [`overlay`]).
+    pub ground: bool,
+    /// The triangles' edges drawn over the shaded trees (default off).
+    pub wireframe: bool,
+    /// Draw every tree at this level of detail, `0..`[`Renderer::level_count`]; `None`
+    /// (default) chooses each tree's level by its size on screen
+    /// ([`forest::choose_levels`]).
+    pub lod: Option<usize>,
+    /// Line segments drawn over the trees (world space; default none).
+    pub overlays: Vec<Lines>,
 }
 
 impl Default for RenderOptions {
@@ -155,6 +178,10 @@ impl Default for RenderOptions {
             background: p.background,
             background_top: p.background_top,
             frame: None,
+            ground: false,
+            wireframe: false,
+            lod: None,
+            overlays: Vec::new(),
         }
     }
 }
@@ -170,6 +197,8 @@ pub struct Stats {
     pub triangles: u64,
     /// Samples per pixel (4 with MSAA, else 1).
     pub samples: u32,
+    /// Line segments drawn over all instances: the wireframe's edges and the overlays'.
+    pub lines: u64,
 }
 
 /// A rendered picture and what it took.
@@ -192,6 +221,10 @@ struct GpuPart {
     materials: Vec<wgpu::BindGroup>,
     /// Per material: whether it is alpha-cut (drawn by the per-sample pipeline).
     cut: Vec<bool>,
+    /// The vertices' positions and the triangles, kept for the wireframe's edges.
+    wire_source: (Vec<[f32; 3]>, Vec<u32>),
+    /// The wireframe's line-list indices and their count, built on first use.
+    wire: OnceLock<(wgpu::Buffer, u32)>,
 }
 
 /// One level of detail.
@@ -231,6 +264,16 @@ struct Pipelines {
     cut: wgpu::RenderPipeline,
     /// The background gradient.
     background: wgpu::RenderPipeline,
+    /// The ground disc.
+    ground: wgpu::RenderPipeline,
+    /// The contact shadow, darkening the ground.
+    shadow: wgpu::RenderPipeline,
+    /// The wireframe's edges.
+    wire: wgpu::RenderPipeline,
+    /// Depth-tested line overlays.
+    lines: wgpu::RenderPipeline,
+    /// Line overlays on top of everything.
+    lines_top: wgpu::RenderPipeline,
 }
 
 /// Attachments for drawing into a caller's texture view ([`Renderer::render_to_view`]):
@@ -383,6 +426,7 @@ impl Renderer {
                 buffer_entry(0, wgpu::BufferBindingType::Uniform),
                 buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
                 buffer_entry(2, wgpu::BufferBindingType::Uniform),
+                buffer_entry(3, wgpu::BufferBindingType::Uniform),
             ],
         );
         let [map, map_sampler] = crate::gpu::texture_sampler_entries(1, wgpu::ShaderStages::FRAGMENT);
@@ -472,7 +516,16 @@ impl Renderer {
                     usage: wgpu::BufferUsages::INDEX,
                 });
                 level.triangles += data.indices.len() as u64 / 3;
-                level.parts.push(GpuPart { vertices, indices, groups: data.groups, materials, cut });
+                let positions = data.vertices.iter().map(|v| v.position).collect();
+                level.parts.push(GpuPart {
+                    vertices,
+                    indices,
+                    groups: data.groups,
+                    materials,
+                    cut,
+                    wire_source: (positions, data.indices),
+                    wire: OnceLock::new(),
+                });
             }
             levels.push(level);
         }
@@ -490,10 +543,16 @@ impl Renderer {
         let frame_buffer = gpu.uniform_buffer("sylva-gpu render frame", &[Frame::zeroed()]);
         let background_buffer =
             gpu.uniform_buffer("sylva-gpu render background", &[BackgroundUniform::zeroed()]);
+        let fit_points: Vec<Vec3> =
+            flat.parts.iter().flat_map(|p| p.mesh.positions.iter().copied()).collect();
+        let bounds = flat.bounds();
+        let (lo, hi) = bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
+        let ground_buffer =
+            gpu.uniform_buffer("sylva-gpu render ground", &[overlay::ground(lo, hi, &fit_points)]);
         let group0 = gpu.bind_buffers(
             "sylva-gpu render frame",
             &frame_layout,
-            &[&frame_buffer, &joint_buffer, &background_buffer],
+            &[&frame_buffer, &joint_buffer, &background_buffer, &ground_buffer],
         );
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("sylva-gpu render"),
@@ -510,13 +569,11 @@ impl Renderer {
             source: wgpu::ShaderSource::Wgsl(format!("{FRAME_WGSL}\n{}", include_str!("mesh.wgsl")).into()),
         });
         let msaa_ok = gpu.msaa_ok(COLOR_FORMAT);
-        let fit_points: Vec<Vec3> =
-            flat.parts.iter().flat_map(|p| p.mesh.positions.iter().copied()).collect();
         Ok(Renderer {
             gpu: gpu.clone(),
             levels,
             rig,
-            bounds: flat.bounds(),
+            bounds,
             fit_points,
             frame_buffer,
             joint_buffer,
@@ -540,6 +597,11 @@ impl Renderer {
     /// Smallest screen coverage of each level, finest first (`[0]` without a LOD chain).
     pub fn level_coverages(&self) -> Vec<f32> {
         self.levels.iter().map(|l| l.coverage).collect()
+    }
+
+    /// Triangles of one tree at level `level` (0 past the last level).
+    pub fn level_triangles(&self, level: usize) -> u64 {
+        self.levels.get(level).map_or(0, |l| l.triangles)
     }
 
     /// Draw calls one instanced draw of level `level` issues (its parts' material groups).
@@ -600,7 +662,12 @@ impl Renderer {
         };
         let orbit = opts.orbit.unwrap_or_else(|| Orbit::auto(frame.0, frame.1));
         // Depth range: everything drawn, with room for swaying crowns.
-        let all = forest::bounds(instances, model).unwrap_or(model);
+        let mut all = forest::bounds(instances, model).unwrap_or(model);
+        if opts.ground {
+            if let Some((lo, hi)) = forest::bounds(instances, overlay::ground_box(model.0, model.1)) {
+                all = (all.0.min(lo), all.1.max(hi));
+            }
+        }
         let pad = Vec3::splat((all.1 - all.0).max_element() / 6.0);
         let depth = (all.0.min(frame.0) - pad, all.1.max(frame.1) + pad);
         Camera::new(frame, orbit, opts.fov_deg, (opts.width, opts.height), fit, depth)
@@ -614,76 +681,122 @@ impl Renderer {
         let device = &self.gpu.device;
         let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Uint16x4, 4 => Float32x4];
         let inst = wgpu::vertex_attr_array![5 => Float32x4, 6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
+        let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
+        let instances = wgpu::VertexBufferLayout {
+            array_stride: 64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &inst,
+        };
         let buffers = [
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<mesh::Vertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &attrs,
             }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: 64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &inst,
-            }),
+            Some(instances.clone()),
         ];
-        let target =
-            [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+        let ground_buffers = [None, Some(instances)];
+        let line_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<overlay::LineVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &line_attrs,
+        })];
         let multisample = wgpu::MultisampleState { count: samples, ..Default::default() };
-        let make =
-            |label, layout, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout>], depth_write, compare| {
-                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(layout),
-                    vertex: wgpu::VertexState {
-                        module: &self.shader,
-                        entry_point: Some(vs),
-                        compilation_options: Default::default(),
-                        buffers,
-                    },
-                    primitive: wgpu::PrimitiveState {
-                        topology: wgpu::PrimitiveTopology::TriangleList,
-                        front_face: wgpu::FrontFace::Ccw,
-                        cull_mode: None,
-                        ..Default::default()
-                    },
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(depth_write),
-                        depth_compare: Some(compare),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample,
-                    fragment: Some(wgpu::FragmentState {
-                        module: &self.shader,
-                        entry_point: Some(fs),
-                        compilation_options: Default::default(),
-                        targets: &target,
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
-            };
-        let less = wgpu::CompareFunction::Less;
+        /// How one pipeline draws, besides its shaders and vertex buffers.
+        struct Draw {
+            topology: wgpu::PrimitiveTopology,
+            blend: Option<wgpu::BlendState>,
+            depth_write: bool,
+            compare: wgpu::CompareFunction,
+        }
+        let make = |label, layout, (vs, fs), buffers: &[Option<wgpu::VertexBufferLayout>], d: Draw| {
+            let target =
+                [Some(wgpu::ColorTargetState { format, blend: d.blend, write_mask: wgpu::ColorWrites::ALL })];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(layout),
+                vertex: wgpu::VertexState {
+                    module: &self.shader,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: d.topology,
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(d.depth_write),
+                    depth_compare: Some(d.compare),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample,
+                fragment: Some(wgpu::FragmentState {
+                    module: &self.shader,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &target,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        use wgpu::CompareFunction::{Always, Less, LessEqual};
+        use wgpu::PrimitiveTopology::{LineList, TriangleList};
+        let solid = |depth_write, compare| Draw { topology: TriangleList, blend: None, depth_write, compare };
+        let lines = |compare| Draw { topology: LineList, blend: None, depth_write: false, compare };
+        // The shadow multiplies what is there by 1 − its alpha.
+        let darken = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let (mesh_layout, plain) = (&self.layout, &self.background_layout);
         let p = Pipelines {
-            mesh: make("sylva-gpu mesh", &self.layout, "vs_mesh", "fs_mesh", &buffers, true, less),
+            mesh: make("sylva-gpu mesh", mesh_layout, ("vs_mesh", "fs_mesh"), &buffers, solid(true, Less)),
             cut: make(
                 "sylva-gpu mesh (alpha cut)",
-                &self.layout,
-                "vs_mesh_cut",
-                "fs_mesh_cut",
+                mesh_layout,
+                ("vs_mesh_cut", "fs_mesh_cut"),
                 &buffers,
-                true,
-                less,
+                solid(true, Less),
             ),
             background: make(
                 "sylva-gpu background",
-                &self.background_layout,
-                "vs_background",
-                "fs_background",
+                plain,
+                ("vs_background", "fs_background"),
                 &[],
-                false,
-                wgpu::CompareFunction::Always,
+                solid(false, Always),
+            ),
+            ground: make(
+                "sylva-gpu ground",
+                plain,
+                ("vs_ground", "fs_ground"),
+                &ground_buffers,
+                Draw { blend: Some(wgpu::BlendState::ALPHA_BLENDING), ..solid(true, Less) },
+            ),
+            shadow: make(
+                "sylva-gpu contact shadow",
+                plain,
+                ("vs_ground", "fs_shadow"),
+                &ground_buffers,
+                Draw {
+                    blend: Some(wgpu::BlendState { color: darken, alpha: darken }),
+                    ..solid(false, Always)
+                },
+            ),
+            wire: make("sylva-gpu wireframe", plain, ("vs_wire", "fs_wire"), &buffers, lines(LessEqual)),
+            lines: make("sylva-gpu lines", plain, ("vs_line", "fs_line"), &line_buffers, lines(LessEqual)),
+            lines_top: make(
+                "sylva-gpu lines on top",
+                plain,
+                ("vs_line", "fs_line"),
+                &line_buffers,
+                lines(Always),
             ),
         };
         cache.push(((samples, format), p.clone()));
@@ -694,9 +807,12 @@ impl Renderer {
     /// time `time` (seconds into the wind clip, ignored without one).
     ///
     /// Errors: a size outside `1..=8192` or the adapter's texture limit, a field of view
-    /// outside `1..=120`, no instances or more than [`forest::MAX_TREES`].
+    /// outside `1..=120`, no instances or more than [`forest::MAX_TREES`], a fixed level
+    /// of detail the model does not have, an overlay point that is not finite or more
+    /// than [`overlay::MAX_SEGMENTS`] overlay segments.
     pub fn render(&self, opts: &RenderOptions, instances: &[Mat4], time: f32) -> Result<Rendered, GpuError> {
         self.check((opts.width, opts.height), opts.fov_deg, instances, time)?;
+        self.check_view(opts)?;
         let (w, h) = (opts.width, opts.height);
         let samples = if opts.msaa && self.msaa_ok { 4 } else { 1 };
         let camera = self.camera(opts, instances);
@@ -737,11 +853,13 @@ impl Renderer {
     /// `Bgra8UnormSrgb`) of `camera.width × camera.height` pixels, as a window's frame is
     /// drawn (`render::window`, cargo feature `window`). With `opts.msaa` (and an
     /// adapter that takes 4× samples of `format`) the pass draws into a multisampled
-    /// texture and resolves into `view`. Of `opts` only `msaa`, `fov_deg` (checked) and
-    /// the background colours are used: the camera carries the size and the view. The
-    /// work is submitted; the caller presents.
+    /// texture and resolves into `view`. Of `opts` the size, `orbit` and `frame` are not
+    /// used (the camera carries the size and the view); `msaa`, `fov_deg` (checked), the
+    /// background colours, `ground`, `wireframe`, `lod` and `overlays` are. The work is
+    /// submitted; the caller presents.
     ///
-    /// Errors: as [`Renderer::render`] for the camera's size and the instances.
+    /// Errors: as [`Renderer::render`] for the camera's size, the instances, the level
+    /// and the overlays.
     pub fn render_to_view(
         &self,
         camera: &Camera,
@@ -753,6 +871,7 @@ impl Renderer {
     ) -> Result<Stats, GpuError> {
         let (w, h) = (camera.width, camera.height);
         self.check((w, h), opts.fov_deg, instances, time)?;
+        self.check_view(opts)?;
         let samples = if opts.msaa && self.gpu.msaa_ok(format) { 4 } else { 1 };
         let mut guard = self.view_targets.lock().unwrap_or_else(|e| e.into_inner());
         if guard.as_ref().is_none_or(|t| t.key != (w, h, samples, format)) {
@@ -811,6 +930,18 @@ impl Renderer {
         Ok(())
     }
 
+    /// Checks what a viewer asks for: the fixed level of detail and the overlays.
+    fn check_view(&self, opts: &RenderOptions) -> Result<(), GpuError> {
+        if let Some(l) = opts.lod.filter(|&l| l >= self.levels.len()) {
+            return Err(invalid(format!(
+                "lod is {l}; this model has level{} 0..={}",
+                if self.levels.len() > 1 { "s" } else { "" },
+                self.levels.len() - 1
+            )));
+        }
+        overlay::check(&opts.overlays).map_err(invalid)
+    }
+
     /// Writes the frame's uniforms, joints and instances and encodes its one render pass
     /// into `target`: the background, then one instanced draw per (level, part,
     /// material).
@@ -842,7 +973,10 @@ impl Renderer {
         // Level of detail per instance, bucketed into one buffer, coarsest trees last.
         let (lo, hi) = self.bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
         let sphere = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-6));
-        let levels = forest::choose_levels(camera, instances, sphere, &self.level_coverages());
+        let levels = match opts.lod {
+            Some(l) => vec![l.min(self.levels.len() - 1); instances.len()],
+            None => forest::choose_levels(camera, instances, sphere, &self.level_coverages()),
+        };
         let mut counts = vec![0u32; self.levels.len()];
         for &l in &levels {
             counts[l] += 1;
@@ -871,8 +1005,15 @@ impl Renderer {
         pass.set_bind_group(0, &self.group0, &[]);
         pass.set_pipeline(&pipelines.background);
         pass.draw(0..3, 0..1);
-        let mut current_cut = None;
         pass.set_vertex_buffer(1, instance_buffer.slice(..));
+        if opts.ground {
+            let all = 0..instances.len() as u32;
+            pass.set_pipeline(&pipelines.ground);
+            pass.draw(0..6, all.clone());
+            pass.set_pipeline(&pipelines.shadow);
+            pass.draw(0..6, all);
+        }
+        let mut current_cut = None;
         let mut start = 0u32;
         for (level, &n) in self.levels.iter().zip(&counts) {
             let range = start..start + n;
@@ -896,7 +1037,64 @@ impl Renderer {
             }
             stats.triangles += level.triangles * n as u64;
         }
+        if opts.wireframe {
+            pass.set_pipeline(&pipelines.wire);
+            let mut start = 0u32;
+            for (level, &n) in self.levels.iter().zip(&counts) {
+                let range = start..start + n;
+                start += n;
+                if n == 0 {
+                    continue;
+                }
+                for part in &level.parts {
+                    let (edges, count) = self.wire_edges(part);
+                    if *count == 0 {
+                        continue;
+                    }
+                    pass.set_vertex_buffer(0, part.vertices.slice(..));
+                    pass.set_index_buffer(edges.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..*count, 0, range.clone());
+                    stats.lines += *count as u64 / 2 * n as u64;
+                }
+            }
+        }
+        if !opts.overlays.is_empty() {
+            let (vertices, tested) = overlay::vertices(&opts.overlays);
+            if !vertices.is_empty() {
+                let buffer = self.gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("sylva-gpu render overlays"),
+                    contents: bytemuck::cast_slice(&vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+                pass.set_vertex_buffer(0, buffer.slice(..));
+                let total = vertices.len() as u32;
+                for (pipeline, range) in
+                    [(&pipelines.lines, 0..tested), (&pipelines.lines_top, tested..total)]
+                {
+                    if !range.is_empty() {
+                        pass.set_pipeline(pipeline);
+                        pass.draw(range, 0..1);
+                    }
+                }
+                stats.lines += total as u64 / 2;
+            }
+        }
         stats
+    }
+
+    /// The wireframe's line-list index buffer of `part` and its index count, built from
+    /// its triangles on first use.
+    fn wire_edges<'a>(&self, part: &'a GpuPart) -> &'a (wgpu::Buffer, u32) {
+        part.wire.get_or_init(|| {
+            let (positions, triangles) = &part.wire_source;
+            let edges = mesh::edge_indices(positions, triangles);
+            let buffer = self.gpu.buffer(
+                "sylva-gpu render wireframe",
+                bytemuck::cast_slice(&edges),
+                wgpu::BufferUsages::INDEX,
+            );
+            (buffer, edges.len() as u32)
+        })
     }
 
     fn make_targets(&self, w: u32, h: u32, samples: u32) -> Targets {
