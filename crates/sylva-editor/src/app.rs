@@ -182,6 +182,8 @@ impl EditorApp {
 
     /// Submits the document when it changed since the last submission.
     fn submit(&mut self, fresh: bool) {
+        // An edited grammar is a new file under the recipe: a new session grows it.
+        let fresh = self.doc.take_files_changed() || fresh;
         if fresh || self.submitted != self.doc.revision() {
             self.submitted = self.doc.revision();
             self.worker.submit(self.doc.loaded().clone(), fresh);
@@ -243,6 +245,9 @@ impl EditorApp {
         }
         if !dragging && !ui.input(|i| i.pointer.any_down()) {
             self.doc.end_join();
+        }
+        if let Some(m) = crate::grammar::show(ui, &mut self.doc, self.message.as_deref()) {
+            self.message = Some(m);
         }
         egui::CentralPanel::no_frame().show(ui, |ui| {
             self.viewport.show(ui);
@@ -329,6 +334,8 @@ impl EditorApp {
                 if ui.button("Frame").clicked() {
                     self.viewport.reframe();
                 }
+                ui.separator();
+                crate::grammar::menu_toggle(ui, &self.doc);
                 ui.separator();
                 ui.add(egui::TextEdit::singleline(&mut self.save_path).desired_width(180.0))
                     .on_hover_text("file to save the recipe to (.toml) or export the tree to (.glb, .gltf, .obj, .ply, .pov, .lst, .skel.json; .png: a picture of the view)");
@@ -476,10 +483,14 @@ impl EditorApp {
 }
 
 /// The file "Save recipe" writes until the user names another: the recipe file itself,
-/// or `<preset>-edited.toml`.
+/// a model file's name with `.toml` (never the model: Save grammar writes an `.l`), or
+/// `<preset>-edited.toml`.
 fn file_name(source: &Source) -> String {
     match source {
-        Source::File(p) => p.display().to_string(),
+        Source::File(p) if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) => {
+            p.display().to_string()
+        }
+        Source::File(p) => p.with_extension("toml").display().to_string(),
         Source::Preset(name) => format!("{name}-edited.toml"),
     }
 }

@@ -5,9 +5,16 @@
 //! Every change goes through [`Recipe::set`], the path of the CLI's `--set`, so a value
 //! out of range is an error naming the key and leaves the recipe as it was. A run of
 //! changes to one key (a slider being dragged) is one undo step.
+//!
+//! An L-system recipe's grammar file (`generator.file`) is held as text too
+//! ([`Grammar`]): an edit is laid over the file ([`Loaded::with_overlay`]) once the
+//! typing pauses, so the worker grows the edited text while `#include`s and the model
+//! folder's other files still come from where the recipe is. Grammar edits are not
+//! recipe undo steps (the text editor has its own undo).
 
 use std::path::{Path, PathBuf};
-use sylva::recipe::{Loaded, Origin, Recipe};
+use std::time::{Duration, Instant};
+use sylva::recipe::{Generator, Loaded, Origin, Recipe};
 
 /// Where the document started: what "reset" returns to and what "save" compares with.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,6 +41,38 @@ struct Step {
     key: Option<String>,
 }
 
+/// The text of an L-system recipe's grammar file, as the editor holds it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grammar {
+    /// The file name the recipe gives (`generator.file`).
+    pub file: String,
+    /// The name the engine's messages give the file (a path on disk, `presets/…`).
+    pub name: String,
+    /// The text as read or last saved (Revert returns to it; slider ranges come from it).
+    pub original: String,
+    /// The text being edited (the grammar editor's buffer).
+    pub text: String,
+    /// The text laid over the file, which the worker grows.
+    applied: String,
+    /// When the buffer was last typed into while it differs from `applied`.
+    typed_at: Option<Instant>,
+}
+
+impl Grammar {
+    /// Whether the buffer differs from what was read or last saved.
+    pub fn modified(&self) -> bool {
+        self.text != self.original
+    }
+
+    /// Whether the buffer holds typing not yet given to the worker.
+    pub fn pending(&self) -> bool {
+        self.text != self.applied
+    }
+}
+
+/// How long the grammar editor waits after the last keystroke before it regrows.
+pub const GRAMMAR_DEBOUNCE: Duration = Duration::from_millis(250);
+
 /// The recipe being edited and its history.
 #[derive(Debug, Clone)]
 pub struct Document {
@@ -46,6 +85,13 @@ pub struct Document {
     /// Whether the next change to the same key joins the last undo step (a drag).
     joining: bool,
     revision: u64,
+    /// The L-system grammar, when the generator is an L-system whose file could be read.
+    grammar: Option<Grammar>,
+    /// Why the generator's grammar file could not be read.
+    grammar_error: Option<String>,
+    /// The files under the recipe changed (a grammar edit): the worker must start a new
+    /// session rather than update the current one.
+    files_changed: bool,
 }
 
 /// The most undo steps kept.
@@ -73,7 +119,7 @@ impl Document {
     /// A document from a recipe already loaded.
     pub fn from_loaded(source: Source, loaded: Loaded) -> Result<Document, String> {
         let table = loaded.recipe.to_table().map_err(|e| e.to_string())?;
-        Ok(Document {
+        let mut doc = Document {
             source,
             start: loaded.clone(),
             loaded,
@@ -82,7 +128,12 @@ impl Document {
             redo: Vec::new(),
             joining: false,
             revision: 0,
-        })
+            grammar: None,
+            grammar_error: None,
+            files_changed: false,
+        };
+        doc.sync_grammar();
+        Ok(doc)
     }
 
     /// Where the document started.
@@ -226,7 +277,146 @@ impl Document {
         self.start = loaded.clone();
         self.push_undo(None);
         self.loaded.origin = loaded.origin;
+        // The grammar is read again from disk: unsaved edits give way to the file.
+        self.loaded.overlay.clear();
+        self.grammar = None;
+        self.files_changed = true;
         self.replace(loaded.recipe)
+    }
+
+    /// The L-system grammar being edited, when the generator is an L-system.
+    pub fn grammar(&self) -> Option<&Grammar> {
+        self.grammar.as_ref()
+    }
+
+    /// Why the L-system's grammar file could not be read (the editor shows no text).
+    pub fn grammar_error(&self) -> Option<&str> {
+        self.grammar_error.as_deref()
+    }
+
+    /// The grammar editor's buffer. After changing it call [`Document::grammar_typed`]
+    /// (typing, regrown after a pause) or [`Document::apply_grammar`] (at once).
+    pub fn grammar_text_mut(&mut self) -> Option<&mut String> {
+        self.grammar.as_mut().map(|g| &mut g.text)
+    }
+
+    /// The buffer was typed into at `at`: [`Document::apply_grammar_when_quiet`] gives it
+    /// to the worker once [`GRAMMAR_DEBOUNCE`] has passed without typing.
+    pub fn grammar_typed(&mut self, at: Instant) {
+        if let Some(g) = self.grammar.as_mut() {
+            g.typed_at = g.pending().then_some(at);
+        }
+    }
+
+    /// Applies the buffer when it was last typed into [`GRAMMAR_DEBOUNCE`] or more before
+    /// `now`. Returns how long until it will be due (the editor repaints then), `None`
+    /// when nothing waits.
+    pub fn apply_grammar_when_quiet(&mut self, now: Instant) -> Option<Duration> {
+        let g = self.grammar.as_ref()?;
+        if !g.pending() {
+            return None;
+        }
+        let quiet = g.typed_at.map_or(GRAMMAR_DEBOUNCE, |t| now.saturating_duration_since(t));
+        if quiet >= GRAMMAR_DEBOUNCE {
+            self.apply_grammar();
+            None
+        } else {
+            Some(GRAMMAR_DEBOUNCE - quiet)
+        }
+    }
+
+    /// Lays the buffer over the grammar file now (the next submission regrows the
+    /// tree from it in a new session). `false` when it was already applied.
+    pub fn apply_grammar(&mut self) -> bool {
+        let Some(g) = self.grammar.as_mut() else { return false };
+        g.typed_at = None;
+        if !g.pending() {
+            return false;
+        }
+        g.applied = g.text.clone();
+        if g.applied == g.original {
+            self.loaded.overlay.remove(&g.file);
+        } else {
+            self.loaded.overlay.insert(g.file.clone(), g.applied.clone());
+        }
+        self.files_changed = true;
+        self.revision += 1;
+        true
+    }
+
+    /// Replaces the grammar's text and applies it at once (a `#define` slider, Revert).
+    pub fn set_grammar_text(&mut self, text: String) -> bool {
+        let Some(g) = self.grammar.as_mut() else { return false };
+        g.text = text;
+        self.apply_grammar()
+    }
+
+    /// Where "Save grammar" writes by default: the file itself for a recipe on disk,
+    /// else its base name in the working folder (a preset's file is built in).
+    pub fn grammar_path(&self) -> Option<PathBuf> {
+        let g = self.grammar.as_ref()?;
+        Some(match &self.loaded.origin {
+            Origin::Folder(dir) => dir.join(&g.file),
+            Origin::Preset(_) | Origin::Memory(_) => {
+                PathBuf::from(Path::new(&g.file).file_name().unwrap_or(g.file.as_ref()))
+            }
+        })
+    }
+
+    /// Writes the grammar's buffer to `path` (atomically). Saved to the grammar's own file
+    /// ([`Document::grammar_path`] of a recipe on disk), the text becomes the original.
+    pub fn save_grammar(&mut self, path: &Path) -> Result<(), String> {
+        let own = self.grammar_path().filter(|_| matches!(self.loaded.origin, Origin::Folder(_)));
+        let Some(g) = self.grammar.as_mut() else {
+            return Err("the recipe's generator is not an L-system: there is no grammar to save".into());
+        };
+        sylva::fsutil::write_atomic(path, |w| w.write_all(g.text.as_bytes()))
+            .map_err(|e| format!("cannot save the grammar to {}: {e}", path.display()))?;
+        if own.as_deref() == Some(path) {
+            g.original = g.text.clone();
+        }
+        Ok(())
+    }
+
+    /// Whether the files under the recipe changed since the last call (the editor then
+    /// starts a new session for the next tree); clears the flag.
+    pub fn take_files_changed(&mut self) -> bool {
+        std::mem::take(&mut self.files_changed)
+    }
+
+    /// Reads the generator's grammar file when the generator names another file than
+    /// the one held (or none is held); drops it when the generator is not an L-system.
+    fn sync_grammar(&mut self) {
+        let file = match &self.loaded.recipe.generator {
+            Generator::Lsystem(g) => g.file.clone(),
+            _ => {
+                self.grammar = None;
+                self.grammar_error = None;
+                return;
+            }
+        };
+        if self.grammar.as_ref().is_some_and(|g| g.file == file) {
+            return;
+        }
+        if let Some(old) = self.grammar.take() {
+            if self.loaded.overlay.remove(&old.file).is_some() {
+                self.files_changed = true;
+            }
+        }
+        match self.loaded.read(&file) {
+            Ok((name, text)) => {
+                self.grammar_error = None;
+                self.grammar = Some(Grammar {
+                    file,
+                    name,
+                    original: text.clone(),
+                    applied: text.clone(),
+                    text,
+                    typed_at: None,
+                });
+            }
+            Err(e) => self.grammar_error = Some(e.to_string()),
+        }
     }
 
     /// The folder relative file names resolve in, for a document from a file.
@@ -249,6 +439,7 @@ impl Document {
         self.table = recipe.to_table().map_err(|e| e.to_string())?;
         self.loaded.recipe = recipe;
         self.revision += 1;
+        self.sync_grammar();
         Ok(())
     }
 }
@@ -348,6 +539,75 @@ mod tests {
         assert_eq!(back.seed, 99);
         doc.reset().unwrap();
         assert!(doc.changed().is_empty());
+    }
+
+    /// A bare `.l` model in a fresh folder (removed by the caller).
+    fn model(tag: &str, text: &str) -> (PathBuf, PathBuf) {
+        let dir = std::env::temp_dir().join(format!("sylva-edit-doc-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("plant.l");
+        std::fs::write(&path, text).unwrap();
+        (dir, path)
+    }
+
+    const MODEL: &str = "#define N 3\nLsystem: 1\nderivation length: N\nAxiom: F\nF --> F[+F]F\nendlsystem\n";
+
+    #[test]
+    fn grammar_typing_is_applied_once_quiet_and_saved() {
+        let (dir, path) = model("typing", MODEL);
+        let mut doc = Document::open(Some(path.to_str().unwrap())).unwrap();
+        let g = doc.grammar().expect("an L-system's grammar is held");
+        assert_eq!((g.file.as_str(), g.text.as_str()), ("plant.l", MODEL));
+        assert_eq!(g.name, path.display().to_string(), "the name the engine's messages give");
+        assert!(!doc.take_files_changed());
+        let rev = doc.revision();
+        // Typing: nothing is given to the worker until the text has been quiet.
+        let t0 = Instant::now();
+        doc.grammar_text_mut().unwrap().push_str("// more\n");
+        doc.grammar_typed(t0);
+        let wait = doc.apply_grammar_when_quiet(t0 + Duration::from_millis(100)).expect("waiting");
+        assert_eq!(wait, GRAMMAR_DEBOUNCE - Duration::from_millis(100));
+        assert_eq!(doc.revision(), rev);
+        assert_eq!(doc.loaded().read("plant.l").unwrap().1, MODEL, "still the file's text");
+        assert_eq!(doc.apply_grammar_when_quiet(t0 + GRAMMAR_DEBOUNCE), None);
+        assert_eq!(doc.revision(), rev + 1);
+        assert!(doc.take_files_changed(), "a grammar edit starts a new session");
+        assert!(!doc.take_files_changed());
+        let edited = format!("{MODEL}// more\n");
+        assert_eq!(doc.loaded().read("plant.l").unwrap(), (path.display().to_string(), edited.clone()));
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), MODEL, "nothing written yet");
+        // A recipe change keeps the edited grammar.
+        doc.set("mesh.sides", toml::Value::Integer(5), false).unwrap();
+        assert_eq!(doc.loaded().read("plant.l").unwrap().1, edited);
+        assert!(doc.grammar().unwrap().modified());
+        // Save grammar writes the file; the text is then the original.
+        assert_eq!(doc.grammar_path().as_deref(), Some(path.as_path()));
+        doc.save_grammar(&path).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), edited);
+        assert!(!doc.grammar().unwrap().modified());
+        // A reload (`--watch`) reads the file again and drops unsaved edits.
+        doc.set_grammar_text(MODEL.replace("N 3", "N 2"));
+        doc.take_files_changed();
+        doc.reload().unwrap();
+        assert!(doc.take_files_changed());
+        assert_eq!(doc.grammar().unwrap().text, edited);
+        assert!(doc.loaded().overlay.is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_preset_grammar_is_read_from_the_presets_and_saved_elsewhere() {
+        let mut doc = Document::open(Some("lsys-honda-a")).unwrap();
+        let g = doc.grammar().expect("honda's grammar");
+        assert_eq!(g.name, "presets/lsystem/honda.l");
+        assert!(g.text.contains("#define R1 0.75"));
+        assert_eq!(doc.grammar_path(), Some(PathBuf::from("honda.l")), "a preset's file is built in");
+        let e = doc.save_grammar(Path::new("/no-such-folder/honda.l")).unwrap_err();
+        assert!(e.contains("/no-such-folder/honda.l"), "{e}");
+        // Another generator: no grammar.
+        let mut wp = Document::open(Some("wp-quaking-aspen")).unwrap();
+        assert!(wp.grammar().is_none() && wp.grammar_error().is_none());
+        assert!(!wp.set_grammar_text("x".into()));
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! - [`document`]: the recipe being edited, undo/redo, save (no UI);
 //! - [`worker`]: the regeneration thread (newest change wins, stale runs cancelled);
 //! - [`panel`]: the controls, from [`sylva::recipe::schema()`];
+//! - [`grammar`]: an L-system's text, its errors in place and its `#define` sliders;
 //! - [`viewport`]: the 3D view on egui's wgpu device;
 //! - [`app`]: the window, menu and status bar ([`EditorApp`]);
 //! - [`frame_log`]: frame times and change-to-tree latencies;
@@ -19,6 +20,7 @@
 pub mod app;
 pub mod document;
 pub mod frame_log;
+pub mod grammar;
 pub mod panel;
 pub mod viewport;
 pub mod watch;
