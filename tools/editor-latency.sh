@@ -22,12 +22,13 @@ for r in rows:
     if "event" in r and r["event"] == "edit":
         last_edit = r["about"]
     elif "tree_shown" in r:
-        shown.append((last_edit, r["tree_shown"], r["latency_ms"], r["grow_ms"]))
+        shown.append((last_edit, r["tree_shown"], r["latency_ms"], r["grow_ms"], r.get("stages_ms", {})))
     elif "frame" in r:
         frames.append(r)
 print(f"launch to first tree: {shown[0][1]:.0f} ms (grow {shown[0][3]:.0f} ms)")
-for what, at, lat, grow in shown[1:]:
-    print(f"{what}: change to tree on screen {lat:.0f} ms (worker {grow:.0f} ms)")
+for what, at, lat, grow, stages in shown[1:]:
+    times = ", ".join(f"{k} {v:.0f}" for k, v in stages.items())
+    print(f"{what}: change to tree on screen {lat:.0f} ms (worker {grow:.0f} ms: {times})")
 busy = [f for f in frames if f["busy"]]
 print(f"frames: {len(frames)}, {len(busy)} while regenerating; longest frame code while regenerating: "
       f"{max((f['took_ms'] for f in busy), default=0):.1f} ms; longest gap between frames while regenerating: "

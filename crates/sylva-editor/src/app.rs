@@ -11,6 +11,7 @@
 use crate::document::{Document, Source};
 use crate::frame_log::FrameLog;
 use crate::panel;
+use crate::thumbnails::Thumbnails;
 use crate::viewport::Viewport;
 use crate::watch::Watch;
 use crate::worker::{Outcome, Worker};
@@ -58,6 +59,7 @@ pub struct EditorApp {
     opts: EditOptions,
     frames_since_tree: Option<u64>,
     seed_counter: u64,
+    thumbnails: Thumbnails,
 }
 
 impl std::fmt::Debug for EditorApp {
@@ -108,6 +110,7 @@ impl EditorApp {
             opts,
             frames_since_tree: None,
             seed_counter: 0,
+            thumbnails: Thumbnails::default(),
         };
         app.submit(true);
         app
@@ -196,11 +199,11 @@ impl EditorApp {
         let job = outcome.job();
         match outcome {
             Outcome::Grown { tree, stages, elapsed, .. } => {
-                self.viewport.set_model(&tree.model);
+                self.viewport.set_tree(&tree);
                 self.last_run = Some((stages, elapsed));
+                self.log.tree_arrived(elapsed, tree.report.stage_times.clone());
                 self.tree = Some(tree);
                 self.shown_job = job;
-                self.log.tree_shown(elapsed);
                 if job == self.worker.latest() {
                     self.message = None;
                 }
@@ -296,11 +299,30 @@ impl EditorApp {
         egui::Panel::top("menu").show(ui, |ui| {
             ui.horizontal_wrapped(|ui| {
                 let mut chosen = None;
+                let thumbnails = &mut self.thumbnails;
                 egui::ComboBox::from_id_salt("preset")
                     .selected_text(self.doc.source().to_string())
+                    .height(480.0)
                     .show_ui(ui, |ui| {
                         for p in sylva::presets::all().into_iter().filter(|p| !p.is_curves()) {
-                            if ui.selectable_label(false, p.name).on_hover_text(p.description()).clicked() {
+                            let picture = thumbnails.get(ui.ctx(), p.name);
+                            let item = match &picture {
+                                Some(t) => egui::Button::image_and_text(
+                                    egui::Image::new(t).fit_to_exact_size(egui::vec2(40.0, 40.0)),
+                                    p.name,
+                                ),
+                                None => egui::Button::new(p.name),
+                            };
+                            let clicked = ui
+                                .add(item.frame(false))
+                                .on_hover_ui(|ui| {
+                                    if let Some(t) = &picture {
+                                        ui.image((t.id(), egui::vec2(128.0, 128.0)));
+                                    }
+                                    ui.label(p.description());
+                                })
+                                .clicked();
+                            if clicked {
                                 chosen = Some(p.name.to_string());
                             }
                         }
@@ -334,6 +356,8 @@ impl EditorApp {
                 if ui.button("Frame").clicked() {
                     self.viewport.reframe();
                 }
+                ui.separator();
+                self.viewport.view_controls(ui);
                 ui.separator();
                 crate::grammar::menu_toggle(ui, &self.doc);
                 ui.separator();

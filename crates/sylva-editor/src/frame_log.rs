@@ -26,7 +26,7 @@ pub enum Entry {
         /// Since the editor started.
         at: Duration,
     },
-    /// A grown tree reached the view.
+    /// A grown tree reached the view: the frame that drew it ended.
     TreeShown {
         /// Since the editor started.
         at: Duration,
@@ -34,6 +34,8 @@ pub enum Entry {
         latency: Duration,
         /// The worker's time for the run.
         grow: Duration,
+        /// The run's stages and their times (the stages a change skipped are absent).
+        stages: Vec<(&'static str, Duration)>,
     },
     /// Something named happened (an edit, a file reload).
     Event {
@@ -53,6 +55,8 @@ pub enum Entry {
 pub struct FrameLog {
     start: Instant,
     submitted: Option<Instant>,
+    /// A tree taken from the worker whose frame has not ended yet: its run's time and stages.
+    arrived: Option<(Duration, Vec<(&'static str, Duration)>)>,
     last_frame: Option<Instant>,
     entries: Vec<Entry>,
 }
@@ -69,7 +73,13 @@ impl Default for FrameLog {
 impl FrameLog {
     /// An empty log starting now.
     pub fn new() -> FrameLog {
-        FrameLog { start: Instant::now(), submitted: None, last_frame: None, entries: Vec::new() }
+        FrameLog {
+            start: Instant::now(),
+            submitted: None,
+            arrived: None,
+            last_frame: None,
+            entries: Vec::new(),
+        }
     }
 
     fn push(&mut self, e: Entry) {
@@ -79,8 +89,13 @@ impl FrameLog {
         self.entries.push(e);
     }
 
-    /// A frame that began `took` ago ended now.
+    /// A frame that began `took` ago ended now (a tree that [`FrameLog::tree_arrived`]
+    /// during it counts as shown now).
     pub fn frame(&mut self, took: Duration) {
+        if let Some((grow, stages)) = self.arrived.take() {
+            let latency = self.submitted.take().map_or(Duration::ZERO, |s| s.elapsed());
+            self.push(Entry::TreeShown { at: self.start.elapsed(), latency, grow, stages });
+        }
         let busy = self.submitted.is_some();
         let began = Instant::now() - took;
         let gap = self.last_frame.map_or(Duration::ZERO, |t| began.saturating_duration_since(t));
@@ -94,10 +109,10 @@ impl FrameLog {
         self.push(Entry::Submitted { at: self.start.elapsed() });
     }
 
-    /// A tree the worker grew in `grow` is shown now.
-    pub fn tree_shown(&mut self, grow: Duration) {
-        let latency = self.submitted.take().map_or(Duration::ZERO, |s| s.elapsed());
-        self.push(Entry::TreeShown { at: self.start.elapsed(), latency, grow });
+    /// A tree the worker grew in `grow` (`stages`: its run's stage times) reached the
+    /// view during this frame; it is logged as shown when the frame ends.
+    pub fn tree_arrived(&mut self, grow: Duration, stages: Vec<(&'static str, Duration)>) {
+        self.arrived = Some((grow, stages));
     }
 
     /// A named event.
@@ -123,12 +138,17 @@ impl FrameLog {
                     ms(gap)
                 ),
                 Entry::Submitted { at } => format!(r#"{{"submitted":{:.3}}}"#, ms(at)),
-                Entry::TreeShown { at, latency, grow } => format!(
-                    r#"{{"tree_shown":{:.3},"latency_ms":{:.3},"grow_ms":{:.3}}}"#,
-                    ms(at),
-                    ms(latency),
-                    ms(grow)
-                ),
+                Entry::TreeShown { at, latency, grow, stages } => {
+                    let stages: Vec<String> =
+                        stages.iter().map(|(n, t)| format!("{n:?}:{:.3}", ms(t))).collect();
+                    format!(
+                        r#"{{"tree_shown":{:.3},"latency_ms":{:.3},"grow_ms":{:.3},"stages_ms":{{{}}}}}"#,
+                        ms(at),
+                        ms(latency),
+                        ms(grow),
+                        stages.join(",")
+                    )
+                }
                 Entry::Event { at, what, about, took } => format!(
                     r#"{{"event":{:?},"about":{:?},"at":{:.3},"took_ms":{:.3}}}"#,
                     what,

@@ -7,6 +7,7 @@
 //! - [`worker`]: the regeneration thread (newest change wins, stale runs cancelled);
 //! - [`panel`]: the controls, from [`sylva::recipe::schema()`];
 //! - [`grammar`]: an L-system's text, its errors in place and its `#define` sliders;
+//! - [`thumbnails`]: the preset picker's pictures;
 //! - [`viewport`]: the 3D view on egui's wgpu device;
 //! - [`app`]: the window, menu and status bar ([`EditorApp`]);
 //! - [`frame_log`]: frame times and change-to-tree latencies;
@@ -22,6 +23,7 @@ pub mod document;
 pub mod frame_log;
 pub mod grammar;
 pub mod panel;
+pub mod thumbnails;
 pub mod viewport;
 pub mod watch;
 pub mod worker;
