@@ -100,6 +100,13 @@ fn break_fix_slide_and_save_a_grammar() {
     let (at, _) = grammar::locate(&message, &name).unwrap_or_else(|| panic!("located in {name}: {message}"));
     assert_eq!(at, Location { line: 11, column: 1 }, "{message}");
     assert_eq!(triangles(&h), good, "the last good tree stays");
+    // `SYLVA_EDITOR_GRAMMAR_SCREENSHOT=file.png` saves the window showing the error.
+    if let Ok(shot) = std::env::var("SYLVA_EDITOR_GRAMMAR_SCREENSHOT") {
+        let image = h.render().expect("the window renders");
+        let (w, ht) = image.dimensions();
+        let png = sylva::image::Image::from_rgba(w, ht, image.into_raw()).to_png().unwrap();
+        std::fs::write(shot, png).unwrap();
+    }
     // The panel shows the place; a click puts the cursor there.
     h.get_by_label_contains("line 11, column 1").click_accesskit();
     h.run_steps(2);
