@@ -381,6 +381,34 @@ impl Session {
         self.update_with(recipe, &Cancel::new())
     }
 
+    /// Makes `loaded` the session's recipe and files: where its origin or overlay differ
+    /// from the session's (another preset, another folder, an edited grammar), every
+    /// stage reruns, but the drawn textures are kept and reused where their settings
+    /// match; otherwise this is [`Session::update_with`] of its recipe.
+    ///
+    /// ```
+    /// use sylva::recipe::Loaded;
+    /// use sylva::session::{Session, Stage};
+    /// let mut session = Session::new(Loaded::preset("lsys-binary-tree")?);
+    /// session.run()?;
+    /// let drawn = session.textures_drawn();
+    /// let edited = session.loaded().clone().with_overlay("lsystem/binary-tree.l", "Lsystem: 1\nderivation length: 2\nAxiom: F\nF --> F[+F]F\nendlsystem\n");
+    /// session.update_loaded_with(edited, &Default::default())?;
+    /// assert!(session.last_run().contains(&Stage::Generate));
+    /// assert_eq!(session.textures_drawn(), drawn, "no texture drawn again");
+    /// # Ok::<(), sylva::Error>(())
+    /// ```
+    pub fn update_loaded_with(&mut self, loaded: Loaded, cancel: &Cancel) -> Result<&Tree> {
+        let Loaded { recipe, origin, overlay } = loaded;
+        if origin != self.loaded.origin || overlay != self.loaded.overlay {
+            recipe.check()?;
+            self.loaded.origin = origin;
+            self.loaded.overlay = overlay;
+            self.invalidate(Stage::Generate);
+        }
+        self.update_with(recipe, cancel)
+    }
+
     /// [`Session::update`] that stops with [`Error::Cancelled`] once `cancel` is set
     /// (checked between stages and inside the long ones; a front end cancels a stale
     /// update from another thread). A cancelled or failed update keeps the stages it
