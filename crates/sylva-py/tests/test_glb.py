@@ -56,3 +56,36 @@ def test_material_images_are_arrays(aspen):
     img = bark.images["base_color"]
     assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] in (3, 4)
     assert img.std() > 0, "a drawn texture, not a flat colour"
+
+
+def test_instanced_leaves_equal_the_glb_instances():
+    tree = sylva.Recipe.preset("wp-quaking-aspen").set("leaves.mode", "instanced").grow()
+    glb = Glb(tree.to_glb())
+    ((part, transforms),) = tree.instances
+    check_part(glb, part)
+    mesh_index = next(i for i, m in enumerate(glb.doc["meshes"]) if m["name"] == part.name)
+    (node,) = [n for n in glb.doc["nodes"] if n.get("mesh") == mesh_index]
+    ext = node["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]
+    t, r, s = (glb.accessor(ext[k]) for k in ("TRANSLATION", "ROTATION", "SCALE"))
+    assert len(t) == len(transforms)
+    # An instance's world matrix is the node's transform after the instance's own.
+    world = trs(node["translation"], node["rotation"], node["scale"]) @ trs(t, r, s)
+    np.testing.assert_allclose(transforms, world, rtol=0, atol=1e-5)
+
+
+def trs(t, r, s) -> np.ndarray:
+    """glTF translation, rotation (quaternion x, y, z, w) and scale as 4×4 matrices."""
+    t, r, s = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (t, r, s))
+    x, y, z, w = r.T
+    rot = np.stack(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    ).transpose(2, 0, 1)
+    m = np.zeros((len(t), 4, 4))
+    m[:, :3, :3] = rot * s[:, None, :]
+    m[:, :3, 3] = t
+    m[:, 3, 3] = 1
+    return m
