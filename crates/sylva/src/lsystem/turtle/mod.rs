@@ -199,8 +199,8 @@ mod tests {
             ("-F", [0.0, 0.0, -1.0], "- turns H away from L"),
             ("&F", [-1.0, 0.0, 0.0], "& pitches H toward -U = -X"),
             ("^F", [1.0, 0.0, 0.0], "^ pitches H toward U"),
-            ("/+F", [1.0, 0.0, 0.0], "/ rolls L toward U"),
-            ("\\+F", [-1.0, 0.0, 0.0], "\\ rolls L away from U"),
+            ("/+F", [-1.0, 0.0, 0.0], "/ rolls L away from U, U toward L (cpfg)"),
+            ("\\+F", [1.0, 0.0, 0.0], "\\ rolls L toward U"),
             ("|F", [0.0, -1.0, 0.0], "| turns around"),
         ] {
             assert!(close(run(axiom).position[1], want), "{axiom}: {why}");
@@ -376,7 +376,9 @@ mod tests {
 
     #[test]
     fn twist_of_cylinders_decides_whether_rolls_turn_the_contour() {
-        for (twist, want) in [(true, [0.0, 1.0, 0.5]), (false, [-0.5, 1.0, 0.0])] {
+        // `/(90)` turns U (+X) to +Z (cpfg's roll), so with twist the contour's −x end
+        // moves from −X to −Z.
+        for (twist, want) in [(true, [0.0, 1.0, -0.5]), (false, [-0.5, 1.0, 0.0])] {
             let opts =
                 TurtleOptions { contours: vec![flat()], twist_of_cylinders: twist, ..Default::default() };
             let s = run_with("@#(1)!(1)@Gs f /(90) @Ge", &opts);

@@ -268,7 +268,10 @@ pub(super) fn run(
                     Cmd::Turn(_) => rotate(&mut st.h, &mut st.l, c, s),
                     // Pitch down (+): H toward −U, i.e. U toward H.
                     Cmd::Pitch(_) => rotate(&mut st.u, &mut st.h, c, s),
-                    _ => rotate(&mut st.l, &mut st.u, c, s),
+                    // Roll right (+): U toward L, as real cpfg rolls (issue 46 item 1:
+                    // cpfg's up is −(H × L), so with this frame's U = H × L its `/`
+                    // moves L away from U; `+ - & ^` agree either way).
+                    _ => rotate(&mut st.u, &mut st.l, c, s),
                 }
             }
             Cmd::TurnAround => {
