@@ -20,6 +20,29 @@ pub struct Recipe {
     pub loaded: Loaded,
 }
 
+thread_local! {
+    /// The worker pools of `grow(threads=n)` called from this thread, by size: kept, so
+    /// their threads (and their warm allocator arenas) serve the thread's next grows.
+    static POOLS: std::cell::RefCell<Vec<(usize, std::sync::Arc<rayon::ThreadPool>)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// This thread's pool of `n` worker threads, started on first use.
+fn pool(n: usize) -> PyResult<std::sync::Arc<rayon::ThreadPool>> {
+    POOLS.with(|pools| {
+        if let Some((_, p)) = pools.borrow().iter().find(|(k, _)| *k == n) {
+            return Ok(p.clone());
+        }
+        let p = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| sylva_error(format!("cannot start {n} worker thread(s): {e}")))?;
+        let p = std::sync::Arc::new(p);
+        pools.borrow_mut().push((n, p.clone()));
+        Ok(p)
+    })
+}
+
 /// The model file the recipe's generator reads (`generator.file`), if any.
 fn model_file(recipe: &sylva::Recipe) -> Option<String> {
     let table = recipe.to_table().ok()?;
@@ -203,13 +226,7 @@ impl Recipe {
         }
         let tree = py.detach(|| match threads {
             None | Some(0) => guard(|| sylva::pipeline::grow(&loaded)),
-            Some(n) => {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .map_err(|e| sylva_error(format!("cannot start {n} worker thread(s): {e}")))?;
-                pool.install(|| guard(|| sylva::pipeline::grow(&loaded)))
-            }
+            Some(n) => pool(n)?.install(|| guard(|| sylva::pipeline::grow(&loaded))),
         })?;
         Ok(Tree::grown_from(tree, loaded))
     }
