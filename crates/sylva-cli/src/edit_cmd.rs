@@ -45,6 +45,7 @@ pub fn run(args: EditArgs) -> miette::Result<()> {
         frame_log: args.frame_log,
         close_after_tree: args.close_after_tree,
         script,
+        started: None,
     };
     sylva_editor::run(opts).map_err(|e| miette::miette!("edit: {e}"))
 }

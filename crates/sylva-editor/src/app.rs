@@ -36,6 +36,10 @@ pub struct EditOptions {
     /// Changes applied one at a time once a tree is shown, each after the previous
     /// one's tree (latency measurements: the frame log times each).
     pub script: Vec<(String, toml::Value)>,
+    /// When the editor was asked to start: the frame log's zero, so "launch to first
+    /// tree" includes opening the window and the GPU device ([`crate::run`] sets it on
+    /// entry; `None`: when the app is made).
+    pub started: Option<Instant>,
 }
 
 /// The editor's state.
@@ -106,7 +110,7 @@ impl EditorApp {
             last_run: None,
             watch,
             save_path,
-            log: FrameLog::new(),
+            log: FrameLog::starting_at(opts.started.unwrap_or_else(Instant::now)),
             opts,
             frames_since_tree: None,
             seed_counter: 0,

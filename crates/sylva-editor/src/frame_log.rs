@@ -73,13 +73,12 @@ impl Default for FrameLog {
 impl FrameLog {
     /// An empty log starting now.
     pub fn new() -> FrameLog {
-        FrameLog {
-            start: Instant::now(),
-            submitted: None,
-            arrived: None,
-            last_frame: None,
-            entries: Vec::new(),
-        }
+        FrameLog::starting_at(Instant::now())
+    }
+
+    /// An empty log whose times count from `start`.
+    pub fn starting_at(start: Instant) -> FrameLog {
+        FrameLog { start, submitted: None, arrived: None, last_frame: None, entries: Vec::new() }
     }
 
     fn push(&mut self, e: Entry) {

@@ -55,7 +55,8 @@ impl std::error::Error for EditError {}
 ///
 /// Errors: the input cannot be read (before any window opens), there is no display
 /// (`DISPLAY` / `WAYLAND_DISPLAY` unset), or no GPU adapter can draw the window.
-pub fn run(opts: EditOptions) -> Result<(), EditError> {
+pub fn run(mut opts: EditOptions) -> Result<(), EditError> {
+    opts.started.get_or_insert_with(std::time::Instant::now);
     let mut doc = Document::open(opts.what.as_deref()).map_err(EditError::Input)?;
     for set in &opts.sets {
         let (k, v) = sylva::recipe::parse_set(set).map_err(|e| EditError::Input(e.to_string()))?;
