@@ -3,16 +3,26 @@
 //! as an image in the central panel. Drag to orbit, scroll to zoom; wind plays from the
 //! model's clip while "play" is on.
 //!
+//! The "View" row ([`Viewport::view_controls`]) turns on the ground with its contact
+//! shadow, the wireframe, the skeleton (on top, orange) and the cage (the mesher's
+//! control mesh, depth-tested, blue — meshed by a [`CageWorker`] thread, never on the
+//! UI thread), and picks the level of detail: automatic by distance, or a fixed level.
+//! Overlays show the tree at rest: pause the wind to compare them with the bark.
+//!
 //! The texture is `Rgba8Unorm` (what egui-wgpu samples for a native texture) viewed as
 //! `Rgba8UnormSrgb` by the renderer, so the colours are encoded once. Without a wgpu
 //! device (no adapter) the view says so and the rest of the editor works.
 
+use crate::worker::{CageOutcome, CageWorker};
 use egui_wgpu::wgpu;
 use glam::Mat4;
+use std::sync::Arc;
 use std::time::Instant;
-use sylva::Model;
+use sylva::pipeline::Tree;
+use sylva::recipe::Recipe;
+use sylva::{Model, Skeleton, Stage};
 use sylva_gpu::render::window::OrbitControl;
-use sylva_gpu::render::{Orbit, RenderOptions, Renderer};
+use sylva_gpu::render::{Lines, Orbit, RenderOptions, Renderer};
 
 /// The largest side of the view's texture, pixels.
 pub const MAX_SIDE: u32 = 4096;
@@ -24,6 +34,52 @@ struct Target {
     size: (u32, u32),
     texture: wgpu::Texture,
     id: egui::TextureId,
+}
+
+/// What the view shows besides the tree (the "View" row).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ViewSettings {
+    /// The ground disc with its contact shadow.
+    pub ground: bool,
+    /// The triangles' edges over the shaded tree.
+    pub wireframe: bool,
+    /// The skeleton's internodes, drawn on top.
+    pub skeleton: bool,
+    /// The mesher's control mesh (refinement off), depth-tested.
+    pub cage: bool,
+    /// A fixed level of detail; `None`: chosen by distance.
+    pub lod: Option<usize>,
+}
+
+impl Default for ViewSettings {
+    /// The ground on, everything else off, automatic level of detail.
+    fn default() -> Self {
+        ViewSettings { ground: true, wireframe: false, skeleton: false, cage: false, lod: None }
+    }
+}
+
+/// The skeleton overlay's colour (sRGB).
+const SKELETON_COLOR: [u8; 3] = [235, 110, 20];
+/// The cage overlay's colour (sRGB).
+const CAGE_COLOR: [u8; 3] = [40, 80, 230];
+
+/// The cage of the tree shown: what it is meshed from, and the overlay once it is.
+#[derive(Default)]
+struct Cage {
+    /// The tree's recipe and skeleton (what a cage request meshes).
+    source: Option<(Recipe, Arc<Skeleton>)>,
+    /// The thread, started when the cage is first shown.
+    worker: Option<CageWorker>,
+    /// The request whose cage is wanted (0: none asked for the current tree yet).
+    wanted: u64,
+    /// The cage's edges and its triangle count (drawn until a newer one replaces it).
+    shown: Option<(Lines, usize)>,
+    /// The request `shown` answers.
+    shown_job: u64,
+    /// Counts the cages received (part of what a drawn frame shows).
+    generation: u64,
+    /// The mesher's message when the cage failed.
+    error: Option<String>,
 }
 
 /// The view of the tree.
@@ -45,10 +101,23 @@ pub struct Viewport {
     model_generation: u64,
     /// What the texture shows now: a frame with the same key is not drawn again.
     drawn: Option<DrawKey>,
+    /// What is shown besides the tree.
+    pub view: ViewSettings,
+    /// The skeleton of the tree shown, as segments.
+    skeleton: Option<Lines>,
+    cage: Cage,
 }
 
-/// What a drawn frame depends on: size, view angles, zoom, clip time and tree.
-type DrawKey = (u32, u32, [u32; 4], u64);
+/// What a drawn frame depends on: size, view angles, zoom, clip time, tree, the view
+/// settings and the cage received.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct DrawKey {
+    size: (u32, u32),
+    angles: [u32; 4],
+    model: u64,
+    view: ViewSettings,
+    cage: u64,
+}
 
 impl std::fmt::Debug for Viewport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -75,6 +144,9 @@ impl Viewport {
             frames: 0,
             model_generation: 0,
             drawn: None,
+            view: ViewSettings::default(),
+            skeleton: None,
+            cage: Cage::default(),
         }
     }
 
@@ -86,7 +158,39 @@ impl Viewport {
         })
     }
 
-    /// Uploads a new tree; the view keeps its angles (the first tree is framed).
+    /// Shows a new tree: its model ([`Viewport::set_model`]), its skeleton for the
+    /// skeleton overlay, and what its cage is meshed from (a new cage is asked for when
+    /// the cage is shown and the skeleton or the meshing settings changed).
+    pub fn set_tree(&mut self, tree: &Tree) {
+        self.set_model(&tree.model);
+        let s = &tree.skeleton;
+        let segments = s
+            .parent
+            .iter()
+            .enumerate()
+            .filter(|(_, &p)| p != sylva::NO_PARENT)
+            .filter_map(|(i, &p)| Some([*s.position.get(p as usize)?, *s.position.get(i)?]))
+            .collect();
+        self.skeleton = Some(Lines { on_top: true, ..Lines::new(segments, SKELETON_COLOR) });
+        let same_cage = self.cage.source.as_ref().is_some_and(|(recipe, skeleton)| {
+            [Stage::Generate, Stage::Fit, Stage::Bark].iter().all(|st| st.same_inputs(recipe, &tree.recipe))
+                && **skeleton == tree.skeleton
+        });
+        if !same_cage {
+            self.cage.source = Some((tree.recipe.clone(), Arc::new(tree.skeleton.clone())));
+            self.cage.wanted = 0;
+            self.cage.error = None;
+        }
+    }
+
+    /// The number of triangles of the cage shown (its faces fan-triangulated), once it
+    /// has been meshed.
+    pub fn cage_triangles(&self) -> Option<usize> {
+        let c = &self.cage;
+        c.shown.as_ref().filter(|_| c.wanted != 0 && c.shown_job == c.wanted).map(|(_, n)| *n)
+    }
+
+    /// Uploads a new tree's model; the view keeps its angles (the first tree is framed).
     pub fn set_model(&mut self, model: &Model) {
         let Some(gpu) = &self.gpu else { return };
         match Renderer::with_device(&gpu.adapter, &gpu.device, &gpu.queue, model) {
@@ -96,6 +200,9 @@ impl Viewport {
                         self.control = OrbitControl::new(Orbit::auto(lo, hi));
                         self.framed = true;
                     }
+                }
+                if self.view.lod.is_some_and(|l| l >= r.level_count()) {
+                    self.view.lod = None;
                 }
                 self.renderer = Some(r);
                 self.model_generation += 1;
@@ -140,10 +247,85 @@ impl Viewport {
         }
     }
 
-    /// Fills `ui` with the view; returns its response (drags and scrolls move the camera).
+    /// Asks for the cage of the tree shown when the cage is on and none is asked for
+    /// yet, and takes a finished one; never waits.
+    fn update_cage(&mut self, ctx: &egui::Context) {
+        if !self.view.cage {
+            return;
+        }
+        let cage = &mut self.cage;
+        if cage.wanted == 0 {
+            if let Some((recipe, skeleton)) = &cage.source {
+                let worker = cage.worker.get_or_insert_with(|| {
+                    let ctx = ctx.clone();
+                    CageWorker::new(move || ctx.request_repaint())
+                });
+                cage.wanted = worker.submit(recipe.clone(), skeleton.clone());
+            }
+        }
+        let Some(worker) = &cage.worker else { return };
+        while let Some(outcome) = worker.poll() {
+            match outcome {
+                CageOutcome::Meshed { job, mesh, .. } if job == cage.wanted => {
+                    let triangles =
+                        (0..mesh.face_count()).map(|f| mesh.face(f).len().saturating_sub(2)).sum();
+                    cage.shown = Some((Lines::mesh_edges(&mesh, CAGE_COLOR), triangles));
+                    cage.shown_job = job;
+                    cage.generation += 1;
+                    cage.error = None;
+                }
+                CageOutcome::Failed { job, message } if job == cage.wanted => {
+                    cage.error = Some(format!("no cage: {message}"));
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// The "View" row: ground, wireframe, skeleton and cage toggles and the level of
+    /// detail (each control named for accessibility: "Ground", "Wireframe", "Skeleton",
+    /// "Cage", "Level of detail").
+    pub fn view_controls(&mut self, ui: &mut egui::Ui) {
+        let cage = match (&self.cage.error, self.cage_triangles()) {
+            (Some(e), _) => e.clone(),
+            (None, Some(n)) => format!("cage: {n} triangles"),
+            (None, None) => "cage: meshing…".to_string(),
+        };
+        let levels: Vec<u64> = match &self.renderer {
+            Some(r) => (0..r.level_count()).map(|l| r.level_triangles(l)).collect(),
+            None => vec![0],
+        };
+        let v = &mut self.view;
+        ui.label("View:");
+        ui.checkbox(&mut v.ground, "Ground").on_hover_text("a ground disc with a soft contact shadow");
+        ui.checkbox(&mut v.wireframe, "Wireframe").on_hover_text("the triangles' edges");
+        ui.checkbox(&mut v.skeleton, "Skeleton").on_hover_text("the skeleton's internodes, on top (at rest)");
+        ui.checkbox(&mut v.cage, "Cage")
+            .on_hover_text("the mesher's control mesh: the tree meshed with refine.levels = 0 (at rest)");
+        if v.cage {
+            ui.label(egui::RichText::new(cage).weak());
+        }
+        let name = |l: Option<usize>| l.map_or("LOD auto".to_string(), |l| format!("LOD {l}"));
+        egui::ComboBox::from_id_salt("view lod")
+            .selected_text(name(v.lod))
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut v.lod, None, name(None))
+                    .on_hover_text("each level by its size on screen");
+                for (l, tris) in levels.iter().enumerate() {
+                    ui.selectable_value(&mut v.lod, Some(l), name(Some(l)))
+                        .on_hover_text(format!("{tris} triangles"));
+                }
+            })
+            .response
+            .accessible_name("Level of detail");
+    }
+
+    /// Fills `ui` with the view (accessible name "tree view"); returns its response
+    /// (drags and scrolls move the camera).
     pub fn show(&mut self, ui: &mut egui::Ui) -> egui::Response {
         let size = ui.available_size().max(egui::vec2(64.0, 64.0));
         let (rect, response) = ui.allocate_exact_size(size, egui::Sense::click_and_drag());
+        response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "tree view"));
         if response.dragged() {
             let d = response.drag_delta();
             self.control.drag(d.x, d.y);
@@ -169,6 +351,7 @@ impl Viewport {
         let ppp = ui.ctx().pixels_per_point();
         let w = ((rect.width() * ppp).round() as u32).clamp(1, MAX_SIDE);
         let h = ((rect.height() * ppp).round() as u32).clamp(1, MAX_SIDE);
+        self.update_cage(ui.ctx());
         match self.draw(w, h) {
             Ok(Some(id)) => {
                 let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
@@ -229,21 +412,22 @@ impl Viewport {
         // Nothing moved since the last frame drawn: the texture already shows it (on a
         // software renderer a frame of a big tree costs hundreds of milliseconds).
         let o = self.control.orbit;
-        let key = (
-            w,
-            h,
-            [o.azimuth_deg.to_bits(), o.elevation_deg.to_bits(), self.control.zoom.to_bits(), time.to_bits()],
-            self.model_generation,
-        );
+        let key = DrawKey {
+            size: (w, h),
+            angles: [
+                o.azimuth_deg.to_bits(),
+                o.elevation_deg.to_bits(),
+                self.control.zoom.to_bits(),
+                time.to_bits(),
+            ],
+            model: self.model_generation,
+            view: self.view,
+            cage: self.cage.generation,
+        };
         if self.drawn == Some(key) {
             return Ok(Some(target.id));
         }
-        let opts = RenderOptions {
-            width: w,
-            height: h,
-            orbit: Some(self.control.orbit),
-            ..RenderOptions::default()
-        };
+        let opts = self.render_options(w, h);
         let instances = [Mat4::IDENTITY];
         let mut camera = renderer.camera(&opts, &instances);
         self.control.apply(&mut camera);
@@ -258,14 +442,37 @@ impl Viewport {
         Ok(Some(target.id))
     }
 
+    /// The renderer's options for a `w × h` frame from the view's angles, with what the
+    /// "View" row shows.
+    fn render_options(&self, w: u32, h: u32) -> RenderOptions {
+        let v = &self.view;
+        let mut overlays = Vec::new();
+        if let (true, Some((lines, _))) = (v.cage, &self.cage.shown) {
+            overlays.push(lines.clone());
+        }
+        if let (true, Some(lines)) = (v.skeleton, &self.skeleton) {
+            overlays.push(lines.clone());
+        }
+        RenderOptions {
+            width: w,
+            height: h,
+            orbit: Some(self.control.orbit),
+            ground: v.ground,
+            wireframe: v.wireframe,
+            lod: v.lod,
+            overlays,
+            ..RenderOptions::default()
+        }
+    }
+
     /// A picture of the tree from the view's angles (without its zoom), `width × height`
-    /// pixels, at the clip time shown: "Export" to a `.png`.
+    /// pixels, at the clip time shown, with what the "View" row shows: "Export" to a
+    /// `.png`.
     pub fn picture(&mut self, width: u32, height: u32) -> Result<sylva::image::Image, String> {
         let time = self.time();
         let renderer =
             self.renderer.as_ref().ok_or("no tree is shown (no GPU adapter, or nothing grown yet)")?;
-        let opts =
-            RenderOptions { width, height, orbit: Some(self.control.orbit), ..RenderOptions::default() };
+        let opts = self.render_options(width, height);
         renderer
             .render(&opts, &[Mat4::IDENTITY], time)
             .map(|r| r.image)

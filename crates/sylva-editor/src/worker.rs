@@ -7,15 +7,21 @@
 //! ends in one [`Outcome`] read with [`Worker::poll`]. A session keeps every stage whose
 //! inputs the change did not touch (docs/architecture.md, "Sessions"), so a leaf or wind
 //! change does not regrow the skeleton.
+//!
+//! [`CageWorker`] is a second such thread for the view's cage (issue 41 item 2): it
+//! meshes a grown tree's skeleton with refinement off ([`cage_mesh`]), newest request
+//! first, so turning the cage on never makes the UI wait either.
 
+use std::collections::HashMap;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use sylva::cancel::Cancel;
 use sylva::pipeline::Tree;
-use sylva::recipe::Loaded;
+use sylva::recipe::{Loaded, Recipe};
 use sylva::session::{Session, Stage};
+use sylva::{Mesh, Skeleton};
 
 /// What one job ended in.
 #[derive(Debug)]
@@ -170,6 +176,146 @@ fn run(queue: Receiver<Job>, send: Sender<Outcome>, current: Arc<Mutex<Cancel>>,
             }
             Err(sylva::Error::Cancelled) => Outcome::Cancelled { job: job.id },
             Err(e) => Outcome::Failed { job: job.id, message: e.to_string() },
+        };
+        if send.send(outcome).is_err() {
+            return;
+        }
+        wake();
+    }
+}
+
+/// The mesher's control mesh of a grown tree — its cage: `skeleton` (a [`Tree`]'s, the
+/// fitted skeleton) meshed by `recipe`'s mesher with refinement off (`refine.levels =
+/// 0`, no limit projection), its roots sunk and its base cut as the bark's are, without
+/// the leaves.
+///
+/// Errors: the mesher's (the same the tree's own meshing would have met).
+pub fn cage_mesh(recipe: &Recipe, skeleton: &Skeleton) -> sylva::Result<Mesh> {
+    let mut unrefined = recipe.clone();
+    unrefined.refine.levels = 0;
+    unrefined.refine.limit = false;
+    unrefined.output.textures = sylva::export::TextureMode::None;
+    let mut bare = skeleton.clone();
+    bare.organs.clear();
+    let model = sylva::pipeline::mesh(&unrefined, &bare, &HashMap::new(), &mut sylva::Report::default())?;
+    // The assembly puts the bark (or a leaf-mode leaf) first.
+    Ok(model.parts.into_iter().next().map(|p| p.mesh).unwrap_or_default())
+}
+
+/// What one cage request ended in.
+#[derive(Debug)]
+pub enum CageOutcome {
+    /// The cage was meshed.
+    Meshed {
+        /// The request's number ([`CageWorker::submit`]'s return).
+        job: u64,
+        /// The control mesh.
+        mesh: Mesh,
+        /// Wall time of the meshing.
+        elapsed: Duration,
+    },
+    /// The mesher failed: its message.
+    Failed {
+        /// The request's number.
+        job: u64,
+        /// What went wrong.
+        message: String,
+    },
+    /// A newer request replaced this one before it finished.
+    Cancelled {
+        /// The request's number.
+        job: u64,
+    },
+}
+
+/// A cage request: mesh `skeleton` by `recipe`.
+struct CageJob {
+    id: u64,
+    recipe: Recipe,
+    skeleton: Arc<Skeleton>,
+}
+
+/// The cage thread and its two channels (see the [module docs](self)).
+pub struct CageWorker {
+    jobs: Option<Sender<CageJob>>,
+    outcomes: Receiver<CageOutcome>,
+    current: Arc<Mutex<Cancel>>,
+    next: u64,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for CageWorker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CageWorker").field("next", &self.next).finish_non_exhaustive()
+    }
+}
+
+impl CageWorker {
+    /// Starts the thread; `wake` is called after each outcome is sent.
+    pub fn new(wake: impl Fn() + Send + Sync + 'static) -> CageWorker {
+        let (jobs, queue) = channel::<CageJob>();
+        let (send, outcomes) = channel();
+        let current = Arc::new(Mutex::new(Cancel::new()));
+        let token = current.clone();
+        let thread = std::thread::Builder::new()
+            .name("sylva-edit cage".into())
+            .spawn(move || run_cages(queue, send, token, wake))
+            .expect("the editor's cage thread starts");
+        CageWorker { jobs: Some(jobs), outcomes, current, next: 0, thread: Some(thread) }
+    }
+
+    /// Queues the cage of `skeleton` by `recipe` and cancels the one in flight; returns
+    /// the request's number.
+    pub fn submit(&mut self, recipe: Recipe, skeleton: Arc<Skeleton>) -> u64 {
+        self.next += 1;
+        lock(&self.current).cancel();
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(CageJob { id: self.next, recipe, skeleton });
+        }
+        self.next
+    }
+
+    /// The next outcome, if one is ready.
+    pub fn poll(&self) -> Option<CageOutcome> {
+        self.outcomes.try_recv().ok()
+    }
+
+    /// The number of the newest request.
+    pub fn latest(&self) -> u64 {
+        self.next
+    }
+}
+
+impl Drop for CageWorker {
+    fn drop(&mut self) {
+        lock(&self.current).cancel();
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The cage thread: the newest queued request, meshed under a fresh token.
+fn run_cages(
+    queue: Receiver<CageJob>,
+    send: Sender<CageOutcome>,
+    current: Arc<Mutex<Cancel>>,
+    wake: impl Fn(),
+) {
+    while let Ok(mut job) = queue.recv() {
+        while let Ok(newer) = queue.try_recv() {
+            let _ = send.send(CageOutcome::Cancelled { job: job.id });
+            job = newer;
+        }
+        let token = Cancel::new();
+        *lock(&current) = token.clone();
+        let started = Instant::now();
+        let result = sylva::cancel::scope(&token, || cage_mesh(&job.recipe, &job.skeleton));
+        let outcome = match result {
+            _ if token.is_cancelled() => CageOutcome::Cancelled { job: job.id },
+            Ok(mesh) => CageOutcome::Meshed { job: job.id, mesh, elapsed: started.elapsed() },
+            Err(e) => CageOutcome::Failed { job: job.id, message: e.to_string() },
         };
         if send.send(outcome).is_err() {
             return;
