@@ -12,7 +12,6 @@ fn parse(text: &str) -> LSystem {
 }
 
 /// Parses `text` and derives `steps` steps; the derived string as text.
-#[allow(dead_code)]
 fn derive(text: &str, steps: u32) -> String {
     let l = parse(text);
     let s = l.derive(&DeriveOptions { steps, budget: DEFAULT_MODULE_BUDGET, seed: 1 }).unwrap();
@@ -48,4 +47,16 @@ fn item1_roll_turns_as_cpfgs() {
     assert!(near(segments("&F(1)")[0][1], [-1.0, 0.0, 0.0]));
     // A roll followed by a pitch: `/(90)&F` pitches toward the rolled −U = −Z.
     assert!(near(segments("/(90)&F(1)")[0][1], [0.0, 0.0, -1.0]), "{:?}", segments("/(90)&F(1)"));
+}
+
+/// Item 5: cpfg does not decompose the axiom; decomposition follows each step. With
+/// `X` decomposing into `A` and `A --> B`, one step from the axiom `X` gives `A` (the step
+/// copies `X`, decomposition makes it `A`), not `B` (the corpus model `Ring`: cpfg
+/// `ABBB…`, where decomposing the axiom first gave `BABB…`).
+#[test]
+fn item5_the_axiom_is_not_decomposed() {
+    let text = "Lsystem: 1\nAxiom: X Y\nA --> B\ndecomposition\nX --> A\nhomomorphism\nA --> F\nendlsystem\n";
+    assert_eq!(derive(text, 0), "XY");
+    assert_eq!(derive(text, 1), "AY");
+    assert_eq!(derive(text, 2), "BY");
 }

@@ -1,7 +1,8 @@
 //! cpfg's predecessors of several modules in decomposition and homomorphism productions
 //! (issue 26): `A B --> X` in a `decomposition` or `homomorphism` section matches
-//! consecutive modules of the string being decomposed or interpreted (the derived string,
-//! the axiom, or one production's successor one level deeper), as a multi-module
+//! consecutive modules of the string being decomposed or interpreted (the derived string
+//! after a step, or one production's successor one level deeper; as in cpfg the axiom is
+//! not decomposed, so decomposition is tested after one step without productions), as a multi-module
 //! predecessor of a rewriting production matches consecutive modules of the string being
 //! rewritten. Single-module decomposition and homomorphism behave as before.
 
@@ -42,15 +43,15 @@ fn of(body: &str, steps: u32) -> (String, String) {
 #[test]
 fn two_module_decomposition_and_homomorphism() {
     assert_eq!(
-        of("Axiom: A B\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)", 0),
+        of("Axiom: A B\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)", 1),
         ("X".into(), "X".into())
     );
     let t = lsystem("Axiom: A B Y\ndecomposition\nA B --> X\nhomomorphism\nX Y --> F(1)");
-    let (derived, shown) = strings(&t, 0);
+    let (derived, shown) = strings(&t, 1);
     assert_eq!((derived.as_str(), shown.as_str()), ("XY", "F(1)"));
     // The turtle draws the homomorphism's image: one internode of length 1.
     let ls = parse(&t);
-    let m = derive(&ls, 0);
+    let m = derive(&ls, 1);
     let mut ev = ls.evaluator(1, ModelFunctions::default()).unwrap();
     let shown = ls.interpretation(&m, &mut ev, DEFAULT_MODULE_BUDGET).unwrap();
     let sk = interpret(&ls.symbols, &shown, &Default::default(), &ls.source).unwrap();
@@ -63,12 +64,12 @@ fn two_module_decomposition_and_homomorphism() {
 /// stays.
 #[test]
 fn matches_are_consecutive_left_to_right() {
-    assert_eq!(of("Axiom: A A B B A C B A B\ndecomposition\nA B --> X", 0).0, "AXBACBX");
+    assert_eq!(of("Axiom: A A B B A C B A B\ndecomposition\nA B --> X", 1).0, "AXBACBX");
     // Overlapping candidates: `A A A` with `A A --> X` gives `X A`.
     assert_eq!(of("Axiom: A A A\nhomomorphism\nA A --> X", 0), ("AAA".into(), "XA".into()));
     // A longer predecessor listed first wins where it matches; the single-module
     // production of the same first module applies elsewhere.
-    assert_eq!(of("Axiom: A B C A B D\ndecomposition\nA B C --> X\nA --> Y", 0).0, "XYBD");
+    assert_eq!(of("Axiom: A B C A B D\ndecomposition\nA B C --> X\nA --> Y", 1).0, "XYBD");
 }
 
 /// Parameters of every module of the predecessor are bound in order, and conditions
@@ -76,7 +77,7 @@ fn matches_are_consecutive_left_to_right() {
 #[test]
 fn parameters_and_conditions() {
     assert_eq!(
-        of("Axiom: A(1) B(2) A(3) B(1)\ndecomposition\nA(x) B(y) : x < y --> C(x + y)", 0).0,
+        of("Axiom: A(1) B(2) A(3) B(1)\ndecomposition\nA(x) B(y) : x < y --> C(x + y)", 1).0,
         "C(3)A(3)B(1)"
     );
     assert_eq!(
@@ -104,9 +105,9 @@ fn decomposition_sees_the_whole_derived_string() {
 /// follow the rewritten module are not consecutive in the same string).
 #[test]
 fn recursion_matches_within_one_successor() {
-    assert_eq!(of("Axiom: A\ndecomposition\nmaximum depth: 3\nA --> B C\nB C --> D D\nD D --> F", 0).0, "F");
+    assert_eq!(of("Axiom: A\ndecomposition\nmaximum depth: 3\nA --> B C\nB C --> D D\nD D --> F", 1).0, "F");
     // `B` comes from A's successor, `C` from the axiom: not one string.
-    assert_eq!(of("Axiom: A C\ndecomposition\nmaximum depth: 3\nA --> B\nB C --> X", 0).0, "BC");
+    assert_eq!(of("Axiom: A C\ndecomposition\nmaximum depth: 3\nA --> B\nB C --> X", 1).0, "BC");
     // Two sibling successors do not join either: `A A` gives `B B`, not `X`.
     assert_eq!(of("Axiom: A A\nhomomorphism\nmaximum depth: 3\nA --> B\nB B --> X", 0).1, "BB");
     // A successor's own pair does match, at any depth within the maximum.
@@ -115,7 +116,7 @@ fn recursion_matches_within_one_successor() {
     assert_eq!(of("Axiom: A\nhomomorphism\nA --> B C\nB C --> X", 0).1, "BC");
     // With an explicit depth, a pair still matching at that depth is an error naming it.
     let t = lsystem("Axiom: A\ndecomposition\nmaximum depth: 1\nA --> B C\nB C --> X");
-    let e = parse(&t).derive(&DeriveOptions { steps: 0, budget: 1000, seed: 0 }).unwrap_err();
+    let e = parse(&t).derive(&DeriveOptions { steps: 1, budget: 1000, seed: 0 }).unwrap_err();
     assert!(
         e.message.contains("module B still has a decomposition production at the maximum depth 1"),
         "{}",

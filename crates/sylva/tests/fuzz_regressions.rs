@@ -69,7 +69,8 @@ fn macro_expansion_bomb_is_a_budget_error() {
 fn recursive_decomposition_stops_at_the_module_budget() {
     let text = "Lsystem: 1\nAxiom: A(40)\ndecomposition\nmaximum depth: 100\n\
                 A(n) : n > 0 --> A(n-1)A(n-1)\nendlsystem\n";
-    let e = derive_fails(text, 0, 100_000, ErrorKind::Budget, &["more than 100000 modules"]);
+    // One step: decomposition follows each step (cpfg does not decompose the axiom).
+    let e = derive_fails(text, 1, 100_000, ErrorKind::Budget, &["more than 100000 modules"]);
     assert!(format!("{e:?}").contains("generator.max_modules"), "{e:?}");
 }
 
@@ -78,7 +79,8 @@ fn recursive_decomposition_stops_at_the_module_budget() {
 #[test]
 fn deep_decomposition_does_not_overflow_the_stack() {
     let text = "Lsystem: 1\nAxiom: A\ndecomposition\nmaximum depth: 10000\nA --> AA\nendlsystem\n";
-    derive_fails(text, 0, 100_000, ErrorKind::OutOfRange, &["maximum depth 10000"]);
+    // One step: decomposition follows each step (cpfg does not decompose the axiom).
+    derive_fails(text, 1, 100_000, ErrorKind::OutOfRange, &["maximum depth 10000"]);
     // Without `maximum depth` the rule applies once per step: no error.
     let ls = LSystem::parse(
         "t.l",

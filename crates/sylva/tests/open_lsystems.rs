@@ -54,7 +54,9 @@ fn honda81_grows_pascals_triangle_mod_two() {
 fn honda81_stronger_primordium_wins() {
     // Vogel's spiral of 200 primordia with increasing vigor; a primordium becomes a
     // ray floret (drawn as a polygon) when no primordium within the radius is stronger.
-    let model = "#define N 200\nLsystem: 1\nderivation length: 1\nAxiom: A(0)\n\
+    // Two steps, as cpfg needs: the first decomposes A(0) into the primordia (cpfg does
+    // not decompose the axiom), the second rewrites each C by its ?E's answer.
+    let model = "#define N 200\nLsystem: 1\nderivation length: 2\nAxiom: A(0)\n\
                  C(n) > ?E(x) : x==0 --> @c(1)\nC(n) > ?E(x) : x==1 --> {.+F.}\n\
                  decomposition\nmaximum depth: 1000\n\
                  A(n) : n < N --> [+(n*137.5)f(0.5*n^0.5)C(n)?E(n)]A(n+1)\nendlsystem\n";

@@ -143,48 +143,20 @@ impl LSystem {
         Ok(())
     }
 
-    /// The axiom as a module string (its expressions evaluated, decomposition applied).
+    /// The axiom as a module string, its expressions evaluated. As in real cpfg it is not
+    /// decomposed (issue 46 item 5): decomposition follows each derivation step, so the
+    /// first step rewrites the axiom as written, and a derivation of 0 steps is the
+    /// axiom itself.
     pub fn axiom_string(&self, ev: &mut Evaluator) -> Result<ModuleString, Box<LsystemError>> {
         let mut out = ModuleString::new();
         let mut buf = Vec::new();
-        let mut scratch = Vec::new();
-        // With multi-module predecessors the axiom is decomposed as a whole string.
-        let whole = self.decomposition.lookahead > 0;
         for m in &self.axiom {
             buf.clear();
             for a in &m.args {
                 let v = ev.eval(a, &[]).map_err(|e| self.eval_error(e, "evaluating the axiom", None))?;
                 buf.push(v);
             }
-            if whole {
-                out.try_push(m.sym, &buf).map_err(|e| self.memory_error(e, ev, "the axiom"))?;
-            } else {
-                self.expand(
-                    &self.decomposition,
-                    "decomposition",
-                    m.sym,
-                    &buf,
-                    0,
-                    &mut out,
-                    ev,
-                    &mut scratch,
-                )?;
-            }
-            self.charge_module(ev, &out)?;
-        }
-        if whole {
-            let raw = std::mem::take(&mut out);
-            out = ModuleString::try_with_capacity(raw.len(), raw.params.len())
-                .map_err(|e| self.memory_error(e, ev, "the axiom"))?;
-            self.expand_run(
-                &self.decomposition,
-                "decomposition",
-                &raw,
-                0..raw.len(),
-                &mut out,
-                ev,
-                &mut scratch,
-            )?;
+            out.try_push(m.sym, &buf).map_err(|e| self.memory_error(e, ev, "the axiom"))?;
             self.charge_module(ev, &out)?;
         }
         Ok(out)
@@ -444,17 +416,17 @@ mod tests {
 
     #[test]
     fn decomposition_depth_three() {
-        // Decomposition runs on the axiom and after every step, recursively.
+        // Decomposition runs after every step, recursively; not on the axiom (cpfg).
         let t = "Lsystem: 1\nAxiom: A\nA --> B\ndecomposition\nmaximum depth: 3\nA --> X[Y]\nB --> CC\nC --> DE\nD --> G\nendlsystem\n";
         let (ls, m) = derive(t, 0);
-        assert_eq!(ls.format(&m), "X[Y]");
+        assert_eq!(ls.format(&m), "A");
         let (ls, m) = derive(t, 1);
-        assert_eq!(ls.format(&m), "X[Y]");
-        let t2 = t.replace("Axiom: A", "Axiom: B");
-        let (ls, m) = derive(&t2, 0);
         assert_eq!(ls.format(&m), "GEGE");
+        let t2 = t.replace("Axiom: A", "Axiom: A B");
+        let (ls, m) = derive(&t2, 1);
+        assert_eq!(ls.format(&m), "GEGEGEGE");
         let t3 = t2.replace("depth: 3", "depth: 2");
-        let e = derive_err(&t3, 0, 100);
+        let e = derive_err(&t3, 1, 100);
         assert!(e.message.contains("module D still has a decomposition production"), "{}", e.message);
     }
 }
