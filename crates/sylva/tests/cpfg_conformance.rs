@@ -60,3 +60,17 @@ fn item5_the_axiom_is_not_decomposed() {
     assert_eq!(derive(text, 1), "AY");
     assert_eq!(derive(text, 2), "BY");
 }
+
+/// Item 3: `*` as a context means any context, a module or none (cpfg); it never
+/// matched in sylva, silently. `*` among other modules of a context is refused as
+/// unsupported, never silently ignored.
+#[test]
+fn item3_a_star_context_matches_anything() {
+    let text = "Lsystem: 1\nAxiom: A B\n* < B > * --> C\nA > * : * --> D\nendlsystem\n";
+    assert_eq!(derive(text, 1), "DC");
+    // Nothing to the left or right: still a match.
+    assert_eq!(derive(&text.replace("Axiom: A B", "Axiom: B"), 1), "C");
+    let e = LSystem::parse("t.l", "Lsystem: 1\nAxiom: A B\nA * < B --> C\nendlsystem\n", &[]).unwrap_err();
+    assert_eq!(e.kind, sylva::lsystem::ErrorKind::Unsupported, "{}", e.message);
+    assert!(e.message.contains("`*` among the modules of a context"), "{}", e.message);
+}

@@ -55,7 +55,10 @@ impl LSystem {
             let s0 = start + after;
             let s1 = gt.map(|g| start + g).unwrap_or(pred_end);
             let rc = gt.map(|g| (start + g + 1, pred_end));
-            (lc, (s0, s1), rc)
+            // cpfg's `*` as a whole context means any context (a module or none), as
+            // no context does (issue 46 item 3): `* < A > * --> …` is `A --> …`.
+            let any = |r: Option<(usize, usize)>| r.filter(|&(a, b)| text[a..b].trim() != "*");
+            (any(lc), (s0, s1), any(rc))
         };
         if section != Section::Productions && (lc.is_some() || rc.is_some()) {
             return Err(self.source.error(
@@ -214,6 +217,16 @@ impl LSystem {
                 out.push((None, Vec::new(), i));
                 i = skip_ws(s, i + 1, end);
                 continue;
+            }
+            if s[i] == b'*' {
+                return Err(self.source.error(
+                    ErrorKind::Unsupported,
+                    i,
+                    1,
+                    "unsupported: `*` among the modules of a context (a context of `*` alone means any \
+                     context)",
+                    "`*`",
+                ));
             }
             let (m, names, next) = self.formal_module(&text, i, end)?;
             out.push((Some(m), names, i));
