@@ -74,3 +74,23 @@ fn item3_a_star_context_matches_anything() {
     assert_eq!(e.kind, sylva::lsystem::ErrorKind::Unsupported, "{}", e.message);
     assert!(e.message.contains("`*` among the modules of a context"), "{}", e.message);
 }
+
+/// Item 4: cpfg keeps `@` and `~` as symbols of their own when matching, so a
+/// production for `o(r)` also rewrites the `o` of `@o(0.2)`, the prefix staying before
+/// the successor (the corpus model `MycelisSchematic`), and one for `b` the `b` of `~b`.
+/// A module with productions of its own keeps them; a successor that does not start
+/// with a letter or digit the prefix can carry is an `unsupported:` error.
+#[test]
+fn item4_prefixed_modules_match_their_letter() {
+    let text = "Lsystem: 1\nAxiom: @o(0.2) o(1) ~b(2)\no(r) --> o(r+0.5)\nb(s) --> c(s*2) F\nendlsystem\n";
+    assert_eq!(derive(text, 1), "@o(0.7)o(1.5)~c(4)F");
+    assert_eq!(derive(text, 2), "@o(1.2)o(2)~c(4)F");
+    // `@o` has its own production: X's does not apply.
+    let own = "Lsystem: 1\nAxiom: @o(1)\no(r) --> o(9)\n@o(r) --> @o(r*2)\nendlsystem\n";
+    assert_eq!(derive(own, 1), "@o(2)");
+    let bad = "Lsystem: 1\nAxiom: @o(1)\no(r) --> [F]\nendlsystem\n";
+    let l = parse(bad);
+    let e = l.derive(&DeriveOptions { steps: 1, budget: DEFAULT_MODULE_BUDGET, seed: 1 }).unwrap_err();
+    assert_eq!(e.kind, sylva::lsystem::ErrorKind::Unsupported, "{}", e.message);
+    assert!(e.message.contains("rewrites the `o` of `@o`"), "{}", e.message);
+}

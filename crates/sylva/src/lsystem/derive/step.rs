@@ -5,7 +5,7 @@
 
 use super::{param_budget, DeriveOptions, MODULE_WORK};
 use crate::lsystem::expr::Evaluator;
-use crate::lsystem::parse::LSystem;
+use crate::lsystem::parse::{LSystem, NO_BASE};
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use crate::lsystem::string::{try_room, ModuleString, OutOfMemory};
 
@@ -130,6 +130,69 @@ impl LSystem {
             } else {
                 sys.select(&sys.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
             };
+            let base = sys.prefix_base.get(sym as usize).copied().unwrap_or(NO_BASE);
+            if chosen.is_none() && base != NO_BASE {
+                // cpfg keeps `@`/`~` as symbols of their own: X's productions rewrite the X
+                // of `@X(…)`, and the prefix stays before the successor (issue 46 item 4).
+                let bprods = &sys.by_symbol[base as usize];
+                let site = Some((cur, i, &brackets[..]));
+                if let Some((k, uses_buf)) =
+                    sys.select(&sys.productions, bprods, params, site, ev, &mut buf)?
+                {
+                    let p = &sys.productions[k];
+                    if p.rest.is_empty() {
+                        let locals = if uses_buf { &buf[..] } else { params };
+                        tmp.syms.clear();
+                        tmp.params.clear();
+                        tmp.pofs.clear();
+                        tmp.pofs.push(0);
+                        sys.emit(p, locals, &mut tmp, ev, &mut args)?;
+                        let lead = tmp.syms.first().and_then(|&y| self.prefixed_lead(sym, y));
+                        let Some(lead) = lead else {
+                            let name = self.symbols.name(sym);
+                            return Err(self.source.error(
+                                ErrorKind::Unsupported,
+                                p.at as usize,
+                                p.len as usize,
+                                &format!(
+                                    "unsupported: this production rewrites the `{}` of `{name}` (cpfg keeps `{}` \
+                                     as a module of its own), and its successor does not start with a letter or \
+                                     digit that `{}` can prefix",
+                                    &name[1..],
+                                    &name[..1],
+                                    &name[..1]
+                                ),
+                                "production",
+                            ));
+                        };
+                        tmp.syms[0] = lead;
+                        for j in 0..tmp.len() {
+                            let (s2, p2) = tmp.module(j);
+                            if decompose {
+                                sys.expand(
+                                    &sys.decomposition,
+                                    "decomposition",
+                                    s2,
+                                    p2,
+                                    0,
+                                    out,
+                                    ev,
+                                    &mut scratch,
+                                )?;
+                            } else {
+                                out.try_push(s2, p2).map_err(|e| oom(e, ev))?;
+                            }
+                        }
+                        if whole && raw_owner.len() < out.len() {
+                            let more = out.len() - raw_owner.len();
+                            try_room(&mut raw_owner, more, out.len()).map_err(|e| oom(e, ev))?;
+                            raw_owner.resize(out.len(), owner.get(i).copied().unwrap_or(0));
+                        }
+                        self.check_step_size(out, opts, step)?;
+                        continue;
+                    }
+                }
+            }
             match chosen {
                 None if decompose => {
                     sys.expand(&sys.decomposition, "decomposition", sym, params, 0, out, ev, &mut scratch)?

@@ -218,6 +218,22 @@ pub struct LSystem {
     /// The file's further `Lsystem: n` blocks, the sub-L-systems that `?(n, scale)` …
     /// `$` calls (empty for a sub-L-system itself).
     pub subsystems: Vec<SubLsystem>,
+    /// Per symbol: for a prefixed module `@X` or `~X` (X one character) whose own
+    /// productions are none while X has some, X's symbol; [`NO_BASE`] otherwise. cpfg
+    /// keeps `@` and `~` as separate symbols of its string, so X's productions rewrite
+    /// the X of `@X(…)` (issue 46 item 4); see [`LSystem::prefixed_lead`].
+    pub prefix_base: Vec<u16>,
+}
+
+/// [`LSystem::prefix_base`] of a symbol that is not a prefixed module with a base.
+pub const NO_BASE: u16 = u16::MAX;
+
+/// `@X` / `~X` with X a single character: the prefix and X.
+fn split_prefixed(name: &str) -> Option<(char, &str)> {
+    let mut c = name.chars();
+    let p = c.next().filter(|p| *p == '@' || *p == '~')?;
+    let rest = c.as_str();
+    (rest.chars().count() == 1).then_some((p, rest))
 }
 
 /// A sub-L-system: an `Lsystem: n` block after the file's first one. The modules
@@ -292,10 +308,13 @@ impl LSystem {
             end: None,
             number: 1,
             subsystems: Vec::new(),
+            prefix_base: Vec::new(),
         };
         let items = ls.items()?;
         ls.declare_globals(&items)?;
-        let mut blocks = ls.compile_items(&items)?.into_iter();
+        let blocks = ls.compile_items(&items)?;
+        ls.intern_prefixed_leads(&blocks)?;
+        let mut blocks = blocks.into_iter();
         let main = blocks.next().expect("compile_items returns the main block");
         ls.install(main);
         let mut subsystems: Vec<SubLsystem> = Vec::new();
@@ -314,6 +333,45 @@ impl LSystem {
         ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
         ls.writes_files = ls.source.text.contains("fopen");
         Ok(ls)
+    }
+
+    /// Interns, for every prefixed module `@X` / `~X` and every production of X whose
+    /// successor starts with a one-character module Y, the module `@Y` / `~Y` that
+    /// rewriting the X of `@X` makes (cpfg's string keeps the prefix before Y).
+    fn intern_prefixed_leads(&mut self, blocks: &[Block]) -> PResult<()> {
+        for s in 0..self.symbols.len() {
+            let name = self.symbols.name(s as u16).to_string();
+            let Some((prefix, base)) = split_prefixed(&name) else { continue };
+            let Some(b) = self.symbols.get(base) else { continue };
+            let mut leads = Vec::new();
+            for p in blocks.iter().flat_map(|k| &k.productions).filter(|p| p.pred == b && p.rest.is_empty()) {
+                if let Some(first) = p.succ.first() {
+                    let y = self.symbols.name(first.sym);
+                    if y.chars().count() == 1 && y.chars().all(|c| c.is_ascii_alphanumeric()) {
+                        leads.push(format!("{prefix}{y}"));
+                    }
+                }
+            }
+            for l in leads {
+                self.symbols.intern(&l).ok_or_else(|| {
+                    self.source.error_nowhere(ErrorKind::Syntax, "more than 65,535 distinct module names")
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The module that rewriting the X of the prefixed module `sym` (`@X`, `~X`) writes
+    /// first, for a successor that starts with `lead` (Y): `@Y` / `~Y`, as cpfg's string
+    /// keeps the prefix before whatever replaces X. `None` when Y is not a module the
+    /// prefix can carry (not one letter or digit), or was not interned.
+    pub fn prefixed_lead(&self, sym: u16, lead: u16) -> Option<u16> {
+        let (prefix, _) = split_prefixed(self.symbols.name(sym))?;
+        let y = self.symbols.name(lead);
+        if y.chars().count() != 1 || !y.chars().all(|c| c.is_ascii_alphanumeric()) {
+            return None;
+        }
+        self.symbols.get(&format!("{prefix}{y}"))
     }
 
     /// Takes the current block's declarations out of `self` (leaving it blank for the
@@ -366,6 +424,15 @@ impl LSystem {
             }
         }
         self.has_context = self.productions.iter().any(|p| !p.left.is_empty() || !p.right.is_empty());
+        self.prefix_base = (0..n)
+            .map(|i| {
+                let base = split_prefixed(self.symbols.name(i as u16)).and_then(|(_, x)| self.symbols.get(x));
+                match base {
+                    Some(b) if self.by_symbol[i].is_empty() && !self.by_symbol[b as usize].is_empty() => b,
+                    _ => NO_BASE,
+                }
+            })
+            .collect();
     }
 }
 
