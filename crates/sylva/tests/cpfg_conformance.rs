@@ -94,3 +94,19 @@ fn item4_prefixed_modules_match_their_letter() {
     assert_eq!(e.kind, sylva::lsystem::ErrorKind::Unsupported, "{}", e.message);
     assert!(e.message.contains("rewrites the `o` of `@o`"), "{}", e.message);
 }
+
+/// Item 6: a line that starts like a keyword but holds a production arrow is a
+/// production, as cpfg reads it: `AXIOM : A_SW == 1 --> …` (the corpus model `Lilac`)
+/// rewrites the modules `A X I O M` under a condition; sylva read it as an `Axiom:`
+/// line, silently (9 modules instead of 4,332).
+#[test]
+fn item6_keywords_inside_productions_are_productions() {
+    let text = "#define SW 2\nLsystem: 1\nderivation length: 1\nAxiom: AXIOM\n\
+                decomposition\nAXIOM : SW == 1 --> F(1)\nAXIOM : SW == 2 --> F(2)\n\
+                Seed : 1 --> G\nendlsystem\n";
+    assert_eq!(derive(text, 1), "F(2)");
+    // The keyword lines themselves are unchanged.
+    let l = parse(text);
+    assert_eq!(l.derivation_length, 1);
+    assert_eq!(l.seed, None);
+}

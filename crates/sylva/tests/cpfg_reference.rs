@@ -42,7 +42,7 @@ const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
         "10-manuals__11-CPFG__Lilac",
         true,
         true,
-        "item 6: `AXIOM : A_SW == 1 --> …` is read as an `Axiom:` statement",
+        "item 8: func() is cpfg's sampled table (`+(53.1316)` where cpfg has `+(53.1232)`)",
     ),
     (
         "10-manuals__11-CPFG__Ridley",

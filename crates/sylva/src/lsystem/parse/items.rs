@@ -64,13 +64,19 @@ const KEYWORDS: &[(&str, Kw, bool)] = &[
 ];
 
 /// Recognises a keyword at the start of `line` (already trimmed). Returns the keyword
-/// and the byte offset (within `line`) where its value starts.
+/// and the byte offset (within `line`) where its value starts. A line with a production
+/// arrow `-->` is a production even when it starts like a keyword, as cpfg reads it
+/// (issue 46 item 6: `AXIOM : A_SW == 1 --> …` rewrites the modules `AXIOM` under a
+/// condition; it is not an `Axiom:` line).
 fn keyword(line: &str) -> Option<(Kw, usize)> {
     let lower = line.to_ascii_lowercase();
     for &(name, kw, colon) in KEYWORDS {
         let Some(rest) = lower.strip_prefix(name) else { continue };
         let trimmed = rest.trim_start();
         if colon {
+            if top_level_find_str(line, "-->").is_some() {
+                return None;
+            }
             if let Some(v) = trimmed.strip_prefix(':') {
                 return Some((kw, line.len() - v.len()));
             }
