@@ -110,3 +110,23 @@ fn item6_keywords_inside_productions_are_productions() {
     assert_eq!(l.derivation_length, 1);
     assert_eq!(l.seed, None);
 }
+
+/// Item 2: cpfg stores parameters as 32-bit floats (expressions are evaluated in double
+/// precision, the values written into the string are rounded). A clock that adds 0.1
+/// per step reaches 1.0000001 (≥ 1) after ten steps in cpfg; in double precision it was
+/// 0.9999999999999999 and fired one step late (the corpus model `08-continuous-time`:
+/// 421 modules instead of cpfg's 851).
+#[test]
+fn item2_parameters_are_32_bit_floats() {
+    let text = "Lsystem: 1\nAxiom: A(0)\nA(t) : t < 1 --> A(t+0.1)\nA(t) : t >= 1 --> B\nendlsystem\n";
+    assert_eq!(derive(text, 11), "B");
+    // Printed as the shortest text of the `f32`.
+    assert_eq!(derive(text, 10), "A(1.0000001)");
+    // Axiom parameters are rounded too: 0.1 is the `f32` 0.100000001490116…
+    let l = parse("Lsystem: 1\nAxiom: A(0.1)\nendlsystem\n");
+    let m = l.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap();
+    assert_eq!(m.module(0).1, [0.1f32 as f64]);
+    assert_eq!(l.format(&m), "A(0.1)");
+    let text = "Lsystem: 1\nAxiom: A(16777217)\nA(x) --> B(x + 0.25, (x - 16777216) * 4)\nendlsystem\n";
+    assert_eq!(derive(text, 1), "B(16777216,0)");
+}

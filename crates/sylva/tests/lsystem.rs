@@ -75,17 +75,18 @@ fn snowflake_is_closed_with_equal_segments() {
         assert_eq!(segs.len(), 3 * 4usize.pow(n), "3·4ⁿ segments at n = {n}");
         let len = 3f64.powi(-(n as i32));
         for (a, b) in &segs {
-            assert!((a.distance(*b) - len).abs() < 1e-12 * len.max(1.0));
+            // Parameters are 32-bit floats, as in cpfg (issue 46): s/3 is rounded to f32.
+            assert!((a.distance(*b) - len).abs() < 1e-6 * len.max(1.0));
         }
         let start = segs[0].0;
         let end = segs.last().unwrap().1;
-        assert!(start.distance(end) <= 1e-9, "closed at n = {n}: gap {}", start.distance(end));
+        assert!(start.distance(end) <= 1e-6, "closed at n = {n}: gap {}", start.distance(end));
         // One connected chain.
         assert_eq!(sk.stats().roots, 1);
         // Signed area in the y–z plane (property 4): the appendages point outward.
         let area: f64 = segs.iter().map(|(a, b)| 0.5 * (a.y * b.z - b.y * a.z)).sum::<f64>().abs();
         let expect = 3f64.sqrt() / 4.0 * (8.0 / 5.0 - 3.0 / 5.0 * (4.0f64 / 9.0).powi(n as i32));
-        assert!((area - expect).abs() < 1e-9, "area {area} vs {expect} at n = {n}");
+        assert!((area - expect).abs() < 1e-6, "area {area} vs {expect} at n = {n}");
     }
 }
 
@@ -135,7 +136,9 @@ fn honda_reference_geometry() {
         let y = pts().map(|p| p.y).fold(f64::MIN, f64::max);
         let ymin = pts().map(|p| p.y).fold(f64::MAX, f64::min);
         let r = pts().map(|p| (p.x * p.x + p.z * p.z).sqrt()).fold(0.0, f64::max);
-        assert!((sum - total).abs() < 1e-5, "tree {t}: Σ length {sum} vs {total}");
+        // 1e-4: the reference is in double precision; parameters are 32-bit floats, as in
+        // cpfg (issue 46), which moves Σ length by about 2e-5.
+        assert!((sum - total).abs() < 1e-4, "tree {t}: Σ length {sum} vs {total}");
         assert!((y - ymax).abs() < 1e-5, "tree {t}: y max {y} vs {ymax}");
         assert!((r - rmax).abs() < 1e-5, "tree {t}: radial max {r} vs {rmax}");
         let expect_ymin = if t == "b" { -0.024148 } else { 0.0 };
@@ -174,7 +177,9 @@ fn honda_scale_invariance() {
     let (big, _) = segments("lsys-honda-b", &["generator.define.S0=100", "generator.define.MIN=1.7"]);
     assert_eq!(big.len(), small.len());
     for ((a, b), (c, d)) in small.iter().zip(&big) {
-        assert!((*a * 100.0).distance(*c) < 1e-9 && (*b * 100.0).distance(*d) < 1e-9);
+        // Within f32 precision: parameters are 32-bit floats, as in cpfg (issue 46).
+        let tol = 1e-6 * c.length().max(d.length()).max(1.0);
+        assert!((*a * 100.0).distance(*c) < tol && (*b * 100.0).distance(*d) < tol);
     }
 }
 
@@ -197,7 +202,7 @@ fn sign_flips_keep_reference_values() {
     let flipped = base.replace("+(30)", "+(-30)").replace("-(30)", "-(-30)").replace("/(137)", "\\(137)");
     let (a, b) = (measure(base), measure(&flipped));
     assert!((a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9 && (a.2 - b.2).abs() < 1e-9);
-    assert!((a.0 - 181.585271).abs() < 1e-5, "tree g total length {}", a.0);
+    assert!((a.0 - 181.585271).abs() < 1e-4, "tree g total length {}", a.0);
 }
 
 #[test]

@@ -9,6 +9,16 @@ pub const BYTES_PER_MODULE: usize = 6;
 /// Bytes each parameter of a module takes in a [`ModuleString`].
 pub const BYTES_PER_PARAMETER: usize = 8;
 
+/// A parameter as cpfg stores it in its string: a 32-bit float (issue 46 item 2).
+/// Expressions are evaluated in double precision, but every value written into a
+/// module's parameters (successors, the axiom, query answers) is rounded to `f32`, so
+/// accumulated clocks such as `A(t) --> A(t + dt)` cross thresholds in the step that
+/// cpfg's do. Kept as `f64` in the string.
+#[inline]
+pub fn cpfg_param(v: f64) -> f64 {
+    v as f32 as f64
+}
+
 /// A module string could not grow: the allocator refused `bytes` bytes (issue 39). The
 /// derivation turns it into a budget error naming `generator.max_modules`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

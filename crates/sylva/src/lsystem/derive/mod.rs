@@ -154,7 +154,7 @@ impl LSystem {
             buf.clear();
             for a in &m.args {
                 let v = ev.eval(a, &[]).map_err(|e| self.eval_error(e, "evaluating the axiom", None))?;
-                buf.push(v);
+                buf.push(crate::lsystem::string::cpfg_param(v));
             }
             out.try_push(m.sym, &buf).map_err(|e| self.memory_error(e, ev, "the axiom"))?;
             self.charge_module(ev, &out)?;

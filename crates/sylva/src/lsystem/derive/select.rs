@@ -325,7 +325,7 @@ impl LSystem {
             args.clear();
             for a in &m.args {
                 match ev.eval(a, locals) {
-                    Ok(v) => args.push(v),
+                    Ok(v) => args.push(crate::lsystem::string::cpfg_param(v)),
                     Err(e) => {
                         return Err(self.successor_error(e, p, m, &locals[..p.arity.min(locals.len())]))
                     }

@@ -21,7 +21,13 @@ impl LSystem {
                 if k > 0 {
                     s.push(',');
                 }
-                let _ = write!(s, "{v}");
+                // Parameters are 32-bit floats (as in cpfg): printed as the shortest
+                // text that reads back as the same `f32` (`0.7`, not 0.699999988…).
+                if crate::lsystem::string::cpfg_param(*v) == *v {
+                    let _ = write!(s, "{}", *v as f32);
+                } else {
+                    let _ = write!(s, "{v}");
+                }
             }
             s.push(')');
         }

@@ -80,7 +80,7 @@ pub fn answer_queries_within(
             Some(k) => {
                 let v = st[k];
                 for (slot, c) in string.params[range].iter_mut().zip([v.x, v.y, v.z]) {
-                    *slot = c;
+                    *slot = crate::lsystem::string::cpfg_param(c);
                 }
             }
             None => {}
@@ -102,7 +102,7 @@ pub fn answer_queries_within(
             let range = string.pofs[i] as usize..string.pofs[i + 1] as usize;
             // The module keeps its arity: answers beyond it are dropped.
             for (slot, v) in string.params[range].iter_mut().zip(s.values) {
-                *slot = v;
+                *slot = crate::lsystem::string::cpfg_param(v);
             }
         }
     }
