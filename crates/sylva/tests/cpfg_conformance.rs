@@ -130,3 +130,37 @@ fn item2_parameters_are_32_bit_floats() {
     let text = "Lsystem: 1\nAxiom: A(16777217)\nA(x) --> B(x + 0.25, (x - 16777216) * 4)\nendlsystem\n";
     assert_eq!(derive(text, 1), "B(16777216,0)");
 }
+
+/// Item 11: cpfg draws no zero-length internode (`F(0)`: no segment, no node; the
+/// corpus model `07-fractal-ferns`), and `G` inside a polygon `{…}` draws a segment
+/// from where the outline has moved the turtle, without a polygon vertex (the corpus
+/// models `MycelisSchematic` and `09-mycelis-schematic`), while `F` and `f` trace the
+/// outline.
+#[test]
+fn item11_zero_length_internodes_and_g_in_polygons() {
+    let s = segments("F(1)F(0)F(2)");
+    assert_eq!(s.len(), 2, "{s:?}");
+    assert!(near(s[1][0], [0.0, 1.0, 0.0]) && near(s[1][1], [0.0, 3.0, 0.0]));
+    let l = parse("Lsystem: 1\nAxiom: F(0)[+F(1)]F(1)\nendlsystem\n");
+    let m = l.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap();
+    let sk = sylva::lsystem::interpret(&l.symbols, &m, &Default::default(), &l.source).unwrap();
+    assert_eq!(sk.stats().segments, 2);
+    assert_eq!(sk.stats().roots, 1, "both internodes start at the one root");
+    // `G` in a polygon: one segment from (0, 1, 0) after the outline's `f`; the polygon
+    // keeps its three vertices (start, f, F).
+    let s = segments("{.f(1)[G(0.5)]+F(1)}");
+    assert_eq!(s.len(), 1, "{s:?}");
+    assert!(near(s[0][0], [0.0, 1.0, 0.0]) && near(s[0][1], [0.0, 1.5, 0.0]), "{s:?}");
+    let l = parse("Lsystem: 1\nAxiom: {.f(1)[G(0.5)]+F(1)}\nendlsystem\n");
+    let m = l.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap();
+    let sk = sylva::lsystem::interpret(&l.symbols, &m, &Default::default(), &l.source).unwrap();
+    let polys: Vec<_> = sk
+        .organs
+        .iter()
+        .filter_map(|o| match &o.kind {
+            sylva::skeleton::OrganKind::Polygon(p) => Some(p.len()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(polys, [3]);
+}

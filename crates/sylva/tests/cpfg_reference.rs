@@ -64,13 +64,6 @@ const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
         "not yet investigated: `+(25.19)` where cpfg has `+(23.192)`",
     ),
     (
-        "10-manuals__15-VlabTools__MycelisSchematic",
-        false,
-        true,
-        "item 11: cpfg draws `G` inside a polygon `{…}` as a segment",
-    ),
-    ("11-CPFG__01-Introduction__07-fractal-ferns", false, true, "item 11: cpfg drops zero-length internodes"),
-    (
         "11-CPFG__02-Mod-vis-3D__09-monopodial-spiral__09-monopodial-maple",
         false,
         true,
@@ -89,12 +82,6 @@ const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
         true,
         false,
         "item 8: func() is cpfg's sampled table",
-    ),
-    (
-        "11-CPFG__04-Signaling__09-mycelis-schematic",
-        false,
-        true,
-        "item 11: cpfg draws `G` inside a polygon `{…}` as a segment",
     ),
     (
         "11-CPFG__05-Quantitative-info-flow__02-Borchert-Slade",

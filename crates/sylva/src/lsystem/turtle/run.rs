@@ -215,14 +215,28 @@ pub(super) fn run(
         let arg = p.first().copied();
         match cmds[sym as usize] {
             Cmd::None => {}
-            Cmd::Draw | Cmd::Move if !polygons.is_empty() => {
-                // Inside a polygon, moves trace its outline instead of branches.
+            Cmd::Draw | Cmd::Move
+                if !polygons.is_empty()
+                    && (sym_is_recording(symbols.name(sym)) || cmds[sym as usize] == Cmd::Move) =>
+            {
+                // Inside a polygon, `F` and `f` trace its outline instead of branches
+                // (`g` moves without a vertex); `G` still draws, as in cpfg (below).
                 st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 if sym_is_recording(symbols.name(sym)) {
                     polygons.last_mut().expect("non-empty").push(st.pos);
                 }
             }
+            // A zero-length internode draws nothing, as in cpfg (issue 46 item 11): no
+            // node, no segment, and no tropism (the heading has not moved).
+            Cmd::Draw if arg.unwrap_or(opts.step) * st.scale == 0.0 => {}
             Cmd::Draw => {
+                if !polygons.is_empty()
+                    && st.node != NO_PARENT
+                    && sk.position[st.node as usize].as_dvec3().distance(st.pos) > 0.0
+                {
+                    // `G` inside a polygon starts where the outline has moved the turtle.
+                    st.node = NO_PARENT;
+                }
                 if st.node == NO_PARENT {
                     // Branches starting where a root already is share it (an axiom
                     // `[F…][F…]` is one plant with several stems, not several plants
