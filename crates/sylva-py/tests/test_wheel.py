@@ -2,10 +2,13 @@
 that has only numpy, and the one-liner of issue 42 writes a GLB the Khronos validator
 passes.
 
-Needs maturin (skipped without it unless SYLVA_REQUIRE_WHEEL=1, as in .ci/run) and
-PyPI for numpy. The build reuses the workspace's target/release, so after
-`pip install ./crates/sylva-py` it only repackages."""
+The wheel is SYLVA_WHEEL's when that is set (.ci/run builds the wheel once and installs
+it for the other tests too); otherwise this test builds one, which needs maturin
+(skipped without it unless SYLVA_REQUIRE_WHEEL=1). PyPI is needed for numpy. The build
+reuses the workspace's target/release, so after `pip install ./crates/sylva-py` it only
+repackages."""
 
+import os
 import shutil
 import subprocess
 import sys
@@ -37,10 +40,14 @@ def run(args, **kw):
 
 
 def test_wheel_installs_with_only_numpy_and_writes_a_valid_glb(tmp_path):
-    wheels = tmp_path / "wheels"
-    manifest = ROOT / "crates/sylva-py/Cargo.toml"
-    run([maturin(), "build", "--release", "-m", manifest, "--out", wheels], cwd=ROOT)
-    (wheel,) = wheels.glob("sylva-*.whl")
+    if os.environ.get("SYLVA_WHEEL"):
+        wheel = Path(os.environ["SYLVA_WHEEL"])
+        assert wheel.is_file() and wheel.name.startswith("sylva-"), f"SYLVA_WHEEL={wheel}"
+    else:
+        wheels = tmp_path / "wheels"
+        manifest = ROOT / "crates/sylva-py/Cargo.toml"
+        run([maturin(), "build", "--release", "-m", manifest, "--out", wheels], cwd=ROOT)
+        (wheel,) = wheels.glob("sylva-*.whl")
     assert "abi3" in wheel.name, wheel.name
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(with_pip=True, clear=True).create(env_dir)
