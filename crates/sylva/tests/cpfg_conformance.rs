@@ -164,3 +164,30 @@ fn item11_zero_length_internodes_and_g_in_polygons() {
         .collect();
     assert_eq!(polys, [3]);
 }
+
+/// Item 8: `func()` gives cpfg's values, not the exact curve's: its bisection on the
+/// curve parameter stops at the first point whose x is within 0.001 of the argument,
+/// and with `samples:` > 2 a table of such values is interpolated linearly (the corpus
+/// models `herb-lily` and `04-paintbrush` matched cpfg only so). Coordinates are read
+/// as 32-bit floats. Spheres and discs of a tiny negative size (such values come out
+/// of these tables) are drawn with |size|, as cpfg draws them.
+#[test]
+fn item8_functions_are_cpfgs_bisection_and_table() {
+    use sylva::lsystem::files::func;
+    let line = "fver 1 1\nname: lin\nsamples: 0\nflip: off\npoints: 4\n0 0\n0.333333333333 0.333333333333\n\
+                0.666666666667 0.666666666667\n1 1\n";
+    let f = func::parse("lin.func", line).unwrap();
+    // The curve is x = y = t: bisection for 0.3 stops at t = 0.30078125.
+    assert!((f.eval(0.3) - 0.30078125).abs() < 1e-6, "{}", f.eval(0.3));
+    assert!((f.eval_exact(0.3) - 0.3).abs() < 1e-6);
+    // A table of 11 samples: each sample bisected, then linear in between.
+    let t = func::parse("lin.func", &line.replace("samples: 0", "samples: 11")).unwrap();
+    let (a, b) = (f.eval_bisected(0.3), f.eval_bisected(0.4));
+    assert!((t.eval(0.35) - 0.5 * (a + b)).abs() < 1e-12, "{} vs {}", t.eval(0.35), 0.5 * (a + b));
+    // A sphere of negative size is the sphere of |size|.
+    let l = parse("Lsystem: 1\nAxiom: F(1)@O(-0.5)\nendlsystem\n");
+    let m = l.derive(&DeriveOptions { steps: 0, budget: 100, seed: 1 }).unwrap();
+    let sk = sylva::lsystem::interpret(&l.symbols, &m, &Default::default(), &l.source).unwrap();
+    assert_eq!(sk.organs.len(), 1);
+    assert!((sk.organs[0].size - 0.25).abs() < 1e-7, "{}", sk.organs[0].size);
+}

@@ -32,7 +32,13 @@ const POINT_TOLERANCE: f64 = 1e-4;
 /// What differs from cpfg, per model: (folder, string differs, geometry differs, why).
 /// A model not listed must match both; a listed one must still differ where listed.
 const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
-    ("11-CPFG__02-Mod-vis-3D__05-monopodial", false, true, "item 8: F(func(…)) lengths from cpfg's sampled table differ by 1.2e-4"),
+    ("10-manuals__11-CPFG__Lilac", false, true, "end points off by 1.0e-4 of the diagonal from segment 7 on (tropism with elasticities from func(); cause not found yet)"),
+    ("10-manuals__11-CPFG__Ridley", true, false, "curveX/curveY/curveGAL: cpfg samples the contour curve its own way (`f(-0.445751)` where cpfg has `f(-0.445786)`)"),
+    ("11-CPFG__03-inverse-modeling__06-phyllotaxis-ridley", true, false, "curveX/curveY/curveGAL: cpfg samples the contour curve its own way"),
+    ("10-manuals__11-CPFG__TexturedSurfaces", false, true, "cpfg draws no internode shorter than about 0.003–0.0045 (F(0.5*func(…)) of 0.0004 and 0.0027 are missing from its segments; the rule is not known yet); sylva drops only zero-length ones"),
+    ("11-CPFG__02-Mod-vis-3D__05-monopodial", false, true, "cpfg draws no internode shorter than about 0.003–0.0045 (F(0.5*func(…)) of 0.0004 and 0.0027 are missing from its segments; the rule is not known yet); sylva drops only zero-length ones"),
+    ("11-CPFG__02-Mod-vis-3D__09-monopodial-spiral__09-monopodial-maple", false, true, "cpfg draws no internode shorter than about 0.003–0.0045 (F(0.5*func(…)) of 0.0004 and 0.0027 are missing from its segments; the rule is not known yet); sylva drops only zero-length ones"),
+    ("11-CPFG__02-Mod-vis-3D__10-sympodial", false, true, "end points off by 1.1e-4 of the diagonal from segment 4 on (cause not found yet)"),
     (
         "10-manuals__11-CPFG__BackgroundScene",
         false,
@@ -40,48 +46,10 @@ const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
         "cpfg also draws the view file's background scene (a cylinder and a cone); sylva draws the plant only",
     ),
     (
-        "10-manuals__11-CPFG__Lilac",
-        true,
-        true,
-        "item 8: func() is cpfg's sampled table (`+(53.1316)` where cpfg has `+(53.1232)`)",
-    ),
-    (
-        "10-manuals__11-CPFG__Ridley",
-        true,
-        false,
-        "item 8: func() is cpfg's sampled table, not the exact curve",
-    ),
-    (
-        "10-manuals__11-CPFG__TexturedSurfaces",
-        false,
-        true,
-        "not yet investigated: end points off by 1.5e-4 of the diagonal",
-    ),
-    (
         "10-manuals__11-CPFG__WeepingBirch",
         true,
         true,
         "not yet investigated: `+(25.19)` where cpfg has `+(23.192)`",
-    ),
-    (
-        "11-CPFG__02-Mod-vis-3D__09-monopodial-spiral__09-monopodial-maple",
-        false,
-        true,
-        "item 8: F(func(…)) lengths from cpfg's sampled table differ by 1.1e-4",
-    ),
-    ("11-CPFG__02-Mod-vis-3D__10-sympodial", false, true, "item 8: F(func(…)) lengths from cpfg's sampled table differ by 1.8e-4"),
-    ("11-CPFG__03-inverse-modeling__01-herb-lily", true, false, "item 8: func() is cpfg's sampled table"),
-    (
-        "11-CPFG__03-inverse-modeling__04-paintbrush",
-        false,
-        true,
-        "not yet investigated: end points off by 1.3e-4 of the diagonal",
-    ),
-    (
-        "11-CPFG__03-inverse-modeling__06-phyllotaxis-ridley",
-        true,
-        false,
-        "item 8: func() is cpfg's sampled table",
     ),
     (
         "11-CPFG__05-Quantitative-info-flow__02-Borchert-Slade",

@@ -5,9 +5,11 @@
 //! B-spline** (order 4) through its control points (x, y): with n + 1 control points
 //! the knots are 0,0,0,0,1,2,…,n−3,n−2,n−2,n−2,n−2, so the curve starts at the first
 //! point and ends at the last (cpfg `SplineFunction::P`). The value at x is the y of
-//! the curve point whose x equals x; sylva finds the curve parameter by bisection on
-//! x (60 halvings; cpfg bisects to an x error of 0.001), which assumes x grows along
-//! the curve, as funcedit enforces. Arguments outside \[0, 1\] are clamped (NaN is 0).
+//! the curve point whose x equals x, found as cpfg finds it: by bisection on the curve
+//! parameter, stopping once the curve's x is within 0.001 of x
+//! ([`Function::eval_bisected`]; [`Function::eval_exact`] bisects to full precision),
+//! which assumes x grows along the curve, as funcedit enforces. Coordinates are read
+//! as 32-bit floats, as cpfg reads them. Arguments outside \[0, 1\] are clamped (NaN is 0).
 //!
 //! # Formats
 //!
@@ -36,13 +38,18 @@
 //! # Sampling
 //!
 //! Like cpfg, when `samples` > 2 the function is tabulated at `samples` evenly spaced
-//! x and [`Function::eval`] interpolates that table linearly, so values equal cpfg's;
-//! [`Function::eval_exact`] evaluates the curve itself. At least four point lines are
+//! x (each by cpfg's bisection) and [`Function::eval`] interpolates that table
+//! linearly, so values equal cpfg's; [`Function::eval_exact`] evaluates the curve
+//! itself. At least four point lines are
 //! required (cpfg's rule); multiplicities must be 1 to 16 and `samples` at most 65536.
 
 use super::{number, tokens, TextFile};
 use crate::input::excerpt;
 use crate::lsystem::source::LsystemError;
+
+/// How close cpfg's bisection brings the curve's x to the argument before it stops
+/// ([`Function::eval_bisected`]).
+pub const BISECTION_ERROR: f64 = 0.001;
 
 /// The most samples a function may ask for.
 pub const MAX_SAMPLES: u32 = 65_536;
@@ -106,12 +113,13 @@ impl Function {
         self.samples = samples.filter(|&s| s > 2).map(|s| s.min(MAX_SAMPLES));
         self.table.clear();
         if let Some(s) = self.samples {
-            self.table = (0..s).map(|i| self.eval_exact(i as f64 / (s - 1) as f64)).collect();
+            self.table = (0..s).map(|i| self.eval_bisected(i as f64 / (s - 1) as f64)).collect();
         }
     }
 
     /// The value at `x` as cpfg computes it: `x` clamped to \[0, 1\]; the linear
-    /// interpolation of the sample table when there is one, else [`Function::eval_exact`].
+    /// interpolation of the sample table when there is one, else
+    /// [`Function::eval_bisected`] (issue 46 item 8: cpfg's values, not the exact curve's).
     pub fn eval(&self, x: f64) -> f64 {
         let x = clamp01(x);
         let n = self.table.len();
@@ -124,11 +132,37 @@ impl Function {
             let w = index - i as f64;
             return (1.0 - w) * self.table[i] + w * self.table[i + 1];
         }
-        self.eval_exact(x)
+        self.eval_bisected(x)
+    }
+
+    /// cpfg's `SplineFunction::_Value` without a table: bisection on the curve parameter
+    /// t in \[0, 1\] (t = (lo + hi) / 2, then the half whose end the curve's x passes),
+    /// stopping at the first t whose x is within [`BISECTION_ERROR`] (0.001) of `x`, and
+    /// returning that point's y. So values are cpfg's, not the exact curve's: up to
+    /// 0.001 × the slope away (`herb-lily`, `Ridley`). Gives up after 200 halvings
+    /// (cpfg would loop forever) with the last point's y.
+    pub fn eval_bisected(&self, x: f64) -> f64 {
+        let x = clamp01(x);
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        let mut p;
+        let mut n = 0;
+        loop {
+            let mid = 0.5 * (lo + hi);
+            p = self.point_at(mid);
+            if p[0] > x {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+            n += 1;
+            if (p[0] - x).abs() <= BISECTION_ERROR || n >= 200 {
+                return p[1];
+            }
+        }
     }
 
     /// The y of the curve point whose x is `x` (clamped to \[0, 1\]), found by bisection
-    /// on the curve parameter.
+    /// on the curve parameter to full precision (60 halvings).
     pub fn eval_exact(&self, x: f64) -> f64 {
         let x = clamp01(x);
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
@@ -398,6 +432,8 @@ fn parse_one(file: &TextFile, lines: &mut Lines) -> Result<Function, Box<Lsystem
                 }
             },
         };
+        // cpfg reads the coordinates as 32-bit floats (issue 46 item 8).
+        let (x, y) = (x as f32 as f64, y as f32 as f64);
         for _ in 0..mult {
             f.points.push([x, y]);
         }
@@ -475,7 +511,9 @@ mod tests {
         assert_eq!(f.name.as_deref(), Some("lin"));
         for i in 0..=20 {
             let x = i as f64 / 20.0;
-            assert!((f.eval(x) - x).abs() < 1e-9, "f({x}) = {}", f.eval(x));
+            // cpfg's bisection stops within 0.001 of x; the exact curve is x.
+            assert!((f.eval(x) - x).abs() <= 1e-3, "f({x}) = {}", f.eval(x));
+            assert!((f.eval_exact(x) - x).abs() < 1e-6, "f({x}) = {}", f.eval_exact(x));
         }
         assert_eq!(f.eval(-3.0), f.eval(0.0));
         assert_eq!(f.eval(7.0), f.eval(1.0));
@@ -486,12 +524,25 @@ mod tests {
     fn end_points_interpolate_and_samples_agree() {
         let text = "fver 1 1\nname: rho\nsamples: 100\nflip: off\npoints: 4\n0.000000 0.317237 1\n0.413651 0.322316 1\n0.786984 0.192792 1\n1.000000 0.124221 1\n";
         let f = parse("rho.func", text).unwrap();
-        assert!((f.eval(0.0) - 0.317237).abs() < 1e-12);
-        assert!((f.eval(1.0) - 0.124221).abs() < 1e-12);
+        assert!((f.eval_exact(0.0) - 0.317237f32 as f64).abs() < 1e-12);
+        assert!((f.eval_exact(1.0) - 0.124221f32 as f64).abs() < 1e-12);
+        assert!((f.eval(0.0) - 0.317237).abs() < 1e-4 && (f.eval(1.0) - 0.124221).abs() < 1e-3);
         for i in 0..=37 {
             let x = i as f64 / 37.0;
             assert!((f.eval(x) - f.eval_exact(x)).abs() < 1e-3);
         }
+    }
+
+    /// cpfg's bisection (issue 46 item 8): it stops at the first curve parameter whose x
+    /// is within 0.001 of the argument, so at 0.3 on y = x² – like curves it returns
+    /// that point's y, not the exact value; the table interpolates such values.
+    #[test]
+    fn bisection_stops_within_a_thousandth_as_cpfgs() {
+        let f = parse("lin.func", LINEAR).unwrap();
+        // x = 0.3: t = 0.5 (x 0.5), 0.25 (x 0.25), 0.375, 0.3125, 0.28125, 0.296875,
+        // 0.3046875, 0.30078125 (|x − 0.3| = 0.00078 ≤ 0.001): stops there.
+        assert!((f.eval_bisected(0.3) - 0.30078125).abs() < 1e-6, "{}", f.eval_bisected(0.3));
+        assert!((f.eval_exact(0.3) - 0.3).abs() < 1e-6);
     }
 
     /// cpfg's recursive Cox–de Boor definition (`SplineFunction::N`).

@@ -558,7 +558,12 @@ pub(super) fn run(
                     Cmd::Sphere => (OrganKind::Sphere, arg.unwrap_or(st.width) * 0.5),
                     _ => (OrganKind::Disc, arg.unwrap_or(st.width) * 0.5),
                 };
-                let size = size * st.scale;
+                let mut size = size * st.scale;
+                if cmds[sym as usize] != Cmd::Surface {
+                    // cpfg draws `@O(-d)` / `@o(-d)` as the sphere or disc of |d|
+                    // (tiny negative sizes come from function tables, issue 46).
+                    size = size.abs();
+                }
                 if !size.is_finite() || size < 0.0 {
                     return Err(fail(format!(
                         "module {i} (`{name}`) has a negative or non-finite size {size}"
