@@ -46,6 +46,7 @@ pub fn run(args: EditArgs) -> miette::Result<()> {
         close_after_tree: args.close_after_tree,
         script,
         started: None,
+        full_resolution: false,
     };
     sylva_editor::run(opts).map_err(|e| miette::miette!("edit: {e}"))
 }

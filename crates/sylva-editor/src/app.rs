@@ -14,7 +14,7 @@ use crate::panel;
 use crate::thumbnails::Thumbnails;
 use crate::viewport::Viewport;
 use crate::watch::Watch;
-use crate::worker::{Outcome, Worker};
+use crate::worker::{Outcome, Upload, Worker};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use sylva::pipeline::Tree;
@@ -40,6 +40,10 @@ pub struct EditOptions {
     /// tree" includes opening the window and the GPU device ([`crate::run`] sets it on
     /// entry; `None`: when the app is made).
     pub started: Option<Instant>,
+    /// Draw the view at full resolution in every frame, even while it changes (snapshot
+    /// tests; by default frames are drawn smaller while the view changes if drawing is
+    /// slow, [`crate::viewport::FRAME_BUDGET_MS`]).
+    pub full_resolution: bool,
 }
 
 /// The editor's state.
@@ -62,6 +66,10 @@ pub struct EditorApp {
     log: FrameLog,
     opts: EditOptions,
     frames_since_tree: Option<u64>,
+    /// When the worker's last outcome (a tree or an error) was taken.
+    outcome_at: Option<Instant>,
+    /// eframe's CPU time of the previous frame (for the frame log).
+    previous_cpu: Option<Duration>,
     seed_counter: u64,
     thumbnails: Thumbnails,
 }
@@ -82,7 +90,8 @@ impl EditorApp {
         opts: EditOptions,
     ) -> EditorApp {
         let woken = ctx.clone();
-        let worker = Worker::new(move || woken.request_repaint());
+        let upload = gpu.as_ref().map(Upload::from_render_state);
+        let worker = Worker::new(move || woken.request_repaint(), upload);
         let watch = if opts.watch {
             match &doc.source() {
                 Source::File(path) => match Watch::new(path, doc.folder()) {
@@ -113,9 +122,12 @@ impl EditorApp {
             log: FrameLog::starting_at(opts.started.unwrap_or_else(Instant::now)),
             opts,
             frames_since_tree: None,
+            outcome_at: None,
+            previous_cpu: None,
             seed_counter: 0,
             thumbnails: Thumbnails::default(),
         };
+        app.viewport.full_resolution = app.opts.full_resolution;
         app.submit(true);
         app
     }
@@ -201,9 +213,12 @@ impl EditorApp {
     /// Takes one outcome of the worker.
     fn take(&mut self, outcome: Outcome) {
         let job = outcome.job();
+        if !matches!(outcome, Outcome::Cancelled { .. }) {
+            self.outcome_at = Some(Instant::now());
+        }
         match outcome {
-            Outcome::Grown { tree, stages, elapsed, .. } => {
-                self.viewport.set_tree(&tree);
+            Outcome::Grown { tree, renderer, stages, elapsed, .. } => {
+                self.viewport.set_tree(&tree, renderer);
                 self.last_run = Some((stages, elapsed));
                 self.log.tree_arrived(elapsed, tree.report.stage_times.clone());
                 self.tree = Some(tree);
@@ -256,26 +271,34 @@ impl EditorApp {
         if let Some(m) = crate::grammar::show(ui, &mut self.doc, self.message.as_deref()) {
             self.message = Some(m);
         }
+        self.viewport.busy = !self.settled();
         egui::CentralPanel::no_frame().show(ui, |ui| {
             self.viewport.show(ui);
         });
         self.shortcuts(ui);
         self.run_script(ui);
         self.submit(false);
-        if !self.settled() {
-            ui.ctx().request_repaint_after(Duration::from_millis(30));
-        }
+        // No repaint loop while the worker runs: it wakes the UI when its tree is
+        // ready, and on a software renderer every frame of the window costs a core for
+        // a hundred milliseconds or more that the worker would otherwise have.
         if let Some(n) = self.frames_since_tree.as_mut() {
             *n += 1;
         }
-        self.log.frame(started.elapsed());
+        self.log.frame_with_cpu(started.elapsed(), self.previous_cpu.take());
         self.close_when_done(ui);
     }
 
-    /// Applies the next scripted change once the last one's tree is shown and a few
-    /// frames have drawn it.
+    /// Applies the next scripted change [`SCRIPT_PAUSE`] after the last one's tree is
+    /// shown (waiting by a timed repaint, not a repaint loop that would take the CPU
+    /// from the worker being measured).
     fn run_script(&mut self, ui: &egui::Ui) {
-        if self.opts.script.is_empty() || !self.settled() || self.frames_since_tree.is_none_or(|n| n < 10) {
+        if self.opts.script.is_empty() || !self.settled() {
+            return;
+        }
+        let Some(shown) = self.outcome_at else { return };
+        let waited = shown.elapsed();
+        if waited < SCRIPT_PAUSE {
+            ui.ctx().request_repaint_after(SCRIPT_PAUSE - waited);
             return;
         }
         let (key, value) = self.opts.script.remove(0);
@@ -286,7 +309,6 @@ impl EditorApp {
 
     fn close_when_done(&mut self, ui: &egui::Ui) {
         if !self.opts.script.is_empty() {
-            ui.ctx().request_repaint();
             return;
         }
         let by_tree =
@@ -401,7 +423,8 @@ impl EditorApp {
                     }
                 }
                 if !self.settled() {
-                    ui.spinner();
+                    // A still label, not egui's spinner: a spinner repaints every frame.
+                    ui.label(egui::RichText::new("· regrowing…").weak());
                 }
                 if let Some(a) = self.viewport.adapter() {
                     ui.label(egui::RichText::new(a).weak());
@@ -510,6 +533,9 @@ impl EditorApp {
     }
 }
 
+/// How long a scripted change (`--script-set`) waits after the previous one's tree.
+pub const SCRIPT_PAUSE: Duration = Duration::from_millis(500);
+
 /// The file "Save recipe" writes until the user names another: the recipe file itself,
 /// a model file's name with `.toml` (never the model: Save grammar writes an `.l`), or
 /// `<preset>-edited.toml`.
@@ -544,7 +570,8 @@ fn stage_times(t: &Tree) -> String {
 }
 
 impl eframe::App for EditorApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        self.previous_cpu = frame.info().cpu_usage.map(Duration::from_secs_f32);
         self.frame(ui);
     }
 

@@ -20,6 +20,10 @@ pub enum Entry {
         gap: Duration,
         /// Whether a regeneration was running.
         busy: bool,
+        /// The CPU time of the frame before this one as eframe measures it: the app's
+        /// code, egui's layout and tessellation and the paint's submission (not what the
+        /// GPU, or a software renderer's threads, spend after).
+        previous_cpu: Option<Duration>,
     },
     /// A recipe was handed to the worker.
     Submitted {
@@ -91,6 +95,11 @@ impl FrameLog {
     /// A frame that began `took` ago ended now (a tree that [`FrameLog::tree_arrived`]
     /// during it counts as shown now).
     pub fn frame(&mut self, took: Duration) {
+        self.frame_with_cpu(took, None);
+    }
+
+    /// [`FrameLog::frame`] with eframe's CPU time of the previous frame.
+    pub fn frame_with_cpu(&mut self, took: Duration, previous_cpu: Option<Duration>) {
         if let Some((grow, stages)) = self.arrived.take() {
             let latency = self.submitted.take().map_or(Duration::ZERO, |s| s.elapsed());
             self.push(Entry::TreeShown { at: self.start.elapsed(), latency, grow, stages });
@@ -99,7 +108,7 @@ impl FrameLog {
         let began = Instant::now() - took;
         let gap = self.last_frame.map_or(Duration::ZERO, |t| began.saturating_duration_since(t));
         self.last_frame = Some(began);
-        self.push(Entry::Frame { at: self.start.elapsed(), took, gap, busy });
+        self.push(Entry::Frame { at: self.start.elapsed(), took, gap, busy, previous_cpu });
     }
 
     /// A recipe was submitted now.
@@ -130,11 +139,12 @@ impl FrameLog {
         let mut text = String::new();
         for e in &self.entries {
             let line = match e {
-                Entry::Frame { at, took, gap, busy } => format!(
-                    r#"{{"frame":{:.3},"took_ms":{:.3},"gap_ms":{:.3},"busy":{busy}}}"#,
+                Entry::Frame { at, took, gap, busy, previous_cpu } => format!(
+                    r#"{{"frame":{:.3},"took_ms":{:.3},"gap_ms":{:.3},"busy":{busy},"previous_cpu_ms":{}}}"#,
                     ms(at),
                     ms(took),
-                    ms(gap)
+                    ms(gap),
+                    previous_cpu.map_or("null".to_string(), |c| format!("{:.3}", ms(&c)))
                 ),
                 Entry::Submitted { at } => format!(r#"{{"submitted":{:.3}}}"#, ms(at)),
                 Entry::TreeShown { at, latency, grow, stages } => {

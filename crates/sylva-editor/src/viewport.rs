@@ -103,10 +103,85 @@ pub struct Viewport {
     drawn: Option<DrawKey>,
     /// What is shown besides the tree.
     pub view: ViewSettings,
+    /// Whether a regeneration is running (set by the app each frame): the view waits
+    /// for it before drawing at full resolution again.
+    pub busy: bool,
+    /// Every frame at full resolution (no adaptive resolution: snapshot tests).
+    pub full_resolution: bool,
+    /// Adaptive resolution: the frame-cost model and the scale drawn while the view
+    /// changes.
+    pace: Pace,
     /// The skeleton of the tree shown, as segments.
     skeleton: Option<Lines>,
     cage: Cage,
 }
+
+/// Adaptive resolution. While the view changes (wind playing, an orbit, a new tree) it
+/// is drawn at a fraction of its side, in steps of 1/8 down to [`MIN_SCALE`], so that a
+/// frame costs about [`FRAME_BUDGET_MS`]; once it has been still for [`REFINE_AFTER`]
+/// and no regeneration runs, one frame at full resolution follows. A frame's cost is the
+/// time from issuing its draw to the start of the next frame (asked for at once), which
+/// covers the GPU's work and the present. Over the budget, the scale drops at once to
+/// what the cost per pixel says fits; under 80 % of it, it rises one step (not within
+/// [`STEP_UP_PAUSE`] of a drop, so it does not flip between two steps every frame). On a
+/// GPU the scale stays 1 (a frame waits for the display's refresh, ~17 ms); on a
+/// software renderer (lavapipe draws the aspen's 92,744 triangles at 1000×760 in
+/// ~250 ms) it drops to keep the editor responsive.
+#[derive(Debug, Clone)]
+struct Pace {
+    /// The draw being measured: when it was issued, its pixels and the scale it was
+    /// drawn at.
+    measuring: Option<(Instant, u32, f32)>,
+    /// The scale (fraction of the side) used while the view changes.
+    scale: f32,
+    /// When the scale last dropped.
+    dropped_at: Option<Instant>,
+    /// When what the view shows last changed.
+    changed_at: Instant,
+    /// What the view showed then (the draw key without its size).
+    content: Option<Content>,
+}
+
+/// A frame's cost the view aims at while it changes, milliseconds.
+pub const FRAME_BUDGET_MS: f32 = 25.0;
+/// How long the view must be still before it is drawn at full resolution.
+pub const REFINE_AFTER: std::time::Duration = std::time::Duration::from_millis(300);
+/// The smallest scale (fraction of each side) the view is drawn at.
+pub const MIN_SCALE: f32 = 0.25;
+/// How long after a drop the scale waits before it rises again.
+pub const STEP_UP_PAUSE: std::time::Duration = std::time::Duration::from_secs(3);
+
+impl Pace {
+    fn new() -> Pace {
+        Pace { measuring: None, scale: 1.0, dropped_at: None, changed_at: Instant::now(), content: None }
+    }
+
+    /// Takes the cost of the last draw (this frame started now) and moves the scale.
+    fn measure(&mut self) {
+        let Some((issued, pixels, drawn_scale)) = self.measuring.take() else { return };
+        let ms = issued.elapsed().as_secs_f32() * 1e3;
+        // A long pause is an idle window (minimised, unfocused), not a frame's cost.
+        if ms > 2000.0 || pixels == 0 {
+            return;
+        }
+        if ms > FRAME_BUDGET_MS {
+            let fit = drawn_scale * (FRAME_BUDGET_MS / ms).sqrt();
+            let stepped = ((fit * 8.0).floor() / 8.0).max(MIN_SCALE);
+            if stepped < self.scale {
+                self.scale = stepped;
+                self.dropped_at = Some(Instant::now());
+            }
+        } else if ms < 0.8 * FRAME_BUDGET_MS
+            && drawn_scale >= self.scale
+            && self.dropped_at.is_none_or(|t| t.elapsed() >= STEP_UP_PAUSE)
+        {
+            self.scale = (self.scale + 0.125).min(1.0);
+        }
+    }
+}
+
+/// What a frame shows apart from its size.
+type Content = ([u32; 4], u64, ViewSettings, u64);
 
 /// What a drawn frame depends on: size, view angles, zoom, clip time, tree, the view
 /// settings and the cage received.
@@ -145,6 +220,9 @@ impl Viewport {
             model_generation: 0,
             drawn: None,
             view: ViewSettings::default(),
+            busy: false,
+            full_resolution: false,
+            pace: Pace::new(),
             skeleton: None,
             cage: Cage::default(),
         }
@@ -158,11 +236,15 @@ impl Viewport {
         })
     }
 
-    /// Shows a new tree: its model ([`Viewport::set_model`]), its skeleton for the
-    /// skeleton overlay, and what its cage is meshed from (a new cage is asked for when
-    /// the cage is shown and the skeleton or the meshing settings changed).
-    pub fn set_tree(&mut self, tree: &Tree) {
-        self.set_model(&tree.model);
+    /// Shows a new tree: its model (`renderer`: already uploaded by the worker; `None`:
+    /// uploaded here, [`Viewport::set_model`]), its skeleton for the skeleton overlay,
+    /// and what its cage is meshed from (a new cage is asked for when the cage is shown
+    /// and the skeleton or the meshing settings changed).
+    pub fn set_tree(&mut self, tree: &Tree, renderer: Option<Result<Box<Renderer>, String>>) {
+        match renderer {
+            Some(r) => self.set_renderer(r.map(|r| *r)),
+            None => self.set_model(&tree.model),
+        }
         let s = &tree.skeleton;
         let segments = s
             .parent
@@ -193,7 +275,18 @@ impl Viewport {
     /// Uploads a new tree's model; the view keeps its angles (the first tree is framed).
     pub fn set_model(&mut self, model: &Model) {
         let Some(gpu) = &self.gpu else { return };
-        match Renderer::with_device(&gpu.adapter, &gpu.device, &gpu.queue, model) {
+        let r = Renderer::with_device(&gpu.adapter, &gpu.device, &gpu.queue, model)
+            .map_err(|e| format!("cannot draw this tree: {e}"));
+        self.set_renderer(r);
+    }
+
+    /// Shows a tree uploaded to the view's device (or the upload's error; the last tree
+    /// stays then).
+    fn set_renderer(&mut self, renderer: Result<Renderer, String>) {
+        if self.gpu.is_none() {
+            return;
+        }
+        match renderer {
             Ok(r) => {
                 if !self.framed {
                     if let Some((lo, hi)) = r.bounds() {
@@ -208,7 +301,7 @@ impl Viewport {
                 self.model_generation += 1;
                 self.error = None;
             }
-            Err(e) => self.error = Some(format!("cannot draw this tree: {e}")),
+            Err(e) => self.error = Some(e),
         }
     }
 
@@ -352,7 +445,8 @@ impl Viewport {
         let w = ((rect.width() * ppp).round() as u32).clamp(1, MAX_SIDE);
         let h = ((rect.height() * ppp).round() as u32).clamp(1, MAX_SIDE);
         self.update_cage(ui.ctx());
-        match self.draw(w, h) {
+        self.pace.measure();
+        match self.draw(w, h, response.dragged()) {
             Ok(Some(id)) => {
                 let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
                 painter.image(id, rect, uv, egui::Color32::WHITE);
@@ -369,15 +463,39 @@ impl Viewport {
                 egui::Color32::DARK_RED,
             );
         }
-        if self.animating() {
+        if self.animating() || self.pace.measuring.is_some() {
             ui.ctx().request_repaint();
+        } else if self.drawn.is_some_and(|d| d.size != (w, h)) {
+            // Drawn small while it changed: the full-resolution frame once it is still.
+            ui.ctx().request_repaint_after(REFINE_AFTER);
         }
         response
     }
 
-    /// Draws the tree into the `w × h` target; the egui texture to show.
-    fn draw(&mut self, w: u32, h: u32) -> Result<Option<egui::TextureId>, String> {
+    /// The scale (fraction of each side) frames are drawn at while the view changes.
+    pub fn changing_scale(&self) -> f32 {
+        self.pace.scale
+    }
+
+    /// Draws the tree for a `w × h` view (fewer pixels while it changes: [`Pace`]);
+    /// the egui texture to show, stretched over the view.
+    fn draw(&mut self, w: u32, h: u32, orbiting: bool) -> Result<Option<egui::TextureId>, String> {
         let time = self.time();
+        let o = self.control.orbit;
+        let content: Content = (
+            [o.azimuth_deg.to_bits(), o.elevation_deg.to_bits(), self.control.zoom.to_bits(), time.to_bits()],
+            self.model_generation,
+            self.view,
+            self.cage.generation,
+        );
+        if self.pace.content != Some(content) {
+            self.pace.content = Some(content);
+            self.pace.changed_at = Instant::now();
+        }
+        let still = self.full_resolution
+            || !orbiting && !self.busy && !self.animating() && self.pace.changed_at.elapsed() >= REFINE_AFTER;
+        let scale = if still { 1.0 } else { self.pace.scale };
+        let (w, h) = (((w as f32 * scale).round() as u32).max(1), ((h as f32 * scale).round() as u32).max(1));
         let (Some(gpu), Some(renderer)) = (&self.gpu, &self.renderer) else { return Ok(None) };
         if self.target.as_ref().is_none_or(|t| t.size != (w, h)) {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -411,15 +529,9 @@ impl Viewport {
         let target = self.target.as_ref().expect("the target was just made");
         // Nothing moved since the last frame drawn: the texture already shows it (on a
         // software renderer a frame of a big tree costs hundreds of milliseconds).
-        let o = self.control.orbit;
         let key = DrawKey {
             size: (w, h),
-            angles: [
-                o.azimuth_deg.to_bits(),
-                o.elevation_deg.to_bits(),
-                self.control.zoom.to_bits(),
-                time.to_bits(),
-            ],
+            angles: content.0,
             model: self.model_generation,
             view: self.view,
             cage: self.cage.generation,
@@ -434,11 +546,13 @@ impl Viewport {
         let view = target
             .texture
             .create_view(&wgpu::TextureViewDescriptor { format: Some(VIEW_FORMAT), ..Default::default() });
+        let issued = Instant::now();
         renderer
             .render_to_view(&camera, &opts, &instances, time, &view, VIEW_FORMAT)
             .map_err(|e| format!("drawing failed: {e}"))?;
         self.drawn = Some(key);
         self.frames += 1;
+        self.pace.measuring = Some((issued, w * h, scale));
         Ok(Some(target.id))
     }
 
@@ -477,5 +591,45 @@ impl Viewport {
             .render(&opts, &[Mat4::IDENTITY], time)
             .map(|r| r.image)
             .map_err(|e| format!("drawing failed: {e}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    fn frame(pace: &mut Pace, ms: u64, scale: f32) {
+        let pixels = (1000.0 * 760.0 * scale * scale) as u32;
+        pace.measuring = Some((Instant::now() - Duration::from_millis(ms), pixels, scale));
+        pace.measure();
+    }
+
+    /// A software renderer's full frame (250 ms) drops the scale to what fits the
+    /// budget; cheap frames (a GPU waiting for the display, 17 ms) raise it a step at a
+    /// time once the pause after a drop has passed; an idle gap is not a frame's cost.
+    #[test]
+    fn the_scale_follows_the_measured_cost() {
+        let mut pace = Pace::new();
+        assert_eq!(pace.scale, 1.0, "nothing measured: full resolution");
+        frame(&mut pace, 250, 1.0);
+        assert_eq!(pace.scale, 0.25, "sqrt(25 / 250) = 0.32, stepped down to 2/8");
+        frame(&mut pace, 17, 0.25);
+        assert_eq!(pace.scale, 0.25, "no rise right after a drop");
+        frame(&mut pace, 5000, 0.25);
+        assert_eq!(pace.scale, 0.25, "an idle gap changes nothing");
+        pace.dropped_at = Some(Instant::now() - STEP_UP_PAUSE);
+        for _ in 0..6 {
+            let s = pace.scale;
+            frame(&mut pace, 17, s);
+        }
+        assert_eq!(pace.scale, 1.0, "six steps of 1/8 back to full");
+        frame(&mut pace, 40, 1.0);
+        assert_eq!(pace.scale, 0.75, "sqrt(25 / 40) = 0.79: one step down");
+        frame(&mut pace, 17, 1.0);
+        assert_eq!(
+            pace.scale, 0.75,
+            "a cheap full-resolution refinement frame does not raise it during the pause"
+        );
     }
 }

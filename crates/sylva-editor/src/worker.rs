@@ -12,6 +12,7 @@
 //! meshes a grown tree's skeleton with refinement off ([`cage_mesh`]), newest request
 //! first, so turning the cage on never makes the UI wait either.
 
+use egui_wgpu::wgpu;
 use std::collections::HashMap;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::{Arc, Mutex};
@@ -22,6 +23,7 @@ use sylva::pipeline::Tree;
 use sylva::recipe::{Loaded, Recipe};
 use sylva::session::{Session, Stage};
 use sylva::{Mesh, Skeleton};
+use sylva_gpu::render::Renderer;
 
 /// What one job ended in.
 #[derive(Debug)]
@@ -32,6 +34,10 @@ pub enum Outcome {
         job: u64,
         /// The tree (model, skeleton, report, recipe).
         tree: Box<Tree>,
+        /// The tree's model already uploaded to the view's GPU device (made on the
+        /// worker, so the UI thread does not spend the upload's tens of milliseconds);
+        /// `None` without a device, `Some(Err)` with the renderer's message.
+        renderer: Option<Result<Box<Renderer>, String>>,
         /// The stages this run computed (the others were kept).
         stages: Vec<Stage>,
         /// Wall time of the run.
@@ -83,17 +89,48 @@ impl std::fmt::Debug for Worker {
     }
 }
 
+/// The view's GPU device, where the worker uploads each tree it grows.
+#[derive(Clone)]
+pub struct Upload {
+    /// The adapter (its limits decide MSAA and texture sizes).
+    pub adapter: wgpu::Adapter,
+    /// The device the view draws with.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+}
+
+impl std::fmt::Debug for Upload {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Upload").field("adapter", &self.adapter.get_info().name).finish()
+    }
+}
+
+impl Upload {
+    /// The device of egui's wgpu state.
+    pub fn from_render_state(gpu: &egui_wgpu::RenderState) -> Upload {
+        Upload { adapter: gpu.adapter.clone(), device: gpu.device.clone(), queue: gpu.queue.clone() }
+    }
+
+    fn renderer(&self, tree: &Tree) -> Result<Box<Renderer>, String> {
+        Renderer::with_device(&self.adapter, &self.device, &self.queue, &tree.model)
+            .map(Box::new)
+            .map_err(|e| format!("cannot draw this tree: {e}"))
+    }
+}
+
 impl Worker {
     /// Starts the thread. `wake` is called after each outcome is sent (the editor asks
-    /// egui for a repaint there, so a finished tree shows without input).
-    pub fn new(wake: impl Fn() + Send + Sync + 'static) -> Worker {
+    /// egui for a repaint there, so a finished tree shows without input); each tree
+    /// grown is uploaded to `upload`'s device when there is one.
+    pub fn new(wake: impl Fn() + Send + Sync + 'static, upload: Option<Upload>) -> Worker {
         let (jobs, queue) = channel::<Job>();
         let (send, outcomes) = channel();
         let current = Arc::new(Mutex::new(Cancel::new()));
         let token = current.clone();
         let thread = std::thread::Builder::new()
             .name("sylva-edit worker".into())
-            .spawn(move || run(queue, send, token, wake))
+            .spawn(move || run(queue, send, token, wake, upload))
             .expect("the editor's worker thread starts");
         Worker { jobs: Some(jobs), outcomes, current, next: 0, thread: Some(thread) }
     }
@@ -142,7 +179,13 @@ fn lock(m: &Mutex<Cancel>) -> std::sync::MutexGuard<'_, Cancel> {
 }
 
 /// The thread: take the newest queued job, grow it with a fresh token, send the outcome.
-fn run(queue: Receiver<Job>, send: Sender<Outcome>, current: Arc<Mutex<Cancel>>, wake: impl Fn()) {
+fn run(
+    queue: Receiver<Job>,
+    send: Sender<Outcome>,
+    current: Arc<Mutex<Cancel>>,
+    wake: impl Fn(),
+    upload: Option<Upload>,
+) {
     let mut session: Option<Session> = None;
     while let Ok(mut job) = queue.recv() {
         let mut skipped = Vec::new();
@@ -172,7 +215,14 @@ fn run(queue: Receiver<Job>, send: Sender<Outcome>, current: Arc<Mutex<Cancel>>,
         };
         let outcome = match result {
             Ok((tree, stages)) => {
-                Outcome::Grown { job: job.id, tree: Box::new(tree), stages, elapsed: started.elapsed() }
+                let renderer = upload.as_ref().map(|u| u.renderer(&tree));
+                Outcome::Grown {
+                    job: job.id,
+                    tree: Box::new(tree),
+                    renderer,
+                    stages,
+                    elapsed: started.elapsed(),
+                }
             }
             Err(sylva::Error::Cancelled) => Outcome::Cancelled { job: job.id },
             Err(e) => Outcome::Failed { job: job.id, message: e.to_string() },

@@ -32,10 +32,9 @@ endlsystem
 fn harness(what: &str) -> Option<Harness<'static, EditorApp>> {
     sylva_gpu::Gpu::or_skip("the grammar editor's UI tests")?;
     let doc = Document::open(Some(what)).expect("the model opens");
-    let h = Harness::builder()
-        .with_size([1300.0, 800.0])
-        .wgpu()
-        .build_eframe(move |cc| EditorApp::from_creation_context(cc, doc, EditOptions::default()));
+    let h = Harness::builder().with_size([1300.0, 800.0]).wgpu().build_eframe(move |cc| {
+        EditorApp::from_creation_context(cc, doc, EditOptions { full_resolution: true, ..Default::default() })
+    });
     Some(h)
 }
 

@@ -16,10 +16,9 @@ const WAIT: Duration = Duration::from_secs(240);
 fn harness(what: &str) -> Option<Harness<'static, EditorApp>> {
     sylva_gpu::Gpu::or_skip("the editor's UI tests")?;
     let doc = Document::open(Some(what)).expect("the preset opens");
-    let h = Harness::builder()
-        .with_size([1100.0, 760.0])
-        .wgpu()
-        .build_eframe(move |cc| EditorApp::from_creation_context(cc, doc, EditOptions::default()));
+    let h = Harness::builder().with_size([1100.0, 760.0]).wgpu().build_eframe(move |cc| {
+        EditorApp::from_creation_context(cc, doc, EditOptions { full_resolution: true, ..Default::default() })
+    });
     Some(h)
 }
 

@@ -42,7 +42,7 @@ fn a_rewritten_recipe_is_reloaded_and_grown() {
     let path = dir.join("tree.toml");
     std::fs::write(&path, "preset = \"lsys-binary-tree\"\n[mesh]\nsides = 6\n").unwrap();
     let doc = Document::open(Some(path.to_str().unwrap())).unwrap();
-    let opts = EditOptions { watch: true, ..Default::default() };
+    let opts = EditOptions { watch: true, full_resolution: true, ..Default::default() };
     let mut h = Harness::builder()
         .with_size([900.0, 600.0])
         .wgpu()
