@@ -389,6 +389,10 @@ impl EditorApp {
                 ui.separator();
                 ui.add(egui::TextEdit::singleline(&mut self.save_path).desired_width(180.0))
                     .on_hover_text("file to save the recipe to (.toml) or export the tree to (.glb, .gltf, .obj, .ply, .pov, .lst, .skel.json; .png: a picture of the view)");
+                if ui.button("Open").on_hover_text("open the recipe, model or preset named in the field").clicked() {
+                    let what = self.save_path.trim().to_string();
+                    self.open(Some(&what));
+                }
                 if ui.button("Save recipe").clicked() {
                     self.save();
                 }
@@ -459,15 +463,23 @@ impl EditorApp {
         }
     }
 
-    /// Opens another preset or file (a new session); on error the current one stays.
+    /// Opens another preset or file (a new session; `--watch` follows it when it is a
+    /// file); on error the current one stays and the message says why.
     pub fn open(&mut self, what: Option<&str>) {
         match Document::open(what) {
             Ok(doc) => {
                 self.save_path = file_name(doc.source());
+                if self.opts.watch {
+                    self.watch = match doc.source() {
+                        Source::File(path) => Watch::new(path, doc.folder()).ok(),
+                        Source::Preset(_) => None,
+                    };
+                }
+                self.message = Some(format!("opened {}", doc.source()));
                 self.doc = doc;
                 self.submit(true);
             }
-            Err(e) => self.message = Some(e),
+            Err(e) => self.message = Some(format!("cannot open: {e}")),
         }
     }
 

@@ -168,5 +168,30 @@ fn exports_the_tree_and_a_picture_of_the_view() {
     h.state_mut().set_file_name(dir.join("missing-folder/x.png").to_str().unwrap());
     h.state_mut().export();
     assert!(h.state().message().is_some_and(|m| m.starts_with("cannot save")), "{:?}", h.state().message());
+
+    // Save the recipe with a change, open it again through the menu's Open button.
+    h.state_mut().apply("leaves.alpha_cutoff", toml::Value::Float(0.625), false);
+    settle(&mut h);
+    let recipe = dir.join("saved.toml");
+    h.state_mut().set_file_name(recipe.to_str().unwrap());
+    h.state_mut().save();
+    h.state_mut().open(Some(sylva::presets::DEFAULT_PRESET));
+    settle(&mut h);
+    assert_ne!(h.state().document().recipe().leaves.alpha_cutoff, 0.625);
+    h.state_mut().set_file_name(recipe.to_str().unwrap());
+    h.run_steps(1);
+    h.get_by_label("Open").click_accesskit();
+    h.run_steps(1);
+    assert_eq!(h.state().document().source(), &sylva_editor::document::Source::File(recipe.clone()));
+    settle(&mut h);
+    assert_eq!(h.state().document().recipe().leaves.alpha_cutoff, 0.625, "the saved change is back");
+    assert_eq!(h.state().document().recipe().name, "lsys-honda-a");
+    // A file that does not exist is a message; the document stays.
+    h.state_mut().set_file_name(dir.join("nothing-here.toml").to_str().unwrap());
+    h.run_steps(1);
+    h.get_by_label("Open").click_accesskit();
+    h.run_steps(1);
+    assert!(h.state().message().is_some_and(|m| m.starts_with("cannot open")), "{:?}", h.state().message());
+    assert_eq!(h.state().document().source(), &sylva_editor::document::Source::File(recipe));
     let _ = std::fs::remove_dir_all(&dir);
 }
