@@ -1,0 +1,260 @@
+"""The operators (``sylva.grow``, ``sylva.regrow``), the scene settings generated from
+the recipe schema (``sylva.schema()``: the mesh, leaves, wind and lod sections; no
+hand-written list of keys) and the sidebar panel (View3D > Sidebar > sylva)."""
+
+import json
+
+import bpy
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+from . import build, settings
+
+SECTIONS = ("mesh", "leaves", "wind", "lod")
+INT32 = 2**31 - 1
+
+_state = {"sylva": None, "entries": [], "settings_class": None}
+
+
+def _attr(key):
+    return key.replace(".", "__")
+
+
+def _schema_property(entry):
+    """A Blender property for one schema entry (a string holding JSON for lists and
+    integers beyond 32 bits)."""
+    kind, default, doc = entry["kind"], entry["default"], entry["doc"] or ""
+    name = entry["key"].split(".", 1)[1]
+    t = kind["type"]
+    if t == "bool":
+        return BoolProperty(name=name, description=doc, default=bool(default))
+    if t == "mode":
+        items = [(v, v, "") for v in kind["values"]]
+        first = default if default in kind["values"] else kind["values"][0]
+        return EnumProperty(name=name, description=doc, items=items, default=first)
+    lo, hi = kind.get("min"), kind.get("max")
+    if t == "integer" and all(v is None or abs(v) <= INT32 for v in (lo, hi, default)):
+        lo = -INT32 if lo is None else lo
+        hi = INT32 if hi is None else hi
+        value = default if default is not None else max(lo, 0)
+        return IntProperty(name=name, description=doc, min=lo, max=hi, default=value)
+    if t == "float":
+        kw = {}
+        if lo is not None:
+            kw["min"] = lo
+        if hi is not None:
+            kw["max"] = hi
+        value = float(default) if default is not None else float(lo or 0.0)
+        return FloatProperty(name=name, description=doc, default=value, **kw)
+    text = "" if default is None else json.dumps(default)
+    return StringProperty(name=name, description=f"{doc} (JSON)", default=text)
+
+
+def _to_recipe(entry, value):
+    if isinstance(value, str) and entry["kind"]["type"] not in ("mode", "string"):
+        return json.loads(value) if value.strip() else None
+    return value
+
+
+def _load_preset(self, context):
+    """Shows the preset's values in the panel and remembers them, so that a Grow sets
+    only what was changed."""
+    recipe = _state["sylva"].Recipe.preset(self.preset)
+    shown = {}
+    for entry in _state["entries"]:
+        attr = _attr(entry["key"])
+        value = recipe.get(entry["key"])
+        if value is not None:
+            if isinstance(getattr(self, attr), str) and entry["kind"]["type"] not in ("mode",):
+                value = json.dumps(value)
+            try:
+                setattr(self, attr, value)
+            except (TypeError, ValueError):
+                pass
+        shown[attr] = getattr(self, attr)
+    self.shown = json.dumps(shown)
+
+
+def panel_changes(props):
+    """``[(key, value, where)]`` for every panel setting changed since the preset was
+    loaded (or from its default, before any was)."""
+    shown = json.loads(props.shown) if props.shown else {}
+    out = []
+    for entry in _state["entries"]:
+        attr = _attr(entry["key"])
+        value = getattr(props, attr)
+        base = shown.get(attr, props.bl_rna.properties[attr].default)
+        if isinstance(value, float) and isinstance(base, float):
+            same = abs(value - base) <= 1e-6 * max(1.0, abs(base))
+        else:
+            same = value == base
+        if not same:
+            try:
+                out.append((entry["key"], _to_recipe(entry, value), f"panel `{entry['key']}`"))
+            except ValueError as e:
+                raise settings.SettingsError(f"panel `{entry['key']}`: not JSON: {e}") from None
+    return out
+
+
+def _report_failure(op, e):
+    op.report({"ERROR"}, f"sylva: {e}")
+    return {"CANCELLED"}
+
+
+class SYLVA_OT_grow(bpy.types.Operator):
+    """Grow a sylva tree from a preset and build it as native objects"""
+
+    bl_idname = "sylva.grow"
+    bl_label = "Grow"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: StringProperty(name="Preset", default="wp-quaking-aspen")
+    seed: IntProperty(name="Seed", description="-1: the recipe's seed", default=-1, min=-1)
+    settings: StringProperty(name="Settings", description="key=value lines or a TOML overlay")
+    use_panel: BoolProperty(name="Use panel", default=False, options={"HIDDEN", "SKIP_SAVE"})
+
+    def execute(self, context):
+        sylva = _state["sylva"]
+        try:
+            if self.preset not in sylva.presets():
+                raise settings.SettingsError(f"unknown preset `{self.preset}`")
+            recipe = sylva.Recipe.preset(self.preset)
+            if self.use_panel:
+                settings.apply(sylva, recipe, panel_changes(context.scene.sylva))
+            settings.apply(sylva, recipe, settings.parse(self.settings))
+            tree = recipe.grow(seed=None if self.seed < 0 else self.seed)
+        except (sylva.SylvaError, settings.SettingsError) as e:
+            return _report_failure(self, e)
+        root = build.build(tree, context)
+        _select(context, [root])
+        self.report({"INFO"}, f"sylva: grew {recipe.name} ({tree.triangles} triangles)")
+        return {"FINISHED"}
+
+
+class SYLVA_OT_regrow(bpy.types.Operator):
+    """Grow the selected sylva trees again from their stored recipes (with the changes
+    given), replacing their meshes in place"""
+
+    bl_idname = "sylva.regrow"
+    bl_label = "Re-grow selected"
+    bl_options = {"REGISTER", "UNDO"}
+
+    seed: IntProperty(name="Seed", description="-1: the stored seed", default=-1, min=-1)
+    settings: StringProperty(name="Settings", description="key=value lines or a TOML overlay")
+    use_panel: BoolProperty(name="Use panel", default=False, options={"HIDDEN", "SKIP_SAVE"})
+
+    def execute(self, context):
+        sylva = _state["sylva"]
+        roots = []
+        for obj in context.selected_objects or ([context.object] if context.object else []):
+            root = build.tree_root(obj)
+            if root is not None and root not in roots:
+                roots.append(root)
+        if not roots:
+            self.report({"ERROR"}, "sylva: no sylva tree is selected")
+            return {"CANCELLED"}
+        grown = []
+        try:
+            for root in roots:
+                recipe = sylva.Recipe.from_toml(root[build.RECIPE_PROP])
+                if self.use_panel:
+                    settings.apply(sylva, recipe, panel_changes(context.scene.sylva))
+                settings.apply(sylva, recipe, settings.parse(self.settings))
+                seed = int(root.get(build.SEED_PROP, recipe.seed)) if self.seed < 0 else self.seed
+                grown.append((root, recipe.grow(seed=seed)))
+        except (sylva.SylvaError, settings.SettingsError) as e:
+            return _report_failure(self, e)
+        for root, tree in grown:
+            build.build(tree, context, root=root)
+        _select(context, roots)
+        return {"FINISHED"}
+
+
+def _select(context, roots):
+    for obj in context.view_layer.objects:
+        obj.select_set(False)
+    for root in roots:
+        root.select_set(True)
+    context.view_layer.objects.active = roots[-1]
+
+
+class VIEW3D_PT_sylva(bpy.types.Panel):
+    """View3D > Sidebar > sylva: preset, seed, Grow, Re-grow selected and the recipe's
+    mesh, leaves, wind and lod settings."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "sylva"
+    bl_label = "sylva"
+
+    def draw(self, context):
+        props = context.scene.sylva
+        col = self.layout.column()
+        col.prop(props, "preset")
+        col.prop(props, "seed")
+        col.prop(props, "settings")
+        row = col.row()
+        op = row.operator("sylva.grow")
+        op.preset, op.seed, op.settings, op.use_panel = (
+            props.preset,
+            props.seed,
+            props.settings,
+            True,
+        )
+        op = row.operator("sylva.regrow")
+        op.settings, op.use_panel = props.settings, True
+        for section in SECTIONS:
+            box = col.box()
+            box.label(text=section)
+            for entry in _state["entries"]:
+                if entry["section"] == section:
+                    box.prop(props, _attr(entry["key"]))
+
+
+def settings_class(sylva):
+    """The scene's property group, with one property per schema key of SECTIONS."""
+    entries = [e for e in sylva.schema() if e["section"] in SECTIONS]
+    _state["entries"] = entries
+    presets = sylva.presets()
+    annotations = {
+        "preset": EnumProperty(
+            name="Preset",
+            items=[(p, p, "") for p in presets],
+            default="wp-quaking-aspen" if "wp-quaking-aspen" in presets else presets[0],
+            update=_load_preset,
+        ),
+        "seed": IntProperty(name="Seed", description="-1: the recipe's seed", default=-1, min=-1),
+        "settings": StringProperty(name="Settings", description="key=value lines"),
+        "shown": StringProperty(options={"HIDDEN"}),
+    }
+    for entry in entries:
+        annotations[_attr(entry["key"])] = _schema_property(entry)
+    return type("SylvaSettings", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
+
+
+CLASSES = (SYLVA_OT_grow, SYLVA_OT_regrow, VIEW3D_PT_sylva)
+
+
+def register(sylva):
+    _state["sylva"] = sylva
+    cls = settings_class(sylva)
+    _state["settings_class"] = cls
+    bpy.utils.register_class(cls)
+    for c in CLASSES:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.sylva = PointerProperty(type=cls)
+
+
+def unregister():
+    del bpy.types.Scene.sylva
+    for c in reversed(CLASSES):
+        bpy.utils.unregister_class(c)
+    if _state["settings_class"] is not None:
+        bpy.utils.unregister_class(_state["settings_class"])
+        _state["settings_class"] = None

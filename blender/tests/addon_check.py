@@ -1,0 +1,190 @@
+"""Run inside Blender by crates/sylva-py/tests/test_blender.py:
+
+    blender -b --factory-startup --python-exit-code 1 --python addon_check.py -- ZIP OUT.json
+
+Installs and enables the add-on from ZIP, grows an L-system and a Weber-Penn preset (with
+LOD levels) through ``bpy.ops.sylva.grow`` and checks the objects, materials, images,
+vertex and triangle counts against the Python API, LOD visibility, the bark's Base
+Color image, the panel's schema settings, re-growing, and that bad settings cancel with
+an error report and leave the tree. Any failed check raises (exit status 1); the
+numbers measured go to OUT.json."""
+
+import json
+import sys
+import time
+
+import bpy
+
+zip_path, out_path = sys.argv[sys.argv.index("--") + 1 :][:2]
+result = {}
+
+bpy.ops.preferences.addon_install(filepath=zip_path)
+bpy.ops.preferences.addon_enable(module="sylva_blender")
+import sylva  # noqa: E402  (importable once the add-on is enabled)
+from sylva_blender import build  # noqa: E402
+
+result["sylva_file"] = sylva.__file__
+
+
+def lod_objects(root):
+    """{k: [mesh objects of LOD k]} under ``root``."""
+    out = {}
+    for obj in root.children:
+        out.setdefault(obj["sylva_lod"], []).append(obj)
+    return out
+
+
+def check_tree(root, recipe, label):
+    """Checks the tree built under ``root`` against ``recipe`` grown by the Python API."""
+    tree = recipe.grow(seed=root[build.SEED_PROP])
+    parts = tree.parts
+    levels = lod_objects(root)
+    budgets = recipe.get("lod.levels") or []
+    assert sorted(levels) == list(range(max(1, len(budgets)))), (label, sorted(levels))
+    lod0 = levels[0]
+    assert len(lod0) == len(parts), (label, len(lod0), len(parts))
+    verts = sum(len(o.data.vertices) for o in lod0)
+    tris = sum(len(o.data.polygons) for o in lod0)
+    assert all(len(p.vertices) == 3 for o in lod0 for p in o.data.polygons), label
+    want_v = sum(len(p.vertices) for p in parts)
+    want_t = sum(len(p.faces) for p in parts)
+    assert (verts, tris) == (want_v, want_t), (label, verts, tris, want_v, want_t)
+    mats = {s.material for objs in levels.values() for o in objs for s in o.material_slots}
+    assert len(mats) == len({p.material["name"] for p in parts}), (label, mats)
+    for objs in levels.values():  # every level uses the same materials
+        assert {s.material for o in objs for s in o.material_slots} == mats, label
+    images = {n.image for m in mats for n in m.node_tree.nodes if n.type == "TEX_IMAGE"}
+    assert len(images) == sum(len(p.images) for p in parts), (label, len(images))
+    for k, objs in levels.items():
+        for o in objs:
+            assert o.visible_get() == (k == 0), (label, o.name, k)
+        if k > 0:
+            lod_tris = sum(len(o.data.polygons) for o in objs)
+            assert 0 < lod_tris <= budgets[k], (label, k, lod_tris, budgets[k])
+    for part, obj in zip(parts, lod0):
+        mat = obj.material_slots[0].material
+        bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+        if "base_color" in part.images:
+            links = bsdf.inputs["Base Color"].links
+            assert links and links[0].from_node.type == "TEX_IMAGE", (label, part.name)
+            assert links[0].from_node.image is not None, (label, part.name)
+        if part.material["alpha_cutoff"] is not None:
+            assert mat.blend_method == "CLIP", (label, part.name, mat.blend_method)
+        assert obj.data.uv_layers, (label, part.name)
+        assert obj.data.polygons[0].use_smooth, (label, part.name)
+    return {
+        "vertices": verts,
+        "triangles": tris,
+        "objects": sum(len(v) for v in levels.values()),
+        "materials": len(mats),
+        "images": len(images),
+        "lod_triangles": [sum(len(o.data.polygons) for o in levels[k]) for k in sorted(levels)],
+    }
+
+
+def grow(preset, text=""):
+    t0 = time.perf_counter()
+    assert bpy.ops.sylva.grow(preset=preset, settings=text) == {"FINISHED"}
+    seconds = time.perf_counter() - t0
+    root = bpy.context.view_layer.objects.active
+    assert root is not None and build.RECIPE_PROP in root, preset
+    return root, seconds
+
+
+def expect_error(call, needle):
+    """``call`` must fail with Blender's error report naming ``needle``."""
+    try:
+        call()
+    except RuntimeError as e:  # bpy.ops raises the operator's ERROR report
+        assert "Error" in str(e) and needle in str(e), str(e)
+        return str(e).strip()
+    raise AssertionError(f"expected an error naming {needle}")
+
+
+# An L-system tree.
+honda, _ = grow("lsys-honda-a")
+result["lsys-honda-a"] = check_tree(honda, sylva.Recipe.preset("lsys-honda-a"), "honda")
+
+# A Weber-Penn tree with two LOD levels.
+aspen_settings = "lod.levels = [20000, 5000]\nmesh.sides = 6"
+aspen, seconds = grow("wp-quaking-aspen", aspen_settings)
+aspen_recipe = sylva.Recipe.preset("wp-quaking-aspen").set("lod.levels", [20000, 5000])
+aspen_recipe.set("mesh.sides", 6)
+result["wp-quaking-aspen"] = check_tree(aspen, aspen_recipe, "aspen")
+result["wp-quaking-aspen"]["grow_and_build_s"] = seconds
+
+# The recipe is stored on the tree: it reads back as the recipe grown.
+assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == aspen_recipe.to_toml()
+
+# Bad settings: an error report, no new objects, the previous trees untouched.
+before = (
+    len(bpy.data.objects),
+    len(bpy.data.meshes),
+    len(bpy.data.materials),
+    len(bpy.data.images),
+)
+result["errors"] = [
+    expect_error(
+        lambda: bpy.ops.sylva.grow(preset="lsys-honda-a", settings="mesh.sides = 1"), "mesh.sides"
+    ),
+    expect_error(
+        lambda: bpy.ops.sylva.grow(preset="lsys-honda-a", settings="no.such.key = 3"), "no.such.key"
+    ),
+    expect_error(
+        lambda: bpy.ops.sylva.grow(preset="lsys-honda-a", settings="mesh.sides"), "line 1"
+    ),
+    expect_error(lambda: bpy.ops.sylva.grow(preset="no-such-preset"), "no-such-preset"),
+]
+after = (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.materials), len(bpy.data.images))
+assert before == after, (before, after)
+assert check_tree(aspen, aspen_recipe, "aspen after errors") == {
+    k: v for k, v in result["wp-quaking-aspen"].items() if k != "grow_and_build_s"
+}
+
+# Re-grow selected: the same tree in place (same root, transform kept, nothing left over).
+aspen.location = (3.0, 0.0, 0.0)
+for obj in bpy.context.view_layer.objects:
+    obj.select_set(False)
+aspen.select_set(True)
+bpy.context.view_layer.objects.active = aspen
+assert bpy.ops.sylva.regrow() == {"FINISHED"}
+assert (
+    check_tree(aspen, aspen_recipe, "aspen regrown")["vertices"]
+    == result["wp-quaking-aspen"]["vertices"]
+)
+assert tuple(aspen.location) == (3.0, 0.0, 0.0)
+assert (
+    len(bpy.data.objects),
+    len(bpy.data.meshes),
+    len(bpy.data.materials),
+    len(bpy.data.images),
+) == after
+# ... with a change, and a bad change that leaves it.
+assert bpy.ops.sylva.regrow(settings="mesh.sides = 5") == {"FINISHED"}
+aspen_recipe.set("mesh.sides", 5)
+result["regrown_sides_5"] = check_tree(aspen, aspen_recipe, "aspen sides 5")
+assert result["regrown_sides_5"]["vertices"] != result["wp-quaking-aspen"]["vertices"]
+result["errors"].append(
+    expect_error(lambda: bpy.ops.sylva.regrow(settings="leaves.alpha_cutoff = 2"), "alpha_cutoff")
+)
+assert check_tree(aspen, aspen_recipe, "aspen after a bad regrow") == result["regrown_sides_5"]
+
+# The panel's settings come from the schema; a preset shows its values; a change applies.
+props = bpy.context.scene.sylva
+schema_keys = [
+    e["key"] for e in sylva.schema() if e["section"] in ("mesh", "leaves", "wind", "lod")
+]
+assert all(hasattr(props, k.replace(".", "__")) for k in schema_keys), schema_keys
+props.preset = "lsys-honda-b"
+assert props.mesh__sides == sylva.Recipe.preset("lsys-honda-b").get("mesh.sides")
+props.mesh__sides = 5
+assert bpy.ops.sylva.grow(preset="lsys-honda-b", use_panel=True) == {"FINISHED"}
+panel_tree = bpy.context.view_layer.objects.active
+result["panel"] = check_tree(
+    panel_tree, sylva.Recipe.preset("lsys-honda-b").set("mesh.sides", 5), "panel"
+)
+result["panel_keys"] = len(schema_keys)
+
+with open(out_path, "w") as f:
+    json.dump(result, f, indent=1)
+print("addon_check: ok")

@@ -1,0 +1,122 @@
+"""The Blender add-on (blender/sylva_blender, issue 43) in Debian's Blender, headless.
+
+`blender -b --factory-startup` runs blender/tests/addon_check.py: it installs the add-on
+from the zip blender/build_zip.py makes (the wheel bundled), enables it, grows an
+L-system and a Weber-Penn preset with LOD levels through `bpy.ops.sylva.grow` and checks
+object, material and image counts, vertex and triangle counts against the Python API,
+that only LOD0 is visible, the bark's Base Color image, re-growing in place, the
+panel's schema settings, and that bad settings cancel with an error report and leave
+the tree. Blender's user folders are temporary, so nothing is installed for the user.
+
+Skipped when `blender` is missing, unless SYLVA_REQUIRE_BLENDER=1 (.ci/run). The wheel is
+SYLVA_WHEEL's (.ci/run builds it) or the newest in target/wheels (`maturin build
+--release -m crates/sylva-py/Cargo.toml`; rebuild it after changing the bindings);
+without one the test is skipped. The settings parser is also tested here without
+Blender."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT, require
+
+BLENDER_DIR = ROOT / "blender"
+sys.path.insert(0, str(BLENDER_DIR))
+
+from sylva_blender import settings  # noqa: E402  (the add-on's folder, put on sys.path)
+
+
+def _wheel():
+    if os.environ.get("SYLVA_WHEEL"):
+        wheel = Path(os.environ["SYLVA_WHEEL"])
+        assert wheel.is_file(), f"SYLVA_WHEEL={wheel} does not exist"
+        return wheel
+    found = sorted((ROOT / "target" / "wheels").glob("sylva-*abi3*.whl"), key=os.path.getmtime)
+    if not found:
+        pytest.skip("no sylva wheel: set SYLVA_WHEEL or run maturin build --release")
+    return found[-1]
+
+
+def _blender():
+    found = shutil.which("blender")
+    if found is None:
+        msg = "blender is not installed (apt-get install blender python3-numpy)"
+        if require("SYLVA_REQUIRE_BLENDER"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return found
+
+
+def test_addon_grows_native_trees_in_blender(tmp_path):
+    blender = _blender()
+    wheel = _wheel()
+    zip_path = tmp_path / "sylva_blender.zip"
+    out = subprocess.run(
+        [sys.executable, str(BLENDER_DIR / "build_zip.py"), "--wheel", str(wheel)]
+        + ["--out", str(zip_path)],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    env = dict(os.environ)
+    env["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
+    env["BLENDER_USER_CONFIG"] = str(tmp_path / "config")
+    result_path = tmp_path / "result.json"
+    script = BLENDER_DIR / "tests" / "addon_check.py"
+    args = [blender, "-b", "--factory-startup", "--python-exit-code", "1"]
+    args += ["--python", str(script), "--", str(zip_path), str(result_path)]
+    t0 = time.perf_counter()
+    run = subprocess.run(args, capture_output=True, text=True, env=env, timeout=300)
+    seconds = time.perf_counter() - t0
+    log = run.stdout + run.stderr
+    assert run.returncode == 0 and "addon_check: ok" in run.stdout, log[-6000:]
+    # Errors are Blender reports; no Python traceback reaches the console.
+    assert "Traceback" not in log, log[-6000:]
+    result = json.loads(result_path.read_text())
+    # The package came from the bundled wheel, extracted into the installed add-on.
+    assert "/_site/sylva/" in result["sylva_file"], result["sylva_file"]
+    aspen = result["wp-quaking-aspen"]
+    assert (aspen["objects"], aspen["materials"], aspen["images"]) == (4, 2, 4), aspen
+    assert len(aspen["lod_triangles"]) == 2 and aspen["lod_triangles"][1] <= 5000, aspen
+    honda = result["lsys-honda-a"]
+    assert (honda["objects"], honda["materials"], honda["images"]) == (1, 1, 3), honda
+    assert len(result["errors"]) == 5, result["errors"]
+    assert result["panel_keys"] >= 30, result["panel_keys"]
+    grow_s = aspen["grow_and_build_s"]
+    print(f"blender add-on check: {seconds:.1f} s; aspen grow+build {grow_s:.2f} s")
+
+
+def test_settings_lines_and_toml_overlay():
+    assert settings.parse("mesh.sides = 6\n# a comment\n\nwind.preset=breeze") == [
+        ("mesh.sides", 6, "line 1 (`mesh.sides`)"),
+        ("wind.preset", "breeze", "line 4 (`wind.preset`)"),
+    ]
+    assert settings.parse('lod.levels = [20000, 5000]\nleaves.mode = "cards"') == [
+        ("lod.levels", [20000, 5000], "line 1 (`lod.levels`)"),
+        ("leaves.mode", "cards", "line 2 (`leaves.mode`)"),
+    ]
+    if settings.tomllib is not None:
+        overlay = "[mesh]\nsides = 5\n[wind]\npreset = 'calm'\n"
+        assert settings.parse(overlay) == [
+            ("mesh.sides", 5, "key `mesh.sides`"),
+            ("wind.preset", "calm", "key `wind.preset`"),
+        ]
+
+
+def test_settings_errors_name_the_line_and_the_key():
+    with pytest.raises(settings.SettingsError, match="line 2: expected key=value"):
+        settings.parse("mesh.sides = 6\nmesh.sides")
+    with pytest.raises(settings.SettingsError, match="line 1: no key"):
+        settings.parse("= 6")
+    import sylva
+
+    recipe = sylva.Recipe.preset("lsys-honda-a")
+    with pytest.raises(settings.SettingsError, match=r"line 1 \(`mesh.sides`\).*3..=1024"):
+        settings.apply(sylva, recipe, settings.parse("mesh.sides = 2"))
+    assert recipe.get("mesh.sides") == sylva.Recipe.preset("lsys-honda-a").get("mesh.sides")
