@@ -191,3 +191,14 @@ fn item8_functions_are_cpfgs_bisection_and_table() {
     assert_eq!(sk.organs.len(), 1);
     assert!((sk.organs[0].size - 0.25).abs() < 1e-7, "{}", sk.organs[0].size);
 }
+
+/// Item 10 (part): `maximum depth:` above 10,000, as real ecosystem models declare
+/// (15,000–25,000): a decomposition chain 20,000 levels deep expands within it.
+#[test]
+fn item10_maximum_depth_above_ten_thousand() {
+    let text = "Lsystem: 1\nAxiom: X\nX --> A(20000)\ndecomposition\nmaximum depth: 25000\n\
+                A(n) : n > 0 --> A(n-1)\nA(n) : n == 0 --> F\nendlsystem\n";
+    assert_eq!(derive(text, 1), "F");
+    let e = LSystem::parse("t.l", &text.replace("25000", "2000000"), &[]).unwrap_err();
+    assert!(e.message.contains("maximum depth must be 1..1000000"), "{}", e.message);
+}

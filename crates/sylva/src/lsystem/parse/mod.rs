@@ -225,6 +225,12 @@ pub struct LSystem {
     pub prefix_base: Vec<u16>,
 }
 
+/// The largest `maximum depth:` a decomposition or homomorphism may declare (issue 46
+/// item 10: real ecosystem models use 15,000–25,000). Expansion keeps its own stack and
+/// the module and work budgets bound what a deep recursion writes, so the depth itself
+/// costs nothing until it is used.
+pub const MAX_DEPTH: u32 = 1_000_000;
+
 /// [`LSystem::prefix_base`] of a symbol that is not a prefixed module with a base.
 pub const NO_BASE: u16 = u16::MAX;
 
@@ -692,12 +698,12 @@ impl LSystem {
                                 };
                             let _ = rules;
                             let n = self.constant(value, end, "maximum depth")?;
-                            if !(1.0..=10000.0).contains(&n) {
+                            if !(1.0..=MAX_DEPTH as f64).contains(&n) {
                                 return Err(self.source.error(
                                     ErrorKind::Syntax,
                                     value,
                                     end - value,
-                                    &format!("maximum depth must be 1..10000, got {n}"),
+                                    &format!("maximum depth must be 1..{MAX_DEPTH}, got {n}"),
                                     "bad depth",
                                 ));
                             }
