@@ -7,9 +7,14 @@ Coordinates: sylva is +Y up (as glTF); Blender is +Z up, so (x, y, z) becomes
 (x, -z, y), the conversion Blender's glTF importer makes. UVs have glTF's top-left
 origin and are flipped to Blender's bottom-left one.
 
-LOD0 is ``tree.parts``. The Python API exposes no other level, so levels 1.. are read
-from the tree's own binary glTF (``tree.to_glb()``, nodes ``sylva_LOD<k>``), parsed in
-memory here: no file and no glTF importer."""
+LOD0 is ``tree.parts``. The Python API exposes neither the other levels nor the wind
+rig, so levels 1.. (nodes ``sylva_LOD<k>``), the skin (joints, inverse bind matrices,
+per-vertex joints and weights) and the wind clip are read from the tree's own binary
+glTF (``tree.to_glb()``), parsed in memory here: no file and no glTF importer. The rig
+is an armature whose bones rest along +Y (their rest frames are the armature's, as the
+glTF joints, which have translations only), so the clip's joint rotations become the
+pose bones' quaternions after the axis change; the meshes get one vertex group per
+joint and an Armature modifier."""
 
 import json
 import re
@@ -21,59 +26,99 @@ import numpy as np
 RECIPE_PROP = "sylva_recipe"
 SEED_PROP = "sylva_seed"
 
-_COMPONENTS = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
-_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+_COMPONENTS = {
+    5120: np.int8,
+    5121: np.uint8,
+    5122: np.int16,
+    5123: np.uint16,
+    5125: np.uint32,
+    5126: np.float32,
+}
+_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
 
 class Level:
-    """One LOD level: a list of ``(part name, vertices, faces, normals, uvs)``."""
+    """One LOD level: a list of ``(part name, vertices, faces, normals, uvs, skin)``,
+    ``skin`` being ``(joints (V, 4), weights (V, 4))`` or None."""
 
     def __init__(self, parts):
         self.parts = parts
 
 
-def _accessor(doc, binary, index):
-    acc = doc["accessors"][index]
-    view = doc["bufferViews"][acc["bufferView"]]
-    dtype = np.dtype(_COMPONENTS[acc["componentType"]])
-    width = _WIDTHS[acc["type"]]
-    stride = view.get("byteStride", dtype.itemsize * width)
-    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-    rows = np.ndarray((acc["count"], width), dtype, binary, start, (stride, dtype.itemsize))
-    return rows.copy() if width > 1 else rows[:, 0].copy()
+class Glb:
+    """The JSON and binary chunk of a tree's binary glTF."""
+
+    def __init__(self, data):
+        json_len = struct.unpack_from("<I", data, 12)[0]
+        self.doc = json.loads(data[20 : 20 + json_len])
+        self.binary = data[28 + json_len :]
+
+    def accessor(self, index):
+        """Accessor ``index`` as an array (rows of its width)."""
+        doc = self.doc
+        acc = doc["accessors"][index]
+        view = doc["bufferViews"][acc["bufferView"]]
+        dtype = np.dtype(_COMPONENTS[acc["componentType"]])
+        width = _WIDTHS[acc["type"]]
+        stride = view.get("byteStride", dtype.itemsize * width)
+        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        shape, strides = (acc["count"], width), (stride, dtype.itemsize)
+        rows = np.ndarray(shape, dtype, self.binary, start, strides)
+        return rows.copy() if width > 1 else rows[:, 0].copy()
+
+    def lod_meshes(self):
+        """``{k: glTF mesh}`` of the nodes ``sylva_LOD<k>`` (or ``sylva``, level 0)."""
+        found = {}
+        for node in self.doc["nodes"]:
+            m = re.fullmatch(r"sylva(?:_LOD(\d+))?", node.get("name", ""))
+            if m and "mesh" in node:
+                found[int(m.group(1) or 0)] = self.doc["meshes"][node["mesh"]]
+        return found
 
 
-def lod_levels(tree):
-    """The tree's levels: LOD0 from ``tree.parts``, the others from its glTF."""
-    levels = [Level([(p.name, p.vertices, p.faces, p.normals, p.uvs) for p in tree.parts])]
-    if not tree.recipe.get("lod.levels"):
-        return levels
-    data = tree.to_glb()
-    json_len = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20 : 20 + json_len])
-    binary = data[28 + json_len :]
-    names = [p[0] for p in levels[0].parts]
-    found = {}
-    for node in doc["nodes"]:
-        m = re.fullmatch(r"sylva_LOD(\d+)", node.get("name", ""))
-        if m and int(m.group(1)) > 0 and "mesh" in node:
-            found[int(m.group(1))] = doc["meshes"][node["mesh"]]
-    for k in sorted(found):
-        parts = []
-        for j, prim in enumerate(found[k]["primitives"]):
-            attrs = prim["attributes"]
-            faces = _accessor(doc, binary, prim["indices"]).astype(np.uint32).reshape(-1, 3)
-            uvs = _accessor(doc, binary, attrs["TEXCOORD_0"]) if "TEXCOORD_0" in attrs else None
-            parts.append(
-                (
-                    names[j] if j < len(names) else f"part{j}",
-                    _accessor(doc, binary, attrs["POSITION"]),
-                    faces,
-                    _accessor(doc, binary, attrs["NORMAL"]),
-                    uvs,
-                )
+def needs_glb(recipe):
+    """Whether the tree's glTF is read: for LOD levels past 0 or for the wind rig."""
+    return bool(recipe.get("lod.levels")) or recipe.get("wind.preset") not in (None, "none")
+
+
+def lod_levels(parts, glb):
+    """The tree's levels: LOD0 from its ``parts``, the others from its glTF; with a
+    wind rig, every level's joints and weights from the glTF."""
+    names = [p.name for p in parts]
+    meshes = glb.lod_meshes() if glb is not None else {}
+
+    def skin(prim):
+        attrs = prim["attributes"]
+        if "JOINTS_0" not in attrs or "WEIGHTS_0" not in attrs:
+            return None
+        return glb.accessor(attrs["JOINTS_0"]), glb.accessor(attrs["WEIGHTS_0"])
+
+    level0 = []
+    for j, p in enumerate(parts):
+        prims = meshes.get(0, {"primitives": []})["primitives"]
+        level0.append(
+            (
+                p.name,
+                p.vertices,
+                p.faces,
+                p.normals,
+                p.uvs,
+                skin(prims[j]) if j < len(prims) else None,
             )
-        levels.append(Level(parts))
+        )
+    levels = [Level(level0)]
+    for k in sorted(meshes):
+        if k == 0:
+            continue
+        level = []
+        for j, prim in enumerate(meshes[k]["primitives"]):
+            attrs = prim["attributes"]
+            faces = glb.accessor(prim["indices"]).astype(np.uint32).reshape(-1, 3)
+            uvs = glb.accessor(attrs["TEXCOORD_0"]) if "TEXCOORD_0" in attrs else None
+            name = names[j] if j < len(names) else f"part{j}"
+            positions, normals = glb.accessor(attrs["POSITION"]), glb.accessor(attrs["NORMAL"])
+            level.append((name, positions, faces, normals, uvs, skin(prim)))
+        levels.append(Level(level))
     return levels
 
 
@@ -172,10 +217,127 @@ def make_material(name, material, images):
     return mat
 
 
+def _quat_zup(q):
+    """glTF quaternions (x, y, z, w), +Y up, as Blender's (w, x, y, z), +Z up."""
+    return np.stack([q[:, 3], q[:, 0], -q[:, 2], q[:, 1]], axis=1)
+
+
+def make_rig(glb, recipe, name, context, coll, root):
+    """The wind rig: an armature object with one bone per glTF joint (head at the
+    joint's rest position, pointing along +Y so that its rest frame is the armature's
+    and the clip's rotations apply unchanged), the clip as an action, and the scene's
+    frame range and rate set to the clip. Returns ``(armature object, joint names)``,
+    or ``(None, [])`` when the tree has no skin."""
+    doc = glb.doc
+    if not doc.get("skins"):
+        return None, []
+    nodes = doc["nodes"]
+    joints = doc["skins"][0]["joints"]
+    parent = {c: i for i, n in enumerate(nodes) for c in n.get("children", [])}
+    world = {}
+
+    def rest(i):
+        if i not in world:
+            t = np.array(nodes[i].get("translation", [0.0, 0.0, 0.0]), dtype=np.float64)
+            world[i] = t + (rest(parent[i]) if i in parent else 0.0)
+        return world[i]
+
+    heads = _zup(np.array([rest(j) for j in joints], dtype=np.float32))
+    extent = float(np.ptp(heads, axis=0).max()) if len(heads) else 1.0
+    length = max(extent / 50.0, 0.01)
+    arm = bpy.data.armatures.new(f"{name}_rig")
+    obj = bpy.data.objects.new(f"{name}_rig", arm)
+    obj["sylva_rig"] = 1
+    obj.parent = root
+    coll.objects.link(obj)
+    view_layer = context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    names = [nodes[j].get("name", f"joint_{k}") for k, j in enumerate(joints)]
+    bones = {}
+    for k, j in enumerate(joints):
+        eb = arm.edit_bones.new(names[k])
+        eb.head = heads[k]
+        eb.tail = heads[k] + np.array([0.0, length, 0.0], dtype=np.float32)
+        bones[j] = eb
+    for j, eb in bones.items():
+        p = parent.get(j)
+        while p is not None and p not in bones:
+            p = parent.get(p)
+        if p is not None:
+            eb.parent = bones[p]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    view_layer.objects.active = previous
+    for pb in obj.pose.bones:
+        pb.rotation_mode = "QUATERNION"
+    fps = int(recipe.get("wind.fps") or 30)
+    end = 0.0
+    if doc.get("animations"):
+        anim = doc["animations"][0]
+        action = bpy.data.actions.new(f"{name}_wind")
+        for ch in anim["channels"]:
+            target = ch["target"]
+            if target.get("path") != "rotation" or target.get("node") not in bones:
+                continue
+            sampler = anim["samplers"][ch["sampler"]]
+            times = glb.accessor(sampler["input"]).astype(np.float64)
+            end = max(end, float(times[-1]))
+            quats = _quat_zup(glb.accessor(sampler["output"]))
+            bone = nodes[target["node"]].get("name")
+            frames = 1.0 + times * fps
+            for i in range(4):
+                fc = action.fcurves.new(
+                    f'pose.bones["{bone}"].rotation_quaternion', index=i, action_group=bone
+                )
+                fc.keyframe_points.add(len(times))
+                co = np.stack([frames, quats[:, i]], axis=1).astype(np.float32)
+                fc.keyframe_points.foreach_set("co", co.ravel())
+                for kp in fc.keyframe_points:
+                    kp.interpolation = "LINEAR"
+                fc.update()
+        obj.animation_data_create().action = action
+        scene = context.scene
+        scene.render.fps = fps
+        scene.render.fps_base = 1.0
+        scene.frame_start = 1
+        scene.frame_end = max(1, int(round(end * fps)))
+    return obj, names
+
+
+def _bind(obj, rig, names, skin):
+    """Vertex groups from the glTF joints and weights, and an Armature modifier."""
+    joints, weights = skin
+    if weights.dtype.kind in "iu":  # normalized integers
+        weights = weights / np.float32(np.iinfo(weights.dtype).max)
+    weights = weights.astype(np.float32)
+    groups = [obj.vertex_groups.new(name=n) for n in names]
+    vert = np.repeat(np.arange(len(joints)), joints.shape[1])
+    j, w = joints.ravel().astype(np.int64), weights.ravel()
+    keep = w > 0
+    vert, j, w = vert[keep], j[keep], w[keep]
+    pairs, inverse = np.unique(np.stack([j, w.view(np.int32)], axis=1), axis=0, return_inverse=True)
+    order = np.argsort(inverse.ravel(), kind="stable")
+    bounds = np.searchsorted(inverse.ravel()[order], np.arange(len(pairs) + 1))
+    for n, (joint, wbits) in enumerate(pairs):
+        members = vert[order[bounds[n] : bounds[n + 1]]].tolist()
+        weight = float(np.array([wbits], dtype=np.int32).view(np.float32)[0])
+        groups[int(joint)].add(members, weight, "REPLACE")
+    mod = obj.modifiers.new("wind", "ARMATURE")
+    mod.object = rig
+
+
 def clear(root):
     """Removes what ``build`` made under ``root`` (its LOD collections, objects,
-    meshes, and the materials and images no one else uses); keeps ``root`` itself."""
-    meshes, materials = set(), set()
+    meshes, rig, wind action, and the materials and images no one else uses); keeps
+    ``root`` itself."""
+    meshes, materials, armatures, actions = set(), set(), set(), set()
+    for obj in list(root.children):
+        if "sylva_rig" in obj:
+            armatures.add(obj.data)
+            if obj.animation_data and obj.animation_data.action:
+                actions.add(obj.animation_data.action)
+            bpy.data.objects.remove(obj)
     for coll in list(root.users_collection[0].children) if root.users_collection else []:
         if "sylva_lod_of" not in coll:
             continue
@@ -188,10 +350,17 @@ def clear(root):
     for me in meshes:
         if me.users == 0:
             bpy.data.meshes.remove(me)
+    for arm in armatures:
+        if arm.users == 0:
+            bpy.data.armatures.remove(arm)
+    for action in actions:
+        if action.users == 0:
+            bpy.data.actions.remove(action)
     images = set()
     for mat in materials:
         if mat.users == 0:
-            images.update(n.image for n in mat.node_tree.nodes if n.type == "TEX_IMAGE" and n.image)
+            nodes = mat.node_tree.nodes
+            images.update(n.image for n in nodes if n.type == "TEX_IMAGE" and n.image)
             bpy.data.materials.remove(mat)
     for img in images:
         if img.users == 0:
@@ -204,7 +373,9 @@ def build(tree, context, root=None):
     kept. The recipe's TOML and the seed are stored on the root."""
     recipe = tree.recipe
     name = recipe.name or "sylva"
-    levels = lod_levels(tree)
+    glb = Glb(tree.to_glb()) if needs_glb(recipe) else None
+    parts = tree.parts  # each access copies the arrays: once
+    levels = lod_levels(parts, glb)
     if root is None:
         coll = bpy.data.collections.new(name)
         context.scene.collection.children.link(coll)
@@ -216,21 +387,20 @@ def build(tree, context, root=None):
         coll = root.users_collection[0]
     root[RECIPE_PROP] = recipe.to_toml()
     root[SEED_PROP] = int(tree.seed)
+    rig, joint_names = make_rig(glb, recipe, root.name, context, coll, root) if glb else (None, [])
     materials = {}
-    for part in tree.parts:
-        roles = part.images
+    for part in parts:
         images = {
             role: make_image(f"{root.name}_{part.name}_{role}", arr, role != "base_color")
-            for role, arr in roles.items()
+            for role, arr in part.images.items()
         }
-        materials[part.name] = make_material(
-            f"{root.name}_{part.material['name']}", part.material, images
-        )
+        mat_name = f"{root.name}_{part.material['name']}"
+        materials[part.name] = make_material(mat_name, part.material, images)
     for k, level in enumerate(levels):
         lod = bpy.data.collections.new(f"{root.name} LOD{k}")
         lod["sylva_lod_of"] = k
         coll.children.link(lod)
-        for part_name, vertices, faces, normals, uvs in level.parts:
+        for part_name, vertices, faces, normals, uvs, skin in level.parts:
             me = make_mesh(f"{root.name}_LOD{k}_{part_name}", vertices, faces, normals, uvs)
             if part_name in materials:
                 me.materials.append(materials[part_name])
@@ -238,6 +408,8 @@ def build(tree, context, root=None):
             obj.parent = root
             obj["sylva_lod"] = k
             lod.objects.link(obj)
+            if rig is not None and skin is not None:
+                _bind(obj, rig, joint_names, skin)
             if k > 0:
                 obj.hide_viewport = True
                 obj.hide_render = True

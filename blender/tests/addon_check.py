@@ -14,6 +14,7 @@ import sys
 import time
 
 import bpy
+import numpy as np
 
 zip_path, out_path = sys.argv[sys.argv.index("--") + 1 :][:2]
 result = {}
@@ -30,7 +31,8 @@ def lod_objects(root):
     """{k: [mesh objects of LOD k]} under ``root``."""
     out = {}
     for obj in root.children:
-        out.setdefault(obj["sylva_lod"], []).append(obj)
+        if "sylva_lod" in obj:
+            out.setdefault(obj["sylva_lod"], []).append(obj)
     return out
 
 
@@ -105,24 +107,112 @@ def expect_error(call, needle):
 honda, _ = grow("lsys-honda-a")
 result["lsys-honda-a"] = check_tree(honda, sylva.Recipe.preset("lsys-honda-a"), "honda")
 
-# A Weber-Penn tree with two LOD levels.
-aspen_settings = "lod.levels = [20000, 5000]\nmesh.sides = 6"
+# A Weber-Penn tree with two LOD levels and wind.
+aspen_settings = "lod.levels = [20000, 5000]\nmesh.sides = 6\nwind.preset = 'breeze'"
 aspen, seconds = grow("wp-quaking-aspen", aspen_settings)
 aspen_recipe = sylva.Recipe.preset("wp-quaking-aspen").set("lod.levels", [20000, 5000])
-aspen_recipe.set("mesh.sides", 6)
+aspen_recipe.set("mesh.sides", 6).set("wind.preset", "breeze")
 result["wp-quaking-aspen"] = check_tree(aspen, aspen_recipe, "aspen")
 result["wp-quaking-aspen"]["grow_and_build_s"] = seconds
+
+
+def _quat_matrix(q):
+    x, y, z, w = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def gltf_skinned(recipe, seed, sample):
+    """The bark of LOD0 skinned by the glTF's own rig at key ``sample`` of its clip
+    (linear blend skinning as a glTF viewer does it), +Y up."""
+    glb = build.Glb(recipe.grow(seed=seed).to_glb())
+    doc = glb.doc
+    nodes = doc["nodes"]
+    skin = doc["skins"][0]
+    parent = {c: i for i, n in enumerate(nodes) for c in n.get("children", [])}
+    rot = {}
+    anim = doc["animations"][0]
+    for ch in anim["channels"]:
+        rot[ch["target"]["node"]] = glb.accessor(anim["samplers"][ch["sampler"]]["output"])[sample]
+    world = {}
+
+    def matrix(i):
+        if i not in world:
+            m = np.eye(4)
+            m[:3, 3] = nodes[i].get("translation", [0.0, 0.0, 0.0])
+            if i in rot:
+                m[:3, :3] = _quat_matrix(rot[i])
+            world[i] = (matrix(parent[i]) if i in parent else np.eye(4)) @ m
+        return world[i]
+
+    ibm = glb.accessor(skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
+    skins = np.array([matrix(j) @ ibm[k] for k, j in enumerate(skin["joints"])])
+    prim = glb.lod_meshes()[0]["primitives"][0]
+    pos = glb.accessor(prim["attributes"]["POSITION"]).astype(np.float64)
+    joints = glb.accessor(prim["attributes"]["JOINTS_0"]).astype(np.int64)
+    weights = glb.accessor(prim["attributes"]["WEIGHTS_0"]).astype(np.float64)
+    hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
+    out = np.zeros((len(pos), 4))
+    for slot in range(joints.shape[1]):
+        out += weights[:, slot, None] * np.einsum("vij,vj->vi", skins[joints[:, slot]], hom)
+    return out[:, :3]
+
+
+def check_wind(root, recipe, label):
+    """One armature with the recipe's joints as bones, its clip as the one action, the
+    scene's frame range the clip's, every mesh bound to it and moving with the wind."""
+    rigs = [o for o in root.children if o.type == "ARMATURE"]
+    assert len(rigs) == 1, (label, rigs)
+    rig = rigs[0]
+    joints = recipe.grow(seed=root[build.SEED_PROP]).report["joints"]
+    assert len(rig.data.bones) == joints > 0, (label, len(rig.data.bones), joints)
+    action = rig.animation_data.action
+    assert action is not None and len(action.fcurves) == 4 * joints, label
+    scene = bpy.context.scene
+    fps, clip = recipe.get("wind.fps"), recipe.get("wind.clip_seconds")
+    assert scene.render.fps == fps, (label, scene.render.fps)
+    assert (scene.frame_start, scene.frame_end) == (1, round(clip * fps)), label
+    assert tuple(int(f) for f in action.frame_range) == (1, 1 + round(clip * fps)), label
+    meshes = [o for o in root.children if o.type == "MESH"]
+    assert all(m.modifiers and m.modifiers[0].object == rig for m in meshes), label
+    bark = next(o for o in meshes if o["sylva_lod"] == 0 and o.name.endswith("bark"))
+    sample = round(clip * fps / 3)  # a key time of the clip
+    scene.frame_set(1 + sample)
+    ev = bark.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    got = np.empty(len(ev.data.vertices) * 3, dtype=np.float32)
+    ev.data.vertices.foreach_get("co", got)
+    want = gltf_skinned(recipe, root[build.SEED_PROP], sample)
+    want = np.stack([want[:, 0], -want[:, 2], want[:, 1]], axis=1)  # +Y up to +Z up
+    err = float(np.abs(got.reshape(-1, 3) - want).max())
+    rest = np.empty(len(bark.data.vertices) * 3, dtype=np.float32)
+    bark.data.vertices.foreach_get("co", rest)
+    sway = float(np.abs(got - rest).max())
+    assert err < 1e-3 and sway > 1e-3, (label, err, sway)
+    scene.frame_set(1)
+    return {"bones": joints, "actions": 1, "frames": scene.frame_end, "sway_m": sway, "err_m": err}
+
+
+result["wind"] = check_wind(aspen, aspen_recipe, "aspen")
+assert len(bpy.data.actions) == 1 and len(bpy.data.armatures) == 1
 
 # The recipe is stored on the tree: it reads back as the recipe grown.
 assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == aspen_recipe.to_toml()
 
+
 # Bad settings: an error report, no new objects, the previous trees untouched.
-before = (
-    len(bpy.data.objects),
-    len(bpy.data.meshes),
-    len(bpy.data.materials),
-    len(bpy.data.images),
-)
+def data_counts():
+    d = bpy.data
+    return tuple(
+        len(c) for c in (d.objects, d.meshes, d.materials, d.images, d.armatures, d.actions)
+    )
+
+
+before = data_counts()
 result["errors"] = [
     expect_error(
         lambda: bpy.ops.sylva.grow(preset="lsys-honda-a", settings="mesh.sides = 1"), "mesh.sides"
@@ -135,7 +225,7 @@ result["errors"] = [
     ),
     expect_error(lambda: bpy.ops.sylva.grow(preset="no-such-preset"), "no-such-preset"),
 ]
-after = (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.materials), len(bpy.data.images))
+after = data_counts()
 assert before == after, (before, after)
 assert check_tree(aspen, aspen_recipe, "aspen after errors") == {
     k: v for k, v in result["wp-quaking-aspen"].items() if k != "grow_and_build_s"
@@ -153,12 +243,8 @@ assert (
     == result["wp-quaking-aspen"]["vertices"]
 )
 assert tuple(aspen.location) == (3.0, 0.0, 0.0)
-assert (
-    len(bpy.data.objects),
-    len(bpy.data.meshes),
-    len(bpy.data.materials),
-    len(bpy.data.images),
-) == after
+assert data_counts() == after
+assert check_wind(aspen, aspen_recipe, "aspen regrown") == result["wind"]
 # ... with a change, and a bad change that leaves it.
 assert bpy.ops.sylva.regrow(settings="mesh.sides = 5") == {"FINISHED"}
 aspen_recipe.set("mesh.sides", 5)

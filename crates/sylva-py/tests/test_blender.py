@@ -2,11 +2,13 @@
 
 `blender -b --factory-startup` runs blender/tests/addon_check.py: it installs the add-on
 from the zip blender/build_zip.py makes (the wheel bundled), enables it, grows an
-L-system and a Weber-Penn preset with LOD levels through `bpy.ops.sylva.grow` and checks
-object, material and image counts, vertex and triangle counts against the Python API,
-that only LOD0 is visible, the bark's Base Color image, re-growing in place, the
-panel's schema settings, and that bad settings cancel with an error report and leave
-the tree. Blender's user folders are temporary, so nothing is installed for the user.
+L-system and a Weber-Penn preset (with LOD levels and wind) through `bpy.ops.sylva.grow`
+and checks object, material and image counts, vertex and triangle counts against the
+Python API, that only LOD0 is visible, the bark's Base Color image, the wind rig (bones
+as the recipe's joints, one action, the scene's frame range the clip's, the deformed
+bark equal to the glTF skin's at a key), re-growing in place, the panel's schema
+settings, and that bad settings cancel with an error report and leave the tree.
+Blender's user folders are temporary, so nothing is installed for the user.
 
 Skipped when `blender` is missing, unless SYLVA_REQUIRE_BLENDER=1 (.ci/run). The wheel is
 SYLVA_WHEEL's (.ci/run builds it) or the newest in target/wheels (`maturin build
@@ -84,6 +86,10 @@ def test_addon_grows_native_trees_in_blender(tmp_path):
     aspen = result["wp-quaking-aspen"]
     assert (aspen["objects"], aspen["materials"], aspen["images"]) == (4, 2, 4), aspen
     assert len(aspen["lod_triangles"]) == 2 and aspen["lod_triangles"][1] <= 5000, aspen
+    wind = result["wind"]  # the rig: bones, the clip as one action, the frame range
+    assert wind["bones"] > 0 and wind["actions"] == 1 and wind["frames"] == 120, wind
+    # Blender's Armature deformation equals the glTF skin's at a key of the clip.
+    assert wind["err_m"] < 1e-3 and wind["sway_m"] > 1e-3, wind
     honda = result["lsys-honda-a"]
     assert (honda["objects"], honda["materials"], honda["images"]) == (1, 1, 3), honda
     assert len(result["errors"]) == 5, result["errors"]
