@@ -2,12 +2,13 @@
 
 `blender -b --factory-startup` runs blender/tests/addon_check.py: it installs the add-on
 from the zip blender/build_zip.py makes (the wheel bundled), enables it, grows an
-L-system and a Weber-Penn preset (with LOD levels and wind) through `bpy.ops.sylva.grow`
-and checks object, material and image counts, vertex and triangle counts against the
-Python API, that only LOD0 is visible, the bark's Base Color image, the wind rig (bones
-as the recipe's joints, one action, the scene's frame range the clip's, the deformed
-bark equal to the glTF skin's at a key), re-growing in place, the panel's schema
-settings, and that bad settings cancel with an error report and leave the tree.
+L-system, a Weber-Penn (with LOD levels and wind) and a space-colonization preset
+through `bpy.ops.sylva.grow`, renders the last at 128 x 128 (Cycles, CPU), and checks
+object, material and image counts, vertex and triangle counts against the Python API,
+that only LOD0 is visible, the bark's Base Color image, the wind rig (bones as the
+recipe's joints, one action, the scene's frame range the clip's, the deformed bark
+equal to the glTF skin's at a key), re-growing in place, the panel's schema settings,
+and that bad settings cancel with an error report and leave the tree.
 Blender's user folders are temporary, so nothing is installed for the user.
 
 Skipped when `blender` is missing, unless SYLVA_REQUIRE_BLENDER=1 (.ci/run). The wheel is
@@ -92,6 +93,10 @@ def test_addon_grows_native_trees_in_blender(tmp_path):
     assert wind["err_m"] < 1e-3 and wind["sway_m"] > 1e-3, wind
     honda = result["lsys-honda-a"]
     assert (honda["objects"], honda["materials"], honda["images"]) == (1, 1, 3), honda
+    colonize = result["colonize-broadleaf"]
+    assert (colonize["objects"], colonize["materials"], colonize["images"]) == (2, 2, 4), colonize
+    # The 128 x 128 Cycles render of the colonization tree shows a tree: some pixels, not all.
+    assert 0.02 < result["render"]["covered"] < 0.9, result["render"]
     assert len(result["errors"]) == 5, result["errors"]
     assert result["panel_keys"] >= 30, result["panel_keys"]
     grow_s = aspen["grow_and_build_s"]
