@@ -159,6 +159,15 @@ def test_model_file_travels_with_the_task(tmp_path):
     assert again["_data"]["again.glb"] == (out / row["file"]).read_bytes()
 
 
+def test_an_output_folder_missing_on_the_worker_is_an_error_row(tmp_path):
+    """A worker that does not see the output folder (no shared file system) says so."""
+    task = dict(sylva.batch._resolve("lsys-binary-tree", tmp_path), index=0, seed=1)
+    task.update(file="t.glb", out=str(tmp_path / "elsewhere"), threads=1)
+    row = sylva.batch._grow_one(task)
+    assert row["file"] is None and "write_on='client'" in row["error"], row["error"]
+    assert "elsewhere" in row["error"]
+
+
 def test_bad_batches_fail_before_growing(tmp_path):
     with pytest.raises(ValueError, match="both write"):
         sylva.batch.run(

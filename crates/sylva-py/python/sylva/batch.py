@@ -37,6 +37,7 @@ import io
 import json
 import os
 import shutil
+import socket
 import sys
 import tempfile
 import time
@@ -187,6 +188,13 @@ def _grow_one(task: Dict[str, Any]) -> Dict[str, Any]:
     Never raises for a failing tree: the row carries the error."""
     start = time.perf_counter()
     out = Path(task["out"]) if task["out"] is not None else None
+    if out is not None and not out.is_dir():
+        return _row(
+            task,
+            seconds=time.perf_counter() - start,
+            error=f"the output folder {out} is not on this worker ({socket.gethostname()}): "
+            "use a folder every worker shares, or write_on='client'",
+        )
     scratch = Path(tempfile.mkdtemp(prefix=f".{task['file']}.", dir=out))
     try:
         tree = _load(task, scratch).grow(seed=task["seed"], threads=task["threads"])
