@@ -209,7 +209,7 @@ def make_material(name, material, images):
         tex.name = tex.label = "occlusion_roughness_metallic"
         tex.image = images["occlusion_roughness_metallic"]
         tex.location = (x - 300, 0)
-        sep = nt.nodes.new("ShaderNodeSeparateRGB")
+        sep = nt.nodes.new("ShaderNodeSeparateColor")
         sep.location = (x, 0)
         nt.links.new(tex.outputs["Color"], sep.inputs[0])
         nt.links.new(sep.outputs[1], bsdf.inputs["Roughness"])
@@ -338,8 +338,8 @@ def clear(root):
             if obj.animation_data and obj.animation_data.action:
                 actions.add(obj.animation_data.action)
             bpy.data.objects.remove(obj)
-    for coll in list(root.users_collection[0].children) if root.users_collection else []:
-        if "sylva_lod_of" not in coll:
+    for coll in list(bpy.data.collections):
+        if "sylva_lod_of" not in coll or not any(o.parent == root for o in coll.objects):
             continue
         for obj in list(coll.objects):
             if obj.type == "MESH":

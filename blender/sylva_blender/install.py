@@ -35,17 +35,38 @@ def ensure_sylva():
             f"sylva is not installed and no wheel is bundled in {HERE / 'wheels'}: "
             "build the add-on zip with blender/build_zip.py"
         )
-    stamp = SITE / ".wheel"
-    if not stamp.is_file() or stamp.read_text() != wheel.name:
-        SITE.mkdir(exist_ok=True)
-        with zipfile.ZipFile(wheel) as zf:
-            zf.extractall(SITE)
-        stamp.write_text(wheel.name)
-    if str(SITE) not in sys.path:
-        sys.path.insert(0, str(SITE))
+    site = _extract(wheel)
+    if str(site) not in sys.path:
+        sys.path.insert(0, str(site))
     importlib.invalidate_caches()
     try:
         return importlib.import_module("sylva")
     except ImportError as e:
-        msg = f"the wheel {wheel.name} extracted into {SITE} does not import: {e}"
+        msg = f"the wheel {wheel.name} extracted into {site} does not import: {e}"
         raise ImportError(msg) from e
+
+
+def _extract(wheel):
+    """Extracts ``wheel`` (once per wheel name) into ``_site/`` beside this file, or,
+    where that folder is read-only (a system-wide install), into Blender's user
+    scripts folder (``sylva_site``). Returns the folder."""
+    places = [SITE]
+    try:
+        import bpy
+
+        places.append(Path(bpy.utils.user_resource("SCRIPTS", path="sylva_site")))
+    except (ImportError, AttributeError, TypeError):
+        pass
+    errors = []
+    for site in places:
+        stamp = site / ".wheel"
+        try:
+            if not stamp.is_file() or stamp.read_text() != wheel.name:
+                site.mkdir(parents=True, exist_ok=True)
+                with zipfile.ZipFile(wheel) as zf:
+                    zf.extractall(site)
+                stamp.write_text(wheel.name)
+            return site
+        except OSError as e:
+            errors.append(f"{site}: {e}")
+    raise ImportError(f"cannot extract {wheel.name}: " + "; ".join(errors))

@@ -291,6 +291,14 @@ result["render"] = {
 assert 0.02 < result["render"]["covered"] < 0.9, result["render"]
 assert px[covered, :3].std(axis=0).max() > 0.01, result["render"]  # not one flat colour
 
+# Disabling and enabling again leaves a working add-on.
+bpy.ops.preferences.addon_disable(module="sylva_blender")
+assert "sylva" not in bpy.types.Scene.bl_rna.properties
+assert not hasattr(bpy.types, "VIEW3D_PT_sylva") and not hasattr(bpy.types, "SYLVA_OT_grow")
+bpy.ops.preferences.addon_enable(module="sylva_blender")
+assert bpy.ops.sylva.grow(preset="lsys-honda-a") == {"FINISHED"}
+assert bpy.context.scene.sylva.preset in sylva.presets()
+
 with open(out_path, "w") as f:
     json.dump(result, f, indent=1)
 print("addon_check: ok")
