@@ -249,9 +249,13 @@ def register(sylva):
     for c in CLASSES:
         bpy.utils.register_class(c)
     bpy.types.Scene.sylva = PointerProperty(type=cls)
+    if build.pack_images not in bpy.app.handlers.save_pre:
+        bpy.app.handlers.save_pre.append(build.pack_images)
 
 
 def unregister():
+    if build.pack_images in bpy.app.handlers.save_pre:
+        bpy.app.handlers.save_pre.remove(build.pack_images)
     del bpy.types.Scene.sylva
     for c in reversed(CLASSES):
         bpy.utils.unregister_class(c)

@@ -37,8 +37,20 @@ def lod_objects(root):
     return out
 
 
-def check_tree(root, recipe, label):
-    """Checks the tree built under ``root`` against ``recipe`` grown by the Python API."""
+def image_error(img, array):
+    """The largest difference between a Blender image's pixels and the (H, W, C) uint8
+    array it was made from, in 1/255 steps."""
+    h, w, c = array.shape
+    assert tuple(img.size) == (w, h), (img.name, tuple(img.size), (w, h))
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    got = px.reshape(h, w, 4)[::-1, :, :c]
+    return float(np.abs(got * 255.0 - array).max())
+
+
+def check_tree(root, recipe, label, pixels=False):
+    """Checks the tree built under ``root`` against ``recipe`` grown by the Python API
+    (with ``pixels``, also its first part's images against the part's arrays)."""
     tree = recipe.grow(seed=root[build.SEED_PROP])
     parts = tree.parts
     levels = lod_objects(root)
@@ -73,6 +85,10 @@ def check_tree(root, recipe, label):
             assert links[0].from_node.image is not None, (label, part.name)
         if part.material["alpha_cutoff"] is not None:
             assert mat.blend_method == "CLIP", (label, part.name, mat.blend_method)
+        for node in mat.node_tree.nodes:  # every map holds the part's pixels
+            if node.type == "TEX_IMAGE" and part.name == parts[0].name and pixels:
+                err = image_error(node.image, part.images[node.name])
+                assert err < 0.51, (label, part.name, node.name, err)
         assert obj.data.uv_layers, (label, part.name)
         assert obj.data.polygons[0].use_smooth, (label, part.name)
     return {
@@ -106,7 +122,9 @@ def expect_error(call, needle):
 
 # An L-system tree.
 honda, _ = grow("lsys-honda-a")
-result["lsys-honda-a"] = check_tree(honda, sylva.Recipe.preset("lsys-honda-a"), "honda")
+result["lsys-honda-a"] = check_tree(
+    honda, sylva.Recipe.preset("lsys-honda-a"), "honda", pixels=True
+)
 
 # A Weber-Penn tree with two LOD levels and wind.
 aspen_settings = "lod.levels = [20000, 5000]\nmesh.sides = 6\nwind.preset = 'breeze'"
@@ -298,6 +316,26 @@ assert not hasattr(bpy.types, "VIEW3D_PT_sylva") and not hasattr(bpy.types, "SYL
 bpy.ops.preferences.addon_enable(module="sylva_blender")
 assert bpy.ops.sylva.grow(preset="lsys-honda-a") == {"FINISHED"}
 assert bpy.context.scene.sylva.preset in sylva.presets()
+
+# Saved and opened again (a later session): the images were packed on save, and the
+# recipe stored on the tree grows it again.
+blend = str(Path(out_path).with_name("trees.blend"))
+aspen_name, aspen_vertices = aspen.name, result["regrown_sides_5"]["vertices"]
+bpy.ops.wm.save_as_mainfile(filepath=blend)
+bpy.ops.wm.open_mainfile(filepath=blend)
+sylva_images = [img for img in bpy.data.images if "sylva_image" in img]
+assert sylva_images and all(img.packed_file is not None for img in sylva_images)
+assert all(img.has_data or img.pixels[:4] is not None for img in sylva_images)
+result["packed_images"] = len(sylva_images)
+aspen = bpy.data.objects[aspen_name]
+for obj in bpy.context.view_layer.objects:
+    obj.select_set(False)
+aspen.select_set(True)
+bpy.context.view_layer.objects.active = aspen
+assert bpy.ops.sylva.regrow() == {"FINISHED"}
+assert check_tree(aspen, aspen_recipe, "aspen reopened")["vertices"] == aspen_vertices
+honda = bpy.data.objects["lsys-honda-a"]
+check_tree(honda, sylva.Recipe.preset("lsys-honda-a"), "honda reopened", pixels=True)
 
 with open(out_path, "w") as f:
     json.dump(result, f, indent=1)
