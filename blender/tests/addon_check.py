@@ -12,6 +12,7 @@ numbers measured go to OUT.json."""
 import json
 import sys
 import time
+import types
 from pathlib import Path
 
 import bpy
@@ -289,6 +290,45 @@ result["panel"] = check_tree(
     panel_tree, sylva.Recipe.preset("lsys-honda-b").set("mesh.sides", 5), "panel"
 )
 result["panel_keys"] = len(schema_keys)
+
+
+class FakeLayout:
+    """Records what a panel draws (there is no UI to draw into when headless)."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def column(self):
+        return self
+
+    def row(self):
+        return self
+
+    def box(self):
+        return self
+
+    def label(self, text=""):
+        self.log.append(("label", text))
+
+    def prop(self, data, attr):
+        assert attr in data.bl_rna.properties, attr
+        self.log.append(("prop", attr))
+
+    def operator(self, idname):
+        op = types.SimpleNamespace()
+        self.log.append(("operator", idname, op))
+        return op
+
+
+drawn = []
+bpy.types.VIEW3D_PT_sylva.draw(types.SimpleNamespace(layout=FakeLayout(drawn)), bpy.context)
+drawn_props = [d[1] for d in drawn if d[0] == "prop"]
+assert drawn_props[:3] == ["preset", "seed", "settings"], drawn_props[:3]
+assert drawn_props[3:] == [k.replace(".", "__") for k in schema_keys], drawn_props[3:]
+ops = {d[1]: d[2] for d in drawn if d[0] == "operator"}
+assert set(ops) == {"sylva.grow", "sylva.regrow"}, ops
+assert ops["sylva.grow"].preset == "lsys-honda-b" and ops["sylva.grow"].use_panel, ops
+assert [d[1] for d in drawn if d[0] == "label"] == ["mesh", "leaves", "wind", "lod"], drawn
 
 # A space-colonization tree, rendered alone at 128 x 128 (Cycles on the CPU).
 colonize, seconds = grow("colonize-broadleaf")
