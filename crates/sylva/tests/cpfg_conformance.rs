@@ -202,3 +202,21 @@ fn item10_maximum_depth_above_ten_thousand() {
     let e = LSystem::parse("t.l", &text.replace("25000", "2000000"), &[]).unwrap_err();
     assert!(e.message.contains("maximum depth must be 1..1000000"), "{}", e.message);
 }
+
+/// Item 7 (part): query modules answer in cpfg's coordinates, (x, y, z) = sylva's
+/// (−z, y, x): after `+(90)F(1)` the turtle is at sylva's (0, 1, 1), which `?P` reports
+/// as cpfg's (−1, 1, 0), where cpfg's turtle is (the corpus models `ellipse` and
+/// `patterns` grew in another plane before).
+#[test]
+fn item7_queries_answer_in_cpfgs_frame() {
+    let text = "Lsystem: 1\nAxiom: F(1)+(90)F(1)?P(0,0,0)?H(0,0,0)\nendlsystem\n";
+    let l = parse(text);
+    let opts = sylva::lsystem::TurtleOptions::default();
+    let (m, _) = l
+        .derive_full(&DeriveOptions { steps: 0, budget: 100, seed: 1 }, Default::default(), Some(&opts), None)
+        .unwrap();
+    let (p, h) = (m.module(3).1, m.module(4).1);
+    for (got, want) in p.iter().chain(h).zip([-1.0, 1.0, 0.0, -1.0, 0.0, 0.0]) {
+        assert!((got - want).abs() < 1e-6, "?P{p:?} ?H{h:?}");
+    }
+}

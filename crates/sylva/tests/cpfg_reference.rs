@@ -57,8 +57,6 @@ const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
         true,
         "item 9: `srand(0)` and `ran(1) < p`: equal only with cpfg's generator (seed48/drand48) and call order; seeded by the model, so its string does not vary with the recipe seed",
     ),
-    ("11-CPFG__06-Enviro-sensitive__ellipse", true, true, "item 7: query modules report sylva's frame"),
-    ("11-CPFG__06-Enviro-sensitive__patterns", true, true, "item 7: query modules report sylva's frame"),
 ];
 
 /// Stochastic models: (folder, why their string depends on the generator).

@@ -306,8 +306,9 @@ mod tests {
         let (m, _) =
             ls.derive_full(&opts, Default::default(), Some(&TurtleOptions::default()), None).unwrap();
         let s = ls.format(&m);
-        assert!(s.starts_with("F(2)A(2)+(90)?H(0,"), "{s}");
-        assert!(s.contains(",1)"), "heading turned toward +Z: {s}");
+        // Answers are in cpfg's frame: the heading turned toward +Z is cpfg's −X.
+        assert!(s.starts_with("F(2)A(2)+(90)?H(-1,"), "{s}");
+        assert!(s.ends_with(",0)"), "heading turned toward +Z (cpfg's −X): {s}");
     }
 
     #[test]

@@ -11,7 +11,8 @@ use crate::lsystem::string::ModuleString;
 
 /// Answers cpfg's query modules (`?P` position, `?H` heading, `?U` up, `?L` left): runs
 /// the turtle over `string` and writes the turtle's state at each query module into its
-/// parameters (x, y, z, as many as the module has). cpfg does this after every
+/// parameters (x, y, z, as many as the module has), in cpfg's coordinates (sylva's
+/// (x, y, z) is cpfg's (z, y, −x)). cpfg does this after every
 /// derivation step, so productions can react to where a module is. With `env`, the
 /// same run also collects the communication modules `?E` and lets the environmental
 /// program answer them (their parameters are overwritten with its responses).
@@ -38,6 +39,7 @@ pub fn answer_queries_within(
 ) -> Result<u64, Box<LsystemError>> {
     // The query pass draws the whole string: the node budget does not apply to it.
     let opts = &TurtleOptions { max_nodes: usize::MAX, ..opts.clone() };
+    let cpfg_frame = opts.left == super::CPFG_LEFT;
     let names = ["?P", "?H", "?U", "?L", "?E"];
     let which: Vec<Option<usize>> =
         (0..symbols.len()).map(|i| names.iter().position(|n| *n == symbols.name(i as u16))).collect();
@@ -78,7 +80,10 @@ pub fn answer_queries_within(
             }
             Some(4) => {}
             Some(k) => {
-                let v = st[k];
+                // In cpfg's frame (issue 46 item 7): its (x, y, z) is sylva's (−z, y, x)
+                // for L-systems (L = +Z here, −X in cpfg); strings already drawn in
+                // cpfg's frame (`.str`, L = −X) answer as they are.
+                let v = if cpfg_frame { st[k] } else { glam::DVec3::new(-st[k].z, st[k].y, st[k].x) };
                 for (slot, c) in string.params[range].iter_mut().zip([v.x, v.y, v.z]) {
                     *slot = crate::lsystem::string::cpfg_param(c);
                 }
