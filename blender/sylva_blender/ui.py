@@ -1,6 +1,7 @@
-"""The operators (``sylva.grow``, ``sylva.regrow``), the scene settings generated from
-the recipe schema (``sylva.schema()``: the mesh, leaves, wind and lod sections; no
-hand-written list of keys) and the sidebar panel (View3D > Sidebar > sylva)."""
+"""The operators (``sylva.grow``, ``sylva.regrow``, ``sylva.export``), the scene
+settings generated from the recipe schema (``sylva.schema()``: the mesh, leaves, wind
+and lod sections; no hand-written list of keys) and the sidebar panel (View3D >
+Sidebar > sylva)."""
 
 import json
 
@@ -13,6 +14,7 @@ from bpy.props import (
     PointerProperty,
     StringProperty,
 )
+from bpy_extras.io_utils import ExportHelper
 
 from . import build, settings
 
@@ -176,6 +178,33 @@ class SYLVA_OT_regrow(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class SYLVA_OT_export(bpy.types.Operator, ExportHelper):
+    """Write the active sylva tree as the engine writes it (glTF with LODs and the wind
+    clip, OBJ, PLY, POV), grown again from the recipe stored on it"""
+
+    bl_idname = "sylva.export"
+    bl_label = "Export"
+
+    filename_ext = ".glb"
+    check_extension = None  # any extension the engine writes; .glb when none
+    filter_glob: StringProperty(default="*.glb;*.gltf;*.obj;*.ply;*.pov", options={"HIDDEN"})
+
+    def execute(self, context):
+        sylva = _state["sylva"]
+        root = build.tree_root(context.object)
+        if root is None:
+            self.report({"ERROR"}, "sylva: the active object is not a sylva tree")
+            return {"CANCELLED"}
+        try:
+            recipe = sylva.Recipe.from_toml(root[build.RECIPE_PROP])
+            tree = recipe.grow(seed=int(root.get(build.SEED_PROP, recipe.seed)))
+            tree.save(self.filepath)
+        except (sylva.SylvaError, OSError, ValueError) as e:
+            return _report_failure(self, e)
+        self.report({"INFO"}, f"sylva: wrote {self.filepath}")
+        return {"FINISHED"}
+
+
 def _select(context, roots):
     for obj in context.view_layer.objects:
         obj.select_set(False)
@@ -185,8 +214,8 @@ def _select(context, roots):
 
 
 class VIEW3D_PT_sylva(bpy.types.Panel):
-    """View3D > Sidebar > sylva: preset, seed, Grow, Re-grow selected and the recipe's
-    mesh, leaves, wind and lod settings."""
+    """View3D > Sidebar > sylva: preset, seed, Grow, Re-grow selected, Export and the
+    recipe's mesh, leaves, wind and lod settings."""
 
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -209,6 +238,7 @@ class VIEW3D_PT_sylva(bpy.types.Panel):
         )
         op = row.operator("sylva.regrow")
         op.settings, op.use_panel = props.settings, True
+        col.operator("sylva.export")
         for section in SECTIONS:
             box = col.box()
             box.label(text=section)
@@ -238,7 +268,7 @@ def settings_class(sylva):
     return type("SylvaSettings", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
 
 
-CLASSES = (SYLVA_OT_grow, SYLVA_OT_regrow, VIEW3D_PT_sylva)
+CLASSES = (SYLVA_OT_grow, SYLVA_OT_regrow, SYLVA_OT_export, VIEW3D_PT_sylva)
 
 
 def register(sylva):

@@ -326,7 +326,7 @@ drawn_props = [d[1] for d in drawn if d[0] == "prop"]
 assert drawn_props[:3] == ["preset", "seed", "settings"], drawn_props[:3]
 assert drawn_props[3:] == [k.replace(".", "__") for k in schema_keys], drawn_props[3:]
 ops = {d[1]: d[2] for d in drawn if d[0] == "operator"}
-assert set(ops) == {"sylva.grow", "sylva.regrow"}, ops
+assert set(ops) == {"sylva.grow", "sylva.regrow", "sylva.export"}, ops
 assert ops["sylva.grow"].preset == "lsys-honda-b" and ops["sylva.grow"].use_panel, ops
 assert [d[1] for d in drawn if d[0] == "label"] == ["mesh", "leaves", "wind", "lod"], drawn
 
@@ -348,6 +348,15 @@ result["render"] = {
 }
 assert 0.02 < result["render"]["covered"] < 0.9, result["render"]
 assert px[covered, :3].std(axis=0).max() > 0.01, result["render"]  # not one flat colour
+
+# Export: the engine's own file of the active tree; a format it does not write is an error.
+glb_path = str(Path(out_path).with_name("colonize.glb"))
+assert bpy.ops.sylva.export(filepath=glb_path) == {"FINISHED"}
+with open(glb_path, "rb") as f:
+    assert f.read() == sylva.Recipe.preset("colonize-broadleaf").grow().to_glb()
+bad_path = str(Path(out_path).with_name("colonize.xyz"))
+result["errors"].append(expect_error(lambda: bpy.ops.sylva.export(filepath=bad_path), "xyz"))
+assert not Path(bad_path).exists()
 
 # Disabling and enabling again leaves a working add-on.
 bpy.ops.preferences.addon_disable(module="sylva_blender")
