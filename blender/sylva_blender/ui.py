@@ -54,6 +54,8 @@ def _schema_property(entry):
             kw["max"] = hi
         value = float(default) if default is not None else float(lo or 0.0)
         return FloatProperty(name=name, description=doc, default=value, **kw)
+    if t == "string":
+        return StringProperty(name=name, description=doc, default=default or "")
     text = "" if default is None else json.dumps(default)
     return StringProperty(name=name, description=f"{doc} (JSON)", default=text)
 
@@ -72,13 +74,17 @@ def _load_preset(self, context):
     for entry in _state["entries"]:
         attr = _attr(entry["key"])
         value = recipe.get(entry["key"])
-        if value is not None:
-            if isinstance(getattr(self, attr), str) and entry["kind"]["type"] not in ("mode",):
-                value = json.dumps(value)
-            try:
-                setattr(self, attr, value)
-            except (TypeError, ValueError):
-                pass
+        if value is None:  # unset in the preset: the property's own default
+            value = self.bl_rna.properties[attr].default
+        elif isinstance(getattr(self, attr), str) and entry["kind"]["type"] not in (
+            "mode",
+            "string",
+        ):
+            value = json.dumps(value)
+        try:
+            setattr(self, attr, value)
+        except (TypeError, ValueError, OverflowError):
+            pass  # a preset value the property cannot show: left as it was
         shown[attr] = getattr(self, attr)
     self.shown = json.dumps(shown)
 
@@ -133,7 +139,10 @@ class SYLVA_OT_grow(bpy.types.Operator):
             tree = recipe.grow(seed=None if self.seed < 0 else self.seed)
         except (sylva.SylvaError, settings.SettingsError) as e:
             return _report_failure(self, e)
-        root = build.build(tree, context)
+        try:
+            root = build.build(tree, context)
+        except Exception as e:  # a Blender error while building: a report, not a traceback
+            return _report_failure(self, f"building the tree in Blender failed: {e!r}")
         _select(context, [root])
         self.report({"INFO"}, f"sylva: grew {recipe.name} ({tree.triangles} triangles)")
         return {"FINISHED"}
@@ -172,8 +181,11 @@ class SYLVA_OT_regrow(bpy.types.Operator):
                 grown.append((root, recipe.grow(seed=seed)))
         except (sylva.SylvaError, settings.SettingsError) as e:
             return _report_failure(self, e)
-        for root, tree in grown:
-            build.build(tree, context, root=root)
+        try:
+            for root, tree in grown:
+                build.build(tree, context, root=root)
+        except Exception as e:  # a Blender error while building: a report, not a traceback
+            return _report_failure(self, f"building the tree in Blender failed: {e!r}")
         _select(context, roots)
         return {"FINISHED"}
 
