@@ -7,7 +7,9 @@ Coordinates: sylva is +Y up (as glTF); Blender is +Z up, so (x, y, z) becomes
 (x, -z, y), the conversion Blender's glTF importer makes. UVs have glTF's top-left
 origin and are flipped to Blender's bottom-left one.
 
-LOD0 is ``tree.parts``. The Python API exposes neither the other levels nor the wind
+LOD0 is ``tree.parts``, plus ``tree.instances`` (instanced leaves) realized into one
+mesh per instanced part: Blender has no per-instance rotation and scale short of
+geometry nodes. The Python API exposes neither the other levels nor the wind
 rig, so levels 1.. (nodes ``sylva_LOD<k>``), the skin (joints, inverse bind matrices,
 per-vertex joints and weights) and the wind clip are read from the tree's own binary
 glTF (``tree.to_glb()``), parsed in memory here: no file and no glTF importer. The rig
@@ -83,9 +85,32 @@ def needs_glb(recipe):
     return bool(recipe.get("lod.levels")) or recipe.get("wind.preset") not in (None, "none")
 
 
-def lod_levels(parts, glb):
-    """The tree's levels: LOD0 from its ``parts``, the others from its glTF; with a
-    wind rig, every level's joints and weights from the glTF."""
+def realize(part, transforms):
+    """``(name, vertices, faces, normals, uvs, None)``: every instance of ``part`` in one
+    mesh, its vertices moved by each ``(4, 4)`` transform (column vectors, as the
+    engine's), the normals by the inverse transpose."""
+    v = np.asarray(part.vertices, dtype=np.float32)
+    m = np.asarray(transforms, dtype=np.float32)
+    lin = m[:, :3, :3]
+    verts = np.einsum("kij,vj->kvi", lin, v) + m[:, None, :3, 3]
+    normals = np.einsum("kij,vj->kvi", np.linalg.inv(lin).transpose(0, 2, 1), part.normals)
+    normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
+    faces = part.faces[None].astype(np.int64) + (np.arange(len(m)) * len(v))[:, None, None]
+    uvs = None if part.uvs is None else np.tile(part.uvs, (len(m), 1))
+    return (
+        part.name,
+        verts.reshape(-1, 3),
+        faces.reshape(-1, 3).astype(np.uint32),
+        normals.reshape(-1, 3).astype(np.float32),
+        uvs,
+        None,
+    )
+
+
+def lod_levels(parts, glb, instances=()):
+    """The tree's levels: LOD0 from its ``parts`` (and its ``instances``, realized),
+    the others from its glTF; with a wind rig, every level's joints and weights from the
+    glTF (instanced organs are not bound to the rig)."""
     names = [p.name for p in parts]
     meshes = glb.lod_meshes() if glb is not None else {}
 
@@ -108,6 +133,7 @@ def lod_levels(parts, glb):
                 skin(prims[j]) if j < len(prims) else None,
             )
         )
+    level0.extend(realize(part, transforms) for part, transforms in instances)
     levels = [Level(level0)]
     for k in sorted(meshes):
         if k == 0:
@@ -391,7 +417,8 @@ def build(tree, context, root=None):
     name = recipe.name or "sylva"
     glb = Glb(tree.to_glb()) if needs_glb(recipe) else None
     parts = tree.parts  # each access copies the arrays: once
-    levels = lod_levels(parts, glb)
+    instances = tree.instances
+    levels = lod_levels(parts, glb, instances)
     if root is None:
         coll = bpy.data.collections.new(name)
         context.scene.collection.children.link(coll)
@@ -405,7 +432,9 @@ def build(tree, context, root=None):
     root[SEED_PROP] = int(tree.seed)
     rig, joint_names = make_rig(glb, recipe, root.name, context, coll, root) if glb else (None, [])
     materials = {}
-    for part in parts:
+    for part in [*parts, *(p for p, _ in instances)]:
+        if part.name in materials:
+            continue
         images = {
             role: make_image(f"{root.name}_{part.name}_{role}", arr, role != "base_color")
             for role, arr in part.images.items()

@@ -220,6 +220,37 @@ def check_wind(root, recipe, label):
 result["wind"] = check_wind(aspen, aspen_recipe, "aspen")
 assert len(bpy.data.actions) == 1 and len(bpy.data.armatures) == 1
 
+# Instanced leaves: realized into one mesh, every instance where the cards would be.
+inst, _ = grow("wp-quaking-aspen", "leaves.mode = 'instanced'")
+inst_tree = sylva.Recipe.preset("wp-quaking-aspen").set("leaves.mode", "instanced").grow()
+((leaf_part, transforms),) = inst_tree.instances
+inst_objs = {o.name.split("_LOD0_")[1]: o for o in inst.children if o["sylva_lod"] == 0}
+assert set(inst_objs) == {p.name for p in inst_tree.parts} | {leaf_part.name}, inst_objs
+leaf_mesh = inst_objs[leaf_part.name].data
+assert len(leaf_mesh.vertices) == len(transforms) * len(leaf_part.vertices)
+assert len(leaf_mesh.polygons) == len(transforms) * len(leaf_part.faces)
+assert inst_objs[leaf_part.name].material_slots[0].material.blend_method == "CLIP"
+
+
+def bounds(mesh):
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    return co.min(axis=0), co.max(axis=0)
+
+
+cards = next(o for o in aspen.children if o.get("sylva_lod") == 0 and "leaf" in o.name)
+lo, hi = bounds(cards.data)
+ilo, ihi = bounds(leaf_mesh)
+margin = 0.1 * (hi - lo)
+assert np.all(ilo >= lo - margin) and np.all(ihi <= hi + margin), (lo, hi, ilo, ihi)
+assert np.all(ihi - ilo > 0.5 * (hi - lo)), (lo, hi, ilo, ihi)  # spread like the crown
+result["instanced_leaves"] = {"instances": len(transforms), "vertices": len(leaf_mesh.vertices)}
+inst_coll = inst.users_collection[0]
+build.clear(inst)  # what a re-grow removes, then the root and its collection
+bpy.data.objects.remove(inst)
+bpy.data.collections.remove(inst_coll)
+
 # The recipe is stored on the tree: it reads back as the recipe grown.
 assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == aspen_recipe.to_toml()
 

@@ -7,9 +7,9 @@ through `bpy.ops.sylva.grow`, renders the last at 128 x 128 (Cycles, CPU), and c
 object, material and image counts, vertex and triangle counts against the Python API,
 that only LOD0 is visible, the bark's Base Color image, the wind rig (bones as the
 recipe's joints, one action, the scene's frame range the clip's, the deformed bark
-equal to the glTF skin's at a key), re-growing in place, the panel's schema settings,
-and that bad settings cancel with an error report and leave the tree.
-Blender's user folders are temporary, so nothing is installed for the user.
+equal to the glTF skin's at a key), instanced leaves, re-growing in place, the panel's
+schema settings, Export, and that bad settings cancel with an error report and leave
+the tree. Blender's user folders are temporary, so nothing is installed for the user.
 
 Skipped when `blender` is missing, unless SYLVA_REQUIRE_BLENDER=1 (.ci/run). The wheel is
 SYLVA_WHEEL's (.ci/run builds it) or the newest in target/wheels (`maturin build
@@ -93,6 +93,8 @@ def test_addon_grows_native_trees_in_blender(tmp_path):
     assert wind["err_m"] < 1e-3 and wind["sway_m"] > 1e-3, wind
     honda = result["lsys-honda-a"]
     assert (honda["objects"], honda["materials"], honda["images"]) == (1, 1, 3), honda
+    # Instanced leaves (leaves.mode = "instanced") are realized into one mesh.
+    assert result["instanced_leaves"]["instances"] > 100, result["instanced_leaves"]
     colonize = result["colonize-broadleaf"]
     assert (colonize["objects"], colonize["materials"], colonize["images"]) == (2, 2, 4), colonize
     # The 128 x 128 Cycles render of the colonization tree shows a tree: some pixels, not all.
