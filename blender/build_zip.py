@@ -2,7 +2,7 @@
 wheel in ``sylva_blender/wheels/`` and the manifest's ``wheels`` naming it, installable
 by Blender 3.4+ (Preferences > Add-ons > Install) and 4.2+ (as an extension).
 
-    python3 blender/build_zip.py [--wheel WHEEL] [--out sylva_blender.zip]
+    python3 blender/build_zip.py [--wheel WHEEL] [--out blender/sylva_blender.zip]
 
 The wheel defaults to SYLVA_WHEEL, else the newest ``target/wheels/sylva-*abi3*.whl``
 (``maturin build --release -m crates/sylva-py/Cargo.toml`` makes it)."""
@@ -50,7 +50,7 @@ def build(wheel, out):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--wheel", type=Path, default=None)
-    ap.add_argument("--out", type=Path, default=Path("sylva_blender.zip"))
+    ap.add_argument("--out", type=Path, default=HERE / "sylva_blender.zip")
     args = ap.parse_args()
     wheel = args.wheel or find_wheel()
     if wheel is None:
