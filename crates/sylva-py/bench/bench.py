@@ -12,7 +12,8 @@ Build the Rust side from the same tree as the installed package first::
 
 ``batch``: ``sylva.batch.run`` of ``--count`` trees (one preset, seeds 0…count−1)
 serially in this process, then on a ``LocalCluster`` of ``--workers`` processes with one
-thread each; prints trees/s of both and checks that the two manifests agree (every
+thread each; prints trees/s of both, the CPU seconds per tree (the processes' user +
+system time: this one's, and the workers'), and checks that the two manifests agree (every
 file's SHA-256, all but the times). The trees are written into a temporary folder and
 deleted after each run::
 
@@ -25,6 +26,7 @@ the machine slows either side.
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -85,12 +87,35 @@ def overhead(a: argparse.Namespace) -> None:
     print(f"  rounds (Rust / Python, ms): {[f'{r:.0f}/{q:.0f}' for r, q in zip(rust, py)]}")
 
 
-def batch_run(jobs: list, client, keep: Path) -> sylva.batch.BatchResult:
+def cpu_seconds() -> float:
+    """User + system CPU seconds of this process so far (all its threads)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def batch_run(jobs: list, client, keep: Path) -> "tuple[sylva.batch.BatchResult, float]":
+    """The batch's result and the CPU seconds it took: this process's (the serial
+    grows; on a LocalCluster, the client and its in-process scheduler) plus the
+    workers'."""
     out = Path(tempfile.mkdtemp(prefix="sylva-bench-"))
+
+    def workers() -> float:
+        return sum(client.run(cpu_seconds).values()) if client is not None else 0.0
+
     try:
+        here, there = cpu_seconds(), workers()
         result = sylva.batch.run(jobs, out, client=client)
+        here, there = cpu_seconds() - here, workers() - there
+        cpu = here + there
+        n = len(result.rows)
+        print(
+            f"  CPU per tree: this process {here / n * 1e3:.0f} ms, "
+            f"workers {there / n * 1e3:.0f} ms"
+        )
+        task = statistics.mean(r["seconds"] for r in result.rows)
+        print(f"  mean task wall time (grow + write, the manifest's seconds): {task * 1e3:.0f} ms")
         shutil.copy(result.manifest, keep)
-        return result
+        return result, cpu
     finally:
         shutil.rmtree(out, ignore_errors=True)
 
@@ -101,11 +126,11 @@ def batch(a: argparse.Namespace) -> None:
     jobs = [(a.preset, seed) for seed in range(a.count)]
     keep = Path(tempfile.mkdtemp(prefix="sylva-bench-manifests-"))
     print(f"serial start: {load()}")
-    serial = batch_run(jobs, None, keep / "serial.jsonl")
+    serial, serial_cpu = batch_run(jobs, None, keep / "serial.jsonl")
     print(f"serial end: {load()}")
     print(
         f"serial: {a.count} × {a.preset} in {serial.seconds:.1f} s = "
-        f"{serial.trees_per_second:.2f} trees/s"
+        f"{serial.trees_per_second:.2f} trees/s; CPU {serial_cpu / a.count * 1e3:.0f} ms per tree"
     )
     with (
         LocalCluster(
@@ -115,12 +140,13 @@ def batch(a: argparse.Namespace) -> None:
     ):
         client.run(lambda: __import__("sylva.batch"))  # workers import sylva before timing
         print(f"dask start: {load()}")
-        dask = batch_run(jobs, client, keep / "dask.jsonl")
+        dask, dask_cpu = batch_run(jobs, client, keep / "dask.jsonl")
         print(f"dask end: {load()}")
     print(
         f"LocalCluster({a.workers} workers × 1 thread): {a.count} × {a.preset} in "
         f"{dask.seconds:.1f} s = {dask.trees_per_second:.2f} trees/s "
-        f"({dask.trees_per_second / serial.trees_per_second:.2f}× serial)"
+        f"({dask.trees_per_second / serial.trees_per_second:.2f}× serial); "
+        f"CPU {dask_cpu / a.count * 1e3:.0f} ms per tree"
     )
 
     def rows(path: Path) -> list:
