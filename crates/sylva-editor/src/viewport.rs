@@ -27,7 +27,8 @@ use sylva_gpu::render::{Lines, Orbit, RenderOptions, Renderer};
 /// The largest side of the view's texture, pixels.
 pub const MAX_SIDE: u32 = 4096;
 
-const VIEW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// The format the renderer draws the view in (the texture's sRGB view).
+pub const VIEW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 /// The offscreen target and its egui texture id.
 struct Target {

@@ -23,7 +23,7 @@ use sylva::pipeline::Tree;
 use sylva::recipe::{Loaded, Recipe};
 use sylva::session::{Session, Stage};
 use sylva::{Mesh, Skeleton};
-use sylva_gpu::render::Renderer;
+use sylva_gpu::render::{Renderer, ShaderCache};
 
 /// What one job ended in.
 #[derive(Debug)]
@@ -112,10 +112,20 @@ impl Upload {
         Upload { adapter: gpu.adapter.clone(), device: gpu.device.clone(), queue: gpu.queue.clone() }
     }
 
-    fn renderer(&self, tree: &Tree) -> Result<Box<Renderer>, String> {
-        Renderer::with_device(&self.adapter, &self.device, &self.queue, &tree.model)
-            .map(Box::new)
-            .map_err(|e| format!("cannot draw this tree: {e}"))
+    /// The tree uploaded, its pipelines compiled for the view (sharing `cache`, the
+    /// previous tree's, so only the first tree compiles them).
+    fn renderer(&self, tree: &Tree, cache: &mut Option<ShaderCache>) -> Result<Box<Renderer>, String> {
+        let r = Renderer::with_device_sharing(
+            &self.adapter,
+            &self.device,
+            &self.queue,
+            &tree.model,
+            cache.as_ref(),
+        )
+        .map_err(|e| format!("cannot draw this tree: {e}"))?;
+        r.prepare(crate::viewport::VIEW_FORMAT, true);
+        *cache = Some(r.shader_cache());
+        Ok(Box::new(r))
     }
 }
 
@@ -187,6 +197,7 @@ fn run(
     upload: Option<Upload>,
 ) {
     let mut session: Option<Session> = None;
+    let mut shaders: Option<ShaderCache> = None;
     while let Ok(mut job) = queue.recv() {
         let mut skipped = Vec::new();
         while let Ok(newer) = queue.try_recv() {
@@ -215,7 +226,7 @@ fn run(
         };
         let outcome = match result {
             Ok((tree, stages)) => {
-                let renderer = upload.as_ref().map(|u| u.renderer(&tree));
+                let renderer = upload.as_ref().map(|u| u.renderer(&tree, &mut shaders));
                 Outcome::Grown {
                     job: job.id,
                     tree: Box::new(tree),

@@ -59,7 +59,7 @@ pub use overlay::Lines;
 use crate::gpu::{begin_colour_depth_pass, read_texture, texture_2d, Gpu, GpuError};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use sylva::model::Model;
 use sylva::preview::Image;
 pub use sylva::preview::{iou, silhouette};
@@ -355,14 +355,77 @@ pub struct Renderer {
     joint_buffer: wgpu::Buffer,
     background_buffer: wgpu::Buffer,
     group0: wgpu::BindGroup,
-    layout: wgpu::PipelineLayout,
-    background_layout: wgpu::PipelineLayout,
-    shader: wgpu::ShaderModule,
-    pipelines: Mutex<Vec<((u32, wgpu::TextureFormat), Pipelines)>>,
+    shaders: Arc<Shaders>,
     targets: Mutex<Option<Targets>>,
     view_targets: Mutex<Option<ViewTargets>>,
     msaa_ok: bool,
 }
+
+/// What every tree drawn on one device shares: the bind group and pipeline layouts,
+/// the shader and the pipelines compiled from it (per sample count and colour format).
+/// A renderer made with [`Renderer::with_device_sharing`] takes them from the previous
+/// one, so a new tree draws without compiling its pipelines again (on a software
+/// renderer such as lavapipe, an LLVM compile of each shader: tens of milliseconds).
+#[derive(Debug)]
+struct Shaders {
+    device: wgpu::Device,
+    frame_layout: wgpu::BindGroupLayout,
+    material_layout: wgpu::BindGroupLayout,
+    layout: wgpu::PipelineLayout,
+    background_layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    pipelines: Mutex<Vec<((u32, wgpu::TextureFormat), Pipelines)>>,
+}
+
+impl Shaders {
+    fn new(gpu: &Ctx) -> Shaders {
+        let device = &gpu.device;
+        let visible = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let buffer_entry = |binding, ty| crate::gpu::buffer_entry(binding, visible, ty, false);
+        let frame_layout = gpu.bind_group_layout(
+            "sylva-gpu render frame",
+            &[
+                buffer_entry(0, wgpu::BufferBindingType::Uniform),
+                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+                buffer_entry(2, wgpu::BufferBindingType::Uniform),
+                buffer_entry(3, wgpu::BufferBindingType::Uniform),
+            ],
+        );
+        let [map, map_sampler] = crate::gpu::texture_sampler_entries(1, wgpu::ShaderStages::FRAGMENT);
+        let material_layout = gpu.bind_group_layout(
+            "sylva-gpu render material",
+            &[buffer_entry(0, wgpu::BufferBindingType::Uniform), map, map_sampler],
+        );
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sylva-gpu render"),
+            bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
+            immediate_size: 0,
+        });
+        let background_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sylva-gpu background"),
+            bind_group_layouts: &[Some(&frame_layout)],
+            immediate_size: 0,
+        });
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("sylva-gpu mesh.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(format!("{FRAME_WGSL}\n{}", include_str!("mesh.wgsl")).into()),
+        });
+        Shaders {
+            device: device.clone(),
+            frame_layout,
+            material_layout,
+            layout,
+            background_layout,
+            shader,
+            pipelines: Mutex::new(Vec::new()),
+        }
+    }
+}
+
+/// The layouts, shader and compiled pipelines of a renderer, handed to the next one on
+/// the same device ([`Renderer::shader_cache`], [`Renderer::with_device_sharing`]).
+#[derive(Debug, Clone)]
+pub struct ShaderCache(Arc<Shaders>);
 
 fn invalid(why: impl Into<String>) -> GpuError {
     GpuError::Invalid(why.into())
@@ -386,7 +449,26 @@ impl Renderer {
         queue: &wgpu::Queue,
         model: &Model,
     ) -> Result<Renderer, GpuError> {
+        Renderer::with_device_sharing(adapter, device, queue, model, None)
+    }
+
+    /// [`Renderer::with_device`] that takes the layouts, shader and compiled pipelines
+    /// of `cache` (a previous renderer's [`Renderer::shader_cache`]) when it is of the
+    /// same device (an editor replacing its tree), instead of making and compiling them
+    /// again.
+    pub fn with_device_sharing(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        cache: Option<&ShaderCache>,
+    ) -> Result<Renderer, GpuError> {
         let gpu = &Ctx { adapter: adapter.clone(), device: device.clone(), queue: queue.clone() };
+        let shaders = match cache {
+            Some(c) if c.0.device == *device => c.0.clone(),
+            _ => Arc::new(Shaders::new(gpu)),
+        };
+        let (frame_layout, material_layout) = (&shaders.frame_layout, &shaders.material_layout);
         let flat = model.flattened();
         let device = &gpu.device;
         let limit = gpu.device.limits().max_texture_dimension_2d;
@@ -417,23 +499,6 @@ impl Renderer {
         };
         let repeat = sampler(wgpu::AddressMode::Repeat);
         let clamp = sampler(wgpu::AddressMode::ClampToEdge);
-
-        let visible = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let buffer_entry = |binding, ty| crate::gpu::buffer_entry(binding, visible, ty, false);
-        let frame_layout = gpu.bind_group_layout(
-            "sylva-gpu render frame",
-            &[
-                buffer_entry(0, wgpu::BufferBindingType::Uniform),
-                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
-                buffer_entry(2, wgpu::BufferBindingType::Uniform),
-                buffer_entry(3, wgpu::BufferBindingType::Uniform),
-            ],
-        );
-        let [map, map_sampler] = crate::gpu::texture_sampler_entries(1, wgpu::ShaderStages::FRAGMENT);
-        let material_layout = gpu.bind_group_layout(
-            "sylva-gpu render material",
-            &[buffer_entry(0, wgpu::BufferBindingType::Uniform), map, map_sampler],
-        );
 
         // Levels: LOD0 (the flattened parts), then the model's LOD chain.
         let mut sources: Vec<(f32, &[sylva::model::Part])> = vec![(0.0, &flat.parts[..])];
@@ -482,7 +547,7 @@ impl Renderer {
                         };
                         device.create_bind_group(&wgpu::BindGroupDescriptor {
                             label: Some("sylva-gpu render material"),
-                            layout: &material_layout,
+                            layout: material_layout,
                             entries: &[
                                 wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() },
                                 wgpu::BindGroupEntry {
@@ -551,23 +616,9 @@ impl Renderer {
             gpu.uniform_buffer("sylva-gpu render ground", &[overlay::ground(lo, hi, &fit_points)]);
         let group0 = gpu.bind_buffers(
             "sylva-gpu render frame",
-            &frame_layout,
+            frame_layout,
             &[&frame_buffer, &joint_buffer, &background_buffer, &ground_buffer],
         );
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sylva-gpu render"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
-            immediate_size: 0,
-        });
-        let background_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sylva-gpu background"),
-            bind_group_layouts: &[Some(&frame_layout)],
-            immediate_size: 0,
-        });
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("sylva-gpu mesh.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(format!("{FRAME_WGSL}\n{}", include_str!("mesh.wgsl")).into()),
-        });
         let msaa_ok = gpu.msaa_ok(COLOR_FORMAT);
         Ok(Renderer {
             gpu: gpu.clone(),
@@ -579,14 +630,25 @@ impl Renderer {
             joint_buffer,
             background_buffer,
             group0,
-            layout,
-            background_layout,
-            shader,
-            pipelines: Mutex::new(Vec::new()),
+            shaders,
             targets: Mutex::new(None),
             view_targets: Mutex::new(None),
             msaa_ok,
         })
+    }
+
+    /// This renderer's layouts, shader and compiled pipelines, for the next renderer on
+    /// the same device ([`Renderer::with_device_sharing`]).
+    pub fn shader_cache(&self) -> ShaderCache {
+        ShaderCache(self.shaders.clone())
+    }
+
+    /// Compiles the pipelines for drawing into `format` (4× MSAA when `msaa` and the
+    /// adapter allows it), so the first frame does not: a caller that makes the renderer
+    /// on a worker thread calls this there.
+    pub fn prepare(&self, format: wgpu::TextureFormat, msaa: bool) {
+        let samples = if msaa && self.gpu.msaa_ok(format) { 4 } else { 1 };
+        self.pipelines(samples, format);
     }
 
     /// Number of levels of detail (1 without a LOD chain).
@@ -674,7 +736,7 @@ impl Renderer {
     }
 
     fn pipelines(&self, samples: u32, format: wgpu::TextureFormat) -> Pipelines {
-        let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        let mut cache = self.shaders.pipelines.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((_, p)) = cache.iter().find(|(k, _)| *k == (samples, format)) {
             return p.clone();
         }
@@ -716,7 +778,7 @@ impl Renderer {
                 label: Some(label),
                 layout: Some(layout),
                 vertex: wgpu::VertexState {
-                    module: &self.shader,
+                    module: &self.shaders.shader,
                     entry_point: Some(vs),
                     compilation_options: Default::default(),
                     buffers,
@@ -736,7 +798,7 @@ impl Renderer {
                 }),
                 multisample,
                 fragment: Some(wgpu::FragmentState {
-                    module: &self.shader,
+                    module: &self.shaders.shader,
                     entry_point: Some(fs),
                     compilation_options: Default::default(),
                     targets: &target,
@@ -755,7 +817,7 @@ impl Renderer {
             dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
             operation: wgpu::BlendOperation::Add,
         };
-        let (mesh_layout, plain) = (&self.layout, &self.background_layout);
+        let (mesh_layout, plain) = (&self.shaders.layout, &self.shaders.background_layout);
         let p = Pipelines {
             mesh: make("sylva-gpu mesh", mesh_layout, ("vs_mesh", "fs_mesh"), &buffers, solid(true, Less)),
             cut: make(
