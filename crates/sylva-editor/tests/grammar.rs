@@ -11,10 +11,14 @@ use std::path::PathBuf;
 use std::time::Duration;
 use sylva::Stage;
 use sylva_editor::grammar::{self, Location};
-use sylva_editor::{Document, EditOptions, EditorApp};
+use sylva_editor::EditorApp;
 
-/// Generous: a debug-profile grow on a busy 2-core machine.
-const WAIT: Duration = Duration::from_secs(240);
+mod common;
+use common::{triangles, wait};
+
+fn harness(what: &str) -> Option<Harness<'static, EditorApp>> {
+    common::harness(what, "the grammar editor's UI tests", [1300.0, 800.0])
+}
 
 /// A small parametric model: `N` steps of a branching apex.
 const MODEL: &str = "/* the grammar editor's test model */
@@ -29,29 +33,10 @@ A --> F(LEN)[+(ANG)/(90)A][-(ANG)/(90)A]
 endlsystem
 ";
 
-fn harness(what: &str) -> Option<Harness<'static, EditorApp>> {
-    sylva_gpu::Gpu::or_skip("the grammar editor's UI tests")?;
-    let doc = Document::open(Some(what)).expect("the model opens");
-    let h = Harness::builder().with_size([1300.0, 800.0]).wgpu().build_eframe(move |cc| {
-        EditorApp::from_creation_context(cc, doc, EditOptions { full_resolution: true, ..Default::default() })
-    });
-    Some(h)
-}
-
-/// Waits for the newest recipe's tree (or failure), then draws a few frames with it.
-fn wait(h: &mut Harness<'_, EditorApp>) {
-    assert!(h.state_mut().wait_settled(WAIT), "the tree was grown within {WAIT:?}");
-    h.run_steps(3);
-}
-
 /// Lets the typing pause past the debounce, so the next frame gives it to the worker.
 fn pause_typing(h: &mut Harness<'_, EditorApp>) {
     std::thread::sleep(sylva_editor::document::GRAMMAR_DEBOUNCE + Duration::from_millis(50));
     h.run_steps(2);
-}
-
-fn triangles(h: &Harness<'_, EditorApp>) -> usize {
-    h.state().tree().expect("a tree is shown").report.triangles
 }
 
 fn text(h: &Harness<'_, EditorApp>) -> String {

@@ -10,25 +10,13 @@ use egui_kittest::Harness;
 use std::time::{Duration, Instant};
 use sylva::Mesh;
 use sylva_editor::worker::cage_mesh;
-use sylva_editor::{Document, EditOptions, EditorApp};
+use sylva_editor::{Document, EditorApp};
 
-/// Generous: a debug-profile grow on a busy 2-core machine.
-const WAIT: Duration = Duration::from_secs(240);
+mod common;
+use common::{settle, WAIT};
 
 fn harness(what: &str) -> Option<Harness<'static, EditorApp>> {
-    sylva_gpu::Gpu::or_skip("the editor's view tests")?;
-    let doc = Document::open(Some(what)).expect("the preset opens");
-    let h = Harness::builder().with_size([1100.0, 760.0]).wgpu().build_eframe(move |cc| {
-        EditorApp::from_creation_context(cc, doc, EditOptions { full_resolution: true, ..Default::default() })
-    });
-    Some(h)
-}
-
-/// Waits for the newest recipe's tree, then draws a few frames with it.
-fn settle(h: &mut Harness<'_, EditorApp>) {
-    assert!(h.state_mut().wait_settled(WAIT), "the tree was grown within {WAIT:?}");
-    h.run_steps(3);
-    assert_eq!(h.state().message(), None, "no error is shown");
+    common::harness(what, "the editor's view tests", [1100.0, 760.0])
 }
 
 /// The 3D view's pixels in the rendered window ("tree view"): what changes when only
