@@ -18,6 +18,7 @@ glTF joints, which have translations only), so the clip's joint rotations become
 pose bones' quaternions after the axis change; the meshes get one vertex group per
 joint and an Armature modifier."""
 
+import hashlib
 import json
 import re
 import struct
@@ -261,15 +262,10 @@ def _quat_zup(q):
     return np.stack([q[:, 3], q[:, 0], -q[:, 2], q[:, 1]], axis=1)
 
 
-def make_rig(glb, recipe, name, context, coll, root):
-    """The wind rig: an armature object with one bone per glTF joint (head at the
-    joint's rest position, pointing along +Y so that its rest frame is the armature's
-    and the clip's rotations apply unchanged), the clip as an action, and the scene's
-    frame range and rate set to the clip. Returns ``(armature object, joint names)``,
-    or ``(None, [])`` when the tree has no skin."""
+def _joints(glb):
+    """The rig of the glTF's first skin: ``(joint nodes, bone names, heads (J, 3) +Z up,
+    parent bone index or -1 per bone)``."""
     doc = glb.doc
-    if not doc.get("skins"):
-        return None, []
     nodes = doc["nodes"]
     joints = doc["skins"][0]["joints"]
     parent = {c: i for i, n in enumerate(nodes) for c in n.get("children", [])}
@@ -282,70 +278,132 @@ def make_rig(glb, recipe, name, context, coll, root):
         return world[i]
 
     heads = _zup(np.array([rest(j) for j in joints], dtype=np.float32))
+    names = [nodes[j].get("name", f"joint_{k}") for k, j in enumerate(joints)]
+    index = {j: k for k, j in enumerate(joints)}
+    parents = []
+    for j in joints:
+        p = parent.get(j)
+        while p is not None and p not in index:
+            p = parent.get(p)
+        parents.append(-1 if p is None else index[p])
+    return joints, names, heads, parents
+
+
+def _same_bones(arm, names, heads, parents):
+    """Whether the armature ``arm`` already has exactly these bones (names, rest heads,
+    parents): live mode then keeps it and only replaces the action."""
+    bones = arm.bones
+    if [b.name for b in bones] != names:
+        return False
+    have = np.array([tuple(b.head_local) for b in bones], dtype=np.float32).reshape(-1, 3)
+    if len(have) != len(heads) or not np.allclose(have, heads, atol=1e-6):
+        return False
+    index = {n: k for k, n in enumerate(names)}
+    return [index[b.parent.name] if b.parent else -1 for b in bones] == parents
+
+
+def _make_armature(name, names, heads, parents, context, obj):
+    """New armature data for ``obj`` with one bone per joint, pointing along +Y (so its
+    rest frame is the armature's and the clip's rotations apply unchanged)."""
     extent = float(np.ptp(heads, axis=0).max()) if len(heads) else 1.0
     length = max(extent / 50.0, 0.01)
-    arm = bpy.data.armatures.new(f"{name}_rig")
-    obj = bpy.data.objects.new(f"{name}_rig", arm)
-    obj["sylva_rig"] = 1
-    obj.parent = root
-    coll.objects.link(obj)
+    arm = bpy.data.armatures.new(name)
+    previous_data = obj.data
+    obj.data = arm
+    if previous_data is not None and previous_data.users == 0:
+        bpy.data.armatures.remove(previous_data)
+        arm.name = name
     view_layer = context.view_layer
     previous = view_layer.objects.active
     view_layer.objects.active = obj
     bpy.ops.object.mode_set(mode="EDIT")
-    names = [nodes[j].get("name", f"joint_{k}") for k, j in enumerate(joints)]
-    bones = {}
-    for k, j in enumerate(joints):
-        eb = arm.edit_bones.new(names[k])
+    bones = []
+    for k, bone in enumerate(names):
+        eb = arm.edit_bones.new(bone)
         eb.head = heads[k]
         eb.tail = heads[k] + np.array([0.0, length, 0.0], dtype=np.float32)
-        bones[j] = eb
-    for j, eb in bones.items():
-        p = parent.get(j)
-        while p is not None and p not in bones:
-            p = parent.get(p)
-        if p is not None:
+        bones.append(eb)
+    for eb, p in zip(bones, parents):
+        if p >= 0:
             eb.parent = bones[p]
     bpy.ops.object.mode_set(mode="OBJECT")
     view_layer.objects.active = previous
     for pb in obj.pose.bones:
         pb.rotation_mode = "QUATERNION"
-    fps = int(recipe.get("wind.fps") or 30)
+    return arm
+
+
+def _make_action(glb, fps, name, joints):
+    """The glTF's first animation as an action of joint rotations (linear keys), and its
+    length in seconds; ``(None, 0.0)`` when the glTF has none."""
+    doc = glb.doc
+    if not doc.get("animations"):
+        return None, 0.0
+    nodes = doc["nodes"]
+    anim = doc["animations"][0]
+    action = bpy.data.actions.new(name)
     end = 0.0
-    if doc.get("animations"):
-        anim = doc["animations"][0]
-        action = bpy.data.actions.new(f"{name}_wind")
-        for ch in anim["channels"]:
-            target = ch["target"]
-            if target.get("path") != "rotation" or target.get("node") not in bones:
-                continue
-            sampler = anim["samplers"][ch["sampler"]]
-            times = glb.accessor(sampler["input"]).astype(np.float64)
-            end = max(end, float(times[-1]))
-            quats = _quat_zup(glb.accessor(sampler["output"]))
-            bone = nodes[target["node"]].get("name")
-            frames = 1.0 + times * fps
-            for i in range(4):
-                fc = action.fcurves.new(
-                    f'pose.bones["{bone}"].rotation_quaternion', index=i, action_group=bone
-                )
-                fc.keyframe_points.add(len(times))
-                co = np.stack([frames, quats[:, i]], axis=1).astype(np.float32)
-                fc.keyframe_points.foreach_set("co", co.ravel())
-                for kp in fc.keyframe_points:
-                    kp.interpolation = "LINEAR"
-                fc.update()
+    for ch in anim["channels"]:
+        target = ch["target"]
+        if target.get("path") != "rotation" or target.get("node") not in joints:
+            continue
+        sampler = anim["samplers"][ch["sampler"]]
+        times = glb.accessor(sampler["input"]).astype(np.float64)
+        end = max(end, float(times[-1]))
+        quats = _quat_zup(glb.accessor(sampler["output"]))
+        bone = nodes[target["node"]].get("name")
+        frames = 1.0 + times * fps
+        for i in range(4):
+            fc = action.fcurves.new(
+                f'pose.bones["{bone}"].rotation_quaternion', index=i, action_group=bone
+            )
+            fc.keyframe_points.add(len(times))
+            co = np.stack([frames, quats[:, i]], axis=1).astype(np.float32)
+            fc.keyframe_points.foreach_set("co", co.ravel())
+            for kp in fc.keyframe_points:
+                kp.interpolation = "LINEAR"
+            fc.update()
+    return action, end
+
+
+def make_rig(glb, fps, name, context, coll, root, obj=None):
+    """The wind rig: an armature object (``obj``, a rig built before, or a new one) with
+    one bone per glTF joint (head at the joint's rest position), the clip as its action,
+    and the scene's frame range and rate set to the clip. An ``obj`` whose bones are
+    already the joints keeps its armature data. Returns ``(armature object, joint
+    names)``, or ``(None, [])`` when the tree has no skin."""
+    if not glb.doc.get("skins"):
+        return None, []
+    joints, names, heads, parents = _joints(glb)
+    if obj is None:
+        obj = bpy.data.objects.new(f"{name}_rig", bpy.data.armatures.new(f"{name}_rig"))
+        obj["sylva_rig"] = 1
+        obj.parent = root
+        coll.objects.link(obj)
+        _make_armature(f"{name}_rig", names, heads, parents, context, obj)
+    elif not _same_bones(obj.data, names, heads, parents):
+        _make_armature(f"{name}_rig", names, heads, parents, context, obj)
+    action, end = _make_action(glb, fps, f"{name}_wind", set(joints))
+    previous = obj.animation_data.action if obj.animation_data else None
+    if action is not None:
         obj.animation_data_create().action = action
         scene = context.scene
         scene.render.fps = fps
         scene.render.fps_base = 1.0
         scene.frame_start = 1
         scene.frame_end = max(1, int(round(end * fps)))
+    elif obj.animation_data:
+        obj.animation_data.action = None
+    if previous is not None and previous.users == 0:
+        bpy.data.actions.remove(previous)
+        if action is not None:
+            action.name = f"{name}_wind"
     return obj, names
 
 
 def _bind(obj, rig, names, skin):
-    """Vertex groups from the glTF joints and weights, and an Armature modifier."""
+    """Vertex groups from the glTF joints and weights, and the Armature modifier
+    ``wind`` (added once; an object's other modifiers are left alone)."""
     joints, weights = skin
     if weights.dtype.kind in "iu":  # normalized integers
         weights = weights / np.float32(np.iinfo(weights.dtype).max)
@@ -365,8 +423,57 @@ def _bind(obj, rig, names, skin):
         joint = int(key[start] >> 32)
         weight = float(np.array([key[start] & 0xFFFFFFFF], dtype=np.uint32).view(np.float32)[0])
         groups[joint].add(vert[order[start:stop]].tolist(), weight, "REPLACE")
-    mod = obj.modifiers.new("wind", "ARMATURE")
+    mod = obj.modifiers.get("wind")
+    if mod is None or mod.type != "ARMATURE":
+        mod = obj.modifiers.new("wind", "ARMATURE")
     mod.object = rig
+
+
+def _unbind(obj):
+    """Removes the Armature modifier ``wind`` that ``_bind`` added."""
+    mod = obj.modifiers.get("wind")
+    if mod is not None and mod.type == "ARMATURE":
+        obj.modifiers.remove(mod)
+
+
+def _material_images(mat):
+    return {n.image for n in mat.node_tree.nodes if n.type == "TEX_IMAGE" and n.image}
+
+
+def _remove_orphans(meshes=(), materials=(), armatures=(), actions=()):
+    """Removes those of the given data blocks no one uses any more (and then the images
+    of the removed materials no one uses)."""
+    for me in meshes:
+        if me.users == 0:
+            bpy.data.meshes.remove(me)
+    for arm in armatures:
+        if arm.users == 0:
+            bpy.data.armatures.remove(arm)
+    for action in actions:
+        if action.users == 0:
+            bpy.data.actions.remove(action)
+    images = set()
+    for mat in materials:
+        if mat.users == 0:
+            images.update(_material_images(mat))
+            bpy.data.materials.remove(mat)
+    for img in images:
+        if img.users == 0:
+            bpy.data.images.remove(img)
+
+
+def _lod_collections(root):
+    """``{k: collection}``: the LOD collections of the tree of ``root`` (those holding
+    its objects, and empty ones beside it)."""
+    beside = {c for parent in root.users_collection for c in parent.children}
+    found = {}
+    for coll in bpy.data.collections:
+        if "sylva_lod_of" not in coll:
+            continue
+        objects = coll.objects
+        if any(o.parent == root for o in objects) or (not objects and coll in beside):
+            found.setdefault(int(coll["sylva_lod_of"]), coll)
+    return found
 
 
 def clear(root):
@@ -380,87 +487,172 @@ def clear(root):
             if obj.animation_data and obj.animation_data.action:
                 actions.add(obj.animation_data.action)
             bpy.data.objects.remove(obj)
-    for coll in list(bpy.data.collections):
-        if "sylva_lod_of" not in coll or not any(o.parent == root for o in coll.objects):
-            continue
+    for coll in _lod_collections(root).values():
         for obj in list(coll.objects):
             if obj.type == "MESH":
                 meshes.add(obj.data)
                 materials.update(s.material for s in obj.material_slots if s.material)
             bpy.data.objects.remove(obj)
         bpy.data.collections.remove(coll)
-    for me in meshes:
-        if me.users == 0:
-            bpy.data.meshes.remove(me)
-    for arm in armatures:
-        if arm.users == 0:
-            bpy.data.armatures.remove(arm)
-    for action in actions:
-        if action.users == 0:
-            bpy.data.actions.remove(action)
-    images = set()
-    for mat in materials:
-        if mat.users == 0:
-            nodes = mat.node_tree.nodes
-            images.update(n.image for n in nodes if n.type == "TEX_IMAGE" and n.image)
-            bpy.data.materials.remove(mat)
-    for img in images:
-        if img.users == 0:
-            bpy.data.images.remove(img)
+    _remove_orphans(meshes, materials, armatures, actions)
+
+
+def _digest(array):
+    return hashlib.blake2b(np.ascontiguousarray(array).tobytes(), digest_size=16).hexdigest()
+
+
+class Prepared:
+    """What ``build`` needs from a grown tree, computed without touching Blender's data,
+    so that live mode makes it in its worker thread: the recipe's TOML and seed, every
+    LOD level's arrays, the glTF (levels past 0 and the wind rig, when the recipe has
+    them) and each part's material and images, with a hash of the pixels so that a
+    re-build keeps the images that did not change."""
+
+    def __init__(self, tree):
+        recipe = tree.recipe
+        self.name = recipe.name or "sylva"
+        self.toml = recipe.to_toml()
+        self.seed = int(tree.seed)
+        self.triangles = int(tree.triangles)
+        self.fps = int(recipe.get("wind.fps") or 30)
+        self.glb = Glb(tree.to_glb()) if needs_glb(recipe) else None
+        parts = tree.parts  # each access copies the arrays: once
+        instances = tree.instances
+        self.levels = lod_levels(parts, self.glb, instances)
+        self.looks = {}  # part name -> (material, {role: (pixels, hash)})
+        for part in [*parts, *(p for p, _ in instances)]:
+            if part.name not in self.looks:
+                images = {role: (arr, _digest(arr)) for role, arr in part.images.items()}
+                self.looks[part.name] = (part.material, images)
+
+
+def _part_name(obj, k):
+    if "sylva_part" in obj:
+        return obj["sylva_part"]
+    return obj.name.split(f"_LOD{k}_", 1)[-1]
 
 
 def build(tree, context, root=None):
-    """Builds ``tree`` into the scene and returns its root Empty. With ``root`` (a tree
-    built before), its contents are replaced and its transform, name and selection are
-    kept. The recipe's TOML and the seed are stored on the root."""
-    recipe = tree.recipe
-    name = recipe.name or "sylva"
-    glb = Glb(tree.to_glb()) if needs_glb(recipe) else None
-    parts = tree.parts  # each access copies the arrays: once
-    instances = tree.instances
-    levels = lod_levels(parts, glb, instances)
+    """Builds ``tree`` (a ``sylva.Tree`` or a ``Prepared``) into the scene and returns
+    its root Empty. The recipe's TOML and the seed are stored on the root.
+
+    With ``root`` (a tree built before) the tree is replaced in place: each mesh object
+    of a (LOD level, part) the new tree has too is kept — its name, transform,
+    selection, visibility and modifiers — and gets the new mesh data; the rig object is
+    kept (its armature data too when the bones did not change) and gets the new action;
+    materials and images whose inputs did not change are kept. What the new tree lacks
+    is removed, and the data blocks no longer used (old meshes, materials, images,
+    armatures, actions) are removed too."""
+    prep = tree if isinstance(tree, Prepared) else Prepared(tree)
     if root is None:
-        coll = bpy.data.collections.new(name)
+        coll = bpy.data.collections.new(prep.name)
         context.scene.collection.children.link(coll)
-        root = bpy.data.objects.new(name, None)
+        root = bpy.data.objects.new(prep.name, None)
         root.empty_display_type = "PLAIN_AXES"
         coll.objects.link(root)
     else:
-        clear(root)
         coll = root.users_collection[0]
-    root[RECIPE_PROP] = recipe.to_toml()
-    root[SEED_PROP] = int(tree.seed)
-    rig, joint_names = make_rig(glb, recipe, root.name, context, coll, root) if glb else (None, [])
+    root[RECIPE_PROP] = prep.toml
+    root[SEED_PROP] = prep.seed
+    lods = _lod_collections(root)
+    old_objects = {}
+    old_rig = None
+    for obj in root.children:
+        if "sylva_rig" in obj:
+            old_rig = obj
+        elif "sylva_lod" in obj and obj.type == "MESH":
+            k = int(obj["sylva_lod"])
+            old_objects[(k, _part_name(obj, k))] = obj
+    old_meshes = {o.data for o in old_objects.values()}
+    old_materials = {s.material for o in old_objects.values() for s in o.material_slots}
+    old_materials.discard(None)
+    renames = []
+
+    # The rig (or none), kept in place where there was one.
+    old_arm = old_rig.data if old_rig is not None else None
+    has_skin = prep.glb is not None and bool(prep.glb.doc.get("skins"))
+    rig, joint_names = None, []
+    if has_skin:
+        rig, joint_names = make_rig(prep.glb, prep.fps, root.name, context, coll, root, old_rig)
+    elif old_rig is not None:
+        action = old_rig.animation_data.action if old_rig.animation_data else None
+        bpy.data.objects.remove(old_rig)
+        _remove_orphans(armatures=[old_arm], actions=[action] if action else [])
+
+    # Materials and images: kept where their inputs did not change.
+    by_key = {m.get("sylva_key"): m for m in old_materials if m.get("sylva_key")}
+    old_images = {}
+    for mat in old_materials:
+        for img in _material_images(mat):
+            if "sylva_hash" in img:
+                non_color = img.colorspace_settings.name == "Non-Color"
+                old_images[(img["sylva_hash"], non_color)] = img
     materials = {}
-    for part in [*parts, *(p for p, _ in instances)]:
-        if part.name in materials:
-            continue
-        images = {
-            role: make_image(f"{root.name}_{part.name}_{role}", arr, role != "base_color")
-            for role, arr in part.images.items()
-        }
-        mat_name = f"{root.name}_{part.material['name']}"
-        materials[part.name] = make_material(mat_name, part.material, images)
-    for k, level in enumerate(levels):
-        lod = bpy.data.collections.new(f"{root.name} LOD{k}")
-        lod["sylva_lod_of"] = k
-        coll.children.link(lod)
+    for part_name, (material, images) in prep.looks.items():
+        key = json.dumps(
+            [material, sorted((role, h) for role, (_, h) in images.items())], sort_keys=True
+        )
+        want = f"{root.name}_{material['name']}"
+        mat = by_key.get(key)
+        if mat is None:
+            made = {}
+            for role, (arr, h) in images.items():
+                non_color = role != "base_color"
+                img = old_images.get((h, non_color))
+                if img is None:
+                    img = make_image(f"{root.name}_{part_name}_{role}", arr, non_color)
+                    img["sylva_hash"] = h
+                    renames.append((bpy.data.images, img, f"{root.name}_{part_name}_{role}"))
+                made[role] = img
+            mat = make_material(want, material, made)
+            mat["sylva_key"] = key
+            renames.append((bpy.data.materials, mat, want))
+            by_key[key] = mat
+        materials[part_name] = mat
+
+    # The LOD levels: mesh objects kept, their data replaced.
+    for k, level in enumerate(prep.levels):
+        lod = lods.pop(k, None)
+        if lod is None:
+            lod = bpy.data.collections.new(f"{root.name} LOD{k}")
+            lod["sylva_lod_of"] = k
+            coll.children.link(lod)
+            if k > 0:
+                lod.hide_viewport = True
+                lod.hide_render = True
         for part_name, vertices, faces, normals, uvs, skin in level.parts:
-            me = make_mesh(f"{root.name}_LOD{k}_{part_name}", vertices, faces, normals, uvs)
+            want = f"{root.name}_LOD{k}_{part_name}"
+            me = make_mesh(want, vertices, faces, normals, uvs)
             if part_name in materials:
                 me.materials.append(materials[part_name])
-            obj = bpy.data.objects.new(me.name, me)
-            obj.parent = root
-            obj["sylva_lod"] = k
-            lod.objects.link(obj)
+            obj = old_objects.pop((k, part_name), None)
+            if obj is None:
+                obj = bpy.data.objects.new(want, me)
+                obj.parent = root
+                obj["sylva_lod"] = k
+                obj["sylva_part"] = part_name
+                lod.objects.link(obj)
+                if k > 0:
+                    obj.hide_viewport = True
+                    obj.hide_render = True
+            else:
+                obj.data = me
+            renames.append((bpy.data.meshes, me, want))
             if rig is not None and skin is not None:
                 _bind(obj, rig, joint_names, skin)
-            if k > 0:
-                obj.hide_viewport = True
-                obj.hide_render = True
-        if k > 0:
-            lod.hide_viewport = True
-            lod.hide_render = True
+            else:
+                _unbind(obj)
+
+    # What the new tree lacks, and the data no one uses any more.
+    for obj in old_objects.values():
+        bpy.data.objects.remove(obj)
+    for lod in lods.values():
+        if not lod.objects:
+            bpy.data.collections.remove(lod)
+    _remove_orphans(old_meshes, old_materials)
+    for blocks, block, want in renames:
+        if block.name != want and blocks.get(want) is None:
+            block.name = want
     return root
 
 

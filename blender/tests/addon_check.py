@@ -338,7 +338,7 @@ class FakeLayout:
     def box(self):
         return self
 
-    def label(self, text=""):
+    def label(self, text="", icon="NONE"):
         self.log.append(("label", text))
 
     def prop(self, data, attr):
@@ -354,12 +354,30 @@ class FakeLayout:
 drawn = []
 bpy.types.VIEW3D_PT_sylva.draw(types.SimpleNamespace(layout=FakeLayout(drawn)), bpy.context)
 drawn_props = [d[1] for d in drawn if d[0] == "prop"]
-assert drawn_props[:3] == ["preset", "seed", "settings"], drawn_props[:3]
-assert drawn_props[3:] == [k.replace(".", "__") for k in schema_keys], drawn_props[3:]
+assert drawn_props[:4] == ["preset", "seed", "settings", "live"], drawn_props[:4]
+# The generator's own settings (the shown preset's generator: lsystem), from the schema
+# less the type and the model files, then the other sections.
+generator_attrs = [
+    "gen_lsystem__" + e["key"].split(".", 1)[1].replace(".", "__")
+    for e in sylva.schema()
+    if e["section"] == "generator"
+    and e["generator"] == "lsystem"
+    and e["key"] != "generator.type"
+    and e["kind"]["type"] != "path"
+]
+assert len(generator_attrs) >= 10, generator_attrs
+assert drawn_props[4:] == generator_attrs + [k.replace(".", "__") for k in schema_keys], drawn_props
 ops = {d[1]: d[2] for d in drawn if d[0] == "operator"}
 assert set(ops) == {"sylva.grow", "sylva.regrow", "sylva.export"}, ops
 assert ops["sylva.grow"].preset == "lsys-honda-b" and ops["sylva.grow"].use_panel, ops
-assert [d[1] for d in drawn if d[0] == "label"] == ["mesh", "leaves", "wind", "lod"], drawn
+labels = [d[1] for d in drawn if d[0] == "label"]
+assert labels == ["generator (lsystem)", "mesh", "leaves", "wind", "lod"], drawn
+# A generator setting in the panel grows into the tree.
+props.gen_lsystem__angle = 30.0
+assert bpy.ops.sylva.grow(preset="lsys-honda-b", use_panel=True) == {"FINISHED"}
+panel_tree = bpy.context.view_layer.objects.active
+want = sylva.Recipe.preset("lsys-honda-b").set("mesh.sides", 5).set("generator.angle", 30.0)
+assert sylva.Recipe.from_toml(panel_tree[build.RECIPE_PROP]).to_toml() == want.to_toml()
 
 # A space-colonization tree, rendered alone at 128 x 128 (Cycles on the CPU).
 colonize, seconds = grow("colonize-broadleaf")
@@ -416,6 +434,129 @@ assert bpy.ops.sylva.regrow() == {"FINISHED"}
 assert check_tree(aspen, aspen_recipe, "aspen reopened")["vertices"] == aspen_vertices
 honda = bpy.data.objects["lsys-honda-a"]
 check_tree(honda, sylva.Recipe.preset("lsys-honda-a"), "honda reopened", pixels=True)
+
+# Live mode on the aspen (wind, two LOD levels): panel changes regrow it in place.
+from sylva_blender import live  # noqa: E402
+
+
+def mesh_co(obj):
+    co = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    return co
+
+
+def lod0(root, part):
+    return next(o for o in root.children if o.get("sylva_lod") == 0 and o.name.endswith(part))
+
+
+view_layer = bpy.context.view_layer
+props = bpy.context.scene.sylva
+for obj in view_layer.objects:
+    obj.select_set(False)
+aspen.select_set(True)
+view_layer.objects.active = aspen
+aspen.location = (1.0, 2.0, 0.5)
+bark0, leaf0 = lod0(aspen, "bark"), lod0(aspen, "leaf_cards")
+bark0.modifiers.new("user_displace", "DISPLACE").strength = 0.0
+child_names = sorted(o.name for o in aspen.children)
+live_recipe = sylva.Recipe.from_toml(aspen[build.RECIPE_PROP])
+props.live = True
+assert props.live_tree == aspen.name, props.live_tree
+assert props.mesh__sides == 5 and props.preset == "wp-quaking-aspen"  # the tree's recipe
+assert abs(props.gen_weber_penn__ratio - live_recipe.get("generator.ratio")) < 1e-6
+assert live.pump(60) and props.live_status == f"Live: {aspen.name}", props.live_status
+
+
+def live_change(set_value, obj):
+    """Sets a panel value and pumps until the live regrow is built; the seconds from
+    the change to the mesh replaced, and whether ``obj``'s vertices changed."""
+    before = mesh_co(obj)
+    t0 = time.perf_counter()
+    set_value()
+    assert live.pump(30), "live regrow did not finish"
+    seconds = time.perf_counter() - t0
+    after = mesh_co(obj)
+    assert props.live_status.startswith("Live:"), props.live_status
+    changed = len(after) != len(before) or not np.array_equal(after, before)
+    return seconds, changed, live.stats()
+
+
+live_result = {}
+# A leaf setting.
+s, changed, st = live_change(lambda: setattr(props, "leaves__shape", "lanceolate"), leaf0)
+live_recipe.set("leaves.shape", "lanceolate")
+assert changed and s < 2.0, (s, st)
+assert "generate" not in st["stages"], st  # the session kept the skeleton
+live_result["leaf"] = {"seconds": s, **st}
+# A generator setting.
+s, changed, st = live_change(lambda: setattr(props, "gen_weber_penn__ratio", 0.02), bark0)
+live_recipe.set("generator.ratio", 0.02)
+assert changed and s < 2.0, (s, st)
+assert "generate" in st["stages"], st
+live_result["generator"] = {"seconds": s, **st}
+# Replaced in place: the same objects, names, transform, modifiers and selection.
+assert sorted(o.name for o in aspen.children) == child_names
+assert lod0(aspen, "bark") == bark0 and lod0(aspen, "leaf_cards") == leaf0
+assert bark0.modifiers[0].name == "wind" and bark0.modifiers["user_displace"].type == "DISPLACE"
+assert tuple(aspen.location) == (1.0, 2.0, 0.5)
+assert aspen.select_get() and view_layer.objects.active == aspen
+assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
+live_result["tree"] = check_tree(aspen, live_recipe, "aspen live")
+live_result["wind"] = check_wind(aspen, live_recipe, "aspen live")
+assert len(bpy.data.actions) == 1 and len(bpy.data.armatures) == 1
+live_counts = data_counts()
+
+# A newer change while a regrow runs: the stale result is dropped, the latest is built.
+dropped = live.stats()["dropped"]
+props.gen_weber_penn__ratio = 0.025
+t0 = time.perf_counter()
+while not live.running() and time.perf_counter() - t0 < 10:
+    live.pump(0.005)
+assert live.running()
+props.gen_weber_penn__ratio = 0.03
+assert live.pump(30)
+live_recipe.set("generator.ratio", 0.03)
+assert live.stats()["dropped"] > dropped, live.stats()
+assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
+assert data_counts() == live_counts
+
+# Bad values: an error in the panel's status, the tree as it was, no traceback.
+bark_co = mesh_co(bark0)
+live_result["errors"] = []
+for attr, value, needle in [
+    ("settings", "mesh.sides = 1", "mesh.sides"),
+    ("lod__levels", "[20000, oops", "lod.levels"),
+]:
+    good = getattr(props, attr)
+    setattr(props, attr, value)
+    assert live.pump(30)
+    assert props.live_status.startswith("error") and needle in props.live_status, props.live_status
+    assert np.array_equal(mesh_co(bark0), bark_co) and data_counts() == live_counts
+    assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
+    live_result["errors"].append(props.live_status)
+    setattr(props, attr, good)
+    assert live.pump(30) and props.live_status.startswith("Live:"), props.live_status
+
+# Live off: nothing more happens.
+props.live = False
+assert live.idle() and props.live_tree == ""
+props.leaves__shape = "ovate"
+assert live.pump(0.5) and np.array_equal(mesh_co(bark0), bark_co)
+
+# Live on with no sylva tree active: a tree is grown from the panel and becomes live.
+props.preset = "lsys-honda-a"
+for obj in view_layer.objects:
+    obj.select_set(False)
+view_layer.objects.active = None
+n_objects = len(bpy.data.objects)
+props.live = True
+assert live.pump(30)
+new_root = view_layer.objects.active
+assert new_root is not None and props.live_tree == new_root.name, props.live_tree
+assert len(bpy.data.objects) > n_objects
+check_tree(new_root, sylva.Recipe.preset("lsys-honda-a"), "live new tree")
+props.live = False
+result["live"] = live_result
 
 with open(out_path, "w") as f:
     json.dump(result, f, indent=1)

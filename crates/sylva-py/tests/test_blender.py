@@ -8,7 +8,12 @@ object, material and image counts, vertex and triangle counts against the Python
 that only LOD0 is visible, the bark's Base Color image, the wind rig (bones as the
 recipe's joints, one action, the scene's frame range the clip's, the deformed bark
 equal to the glTF skin's at a key), instanced leaves, re-growing in place, the panel's
-schema settings, Export, and that bad settings cancel with an error report and leave
+schema settings (the generator's too), Export, and that bad settings cancel with an
+error report and leave the tree. Then Live mode on the aspen: a leaf setting and a
+generator setting changed through the panel's properties each regrow it in place
+within 2 s (timed, `live.pump` standing in for Blender's timer, which does not fire in
+a headless script), keeping its objects, transform, modifiers and selection; a change
+while a regrow runs drops the stale result; a bad value is a panel error and leaves
 the tree. Blender's user folders are temporary, so nothing is installed for the user.
 
 Skipped when `blender` is missing, unless SYLVA_REQUIRE_BLENDER=1 (.ci/run). The wheel is
@@ -101,8 +106,18 @@ def test_addon_grows_native_trees_in_blender(tmp_path):
     assert 0.02 < result["render"]["covered"] < 0.9, result["render"]
     assert len(result["errors"]) == 6, result["errors"]
     assert result["panel_keys"] >= 30, result["panel_keys"]
+    live = result["live"]  # seconds from the panel change to the mesh replaced
+    assert live["leaf"]["seconds"] < 2.0 and live["generator"]["seconds"] < 2.0, live
+    assert "generate" not in live["leaf"]["stages"], live["leaf"]  # the session's reuse
+    assert live["tree"]["triangles"] > 0 and live["wind"]["err_m"] < 1e-3, live
+    assert len(live["errors"]) == 2 and all("unchanged" in e for e in live["errors"]), live
     grow_s = aspen["grow_and_build_s"]
-    print(f"blender add-on check: {seconds:.1f} s; aspen grow+build {grow_s:.2f} s")
+    print(
+        f"blender add-on check: {seconds:.1f} s; aspen grow+build {grow_s:.2f} s; live "
+        f"leaf {live['leaf']['seconds']:.2f} s (worker {live['leaf']['grow_s']:.2f} s, build "
+        f"{live['leaf']['build_s']:.2f} s), generator {live['generator']['seconds']:.2f} s "
+        f"(worker {live['generator']['grow_s']:.2f} s, build {live['generator']['build_s']:.2f} s)"
+    )
 
 
 def test_settings_lines_and_toml_overlay():
