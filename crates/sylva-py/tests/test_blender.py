@@ -148,3 +148,67 @@ def test_settings_errors_name_the_line_and_the_key():
     with pytest.raises(settings.SettingsError, match=r"line 1 \(`mesh.sides`\).*3..=1024"):
         settings.apply(sylva, recipe, settings.parse("mesh.sides = 2"))
     assert recipe.get("mesh.sides") == sylva.Recipe.preset("lsys-honda-a").get("mesh.sides")
+
+
+def test_zip_manifest_follows_the_extension_schema(tmp_path):
+    """The zip's blender_manifest.toml (Blender 4.2+ extensions, schema 1.0.0): every
+    required key, `wheels` naming the bundled wheel by a path relative to the manifest
+    that is in the zip, `platforms` the wheel's. (No Blender 4.2 here to install it.)"""
+    tomllib = pytest.importorskip("tomllib")
+    import zipfile
+
+    import build_zip
+
+    wheel = tmp_path / "sylva-0.1.0-cp39-abi3-win_amd64.whl"  # any platform's name
+    wheel.write_bytes(b"PK\x05\x06" + bytes(18))  # an empty zip: only copied
+    out = build_zip.build(wheel, tmp_path / "addon.zip")
+    with zipfile.ZipFile(out) as zf:
+        names = set(zf.namelist())
+        text = zf.read("sylva_blender/blender_manifest.toml").decode()
+    manifest = tomllib.loads(text)
+    for key in build_zip.REQUIRED:
+        assert key in manifest, key
+    assert manifest["schema_version"] == "1.0.0" and manifest["type"] == "add-on"
+    assert manifest["blender_version_min"] == "4.2.0"
+    assert manifest["wheels"] == [f"./wheels/{wheel.name}"]
+    assert "sylva_blender/wheels/" + wheel.name in names  # beside the manifest
+    assert manifest["platforms"] == ["windows-x64"]
+    assert "sylva_blender/__init__.py" in names
+    files = {n.split("/", 1)[1] for n in names}
+    assert build_zip.check_manifest(text, files) == []
+
+
+def test_manifest_check_names_what_breaks_the_schema():
+    pytest.importorskip("tomllib")
+    import build_zip
+
+    base = (BLENDER_DIR / "sylva_blender" / "blender_manifest.toml").read_text()
+    wheel = "sylva-0.1.0-cp39-abi3-linux_x86_64.whl"
+    good = base.replace("wheels = []", f'wheels = ["./wheels/{wheel}"]')
+    files = {f"wheels/{wheel}", "__init__.py"}
+    assert build_zip.check_manifest(good, files) == []
+    cases = [
+        (good.replace('id = "sylva_blender"', 'id = "sylva-blender"'), "`id`"),
+        (good.replace("as native objects", "as native objects."), "punctuation"),
+        (good.replace('blender_version_min = "4.2.0"', 'blender_version_min = "3.4.0"'), "4.2.0"),
+        (good.replace('files = "', 'disk = "'), "`disk`"),
+        (good.replace('license = ["SPDX:MIT", ', "license = ["), None),  # still valid
+        (good.replace('license = ["SPDX:MIT", "SPDX:Apache-2.0"]', 'license = ["MIT"]'), "SPDX"),
+        (good.replace('platforms = ["linux-x64"]', 'platforms = ["macos-arm64"]'), "platform"),
+        (good.replace('version = "0.1.0"', 'version = "0.1"'), "semantic"),
+        (good.replace('maintainer = "sylva contributors"\n', ""), "missing `maintainer`"),
+    ]
+    for text, needle in cases:
+        errors = build_zip.check_manifest(text, files)
+        if needle is None:
+            assert errors == [], errors
+        else:
+            assert len(errors) == 1 and needle in errors[0], (needle, errors)
+    missing = build_zip.check_manifest(good, {"__init__.py"})
+    assert len(missing) == 1 and "not in the archive" in missing[0], missing
+    assert build_zip.wheel_platforms("a-1-cp39-abi3-manylinux_2_28_aarch64.whl") == {"linux-arm64"}
+    assert build_zip.wheel_platforms("a-1-cp39-abi3-macosx_10_9_universal2.whl") == {
+        "macos-x64",
+        "macos-arm64",
+    }
+    assert build_zip.wheel_platforms("a-1-py3-none-any.whl") is None
