@@ -10,9 +10,10 @@ stays responsive. The worker also makes everything the build needs that is not B
 data (``build.Prepared``: the arrays, the glTF, the image hashes). Blender data is
 touched only on the main thread: ``pump`` starts the regrow whose debounce ran out and
 builds a finished result in place (``build.build(..., root=tree)``: same objects,
-transform, selection and modifiers). Only the latest recipe's result is built: a result
-that a newer change made stale is dropped. A bad setting, or a grow that fails, is an
-error in the panel's status line (and on the console), and the tree stays as it was.
+transform, selection and modifiers), once Blender is in Object Mode. Only the latest
+recipe's result is built: a result that a newer change made stale is dropped. A bad
+setting, or a grow that fails, is an error in the panel's status line (and on the
+console), and the tree stays as it was.
 
 In the UI a ``bpy.app.timers`` function calls ``pump``. Headless (``blender -b``)
 timers do not run while a script does; the script calls ``pump(timeout)`` itself."""
@@ -60,6 +61,8 @@ def stats():
 
 
 def _status(props, text):
+    if props.live_status == text:
+        return
     props.live_status = text
     if text.startswith("error"):
         print(f"sylva live: {text}")
@@ -326,7 +329,13 @@ def pump(timeout=0.0):
         with _s.cond:
             result, _s.result = _s.result, None
         if result is not None and props is not None and props.live:
-            _finish(props, *result)
+            if bpy.context.mode != "OBJECT":  # mesh data is not replaced in Edit Mode
+                with _s.cond:
+                    if _s.result is None:
+                        _s.result = result
+                _status(props, "Live: the regrown tree waits for Object Mode")
+            else:
+                _finish(props, *result)
         if idle():
             return True
         now = time.monotonic()

@@ -537,11 +537,23 @@ for attr, value, needle in [
     setattr(props, attr, good)
     assert live.pump(30) and props.live_status.startswith("Live:"), props.live_status
 
+# In Edit Mode the result waits: the mesh is replaced back in Object Mode.
+view_layer.objects.active = bark0
+bpy.ops.object.mode_set(mode="EDIT")
+props.leaves__shape = "ovate"
+assert not live.pump(2.0) and "Object Mode" in props.live_status, props.live_status
+bpy.ops.object.mode_set(mode="OBJECT")
+view_layer.objects.active = aspen
+assert live.pump(30) and props.live_status.startswith("Live:"), props.live_status
+live_recipe.set("leaves.shape", "ovate")
+assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
+
 # Live off: nothing more happens.
 props.live = False
 assert live.idle() and props.live_tree == ""
-props.leaves__shape = "ovate"
-assert live.pump(0.5) and np.array_equal(mesh_co(bark0), bark_co)
+leaf_co = mesh_co(leaf0)
+props.leaves__shape = "lanceolate"
+assert live.pump(0.5) and np.array_equal(mesh_co(leaf0), leaf_co)
 
 # Live on with no sylva tree active: a tree is grown from the panel and becomes live.
 props.preset = "lsys-honda-a"
