@@ -67,9 +67,11 @@ def _status(props, text):
     if text.startswith("error"):
         print(f"sylva live: {text}")
     for window in getattr(bpy.context.window_manager, "windows", []):
-        for area in window.screen.areas:
-            if area.type == "VIEW_3D":
-                area.tag_redraw()
+        for area in window.screen.areas if window.screen else ():
+            if area.type == "VIEW_3D":  # the sidebar only: a new mesh redraws the view
+                for region in area.regions:
+                    if region.type == "UI":
+                        region.tag_redraw()
 
 
 def _ensure_timer():
