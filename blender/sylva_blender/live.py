@@ -42,6 +42,7 @@ class _State:
         self.running = None  # the job the worker runs
         self.result = None  # (job, build.Prepared or an error message, timings)
         self.generation = 0  # the latest job's
+        self.epoch = 0  # bumped when Live goes off: older jobs keep no session
         self.sessions = {}  # tree object name -> (origin, sylva.Session)
         self.thread = None
         self.stop = False
@@ -117,7 +118,7 @@ def _worker():
             out = f"error: {e!r}"
         seconds = time.perf_counter() - t0
         with _s.cond:
-            if not isinstance(out, str):
+            if not isinstance(out, str) and job["epoch"] == _s.epoch:
                 _s.sessions[job["tree"]] = entry
             _s.running = None
             if job["warm"]:
@@ -131,6 +132,7 @@ def _worker():
 
 def _submit(job):
     with _s.cond:
+        job["epoch"] = _s.epoch
         if not job["warm"]:
             _s.generation += 1
             job["generation"] = _s.generation
@@ -176,6 +178,7 @@ def toggled(props, context):
         with _s.cond:
             _s.job = None
             _s.generation += 1  # a result still running is dropped
+            _s.epoch += 1  # ... and keeps no session
             _s.sessions.clear()
         _s.due = None
         props.live_tree = ""
@@ -360,6 +363,7 @@ def unregister():
         _s.job = None
         _s.result = None
         _s.generation += 1
+        _s.epoch += 1
         _s.sessions.clear()
         _s.cond.notify_all()
     thread = _s.thread
