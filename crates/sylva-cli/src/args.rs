@@ -33,6 +33,12 @@ pub struct Common {
     /// Print nothing but errors and warnings (no summary, no progress).
     #[arg(short, long)]
     pub quiet: bool,
+    /// Stop with an error once growing has taken this many seconds (0.01..=1000000;
+    /// default: no limit). The recipe's work budgets (`*.max_work`, `max_modules`) bound
+    /// the work itself, the same on every machine; this bounds the wall-clock time of
+    /// a run whose budgets were raised. Writing the files is not counted.
+    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    pub time_limit: Option<f64>,
 }
 
 impl Common {
@@ -70,6 +76,60 @@ impl Common {
             },
         }
     }
+}
+
+/// The value parser of `--time-limit`: seconds in 0.01..=1,000,000.
+pub fn seconds(s: &str) -> std::result::Result<f64, FlagError> {
+    let shown = quote(s);
+    match s.trim().parse::<f64>() {
+        Ok(x) if (0.01..=1e6).contains(&x) => Ok(x),
+        Ok(x) if x.is_finite() => {
+            Err(FlagError(format!("--time-limit {shown}: out of range: use seconds in 0.01..=1000000")))
+        }
+        _ => Err(FlagError(format!("--time-limit {shown}: not a number of seconds (e.g. 30 or 2.5)"))),
+    }
+}
+
+impl Common {
+    /// Runs `f` with a cancellation token that `--time-limit` (when given) sets once its
+    /// seconds have passed; a run it stopped becomes an error naming the flag and the
+    /// limit. The timer thread ends with `f`.
+    pub fn timed<R>(&self, f: impl FnOnce(&sylva::cancel::Cancel) -> sylva::Result<R>) -> Result<R> {
+        let token = sylva::cancel::Cancel::new();
+        let Some(limit) = self.time_limit else { return Ok(f(&token)?) };
+        let (done, wait) = std::sync::mpsc::channel::<()>();
+        let fired = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let timer = {
+            let (token, fired) = (token.clone(), fired.clone());
+            std::thread::Builder::new().name("time-limit".into()).spawn(move || {
+                if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                    wait.recv_timeout(std::time::Duration::from_secs_f64(limit))
+                {
+                    fired.store(true, std::sync::atomic::Ordering::SeqCst);
+                    token.cancel();
+                }
+            })
+        }
+        .map_err(|e| miette::miette!("--time-limit: cannot start its timer thread: {e}"))?;
+        let result = sylva::cancel::scope(&token, || f(&token));
+        drop(done);
+        let _ = timer.join();
+        // A stage the token stopped may return what it had so far (the derivation does):
+        // once the timer fired, any result is the time-limit error.
+        match result {
+            _ if fired.load(std::sync::atomic::Ordering::SeqCst) => Err(time_limit_passed(limit)),
+            r => Ok(r?),
+        }
+    }
+}
+
+/// The error of a run stopped by `--time-limit SECONDS`.
+pub fn time_limit_passed(limit: f64) -> miette::Report {
+    miette::miette!(
+        help = "raise --time-limit, or lower the work (generator.iterations, refine.levels, \
+                a raised *.max_work budget)",
+        "--time-limit {limit}: growing passed the limit of {limit} s and was stopped; nothing was written"
+    )
 }
 
 /// The error of `-n N` on `what`, whose generator is not an L-system: what `-n` is, what

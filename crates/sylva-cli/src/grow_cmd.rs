@@ -108,7 +108,7 @@ pub fn run(args: GrowArgs) -> Result<()> {
     let progress = Progress::new(args.common.quiet, 3);
     let mut session = sylva::Session::new(loaded).keep_stages(false);
     progress.follow(&mut session);
-    session.run()?;
+    args.common.timed(|cancel| session.run_with(cancel).map(|_| ()))?;
     let recipe = session.recipe().clone();
     let tree = session.into_tree().expect("a successful run leaves a tree");
     for w in &tree.report.warnings {

@@ -32,7 +32,7 @@ fn derive(common: &Common) -> Result<()> {
             common.what()
         ));
     };
-    let d = sylva::pipeline::derive_lsystem(&loaded, g)?;
+    let d = common.timed(|_| sylva::pipeline::derive_lsystem(&loaded, g))?;
     use std::io::Write;
     let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
     d.lsystem.write_to(&d.string, &mut stdout).into_diagnostic()?;

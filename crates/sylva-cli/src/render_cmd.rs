@@ -200,7 +200,7 @@ fn grow(args: &RenderArgs, loaded: &recipe::Loaded) -> Result<sylva::Tree> {
     let progress = crate::progress::Progress::new(args.common.quiet, 0);
     let mut session = sylva::Session::new(loaded.clone()).keep_stages(false);
     progress.follow(&mut session);
-    session.run()?;
+    args.common.timed(|cancel| session.run_with(cancel).map(|_| ()))?;
     progress.finish();
     let tree = session.into_tree().expect("a successful run leaves a tree");
     for w in &tree.report.warnings {

@@ -2,7 +2,9 @@
 //! ranges that asked for more memory than the machine has (refinement levels with a
 //! raised face budget, 1200 frames of 8192×8192) stop with an error naming the flags or
 //! keys and the bytes, before the work and leaving no file; `sylva check` on tangled or
-//! repeated glTF geometry ends promptly and says what it did.
+//! repeated glTF geometry ends promptly and says what it did; a run whose work outlasts
+//! `--time-limit` (the bound on wall-clock time for raised budgets) stops with an error
+//! naming the flag and leaves no file.
 
 mod common;
 use common::{assert_says, sylva, tempdir};
@@ -43,6 +45,35 @@ fn item_3_grow_with_6_levels_and_a_raised_face_budget_is_a_memory_error() {
     assert!(!r.stderr.contains("panicked") && !r.stderr.contains("memory allocation"), "{}", r.stderr);
     assert_says("grow", &r.stderr, &["refine.max_memory", "refine.levels", "bytes"]);
     assert!(files(&d, &[]).is_empty(), "left behind: {:?}", files(&d, &[]));
+}
+
+/// Issue 39 items 3 and 6 (raised budgets): a grow of minutes (Honda's tree at 18 steps,
+/// about 8 s in release, far longer here) under `--time-limit 0.3` stops at the next
+/// checkpoint after the limit with an error naming the flag, and writes nothing; a limit
+/// out of range is refused before any work.
+#[test]
+fn raised_work_stops_at_the_time_limit_with_the_flag_named() {
+    let d = tempdir("robustness-memory", "time-limit");
+    let started = std::time::Instant::now();
+    let r = sylva(&["grow", "lsys-honda-a", "-n", "18", "-o", "tree.glb", "--time-limit", "0.3"], &d);
+    let took = started.elapsed();
+    assert_ne!(r.code, 0, "{}", r.stdout);
+    assert!(!r.stderr.contains("panicked"), "{}", r.stderr);
+    assert_says("grow --time-limit", &r.stderr, &["--time-limit 0.3", "stopped", "nothing was written"]);
+    // Generous: the point is that it stops long before the grow would end.
+    assert!(took.as_secs() < 60, "stopped only after {took:?}");
+    assert!(files(&d, &[]).is_empty(), "left behind: {:?}", files(&d, &[]));
+    // 2²⁴ parametric modules (within the default module budget), seconds to derive.
+    let model =
+        "Lsystem: 1\nderivation length: 25\nAxiom: A(1)\nA(x) : x > 0 --> A(x+1)A(x*1.5)\nendlsystem\n";
+    std::fs::write(d.join("double.l"), model).unwrap();
+    let r = sylva(&["lsys", "derive", "double.l", "--time-limit", "0.3"], &d);
+    assert_ne!(r.code, 0);
+    assert_says("lsys derive --time-limit", &r.stderr, &["--time-limit 0.3"]);
+    let r = sylva(&["grow", "lsys-honda-a", "--time-limit", "0", "-o", "t.glb"], &d);
+    assert_ne!(r.code, 0);
+    assert_says("--time-limit 0", &r.stderr, &["--time-limit", "0.01..=1000000"]);
+    assert!(files(&d, &["double.l"]).is_empty(), "left behind: {:?}", files(&d, &["double.l"]));
 }
 
 /// Issue 39 item 3 for `sylva subdivide --max-faces`: 6 levels of a 20,000-quad grid

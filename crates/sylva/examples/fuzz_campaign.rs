@@ -689,6 +689,9 @@ fn classes_cli(a: &Args, j: u64) -> CliRun {
         for s in sets {
             args.extend(["--set".into(), s]);
         }
+        if c.class == classes::Class::RaisedBudgets {
+            args.extend(["--time-limit".into(), classes::RAISED_TIME_LIMIT_S.to_string()]);
+        }
     }
     CliRun {
         key: format!("cli {}", c.class.name()),

@@ -582,6 +582,35 @@ pub const BUDGET_KEYS: &[&str] = &[
     "mesh.quad.max_repair_work",
 ];
 
+/// The wall-clock bound a raised-budgets run gets (the CLI's `--time-limit`; in-process,
+/// a cancellation token fired after it). A budget raised 1000× is work the user asked
+/// for: the budgets keep it finite and its memory checked; the time limit is how a user
+/// bounds its time. Below the campaign's 10 s line, so such a run ends with the
+/// time-limit error, not the campaign's kill.
+pub const RAISED_TIME_LIMIT_S: f64 = 8.0;
+
+/// `f` under a cancellation token fired after `seconds`; `Err(Cancelled)` when it fired
+/// becomes the message the CLI's `--time-limit` prints.
+pub fn with_time_limit<R>(seconds: f64, f: impl FnOnce() -> sylva::Result<R>) -> Result<R, String> {
+    let token = sylva::cancel::Cancel::new();
+    let (done, wait) = std::sync::mpsc::channel::<()>();
+    let timer = {
+        let token = token.clone();
+        std::thread::spawn(move || {
+            if wait.recv_timeout(std::time::Duration::from_secs_f64(seconds)).is_err() {
+                token.cancel();
+            }
+        })
+    };
+    let r = sylva::cancel::scope(&token, f);
+    drop(done);
+    let _ = timer.join();
+    match r {
+        Err(sylva::Error::Cancelled) => Err(format!("--time-limit {seconds}: stopped at the time limit")),
+        r => r.map_err(|e| render(&e)),
+    }
+}
+
 /// Budgets raised to 10⁹–10¹², with settings that make the work large (more
 /// derivation steps, `refine.levels` up to 6, the quad mesher, clearing).
 pub fn raised_budgets(rng: &mut Rng) -> Case {
@@ -1067,7 +1096,11 @@ fn run_built(
         |what: &str, sets: &[(String, toml::Value)], warnings: &mut Vec<String>| -> Result<String, String> {
             let loaded = recipe::load(what, sets).map_err(|e| render(&e))?;
             if deep {
-                let g = sylva::pipeline::grow(&loaded).map_err(|e| render(&e))?;
+                let g = if c.class == Class::RaisedBudgets {
+                    with_time_limit(RAISED_TIME_LIMIT_S, || sylva::pipeline::grow(&loaded))?
+                } else {
+                    sylva::pipeline::grow(&loaded).map_err(|e| render(&e))?
+                };
                 warnings.extend(g.report.warnings.iter().cloned());
                 sylva::export::write(&g.model, &out).map_err(|e| render(&e))?;
                 Ok(format!("{} nodes", g.skeleton.len()))
