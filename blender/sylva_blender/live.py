@@ -20,6 +20,7 @@ timers do not run while a script does; the script calls ``pump(timeout)`` itself
 
 import threading
 import time
+import uuid
 
 import bpy
 
@@ -151,9 +152,32 @@ def _origin(props):
     return props.base or f"preset:{props.preset}"
 
 
+LIVE_ID = "sylva_live_id"
+
+
+def _mark_live(props, root):
+    """Makes ``root`` the live tree, tagged so that it is found again if renamed."""
+    props.live_tree = root.name
+    root[LIVE_ID] = uuid.uuid4().hex
+    props.live_id = root[LIVE_ID]
+
+
 def _live_root(props):
-    root = bpy.data.objects.get(props.live_tree) if props.live_tree else None
-    return root if root is not None and build.RECIPE_PROP in root else None
+    """The live tree: by name, else (renamed) by its tag; None when it is gone."""
+    if not props.live_tree:
+        return None
+    root = bpy.data.objects.get(props.live_tree)
+    if root is not None and build.RECIPE_PROP in root and root.get(LIVE_ID) == props.live_id:
+        return root
+    for obj in bpy.data.objects:
+        if obj.get(LIVE_ID) == props.live_id and build.RECIPE_PROP in obj:
+            with _s.cond:  # its session goes with the new name
+                entry = _s.sessions.pop(props.live_tree, None)
+                if entry is not None:
+                    _s.sessions[obj.name] = entry
+            props.live_tree = obj.name
+            return obj
+    return None
 
 
 def changed(context):
@@ -193,7 +217,7 @@ def toggled(props, context):
         _status(props, "Live: growing a new tree")
         _ensure_timer()
         return
-    props.live_tree = root.name
+    _mark_live(props, root)
     sylva = _s.sylva
     try:
         recipe = sylva.Recipe.from_toml(root[build.RECIPE_PROP])
@@ -290,7 +314,7 @@ def _finish(props, job, out, seconds, stages):
             entry = _s.sessions.pop(job["tree"], None)
             if entry is not None:
                 _s.sessions[root.name] = entry
-        props.live_tree = root.name
+        _mark_live(props, root)
     build_s = time.perf_counter() - t0
     latency = time.monotonic() - job["changed_at"]
     _s.last = {

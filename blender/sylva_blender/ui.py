@@ -371,8 +371,9 @@ def settings_class(sylva):
             update=live.toggled,
             options=set(),
         ),
-        "live_tree": StringProperty(name="Live tree", options={"HIDDEN", "SKIP_SAVE"}),
-        "live_status": StringProperty(name="Live status", options={"HIDDEN", "SKIP_SAVE"}),
+        "live_tree": StringProperty(name="Live tree", options={"HIDDEN"}),
+        "live_id": StringProperty(options={"HIDDEN"}),
+        "live_status": StringProperty(name="Live status", options={"HIDDEN"}),
         "shown": StringProperty(options={"HIDDEN"}),
         "base": StringProperty(options={"HIDDEN"}),
         "generator": StringProperty(

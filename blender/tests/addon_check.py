@@ -548,6 +548,14 @@ assert live.pump(30) and props.live_status.startswith("Live:"), props.live_statu
 live_recipe.set("leaves.shape", "ovate")
 assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
 
+# Renamed, the live tree is still found (by its tag) and regrown.
+aspen.name = "my aspen"
+props.gen_weber_penn__ratio = 0.035
+assert live.pump(30) and props.live_tree == "my aspen", (props.live_tree, props.live_status)
+live_recipe.set("generator.ratio", 0.035)
+assert sylva.Recipe.from_toml(aspen[build.RECIPE_PROP]).to_toml() == live_recipe.to_toml()
+assert lod0(aspen, "bark") == bark0 and tuple(aspen.location) == (1.0, 2.0, 0.5)
+
 # Live off: nothing more happens.
 props.live = False
 assert live.idle() and props.live_tree == ""
