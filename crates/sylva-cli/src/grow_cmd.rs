@@ -108,39 +108,46 @@ pub fn run(args: GrowArgs) -> Result<()> {
     let progress = Progress::new(args.common.quiet, 3);
     let mut session = sylva::Session::new(loaded).keep_stages(false);
     progress.follow(&mut session);
-    args.common.timed(|cancel| session.run_with(cancel).map(|_| ()))?;
-    let recipe = session.recipe().clone();
-    let tree = session.into_tree().expect("a successful run leaves a tree");
-    for w in &tree.report.warnings {
-        progress.println(&format!("warning: {w}"));
-    }
-    if !tree.report.missing_surfaces.is_empty() {
-        progress
-            .println(&format!("warning: no surface file for {}", tree.report.missing_surfaces.join(", ")));
-    }
-    // The model, its side files and the previews are one result: each is staged to a
-    // temporary, and they replace the files of an earlier run together when all of them
-    // were written (the model last), or not at all.
-    let mut set = sylva::fsutil::OutputSet::new(&out);
-    progress.step("write");
-    tree.stage(&out, &mut set)?;
-    progress.done_step();
-    if let Some(p) = &preview {
-        progress.step("preview");
-        let size = recipe.output.preview_size;
-        let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
-        let img = sylva::preview::render(&tree.model, &opts)?;
-        sylva::preview::stage_png(&img, p, &mut set)?;
-    }
-    progress.done_step();
-    if let Some(p) = &args.preview_wind {
-        progress.step("wind preview");
-        let size = recipe.output.preview_size.min(512);
-        let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
-        let fps = 15;
-        let frames = sylva::animation::wind_frames(&tree.model, &opts, fps)?;
-        sylva::animation::stage_animation(&frames, fps, p, &mut set)?;
-    }
+    // Growing and staging the files run under `--time-limit` (the temporaries' writers
+    // stop at its token too); the commit that renames them into place does not.
+    let (tree, set) = args.common.timed(|cancel| {
+        session.run_with(cancel)?;
+        let recipe = session.recipe().clone();
+        let tree = session.into_tree().expect("a successful run leaves a tree");
+        for w in &tree.report.warnings {
+            progress.println(&format!("warning: {w}"));
+        }
+        if !tree.report.missing_surfaces.is_empty() {
+            progress.println(&format!(
+                "warning: no surface file for {}",
+                tree.report.missing_surfaces.join(", ")
+            ));
+        }
+        // The model, its side files and the previews are one result: each is staged to
+        // a temporary, and they replace the files of an earlier run together when all of
+        // them were written (the model last), or not at all.
+        let mut set = sylva::fsutil::OutputSet::new(&out);
+        progress.step("write");
+        tree.stage(&out, &mut set)?;
+        progress.done_step();
+        if let Some(p) = &preview {
+            progress.step("preview");
+            let size = recipe.output.preview_size;
+            let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
+            let img = sylva::preview::render(&tree.model, &opts)?;
+            sylva::preview::stage_png(&img, p, &mut set)?;
+        }
+        progress.done_step();
+        if let Some(p) = &args.preview_wind {
+            progress.step("wind preview");
+            let size = recipe.output.preview_size.min(512);
+            let opts = sylva::preview::PreviewOptions { width: size, height: size, ..Default::default() };
+            let fps = 15;
+            let frames = sylva::animation::wind_frames(&tree.model, &opts, fps)?;
+            sylva::animation::stage_animation(&frames, fps, p, &mut set)?;
+        }
+        Ok((tree, set))
+    })?;
     set.commit()?;
     progress.finish();
     if !args.common.quiet {

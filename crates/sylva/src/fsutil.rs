@@ -379,6 +379,24 @@ struct Temp {
     slot: Option<Slot>,
 }
 
+/// A file whose writes fail once this thread's cancellation token ([`crate::cancel`])
+/// is set: a run stopped while it writes a large model (a time limit) stops within a
+/// buffer's worth of bytes, and its temporary is removed.
+struct Stoppable(std::fs::File);
+
+impl Write for Stoppable {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if crate::cancel::cancelled() {
+            return Err(std::io::Error::other("cancelled"));
+        }
+        self.0.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
 impl Temp {
     /// Removes stale temporaries of `target`, then writes a new one through `fill` and
     /// flushes it to the disk.
@@ -397,9 +415,9 @@ impl Temp {
             drop(temp);
             park_forever();
         }
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, Stoppable(file));
         fill(&mut w)?;
-        let file = w.into_inner().map_err(|e| e.into_error())?;
+        let file = w.into_inner().map_err(|e| e.into_error())?.0;
         file.sync_all()?;
         Ok(temp)
     }

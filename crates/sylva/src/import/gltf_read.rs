@@ -52,6 +52,15 @@ pub fn read_gltf(path: &Path) -> Result<Vec<GltfMesh>> {
                         .ok_or_else(|| bad(path, format!("buffer {i}: bad base64")))?
                 } else {
                     let rel = Path::new(uri);
+                    // The uri is the file's text: quoted clipped (a broken data URI is the
+                    // whole buffer in base64).
+                    let uri = crate::diagnostic::quote(uri);
+                    if uri.starts_with("data:") {
+                        return Err(bad(
+                            path,
+                            format!("buffer {i}: uri `{uri}` is a data URI without `;base64,` (the only kind read)"),
+                        ));
+                    }
                     if rel.is_absolute() || uri.contains(':') {
                         return Err(bad(
                             path,
@@ -332,5 +341,22 @@ mod tests {
             assert_eq!(base64_decode(enc).unwrap(), dec);
         }
         assert!(base64_decode("Zm9v!").is_none());
+    }
+
+    /// Campaign finding (stop 51, readers run 15263): a data URI that lost its `;base64,`
+    /// was quoted whole — a 114 KB message. Now it is named as such and clipped.
+    #[test]
+    fn a_broken_data_uri_is_named_and_clipped() {
+        let dir = std::env::temp_dir().join(format!("sylva-gltf-uri-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("broken.gltf");
+        let uri = format!("data:application/octet-stream;base64{}", "QUJD".repeat(30_000));
+        let doc =
+            format!(r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":90000}}]}}"#);
+        std::fs::write(&file, doc).unwrap();
+        let e = read_gltf(&file).unwrap_err().to_string();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(e.contains("data URI without `;base64,`"), "{e}");
+        assert!(e.len() < 1000, "a message of {} bytes", e.len());
     }
 }

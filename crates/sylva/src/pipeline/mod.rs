@@ -143,6 +143,8 @@ pub(crate) fn bark_stage(
         Some(refined) => refined,
         None => refine_bark(recipe, fitted.control)?,
     };
+    // A refined hero mesh makes each step below take seconds: a stopped run stops here.
+    crate::cancel::check()?;
     check_mesh_memory(recipe, crate::mesh::memory::mesh_bytes(&bark), "")?;
     for (root, outcome) in sunk.iter().zip(crate::mesh::ground::cut_base(&mut bark, sunk)) {
         use crate::mesh::ground::CutOutcome;
@@ -156,6 +158,7 @@ pub(crate) fn bark_stage(
             root.node
         ));
     }
+    crate::cancel::check()?;
     if recipe.textures.scale != 1.0 {
         if let Some(uv) = bark.uvs.as_mut() {
             uv.values.iter_mut().for_each(|t| *t *= recipe.textures.scale);

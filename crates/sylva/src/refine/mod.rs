@@ -765,17 +765,30 @@ pub fn subdivide_traced(
     let parts = subdivide_parts(mesh, &control, options)?;
     control.check_memory(&ro, control.peak(&ro, &parts))?;
     let refiner = Refiner::refine(control, &ro)?;
+    // Each pass over the finest level takes seconds on a hero mesh: a cancelled
+    // computation stops between them.
+    let stop = || {
+        if crate::cancel::cancelled() {
+            Err(RefineError::Cancelled { level: ro.levels })
+        } else {
+            Ok(())
+        }
+    };
     let mut positions = refiner.interpolate(&mesh.positions)?;
+    stop()?;
     let mut normals = None;
     if options.limit {
         // Tangent masks apply to the finest control points, not to their limits.
         normals = Some(refiner.limit_normals(&positions)?);
         positions = refiner.limit(&positions)?;
+        stop()?;
     }
     let mut out = refiner.try_finest_mesh(positions)?;
     out.normals = normals;
+    stop()?;
     if let Some(uvs) = &mesh.uvs {
         let fvr = refiner.face_varying(&uvs.indices, options.uv)?;
+        stop()?;
         out.uvs = Some(fvr.interpolate(&uvs.values)?);
     }
     let control_faces = refiner.try_control_faces()?;

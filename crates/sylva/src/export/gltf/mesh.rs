@@ -96,6 +96,8 @@ pub(super) fn push_primitive(
     positions: Positions,
     channels: &Channels,
 ) -> Result<json::mesh::Primitive> {
+    // A hero mesh's primitive takes a second to encode: a cancelled run stops between.
+    crate::cancel::check()?;
     use json::accessor::{ComponentType as C, Type as T};
     use json::mesh::Semantic;
     let verts = &data.unified.vertices;
