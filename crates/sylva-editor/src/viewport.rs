@@ -86,7 +86,7 @@ struct Cage {
 /// The view of the tree.
 pub struct Viewport {
     gpu: Option<egui_wgpu::RenderState>,
-    renderer: Option<Renderer>,
+    renderer: Option<Arc<Renderer>>,
     target: Option<Target>,
     control: OrbitControl,
     framed: bool,
@@ -241,9 +241,9 @@ impl Viewport {
     /// uploaded here, [`Viewport::set_model`]), its skeleton for the skeleton overlay,
     /// and what its cage is meshed from (a new cage is asked for when the cage is shown
     /// and the skeleton or the meshing settings changed).
-    pub fn set_tree(&mut self, tree: &Tree, renderer: Option<Result<Box<Renderer>, String>>) {
+    pub fn set_tree(&mut self, tree: &Tree, renderer: Option<Result<Arc<Renderer>, String>>) {
         match renderer {
-            Some(r) => self.set_renderer(r.map(|r| *r)),
+            Some(r) => self.set_renderer(r),
             None => self.set_model(&tree.model),
         }
         let s = &tree.skeleton;
@@ -277,13 +277,14 @@ impl Viewport {
     pub fn set_model(&mut self, model: &Model) {
         let Some(gpu) = &self.gpu else { return };
         let r = Renderer::with_device(&gpu.adapter, &gpu.device, &gpu.queue, model)
+            .map(Arc::new)
             .map_err(|e| format!("cannot draw this tree: {e}"));
         self.set_renderer(r);
     }
 
     /// Shows a tree uploaded to the view's device (or the upload's error; the last tree
     /// stays then).
-    fn set_renderer(&mut self, renderer: Result<Renderer, String>) {
+    fn set_renderer(&mut self, renderer: Result<Arc<Renderer>, String>) {
         if self.gpu.is_none() {
             return;
         }

@@ -23,7 +23,7 @@ use sylva::pipeline::Tree;
 use sylva::recipe::{Loaded, Recipe};
 use sylva::session::{Session, Stage};
 use sylva::{Mesh, Skeleton};
-use sylva_gpu::render::{Renderer, ShaderCache};
+use sylva_gpu::render::Renderer;
 
 /// What one job ended in.
 #[derive(Debug)]
@@ -35,9 +35,10 @@ pub enum Outcome {
         /// The tree (model, skeleton, report, recipe).
         tree: Box<Tree>,
         /// The tree's model already uploaded to the view's GPU device (made on the
-        /// worker, so the UI thread does not spend the upload's tens of milliseconds);
+        /// worker, so the UI thread does not spend the upload's tens of milliseconds;
+        /// what the previous tree uploaded and this one still holds is reused);
         /// `None` without a device, `Some(Err)` with the renderer's message.
-        renderer: Option<Result<Box<Renderer>, String>>,
+        renderer: Option<Result<Arc<Renderer>, String>>,
         /// The stages this run computed (the others were kept).
         stages: Vec<Stage>,
         /// Wall time of the run.
@@ -112,20 +113,23 @@ impl Upload {
         Upload { adapter: gpu.adapter.clone(), device: gpu.device.clone(), queue: gpu.queue.clone() }
     }
 
-    /// The tree uploaded, its pipelines compiled for the view (sharing `cache`, the
-    /// previous tree's, so only the first tree compiles them).
-    fn renderer(&self, tree: &Tree, cache: &mut Option<ShaderCache>) -> Result<Box<Renderer>, String> {
-        let r = Renderer::with_device_sharing(
+    /// The tree uploaded, its pipelines compiled for the view. `previous` is the last
+    /// tree this worker uploaded: its pipelines are shared (only the first tree compiles
+    /// them), and its buffers and textures reused where the new tree's parts and images
+    /// are the same (a leaf change uploads the leaves only).
+    fn renderer(&self, tree: &Tree, previous: &mut Option<Arc<Renderer>>) -> Result<Arc<Renderer>, String> {
+        let r = Renderer::with_device_reusing(
             &self.adapter,
             &self.device,
             &self.queue,
             &tree.model,
-            cache.as_ref(),
+            previous.as_deref(),
         )
         .map_err(|e| format!("cannot draw this tree: {e}"))?;
         r.prepare(crate::viewport::VIEW_FORMAT, true);
-        *cache = Some(r.shader_cache());
-        Ok(Box::new(r))
+        let r = Arc::new(r);
+        *previous = Some(Arc::clone(&r));
+        Ok(r)
     }
 }
 
@@ -197,7 +201,7 @@ fn run(
     upload: Option<Upload>,
 ) {
     let mut session: Option<Session> = None;
-    let mut shaders: Option<ShaderCache> = None;
+    let mut uploaded: Option<Arc<Renderer>> = None;
     while let Ok(mut job) = queue.recv() {
         let mut skipped = Vec::new();
         while let Ok(newer) = queue.try_recv() {
@@ -226,7 +230,7 @@ fn run(
         };
         let outcome = match result {
             Ok((tree, stages)) => {
-                let renderer = upload.as_ref().map(|u| u.renderer(&tree, &mut shaders));
+                let renderer = upload.as_ref().map(|u| u.renderer(&tree, &mut uploaded));
                 Outcome::Grown {
                     job: job.id,
                     tree: Box::new(tree),

@@ -438,3 +438,51 @@ fn overlay_lines_show_on_top_or_behind_the_tree() {
         .unwrap_err();
     assert!(e.to_string().contains("overlay 1: segment 0"), "{e}");
 }
+
+/// The box beside the alpha-cut card: two parts, one image.
+fn box_and_card() -> Model {
+    let mut model = card_model();
+    let mesh = column(Vec3::new(1.2, 0.0, -0.3), Vec3::new(1.8, 1.0, 0.3), 1);
+    model.parts.push(Part::new("bark", mesh, Material::bark()));
+    model
+}
+
+/// Issue 41's leaf-change latency: a renderer replacing another on the same device keeps
+/// the buffers of the parts and the textures of the images that did not change, uploads
+/// the rest, and draws exactly what a renderer made from scratch draws.
+#[test]
+fn a_replacing_renderer_reuses_what_did_not_change_and_draws_the_same() {
+    let Some(gpu) = Gpu::or_skip("render: reuse") else { return };
+    let (a, d, q) = (&gpu.adapter, &gpu.device, &gpu.queue);
+    let o = opts(160, 160, 0.3, 0.2);
+    let draw = |r: &Renderer| r.render(&o, &[Mat4::IDENTITY], 0.0).unwrap().image;
+    let fresh = |m: &Model| draw(&Renderer::with_device(a, d, q, m).unwrap());
+
+    let first_model = box_and_card();
+    let first = Renderer::with_device_reusing(a, d, q, &first_model, None).unwrap();
+    let r = first.reuse();
+    assert_eq!((r.parts_uploaded, r.parts_reused, r.textures_uploaded, r.textures_reused), (2, 0, 1, 0));
+
+    // A material change (the leaf's cut-off): nothing uploaded but the uniforms.
+    let mut cut = box_and_card();
+    cut.parts[0].material.alpha_cutoff = Some(0.95);
+    let second = Renderer::with_device_reusing(a, d, q, &cut, Some(&first)).unwrap();
+    let r = second.reuse();
+    assert_eq!((r.parts_uploaded, r.parts_reused, r.textures_uploaded, r.textures_reused), (0, 2, 0, 1));
+    let (old, new) = (draw(&first), draw(&second));
+    assert_eq!(new.data, fresh(&cut).data, "the reusing renderer draws as a fresh one");
+    assert_ne!(new.data, old.data, "the cut-off change shows");
+
+    // The box moved and the leaf image recoloured: those two are uploaded again.
+    let mut moved = cut.clone();
+    for p in &mut moved.parts[1].mesh.positions {
+        p.y += 0.5;
+    }
+    for px in moved.images[0].image.data.chunks_exact_mut(4) {
+        px[0] = 200;
+    }
+    let third = Renderer::with_device_reusing(a, d, q, &moved, Some(&second)).unwrap();
+    let r = third.reuse();
+    assert_eq!((r.parts_uploaded, r.parts_reused, r.textures_uploaded, r.textures_reused), (1, 1, 1, 0));
+    assert_eq!(draw(&third).data, fresh(&moved).data);
+}

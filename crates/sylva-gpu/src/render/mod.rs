@@ -215,16 +215,119 @@ pub struct Rendered {
 /// One part's buffers and its materials' bind groups.
 #[derive(Debug)]
 struct GpuPart {
-    vertices: wgpu::Buffer,
-    indices: wgpu::Buffer,
-    groups: Vec<mesh::Group>,
+    /// The uploaded streams, shared with the next renderer when its part is the same
+    /// ([`Renderer::with_device_reusing`]).
+    geometry: Arc<PartGeometry>,
     materials: Vec<wgpu::BindGroup>,
     /// Per material: whether it is alpha-cut (drawn by the per-sample pipeline).
     cut: Vec<bool>,
+}
+
+/// A part's streams on the GPU and what the wireframe needs, keyed by the part's content.
+#[derive(Debug)]
+struct PartGeometry {
+    /// [`part_key`] of the part they were made from.
+    key: u128,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    groups: Vec<mesh::Group>,
+    /// Triangle indices in `indices`.
+    index_count: u32,
     /// The vertices' positions and the triangles, kept for the wireframe's edges.
     wire_source: (Vec<[f32; 3]>, Vec<u32>),
     /// The wireframe's line-list indices and their count, built on first use.
     wire: OnceLock<(wgpu::Buffer, u32)>,
+}
+
+/// A 128-bit content key (two multiply-rotate lanes, FxHash-like): fast enough to run
+/// over a whole tree on every replacement, and only ever compared with the previous
+/// tree's keys on the same device, to skip uploading what did not change. Not a
+/// cryptographic hash.
+struct ContentKey(u64, u64);
+
+impl ContentKey {
+    fn new() -> ContentKey {
+        ContentKey(0, 0x2545_f491_4f6c_dd1d)
+    }
+
+    fn word(&mut self, w: u64) {
+        self.0 = (self.0.rotate_left(5) ^ w).wrapping_mul(0x517c_c1b7_2722_0a95);
+        self.1 = (self.1.rotate_left(7) ^ w).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+
+    /// A length, then the bytes eight at a time.
+    fn bytes(&mut self, bytes: &[u8]) {
+        self.word(bytes.len() as u64);
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            self.word(u64::from_le_bytes(w.try_into().expect("8 bytes")));
+        }
+        let mut tail = [0u8; 8];
+        tail[..words.remainder().len()].copy_from_slice(words.remainder());
+        self.word(u64::from_le_bytes(tail));
+    }
+
+    /// `len`, then the 32-bit values two at a time.
+    fn u32s(&mut self, len: usize, values: impl Iterator<Item = u32>) {
+        self.word(len as u64);
+        let mut pending: Option<u32> = None;
+        for v in values {
+            match pending.take() {
+                Some(lo) => self.word(u64::from(lo) | (u64::from(v) << 32)),
+                None => pending = Some(v),
+            }
+        }
+        if let Some(lo) = pending {
+            self.word(u64::from(lo));
+        }
+    }
+
+    fn finish(&self) -> u128 {
+        (u128::from(self.0) << 64) | u128::from(self.1)
+    }
+}
+
+/// The content key of what a part's streams are made from: its mesh (positions, faces,
+/// normals, UVs), skin and per-face materials.
+fn part_key(part: &sylva::model::Part) -> u128 {
+    let m = &part.mesh;
+    let mut k = ContentKey::new();
+    k.u32s(m.positions.len(), m.positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)));
+    k.u32s(m.face_offsets.len(), m.face_offsets.iter().copied());
+    k.u32s(m.face_indices.len(), m.face_indices.iter().copied());
+    match &m.normals {
+        Some(n) => {
+            k.u32s(n.values.len(), n.values.iter().flat_map(|v| v.to_array().map(f32::to_bits)));
+            k.u32s(n.indices.len(), n.indices.iter().copied());
+        }
+        None => k.word(u64::MAX),
+    }
+    match &m.uvs {
+        Some(u) => {
+            k.u32s(u.values.len(), u.values.iter().flat_map(|v| v.to_array().map(f32::to_bits)));
+            k.u32s(u.indices.len(), u.indices.iter().copied());
+        }
+        None => k.word(u64::MAX - 1),
+    }
+    match &part.skin {
+        Some(s) => {
+            k.bytes(bytemuck::cast_slice(&s.joints));
+            k.bytes(bytemuck::cast_slice(&s.weights));
+        }
+        None => k.word(u64::MAX - 2),
+    }
+    k.u32s(part.face_materials.len(), part.face_materials.iter().copied());
+    k.word(part.extra_materials.len() as u64);
+    k.finish()
+}
+
+/// The content key of an image (size, channels, pixels).
+fn image_key(image: &Image) -> u128 {
+    let mut k = ContentKey::new();
+    k.word(u64::from(image.width) | (u64::from(image.height) << 32));
+    k.word(u64::from(image.channels));
+    k.bytes(&image.data);
+    k.finish()
 }
 
 /// One level of detail.
@@ -356,9 +459,26 @@ pub struct Renderer {
     background_buffer: wgpu::Buffer,
     group0: wgpu::BindGroup,
     shaders: Arc<Shaders>,
+    /// The model's images on the GPU with their [`image_key`]s, for the next renderer.
+    textures: Vec<(u128, wgpu::TextureView)>,
+    reuse: Reuse,
     targets: Mutex<Option<Targets>>,
     view_targets: Mutex<Option<ViewTargets>>,
     msaa_ok: bool,
+}
+
+/// What a renderer took from the one it replaced ([`Renderer::with_device_reusing`])
+/// and what it uploaded.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Reuse {
+    /// Parts (of every level) whose buffers were the previous renderer's.
+    pub parts_reused: usize,
+    /// Parts uploaded.
+    pub parts_uploaded: usize,
+    /// Images that were the previous renderer's textures.
+    pub textures_reused: usize,
+    /// Images uploaded.
+    pub textures_uploaded: usize,
 }
 
 /// What every tree drawn on one device shares: the bind group and pipeline layouts,
@@ -463,11 +583,45 @@ impl Renderer {
         model: &Model,
         cache: Option<&ShaderCache>,
     ) -> Result<Renderer, GpuError> {
+        Renderer::build(adapter, device, queue, model, cache.map(|c| &c.0), None)
+    }
+
+    /// [`Renderer::with_device_sharing`] that also keeps what `previous` (a renderer of
+    /// the tree this one replaces, on the same device) already uploaded and `model`
+    /// still holds: each part's vertex and index buffers whose mesh, skin and face
+    /// materials are the same (compared by a 128-bit content key), and each image with
+    /// the same pixels. After a leaf or material change an editor then uploads only the
+    /// leaves, or nothing but the material uniforms. The result draws exactly as a
+    /// renderer made from scratch. A `previous` of another device is ignored.
+    pub fn with_device_reusing(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        previous: Option<&Renderer>,
+    ) -> Result<Renderer, GpuError> {
+        let previous = previous.filter(|p| p.gpu.device == *device);
+        Renderer::build(adapter, device, queue, model, previous.map(|p| &p.shaders), previous)
+    }
+
+    fn build(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        shaders: Option<&Arc<Shaders>>,
+        previous: Option<&Renderer>,
+    ) -> Result<Renderer, GpuError> {
         let gpu = &Ctx { adapter: adapter.clone(), device: device.clone(), queue: queue.clone() };
-        let shaders = match cache {
-            Some(c) if c.0.device == *device => c.0.clone(),
+        let shaders = match shaders {
+            Some(c) if c.device == *device => c.clone(),
             _ => Arc::new(Shaders::new(gpu)),
         };
+        let old_textures: std::collections::HashMap<u128, &wgpu::TextureView> =
+            previous.map(|p| p.textures.iter().map(|(k, v)| (*k, v)).collect()).unwrap_or_default();
+        let old_parts: std::collections::HashMap<u128, &Arc<PartGeometry>> = previous
+            .map(|p| p.levels.iter().flat_map(|l| &l.parts).map(|g| (g.geometry.key, &g.geometry)).collect())
+            .unwrap_or_default();
         let (frame_layout, material_layout) = (&shaders.frame_layout, &shaders.material_layout);
         let flat = model.flattened();
         let device = &gpu.device;
@@ -475,6 +629,8 @@ impl Renderer {
 
         // Textures: every model image as sRGB RGBA, plus a white one for plain materials.
         let mut views = Vec::with_capacity(flat.images.len());
+        let mut textures = Vec::with_capacity(flat.images.len());
+        let mut reuse = Reuse::default();
         for im in &flat.images {
             let i = &im.image;
             if i.width == 0 || i.height == 0 || i.width > limit || i.height > limit {
@@ -484,7 +640,19 @@ impl Renderer {
                 )));
             }
             i.check(&format!("texture `{}`", im.name)).map_err(|e| invalid(e.to_string()))?;
-            views.push((texture(gpu, &im.name, i), im.repeat));
+            let key = image_key(i);
+            let view = match old_textures.get(&key) {
+                Some(v) => {
+                    reuse.textures_reused += 1;
+                    (*v).clone()
+                }
+                None => {
+                    reuse.textures_uploaded += 1;
+                    texture(gpu, &im.name, i)
+                }
+            };
+            textures.push((key, view.clone()));
+            views.push((view, im.repeat));
         }
         let white = texture(gpu, "white", &Image::from_rgba(1, 1, vec![255; 4]));
         let sampler = |mode| {
@@ -510,11 +678,24 @@ impl Renderer {
         for (coverage, parts) in sources {
             let mut level = Level { coverage, parts: Vec::new(), triangles: 0 };
             for part in parts {
-                part.mesh.validate().map_err(|why| invalid(format!("part `{}`: {why}", part.name)))?;
-                let data = mesh::mesh_data(part);
-                if data.indices.is_empty() {
-                    continue;
-                }
+                let key = part_key(part);
+                let geometry = match old_parts.get(&key) {
+                    Some(g) => {
+                        reuse.parts_reused += 1;
+                        Arc::clone(g)
+                    }
+                    None => {
+                        reuse.parts_uploaded += 1;
+                        part.mesh
+                            .validate()
+                            .map_err(|why| invalid(format!("part `{}`: {why}", part.name)))?;
+                        let data = mesh::mesh_data(part);
+                        if data.indices.is_empty() {
+                            continue;
+                        }
+                        Arc::new(upload_part(gpu, &part.name, key, data)?)
+                    }
+                };
                 let has_uv =
                     part.mesh.uvs.as_ref().is_some_and(|u| u.indices.len() == part.mesh.face_indices.len());
                 let cut = mesh::part_materials(part)
@@ -562,35 +743,8 @@ impl Renderer {
                         })
                     })
                     .collect();
-                let max = gpu.device.limits().max_buffer_size;
-                let bytes = (data.vertices.len() * std::mem::size_of::<mesh::Vertex>()) as u64;
-                if bytes > max {
-                    return Err(invalid(format!(
-                        "part `{}` needs {bytes} bytes of vertices; the adapter allows {max}",
-                        part.name
-                    )));
-                }
-                let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("sylva-gpu render vertices"),
-                    contents: bytemuck::cast_slice(&data.vertices),
-                    usage: wgpu::BufferUsages::VERTEX,
-                });
-                let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("sylva-gpu render indices"),
-                    contents: bytemuck::cast_slice(&data.indices),
-                    usage: wgpu::BufferUsages::INDEX,
-                });
-                level.triangles += data.indices.len() as u64 / 3;
-                let positions = data.vertices.iter().map(|v| v.position).collect();
-                level.parts.push(GpuPart {
-                    vertices,
-                    indices,
-                    groups: data.groups,
-                    materials,
-                    cut,
-                    wire_source: (positions, data.indices),
-                    wire: OnceLock::new(),
-                });
+                level.triangles += u64::from(geometry.index_count) / 3;
+                level.parts.push(GpuPart { geometry, materials, cut });
             }
             levels.push(level);
         }
@@ -631,10 +785,17 @@ impl Renderer {
             background_buffer,
             group0,
             shaders,
+            textures,
+            reuse,
             targets: Mutex::new(None),
             view_targets: Mutex::new(None),
             msaa_ok,
         })
+    }
+
+    /// What this renderer reused from the one it replaced and what it uploaded.
+    pub fn reuse(&self) -> Reuse {
+        self.reuse
     }
 
     /// This renderer's layouts, shader and compiled pipelines, for the next renderer on
@@ -668,7 +829,7 @@ impl Renderer {
 
     /// Draw calls one instanced draw of level `level` issues (its parts' material groups).
     pub fn draws_per_level(&self, level: usize) -> u32 {
-        self.levels.get(level).map_or(0, |l| l.parts.iter().map(|p| p.groups.len() as u32).sum())
+        self.levels.get(level).map_or(0, |l| l.parts.iter().map(|p| p.geometry.groups.len() as u32).sum())
     }
 
     /// LOD0's bounds (model space).
@@ -1084,9 +1245,9 @@ impl Renderer {
                 continue;
             }
             for part in &level.parts {
-                pass.set_vertex_buffer(0, part.vertices.slice(..));
-                pass.set_index_buffer(part.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for g in &part.groups {
+                pass.set_vertex_buffer(0, part.geometry.vertices.slice(..));
+                pass.set_index_buffer(part.geometry.indices.slice(..), wgpu::IndexFormat::Uint32);
+                for g in &part.geometry.groups {
                     let cut = part.cut[g.material];
                     if current_cut != Some(cut) {
                         pass.set_pipeline(if cut { &pipelines.cut } else { &pipelines.mesh });
@@ -1113,7 +1274,7 @@ impl Renderer {
                     if *count == 0 {
                         continue;
                     }
-                    pass.set_vertex_buffer(0, part.vertices.slice(..));
+                    pass.set_vertex_buffer(0, part.geometry.vertices.slice(..));
                     pass.set_index_buffer(edges.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(0..*count, 0, range.clone());
                     stats.lines += *count as u64 / 2 * n as u64;
@@ -1147,8 +1308,8 @@ impl Renderer {
     /// The wireframe's line-list index buffer of `part` and its index count, built from
     /// its triangles on first use.
     fn wire_edges<'a>(&self, part: &'a GpuPart) -> &'a (wgpu::Buffer, u32) {
-        part.wire.get_or_init(|| {
-            let (positions, triangles) = &part.wire_source;
+        part.geometry.wire.get_or_init(|| {
+            let (positions, triangles) = &part.geometry.wire_source;
             let edges = mesh::edge_indices(positions, triangles);
             let buffer = self.gpu.buffer(
                 "sylva-gpu render wireframe",
@@ -1197,6 +1358,38 @@ pub fn frame_memory(w: u32, h: u32, samples: u32) -> u64 {
 }
 
 /// An sRGB RGBA texture of `image` (an RGB image gains alpha 255) and its view.
+/// `data`'s vertex and index buffers on the GPU (`name`: the part's, for messages).
+fn upload_part(gpu: &Ctx, name: &str, key: u128, data: mesh::MeshData) -> Result<PartGeometry, GpuError> {
+    let device = &gpu.device;
+    let max = device.limits().max_buffer_size;
+    let bytes = (data.vertices.len() * std::mem::size_of::<mesh::Vertex>()) as u64;
+    if bytes > max {
+        return Err(invalid(format!(
+            "part `{name}` needs {bytes} bytes of vertices; the adapter allows {max}"
+        )));
+    }
+    let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("sylva-gpu render vertices"),
+        contents: bytemuck::cast_slice(&data.vertices),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("sylva-gpu render indices"),
+        contents: bytemuck::cast_slice(&data.indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    let positions = data.vertices.iter().map(|v| v.position).collect();
+    Ok(PartGeometry {
+        key,
+        vertices,
+        indices,
+        groups: data.groups,
+        index_count: data.indices.len() as u32,
+        wire_source: (positions, data.indices),
+        wire: OnceLock::new(),
+    })
+}
+
 fn texture(gpu: &Ctx, label: &str, image: &Image) -> wgpu::TextureView {
     let (w, h) = (image.width, image.height);
     let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
