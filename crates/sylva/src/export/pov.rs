@@ -100,46 +100,45 @@ fn smooth_normals(mesh: &Mesh) -> Vec<Vec3> {
 /// Writes the include file declaring `ident` as a `mesh2` of `mesh`. The mesh must be
 /// valid ([`Mesh::validate`]) and have at least one triangle.
 pub fn write_inc(mesh: &Mesh, ident: &str, out: &mut dyn Write) -> std::io::Result<()> {
+    // Written straight to `out` (a buffered file): an include of ten million triangles
+    // is over a gigabyte of text, never held whole.
     let tris: Vec<[usize; 3]> = mesh.fan_corners().collect();
-    let mut b = String::with_capacity(64 * (mesh.positions.len() + tris.len()));
-    use std::fmt::Write as _;
-    let _ = writeln!(b, "// {GENERATOR}: {} triangles\n#declare {ident} = mesh2 {{", tris.len());
-    let _ = writeln!(b, "  vertex_vectors {{\n    {},", mesh.positions.len());
+    writeln!(out, "// {GENERATOR}: {} triangles\n#declare {ident} = mesh2 {{", tris.len())?;
+    writeln!(out, "  vertex_vectors {{\n    {},", mesh.positions.len())?;
     for p in &mesh.positions {
-        let _ = writeln!(b, "    {},", pov_vec(*p));
+        writeln!(out, "    {},", pov_vec(*p))?;
     }
-    b.push_str("  }\n");
+    out.write_all(b"  }\n")?;
     // Normals: the mesh's own (face-varying) or smooth ones per position.
     let (normals, normal_index): (Vec<Vec3>, Box<dyn Fn(usize) -> usize>) = match &mesh.normals {
         Some(n) => (n.values.clone(), Box::new(move |c| n.indices[c] as usize)),
         None => (smooth_normals(mesh), Box::new(|c| mesh.face_indices[c] as usize)),
     };
-    let _ = writeln!(b, "  normal_vectors {{\n    {},", normals.len());
+    writeln!(out, "  normal_vectors {{\n    {},", normals.len())?;
     for n in &normals {
-        let _ = writeln!(b, "    {},", pov_vec(*n));
+        writeln!(out, "    {},", pov_vec(*n))?;
     }
-    b.push_str("  }\n");
+    out.write_all(b"  }\n")?;
     if let Some(uv) = &mesh.uvs {
-        let _ = writeln!(b, "  uv_vectors {{\n    {},", uv.values.len());
+        writeln!(out, "  uv_vectors {{\n    {},", uv.values.len())?;
         for t in &uv.values {
-            let _ = writeln!(b, "    <{},{}>,", t.x, t.y);
+            writeln!(out, "    <{},{}>,", t.x, t.y)?;
         }
-        b.push_str("  }\n");
+        out.write_all(b"  }\n")?;
     }
-    let mut indices = |name: &str, f: &dyn Fn(usize) -> usize| {
-        let _ = writeln!(b, "  {name} {{\n    {},", tris.len());
+    let indices = |out: &mut dyn Write, name: &str, f: &dyn Fn(usize) -> usize| -> std::io::Result<()> {
+        writeln!(out, "  {name} {{\n    {},", tris.len())?;
         for t in &tris {
-            let _ = writeln!(b, "    <{},{},{}>,", f(t[0]), f(t[1]), f(t[2]));
+            writeln!(out, "    <{},{},{}>,", f(t[0]), f(t[1]), f(t[2]))?;
         }
-        b.push_str("  }\n");
+        out.write_all(b"  }\n")
     };
-    indices("face_indices", &|c| mesh.face_indices[c] as usize);
-    indices("normal_indices", &*normal_index);
+    indices(out, "face_indices", &|c| mesh.face_indices[c] as usize)?;
+    indices(out, "normal_indices", &*normal_index)?;
     if let Some(uv) = &mesh.uvs {
-        indices("uv_indices", &|c| uv.indices[c] as usize);
+        indices(out, "uv_indices", &|c| uv.indices[c] as usize)?;
     }
-    b.push_str("}\n");
-    out.write_all(b.as_bytes())
+    out.write_all(b"}\n")
 }
 
 /// A material as a POV-Ray `texture { … }`; `image` is the base-colour PNG's file name

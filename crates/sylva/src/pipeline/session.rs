@@ -363,9 +363,10 @@ impl Session {
         self.tree = None;
     }
 
-    /// Computes the tree of the current recipe (only what is not kept yet).
+    /// Computes the tree of the current recipe (only what is not kept yet). Inside a
+    /// [`crate::cancel::scope`] it stops when that scope's token is cancelled.
     pub fn run(&mut self) -> Result<&Tree> {
-        self.run_with(&Cancel::new())
+        self.run_with(&crate::cancel::current().unwrap_or_default())
     }
 
     /// [`Session::run`] that stops with [`Error::Cancelled`] once `cancel` is set.
@@ -376,9 +377,9 @@ impl Session {
 
     /// Makes `recipe` the session's recipe (checked first: an invalid recipe is an
     /// error and changes nothing) and recomputes from the first stage whose inputs
-    /// changed.
+    /// changed; inside a [`crate::cancel::scope`], until that scope's token is cancelled.
     pub fn update(&mut self, recipe: Recipe) -> Result<&Tree> {
-        self.update_with(recipe, &Cancel::new())
+        self.update_with(recipe, &crate::cancel::current().unwrap_or_default())
     }
 
     /// Makes `loaded` the session's recipe and files: where its origin or overlay differ

@@ -599,7 +599,9 @@ pub fn with_time_limit<R>(seconds: f64, f: impl FnOnce() -> sylva::Result<R>) ->
     let timer = {
         let token = token.clone();
         std::thread::spawn(move || {
-            if wait.recv_timeout(std::time::Duration::from_secs_f64(seconds)).is_err() {
+            // Only the timeout fires it: the sender dropped (`f` done) ends the wait.
+            let limit = std::time::Duration::from_secs_f64(seconds);
+            if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = wait.recv_timeout(limit) {
                 token.cancel();
             }
         })
@@ -607,8 +609,9 @@ pub fn with_time_limit<R>(seconds: f64, f: impl FnOnce() -> sylva::Result<R>) ->
     let r = sylva::cancel::scope(&token, f);
     drop(done);
     let _ = timer.join();
+    // A run that finished (its files written) just as the limit passed keeps its result.
     match r {
-        _ if token.is_cancelled() => Err(format!("--time-limit {seconds}: stopped at the time limit")),
+        Err(_) if token.is_cancelled() => Err(format!("--time-limit {seconds}: stopped at the time limit")),
         r => r.map_err(|e| render(&e)),
     }
 }
