@@ -24,6 +24,7 @@
 
 mod convert;
 mod errors;
+mod limit;
 mod lsystem;
 mod recipe;
 mod session;

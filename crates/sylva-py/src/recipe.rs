@@ -217,16 +217,29 @@ impl Recipe {
     /// per core); `threads=1` grows on one thread of its own, the right choice when
     /// many Python threads or processes each grow a tree. Raises `SylvaError` (or a
     /// subclass) when the recipe cannot be grown. The tree is the same for any
-    /// `threads`.
-    #[pyo3(signature = (seed=None, threads=None))]
-    fn grow(&self, py: Python<'_>, seed: Option<u64>, threads: Option<usize>) -> PyResult<Tree> {
+    /// `threads`. `timeout` (seconds) stops a grow that takes longer, raising
+    /// `TimeoutError` (the recipe's work budgets bound the work; this bounds the time).
+    #[pyo3(signature = (seed=None, threads=None, timeout=None))]
+    fn grow(
+        &self,
+        py: Python<'_>,
+        seed: Option<u64>,
+        threads: Option<usize>,
+        timeout: Option<f64>,
+    ) -> PyResult<Tree> {
+        let timeout = crate::limit::seconds(timeout)?;
         let mut loaded = self.loaded.clone();
         if let Some(s) = seed {
             loaded.recipe.seed = s;
         }
-        let tree = py.detach(|| match threads {
-            None | Some(0) => guard(|| sylva::pipeline::grow(&loaded)),
-            Some(n) => pool(n)?.install(|| guard(|| sylva::pipeline::grow(&loaded))),
+        let tree = py.detach(|| {
+            crate::limit::run(timeout, |token| {
+                let grow = || sylva::cancel::scope(token, || guard(|| sylva::pipeline::grow(&loaded)));
+                match threads {
+                    None | Some(0) => grow(),
+                    Some(n) => pool(n)?.install(grow),
+                }
+            })
         })?;
         Ok(Tree::grown_from(tree, loaded))
     }

@@ -45,18 +45,24 @@ impl Session {
     }
 
     /// Computes the tree of the current recipe (only the stages not kept) and returns
-    /// it. The GIL is released meanwhile.
-    fn run(&self, py: Python<'_>) -> PyResult<Tree> {
-        let tree = self.with(py, |s| s.run().cloned())?;
+    /// it. The GIL is released meanwhile. `timeout` (seconds) stops a run that takes
+    /// longer, raising `TimeoutError`; the stages it finished are kept.
+    #[pyo3(signature = (timeout=None))]
+    fn run(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Tree> {
+        let timeout = crate::limit::seconds(timeout)?;
+        let tree = crate::limit::run(timeout, |token| self.with(py, |s| s.run_with(token).cloned()))?;
         Ok(Tree::grown_from(tree, self.base.clone()))
     }
 
     /// Makes `recipe` the session's recipe and recomputes from the first stage whose
     /// inputs changed; returns the tree. An invalid recipe raises `RecipeError` and
-    /// changes nothing. The GIL is released meanwhile.
-    fn update(&self, py: Python<'_>, recipe: PyRef<'_, Recipe>) -> PyResult<Tree> {
+    /// changes nothing. The GIL is released meanwhile. `timeout` as for `run`.
+    #[pyo3(signature = (recipe, timeout=None))]
+    fn update(&self, py: Python<'_>, recipe: PyRef<'_, Recipe>, timeout: Option<f64>) -> PyResult<Tree> {
+        let timeout = crate::limit::seconds(timeout)?;
         let r = recipe.loaded.recipe.clone();
-        let tree = self.with(py, move |s| s.update(r).cloned())?;
+        let tree =
+            crate::limit::run(timeout, |token| self.with(py, move |s| s.update_with(r, token).cloned()))?;
         Ok(Tree::grown_from(tree, self.base.clone()))
     }
 

@@ -1,6 +1,8 @@
 """The API of issue 42: presets, recipes (set, TOML, schema), grow, the skeleton as
 numpy arrays, the report, previews and L-systems."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -164,3 +166,21 @@ def test_a_preset_recipe_written_as_toml_grows_the_same_tree(tmp_path, monkeypat
     r = sylva.Recipe.preset("lsys-honda-a").set("mesh.sides", 5)
     again = sylva.Recipe.from_toml(r.to_toml())
     assert again.grow().to_glb() == r.grow().to_glb()
+
+
+def test_timeout_stops_a_long_grow_with_timeout_error():
+    # Honda's tree at 18 steps takes seconds; a 0.2 s timeout stops it at a checkpoint.
+    recipe = sylva.Recipe.preset("lsys-honda-a").set("generator.iterations", 18)
+    started = time.monotonic()
+    with pytest.raises(TimeoutError, match="timeout=0.2"):
+        recipe.grow(timeout=0.2)
+    assert time.monotonic() - started < 30
+    session = sylva.Session(recipe)
+    with pytest.raises(TimeoutError):
+        session.run(timeout=0.2)
+    # A grow that fits its timeout is the same tree as one without.
+    small = sylva.Recipe.preset("lsys-binary-tree")
+    assert small.grow(timeout=60).to_glb() == small.grow().to_glb()
+    assert sylva.Session(small).update(small, timeout=60).to_glb() == small.grow().to_glb()
+    with pytest.raises(ValueError, match="timeout"):
+        small.grow(timeout=0)

@@ -81,10 +81,16 @@ class Recipe:
         """A copy (changing it leaves this recipe alone)."""
     def __copy__(self) -> Recipe: ...
     def __deepcopy__(self, memo: Any) -> Recipe: ...
-    def grow(self, seed: Optional[int] = None, threads: Optional[int] = None) -> Tree:
+    def grow(
+        self,
+        seed: Optional[int] = None,
+        threads: Optional[int] = None,
+        timeout: Optional[float] = None,
+    ) -> Tree:
         """Grow the tree (with ``seed`` instead of the recipe's, if given); the GIL is
         released meanwhile. ``threads`` caps the engine's worker threads for this grow
-        (default: one per core, shared); ``threads=1`` when many Python threads grow."""
+        (default: one per core, shared); ``threads=1`` when many Python threads grow.
+        ``timeout`` (seconds) stops a longer grow with ``TimeoutError``."""
 
 class Skeleton:
     """A branching skeleton, nodes parent-first, as numpy arrays."""
@@ -173,9 +179,10 @@ class Session:
     change touches."""
 
     def __init__(self, recipe: Recipe) -> None: ...
-    def run(self) -> Tree:
-        """Compute the tree of the current recipe."""
-    def update(self, recipe: Recipe) -> Tree:
+    def run(self, timeout: Optional[float] = None) -> Tree:
+        """Compute the tree of the current recipe; ``timeout`` (seconds) stops a longer
+        run with ``TimeoutError``."""
+    def update(self, recipe: Recipe, timeout: Optional[float] = None) -> Tree:
         """Make ``recipe`` the session's recipe and recompute from the first stage whose
         inputs changed."""
     @property
