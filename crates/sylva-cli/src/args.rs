@@ -99,27 +99,14 @@ impl Common {
     pub fn timed<R>(&self, f: impl FnOnce(&sylva::cancel::Cancel) -> sylva::Result<R>) -> Result<R> {
         let token = sylva::cancel::Cancel::new();
         let Some(limit) = self.time_limit else { return Ok(f(&token)?) };
-        let (done, wait) = std::sync::mpsc::channel::<()>();
-        let fired = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-        let timer = {
-            let (token, fired) = (token.clone(), fired.clone());
-            std::thread::Builder::new().name("time-limit".into()).spawn(move || {
-                if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
-                    wait.recv_timeout(std::time::Duration::from_secs_f64(limit))
-                {
-                    fired.store(true, std::sync::atomic::Ordering::SeqCst);
-                    token.cancel();
-                }
-            })
-        }
-        .map_err(|e| miette::miette!("--time-limit: cannot start its timer thread: {e}"))?;
+        let timer = sylva::cancel::Timer::start(&token, std::time::Duration::from_secs_f64(limit))
+            .map_err(|e| miette::miette!("--time-limit: cannot start its timer thread: {e}"))?;
         let result = sylva::cancel::scope(&token, || f(&token));
-        drop(done);
-        let _ = timer.join();
+        let fired = timer.stop();
         // A stage the token stopped may return what it had so far (the derivation does):
         // once the timer fired, any result is the time-limit error.
         match result {
-            _ if fired.load(std::sync::atomic::Ordering::SeqCst) => Err(time_limit_passed(limit)),
+            _ if fired => Err(time_limit_passed(limit)),
             r => Ok(r?),
         }
     }

@@ -3,13 +3,10 @@
 //! checkpoint and the call raises Python's `TimeoutError`. The recipe's work budgets bound
 //! the work itself; this bounds the wall-clock time, as the CLI's `--time-limit` does.
 
-use pyo3::exceptions::{PyTimeoutError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTimeoutError, PyValueError};
 use pyo3::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, RecvTimeoutError};
-use std::sync::Arc;
 use std::time::Duration;
-use sylva::cancel::Cancel;
+use sylva::cancel::{Cancel, Timer};
 
 /// `timeout` checked: `None`, or seconds in 0.001..=1,000,000 (`ValueError` otherwise).
 pub fn seconds(timeout: Option<f64>) -> PyResult<Option<f64>> {
@@ -28,23 +25,13 @@ pub fn seconds(timeout: Option<f64>) -> PyResult<Option<f64>> {
 pub fn run<T>(timeout: Option<f64>, f: impl FnOnce(&Cancel) -> PyResult<T>) -> PyResult<T> {
     let token = Cancel::new();
     let Some(limit) = timeout else { return f(&token) };
-    let (done, wait) = channel::<()>();
-    let fired = Arc::new(AtomicBool::new(false));
-    let timer = {
-        let (token, fired) = (token.clone(), fired.clone());
-        std::thread::Builder::new().name("sylva-timeout".into()).spawn(move || {
-            if let Err(RecvTimeoutError::Timeout) = wait.recv_timeout(Duration::from_secs_f64(limit)) {
-                fired.store(true, Ordering::SeqCst);
-                token.cancel();
-            }
-        })
-    }
-    .map_err(|e| PyValueError::new_err(format!("timeout={limit}: cannot start its timer thread: {e}")))?;
+    let timer = Timer::start(&token, Duration::from_secs_f64(limit)).map_err(|e| {
+        PyRuntimeError::new_err(format!("timeout={limit}: cannot start its timer thread: {e}"))
+    })?;
     let result = f(&token);
-    drop(done);
-    let _ = timer.join();
+    let fired = timer.stop();
     match result {
-        Err(_) if fired.load(Ordering::SeqCst) => {
+        Err(_) if fired => {
             Err(PyTimeoutError::new_err(format!("growing passed timeout={limit} s and was stopped")))
         }
         r => r,

@@ -7,7 +7,8 @@
 //! without a token in their signature, and parallel loops capture [`current`] before
 //! they fork. A stage that stops early returns a partial result the session never
 //! keeps: it checks the token after every stage and returns
-//! [`crate::Error::Cancelled`] (what [`Cancelled`] converts to).
+//! [`crate::Error::Cancelled`] (what [`Cancelled`] converts to). A [`Timer`] cancels a
+//! token once a time limit has passed (the CLI's `--time-limit`, Python's `timeout=`).
 
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -101,9 +102,75 @@ pub fn check() -> Result<(), Cancelled> {
     }
 }
 
+/// A thread that cancels a token once a time limit has passed, unless stopped first.
+/// [`Timer::stop`] (or dropping it) ends the thread at once.
+///
+/// ```
+/// use sylva::cancel::{Cancel, Timer};
+/// let token = Cancel::new();
+/// let timer = Timer::start(&token, std::time::Duration::from_millis(10))?;
+/// std::thread::sleep(std::time::Duration::from_millis(50));
+/// assert!(token.is_cancelled() && timer.stop());
+/// # Ok::<(), std::io::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Timer {
+    done: Option<std::sync::mpsc::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    fired: Arc<AtomicBool>,
+}
+
+impl Timer {
+    /// Starts the timer of `token`. Errors: the system cannot start a thread.
+    pub fn start(token: &Cancel, limit: std::time::Duration) -> std::io::Result<Timer> {
+        let (done, wait) = std::sync::mpsc::channel::<()>();
+        let fired = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (token, fired) = (token.clone(), fired.clone());
+            std::thread::Builder::new().name("sylva-time-limit".into()).spawn(move || {
+                // Only the timeout fires it: `stop` closes the channel, which ends the wait.
+                if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = wait.recv_timeout(limit) {
+                    fired.store(true, Ordering::SeqCst);
+                    token.cancel();
+                }
+            })?
+        };
+        Ok(Timer { done: Some(done), thread: Some(thread), fired })
+    }
+
+    /// Stops the timer; whether it had fired (cancelled its token) before.
+    pub fn stop(mut self) -> bool {
+        self.end();
+        self.fired.load(Ordering::SeqCst)
+    }
+
+    fn end(&mut self) {
+        self.done.take();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Timer {
+    fn drop(&mut self) {
+        self.end();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_timer_stopped_in_time_never_fires() {
+        let token = Cancel::new();
+        let timer = Timer::start(&token, std::time::Duration::from_secs(60)).unwrap();
+        let started = std::time::Instant::now();
+        assert!(!timer.stop(), "stopped before its limit");
+        assert!(!token.is_cancelled());
+        assert!(started.elapsed() < std::time::Duration::from_secs(30), "stop waits for nothing");
+    }
 
     #[test]
     fn the_scope_installs_and_restores_the_token() {

@@ -595,23 +595,13 @@ pub const RAISED_TIME_LIMIT_S: f64 = 6.0;
 /// becomes the message the CLI's `--time-limit` prints.
 pub fn with_time_limit<R>(seconds: f64, f: impl FnOnce() -> sylva::Result<R>) -> Result<R, String> {
     let token = sylva::cancel::Cancel::new();
-    let (done, wait) = std::sync::mpsc::channel::<()>();
-    let timer = {
-        let token = token.clone();
-        std::thread::spawn(move || {
-            // Only the timeout fires it: the sender dropped (`f` done) ends the wait.
-            let limit = std::time::Duration::from_secs_f64(seconds);
-            if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = wait.recv_timeout(limit) {
-                token.cancel();
-            }
-        })
-    };
+    let timer = sylva::cancel::Timer::start(&token, std::time::Duration::from_secs_f64(seconds))
+        .map_err(|e| format!("harness: cannot start the timer: {e}"))?;
     let r = sylva::cancel::scope(&token, f);
-    drop(done);
-    let _ = timer.join();
+    let fired = timer.stop();
     // A run that finished (its files written) just as the limit passed keeps its result.
     match r {
-        Err(_) if token.is_cancelled() => Err(format!("--time-limit {seconds}: stopped at the time limit")),
+        Err(_) if fired => Err(format!("--time-limit {seconds}: stopped at the time limit")),
         r => r.map_err(|e| render(&e)),
     }
 }
