@@ -76,7 +76,8 @@ pub fn run(args: GrowArgs) -> Result<()> {
     }
     let out = PathBuf::from(&loaded.recipe.output.file);
     // `.lst` and `.json` outputs are skeletons; anything else must be a mesh format.
-    if !["lst", "json"].contains(&ext(&out).as_str()) {
+    let skeleton_only = ["lst", "json"].contains(&ext(&out).as_str());
+    if !skeleton_only {
         // Fail on a bad extension before doing any work.
         sylva::export::Format::from_path(&out)?;
     }
@@ -86,9 +87,14 @@ pub fn run(args: GrowArgs) -> Result<()> {
         (Some(p), "--preview")
     } else if let Some(p) = &loaded.recipe.output.preview {
         (Some(PathBuf::from(p)), "output.preview")
+    } else if skeleton_only {
+        // A skeleton has no mesh to picture: nothing is meshed unless a preview or a
+        // wind preview is asked for by name.
+        (None, "")
     } else {
         (Some(out.with_extension("png")), "the preview (next to the output)")
     };
+    let skeleton_only = skeleton_only && preview.is_none() && args.preview_wind.is_none();
     // Every output path is checked before any work, so a bad one writes nothing.
     let out_flag = if args.output.is_some() { "-o" } else { "output.file" };
     let mut outputs = vec![(out_flag, out.as_path())];
@@ -108,6 +114,9 @@ pub fn run(args: GrowArgs) -> Result<()> {
     let progress = Progress::new(args.common.quiet, 3);
     let mut session = sylva::Session::new(loaded).keep_stages(false);
     progress.follow(&mut session);
+    if skeleton_only {
+        return write_skeleton(&args.common, session, &out, &progress);
+    }
     // Growing and staging the files run under `--time-limit` (the temporaries' writers
     // stop at its token too); the commit that renames them into place does not.
     let (tree, set) = args.common.timed(|cancel| {
@@ -155,6 +164,37 @@ pub fn run(args: GrowArgs) -> Result<()> {
         for p in std::iter::once(&out).chain(&preview).chain(&args.preview_wind) {
             println!("  wrote {}", p.display());
         }
+    }
+    Ok(())
+}
+
+/// A skeleton output with no preview: the generator and the skeleton passes only, then
+/// the skeleton staged and committed (under `--time-limit` as a whole grow is).
+fn write_skeleton(
+    common: &Common,
+    mut session: sylva::Session,
+    out: &std::path::Path,
+    progress: &Progress,
+) -> Result<()> {
+    let (skeleton, report, set) = common.timed(|cancel| {
+        let (skeleton, report) = session.skeleton_with(cancel)?;
+        for w in &report.warnings {
+            progress.println(&format!("warning: {w}"));
+        }
+        let mut set = sylva::fsutil::OutputSet::new(out);
+        progress.step("write");
+        sylva::export::skeleton::stage(&skeleton, out, &mut set)?;
+        progress.done_step();
+        Ok((skeleton, report, set))
+    })?;
+    set.commit()?;
+    progress.finish();
+    if !common.quiet {
+        let recipe = session.recipe();
+        println!("{}: {}", recipe.name, recipe.description);
+        print!("{report}");
+        println!("  skeleton: {} nodes, nothing meshed", skeleton.len());
+        println!("  wrote {}", out.display());
     }
     Ok(())
 }

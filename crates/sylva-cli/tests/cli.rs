@@ -223,6 +223,18 @@ fn skeleton_files_round_trip_through_the_cli() {
     for (r, s) in a.radius.iter().zip(&b.radius) {
         assert!((r - s).abs() <= 1e-6 * (1.0 + r.abs()));
     }
+    // A skeleton output meshes nothing (issue 39: refinement settings cost nothing) and
+    // pictures nothing unless a preview is named; with one, the whole tree is grown and
+    // the skeleton written is the same.
+    let r = sylva(&["grow", "lsys-honda-g", "-o", "bare.skel.json", "--set", "refine.levels=6"], &d);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("nothing meshed"), "{}", r.stdout);
+    assert!(!r.stdout.contains("triangles"), "{}", r.stdout);
+    assert!(!d.join("bare.png").exists() && !d.join("bare.skel.png").exists(), "no preview");
+    assert_eq!(load("bare.skel.json"), a, "the same skeleton as the full grow's");
+    run(&["grow", "lsys-honda-g", "-o", "shown.skel.json", "--preview", "shown.png"]);
+    assert!(d.join("shown.png").exists());
+    assert_eq!(load("shown.skel.json"), a);
     // A CPFG turtle string grows through the turtle.
     std::fs::write(d.join("plant.str"), "F(1)[+(30)F(0.5)][-(30)F(0.5)]F(1)").unwrap();
     let r = sylva(&["grow", "plant.str", "-o", "plant.glb", "--no-preview"], &d);

@@ -435,6 +435,60 @@ impl Session {
         }
     }
 
+    /// The fitted skeleton of the current recipe, roots in place, with the report so
+    /// far: the generator and the skeleton passes only, nothing meshed past what the
+    /// fit itself needs. This is what a skeleton output (`.lst`, `.skel.json`) writes,
+    /// at the cost of the skeleton alone. Stops with [`Error::Cancelled`] once `cancel`
+    /// is set; kept stages are reused and kept as in [`Session::update_with`].
+    ///
+    /// ```
+    /// use sylva::session::Session;
+    /// let mut session = Session::new(sylva::recipe::load("lsys-binary-tree", &[])?);
+    /// let (skeleton, _report) = session.skeleton_with(&Default::default())?;
+    /// assert!(skeleton.len() > 1);
+    /// assert!(session.tree().is_none(), "nothing was meshed");
+    /// # Ok::<(), sylva::Error>(())
+    /// ```
+    pub fn skeleton_with(&mut self, cancel: &Cancel) -> Result<(Skeleton, Report)> {
+        let recipe = self.loaded.recipe.clone();
+        recipe.check()?;
+        let first = [Stage::Generate, Stage::Fit]
+            .into_iter()
+            .find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, &recipe)))
+            .unwrap_or(Stage::Bark);
+        self.last_run.clear();
+        if first <= Stage::Fit {
+            self.cache.drop_from(first);
+            self.tree = None;
+        }
+        crate::cancel::scope(cancel, || {
+            let mut run = Run { first, cancel, times: Vec::new() };
+            let (_, fit) = self.fitted(&mut run, &recipe)?;
+            let mut skeleton = fit.skeleton.clone();
+            crate::mesh::ground::restore_roots(&mut skeleton, &fit.sunk);
+            let mut report = fit.report.clone();
+            report.stage_times = run.times.into_iter().map(|(s, t)| (s.name(), t)).collect();
+            report.warnings = pipeline::clip_warnings(std::mem::take(&mut report.warnings));
+            Ok((skeleton, report))
+        })
+    }
+
+    /// The generator's and the fit's results, run or kept as `run` says.
+    fn fitted(&mut self, run: &mut Run, recipe: &Recipe) -> Result<(Arc<Generate>, Arc<Fit>)> {
+        let generate = self.cached(run, |me| {
+            let mut report = Report::default();
+            let generated = pipeline::skeleton(&me.loaded, &mut report)?;
+            Ok(Generate { generated, report })
+        })?;
+        let fit = self.cached(run, |_| {
+            let mut report = generate.report.clone();
+            let mut skeleton = generate.generated.skeleton.clone();
+            let (sunk, cleared) = pipeline::fit_stage(recipe, &mut skeleton, &mut report)?;
+            Ok(Fit { skeleton, sunk, cleared, report })
+        })?;
+        Ok((generate, fit))
+    }
+
     /// Runs stage `s` if it is at or after `run.first` (timed, with progress and a
     /// cancellation check after it); `Ok(None)` when it is kept.
     fn stage<T>(
@@ -465,18 +519,7 @@ impl Session {
         let recipe = self.loaded.recipe.clone();
         let mut run = Run { first, cancel, times: Vec::new() };
 
-        let generate = self.cached(&mut run, |me| {
-            let mut report = Report::default();
-            let generated = pipeline::skeleton(&me.loaded, &mut report)?;
-            Ok(Generate { generated, report })
-        })?;
-
-        let fit = self.cached(&mut run, |_| {
-            let mut report = generate.report.clone();
-            let mut skeleton = generate.generated.skeleton.clone();
-            let (sunk, cleared) = pipeline::fit_stage(&recipe, &mut skeleton, &mut report)?;
-            Ok(Fit { skeleton, sunk, cleared, report })
-        })?;
+        let (generate, fit) = self.fitted(&mut run, &recipe)?;
 
         let bark = self.cached(&mut run, |_| {
             let mut report = fit.report.clone();

@@ -106,7 +106,10 @@ impl fmt::Display for Report {
                 _ => writeln!(f, "  clear: not searched (the refined mesh is too large; see the warning)")?,
             }
         }
-        writeln!(f, "  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices)?;
+        // A report of the skeleton alone (`Session::skeleton_with`) has no mesh line.
+        if r.axes + r.triangles + r.vertices > 0 {
+            writeln!(f, "  mesh: {} axes, {} triangles, {} vertices", r.axes, r.triangles, r.vertices)?;
+        }
         if !r.stage_times.is_empty() {
             let stages: Vec<String> =
                 r.stage_times.iter().map(|(name, t)| format!("{name} {:.1}", ms(*t))).collect();

@@ -137,12 +137,15 @@ pub(crate) fn meeting(s: &crate::Skeleton, depth: &[u32], i: usize, j: usize, sh
     let limit = short / LINK_FOLD;
     // Walk both up to their common ancestor, adding the internodes passed on the way
     // (not `i`'s and `j`'s own).
-    let (mut at, mut moved, mut path, mut bends) = ([i, j], [false; 2], 0.0, 0.0);
-    let pos = |n: usize| s.position[n].as_dvec3();
+    // The bends are summed only for a folded meeting, afterwards along the one side
+    // that moved (the same terms in the same order): a pair of huge capsules walks up
+    // to `MAX_JOINED_HOPS` nodes, and an `acos` per hop was most of a collision search.
+    let (mut at, mut moved, mut path) = ([i, j], [false; 2], 0.0);
     for _ in 0..MAX_JOINED_HOPS {
         if at[0] == at[1] {
             return match (path < short, moved) {
-                (true, [false, _] | [_, false]) => Meeting::Folded { path, bends },
+                (true, [false, _]) => Meeting::Folded { path, bends: bends_up(s, j, at[0]) },
+                (true, [_, false]) => Meeting::Folded { path, bends: bends_up(s, i, at[0]) },
                 (true, _) => Meeting::Joined,
                 (false, _) => Meeting::Linked(path),
             };
@@ -160,17 +163,28 @@ pub(crate) fn meeting(s: &crate::Skeleton, depth: &[u32], i: usize, j: usize, sh
             }
         }
         moved[side] = true;
-        // The bend at `p`, between its own internode and the one walked up.
-        let p = p as usize;
+        at[side] = p as usize;
+    }
+    Meeting::Apart
+}
+
+/// The sum of `tan(β/2)` over the bends met walking up from node `from` to its ancestor
+/// `to`: at each parent `p` passed, the bend between `p`'s own internode and the one
+/// walked up (none where `p` is a root).
+fn bends_up(s: &crate::Skeleton, from: usize, to: usize) -> f64 {
+    let pos = |n: usize| s.position[n].as_dvec3();
+    let (mut n, mut bends) = (from, 0.0);
+    while n != to {
+        let p = s.parent[n] as usize;
         if let Some(&g) = s.parent.get(p).filter(|&&g| g != crate::NO_PARENT) {
             let (u, v) =
                 ((pos(p) - pos(g as usize)).normalize_or_zero(), (pos(n) - pos(p)).normalize_or_zero());
             let half = 0.5 * u.dot(v).clamp(-1.0, 1.0).acos();
             bends += half.tan().min(MAX_BEND_TAN);
         }
-        at[side] = p;
+        n = p;
     }
-    Meeting::Apart
+    bends
 }
 
 /// Cap on one bend's `tan(β/2)` in [`Meeting::Folded`] (a U-turn).
