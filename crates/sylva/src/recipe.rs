@@ -23,7 +23,8 @@ pub mod schema;
 mod tests;
 
 pub use modes::{
-    LeafMode, LeafNormals, MeshBase, MeshMethod, RefineBoundary, RefineScheme, ViewFiles, WindPreset,
+    LeafMode, LeafNormals, MeshBase, MeshMethod, RandomSource, RefineBoundary, RefineScheme, ViewFiles,
+    WindPreset,
 };
 pub use read::{from_table, load, over_preset, parse_set, set_key, Loaded, Origin, PRESET_KEY};
 pub use schema::schema;
@@ -511,6 +512,10 @@ pub struct LsystemGenerator {
     /// the L-system's folder (files on disk only), `none` ignores them.
     #[serde(default)]
     pub view: ViewFiles,
+    /// The random generator: `auto` (cpfg's for L-system files, sylva's for presets),
+    /// `cpfg` or `sylva` (issue 46). Left out of written metadata at `auto`.
+    #[serde(default, skip_serializing_if = "RandomSource::is_auto")]
+    pub random: RandomSource,
     /// The environmental program that answers the model's `?E` modules
     /// (`[generator.environment]`); without it, the model folder's `.e` file names it.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -21,6 +21,7 @@ pub mod string;
 pub mod turtle;
 
 pub use derive::{DeriveOptions, ModuleString, DEFAULT_MODULE_BUDGET};
+pub use expr::RandomGenerator;
 pub use parse::{LSystem, Symbols};
 pub use source::{ErrorKind, LsystemError};
 pub use turtle::{interpret, interpret_with, TurtleOptions};

@@ -65,7 +65,9 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         let text = side.read_text(&path, &what).map_err(|e| e.to_string())?;
         Ok((path.display().to_string(), text))
     };
-    let ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
+    let mut ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
+    // cpfg's generator for L-system files, sylva's for presets (issue 46 item 9).
+    ls.random = g.random.generator(matches!(loaded.origin, Origin::Preset(_)), loaded.recipe.seed);
     // The model folder's files are optional: a broken one is a warning, not an error;
     // a refused one (outside the folder, not a regular file, too large) is an error.
     let mut warnings = Vec::new();
@@ -104,6 +106,7 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
     };
     let env_files = SideFiles::new(&env_dir, &allow, max_bytes);
     let env = environment(g, folder.as_ref(), &ls, &env_files, &mut warnings)?;
+    warnings.extend(ls.random_notes());
     if ls.writes_files {
         warnings.push(
             "the model writes files (fopen/fprintf): sylva discards file output, as it discards printf"
@@ -239,19 +242,28 @@ pub fn turtle_options(g: &LsystemGenerator, folder: Option<&ModelFolder>) -> Tur
     if !set("width_factor") && view.width_increment != 0.0 {
         opts.width_increment = Some(view.width_increment);
     }
-    for t in &view.tropisms {
-        if t.kind != MovementKind::Tropism || opts.tropisms.len() >= lsystem::turtle::MAX_TROPISMS {
-            continue;
-        }
-        opts.tropisms.push(Tropism {
-            direction: t.direction,
-            elasticity: t.elasticity * t.intensity.clamp(-1.0, 1.0),
-            angle: (t.angle != 0.0).then_some(t.angle),
+    // The view file's tropisms bend as cpfg bends (issue 46), in sylva's frame:
+    // (x, y, z) = cpfg's (z, y, −x).
+    let frame = |d: [f64; 3]| [d[2], d[1], -d[0]];
+    if !view.tropisms.is_empty() || view.old_tropism.is_some() {
+        use lsystem::turtle::movements::{CpfgTropisms, Movement, OldTropism};
+        let movements = view
+            .tropisms
+            .iter()
+            .take(lsystem::turtle::MAX_TROPISMS)
+            .map(|t| Movement {
+                torque: t.kind == MovementKind::Torque,
+                direction: frame(t.direction.map(|c| c * t.intensity.clamp(-1.0, 1.0))),
+                angle: t.angle,
+                elasticity: t.elasticity,
+            })
+            .collect();
+        let old = view.old_tropism.as_ref().map(|o| OldTropism {
+            direction: frame(o.direction),
+            elasticity: o.elasticity,
+            increment: o.elasticity_increment,
         });
-    }
-    if let Some(old) = &view.old_tropism {
-        opts.tropisms.push(Tropism { direction: old.direction, elasticity: old.elasticity, angle: None });
-        opts.elasticity_increment = old.elasticity_increment;
+        opts.cpfg_tropisms = Some(CpfgTropisms { movements, old });
     }
     opts
 }

@@ -18,7 +18,6 @@ use crate::geometry::Mesh;
 use crate::input::SideFiles;
 use crate::lsystem::files::view::{LineStyle, MovementKind};
 use crate::lsystem::files::{folder_of, load_folder_in, ModelFolder};
-use crate::lsystem::turtle::Tropism;
 use crate::lsystem::{self, DeriveOptions, LSystem, TurtleOptions};
 use crate::mesh::ground::SunkRoot;
 use crate::model::{BranchCurves, Material, Model, Part};

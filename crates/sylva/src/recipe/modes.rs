@@ -4,7 +4,7 @@
 //!
 //! The enums of the recipe's own keys are here ([`MeshMethod`], [`MeshBase`],
 //! [`RefineScheme`], [`RefineBoundary`], [`LeafMode`], [`LeafNormals`], [`WindPreset`],
-//! [`ViewFiles`]); a key that a stage already had a type for uses that type: `mesh.tips`
+//! [`ViewFiles`], [`RandomSource`]); a key that a stage already had a type for uses that type: `mesh.tips`
 //! is [`crate::mesh::tube::TipStyle`], `output.textures` / `instancing_fallback` /
 //! `compress` / `lod_layout` the [`crate::export`] enums, `leaves.place`
 //! [`crate::fit::leaves::Placement`], `generator.gap` [`crate::import::lst::GapPolicy`],
@@ -159,6 +159,42 @@ mode! {
         Auto = "auto",
         /// Ignore them.
         None = "none",
+    }
+}
+
+mode! {
+    /// `generator.random` (L-systems): the random generator of `ran`, `nran`, `bran`,
+    /// `biran` and stochastic productions ([`crate::lsystem::RandomGenerator`]).
+    RandomSource, key "generator.random", default Auto {
+        /// cpfg's for an L-system file on disk or in memory (a cpfg model grows as in
+        /// cpfg), sylva's for sylva's own presets (their outputs stay as they were).
+        Auto = "auto",
+        /// cpfg's `drand48` streams and call order (issue 46 item 9).
+        Cpfg = "cpfg",
+        /// sylva's portable generator.
+        Sylva = "sylva",
+    }
+}
+
+impl RandomSource {
+    /// Whether this is the default, `auto` (left out of written metadata then).
+    pub fn is_auto(&self) -> bool {
+        *self == RandomSource::Auto
+    }
+
+    /// The engine's generator for an L-system of a preset (`preset`) or not, with the
+    /// recipe seed `seed`. With cpfg's generator the default seed (1) keeps the model's
+    /// own seeds and any other replaces them: `--seed n` grows what cpfg grows from the
+    /// model with `seed: n` (docs/recipe.md).
+    pub fn generator(self, preset: bool, seed: u64) -> crate::lsystem::RandomGenerator {
+        use crate::lsystem::RandomGenerator as G;
+        match self {
+            RandomSource::Sylva => G::Sylva,
+            RandomSource::Auto if preset => G::Sylva,
+            RandomSource::Auto | RandomSource::Cpfg => {
+                G::Cpfg { seed: (seed != super::default_seed()).then_some(seed) }
+            }
+        }
     }
 }
 

@@ -246,6 +246,7 @@ fn type_hint(why: &str) -> String {
 const SKIPPED_AT_DEFAULT: &[&str] = &[
     "input",
     "generator.allow_paths",
+    "generator.random",
     "fit.decollide.max_work",
     "mesh.leaf",
     "refine.boundary",

@@ -498,6 +498,7 @@ const KEYS: &[Key] = &[
         "a table: `NAME = value` overrides the file's `#define NAME value` (numbers or strings)",
     ),
     k("generator.view", LS, Kind::Mode(super::ViewFiles::NAMES), t("'auto'"), N, "read the cpfg model folder's view, function and surface files"),
+    k("generator.random", LS, Kind::Mode(super::RandomSource::NAMES), t("'auto'"), N, "random generator: `cpfg`'s drand48 streams and call order, `sylva`'s portable one, `auto` (cpfg for L-system files, sylva for presets)"),
     k("generator.environment.program", LS, Kind::String, UNSET, N, "the environmental program answering `?E` (`honda81`, `clover`, `ecosystem`, `chiba`, `obcheck`)"),
     k("generator.environment.radius", LS, ANY, UNSET, M, "`honda81`'s collision radius, `chiba`'s default leaf radius"),
     k("generator.environment.transmittance", LS, ANY, UNSET, N, "the fraction of light a leaf lets through, in [0, 1]"),

@@ -101,7 +101,8 @@ pub struct DeriveOptions {
     pub steps: u32,
     /// Maximum number of modules in any derived string.
     pub budget: usize,
-    /// Seed of `ran`, `nran` and stochastic productions.
+    /// Seed of `ran`, `nran` and stochastic productions with sylva's generator (cpfg's
+    /// is seeded as [`super::RandomGenerator::Cpfg`] says; [`LSystem::random`] chooses).
     pub seed: u64,
 }
 
@@ -120,7 +121,7 @@ impl LSystem {
         functions: ModelFunctions,
         budget: usize,
     ) -> Result<Evaluator, Box<LsystemError>> {
-        let mut ev = Evaluator::new(seed);
+        let mut ev = Evaluator::with_generator(self.random, seed, self.cpfg_seed);
         if budget != usize::MAX {
             ev.work_limit = work_budget(budget);
             ev.module_limit = budget;
@@ -143,6 +144,31 @@ impl LSystem {
             ev.exec(b, &mut []).map_err(|e| self.eval_error(e, &format!("running {what}"), None))?;
         }
         Ok(())
+    }
+
+    /// What the random generator does differently from what the file may lead one to
+    /// expect: with cpfg's generator, probabilities of an L-system without a `seed:`
+    /// line are ignored (cpfg derives such an L-system deterministically).
+    pub fn random_notes(&self) -> Vec<String> {
+        if !self.random.is_cpfg() {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for (n, l) in
+            std::iter::once((self.number, self)).chain(self.subsystems.iter().map(|s| (s.number, &s.lsystem)))
+        {
+            if l.cpfg_seed.is_none() {
+                if let Some(p) = l.productions.iter().find(|p| p.prob.is_some()) {
+                    out.push(format!(
+                        "L-system {n} has production probabilities (line {}) but no `seed:` line: as in cpfg, its \
+                         first matching production applies; give it a `seed:` line, or set \
+                         generator.random = \"sylva\" to choose by probability without one",
+                        p.line
+                    ));
+                }
+            }
+        }
+        out
     }
 
     /// The axiom as a module string, its expressions evaluated. As in real cpfg it is not

@@ -13,8 +13,106 @@ use crate::lsystem::string::ModuleString;
 type Site<'a> = Option<(&'a ModuleString, usize, &'a [u32])>;
 
 impl LSystem {
+    /// The production of `list` that rewrites a module in a derivation step, as
+    /// [`LSystem::select`] chooses it, except with cpfg's generator: an L-system with a
+    /// `seed:` line then chooses as cpfg does ([`LSystem::select_cpfg`], one draw of the
+    /// choice stream whatever matched), one without chooses the first match (cpfg
+    /// ignores probabilities there).
+    pub(super) fn select_rewrite(
+        &self,
+        list: &[Production],
+        prods: &[u32],
+        params: &[f64],
+        site: Site,
+        ev: &mut Evaluator,
+        buf: &mut Vec<f64>,
+    ) -> Result<Option<(usize, bool)>, Box<LsystemError>> {
+        if ev.rng.is_cpfg() && self.cpfg_seed.is_some() {
+            return self.select_cpfg(list, prods, params, site, ev, buf);
+        }
+        self.select(list, prods, params, site, ev, buf)
+    }
+
+    /// cpfg's stochastic choice (its `FindApplProductions` and `SelectProd`): every
+    /// production of the module, in file order, whose contexts match runs its
+    /// pre-condition statements and condition; each that holds adds its probability
+    /// (1 without `: p`) to a 32-bit sum. Then one draw u of the choice stream, even when
+    /// none holds: x = sum·u (32-bit), and the first candidate after which x − the
+    /// probabilities so far is ≤ 0 is chosen (none when rounding leaves x above 0). Only
+    /// the chosen one runs its post-condition statements, with the locals it bound.
+    pub(super) fn select_cpfg(
+        &self,
+        list: &[Production],
+        prods: &[u32],
+        params: &[f64],
+        site: Site,
+        ev: &mut Evaluator,
+        buf: &mut Vec<f64>,
+    ) -> Result<Option<(usize, bool)>, Box<LsystemError>> {
+        // (production, probability, locals in `saved` from..to when they are buffered)
+        type Candidate = (usize, f32, Option<(usize, usize)>);
+        let mut cands: Vec<Candidate> = Vec::new();
+        let mut saved: Vec<f64> = Vec::new();
+        let mut total = 0f32;
+        for &k in prods {
+            let p = &list[k as usize];
+            let Some(uses_buf) = self.try_match_with(p, params, site, ev, buf, false)? else { continue };
+            let locals: &[f64] = if uses_buf { buf } else { params };
+            let w = match &p.prob {
+                Some(pe) => ev
+                    .eval(pe, locals)
+                    .map_err(|e| self.eval_error(e, "evaluating the probability", Some((p, params))))?,
+                None => 1.0,
+            };
+            if w < 0.0 {
+                return Err(self.negative_probability(p, w));
+            }
+            let w = w as f32;
+            total += w;
+            let span = uses_buf.then(|| {
+                let from = saved.len();
+                saved.extend_from_slice(buf);
+                (from, saved.len())
+            });
+            cands.push((k as usize, w, span));
+        }
+        let mut x = (total as f64 * ev.uniform()) as f32;
+        for &(k, w, span) in &cands {
+            x -= w;
+            if x <= 0.0 {
+                let p = &list[k];
+                if let Some((from, to)) = span {
+                    buf.clear();
+                    buf.extend_from_slice(&saved[from..to]);
+                }
+                if let Some(post) = &p.post {
+                    ev.exec(post, buf)
+                        .map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
+                }
+                return Ok(Some((k, span.is_some())));
+            }
+        }
+        Ok(None)
+    }
+
+    /// The error of a negative production probability.
+    fn negative_probability(&self, p: &Production, w: f64) -> Box<LsystemError> {
+        let pe = p.prob.as_ref().expect("only a given probability can be negative");
+        self.source.error(
+            ErrorKind::NonFinite,
+            pe.at as usize,
+            pe.len as usize,
+            &format!("production probability is negative ({w})"),
+            "negative probability",
+        )
+    }
+
     /// The production of `list` to apply to a module, if any: its index and whether its
-    /// locals are in `buf` (true) or are the module's parameters in place (false).
+    /// locals are in `buf` (true) or are the module's parameters in place (false). With
+    /// sylva's generator, when the first matching production has a probability, every
+    /// matching production with one is weighed and one draw chooses; with cpfg's, the
+    /// first matching production applies (decomposition and homomorphism never choose
+    /// by probability in cpfg; for derivation steps see [`LSystem::select_rewrite`]).
     pub(super) fn select(
         &self,
         list: &[Production],
@@ -24,10 +122,11 @@ impl LSystem {
         ev: &mut Evaluator,
         buf: &mut Vec<f64>,
     ) -> Result<Option<(usize, bool)>, Box<LsystemError>> {
+        let cpfg = ev.rng.is_cpfg();
         for (n, &k) in prods.iter().enumerate() {
             let p = &list[k as usize];
             let Some(uses_buf) = self.try_match(p, params, site, ev, buf)? else { continue };
-            if p.prob.is_none() {
+            if p.prob.is_none() || cpfg {
                 return Ok(Some((k as usize, uses_buf)));
             }
             // Stochastic: weigh every matching stochastic production of this module.
@@ -44,13 +143,7 @@ impl LSystem {
                     .eval(pe, locals)
                     .map_err(|e| self.eval_error(e, "evaluating the probability", Some((q, params))))?;
                 if w < 0.0 {
-                    return Err(self.source.error(
-                        ErrorKind::NonFinite,
-                        pe.at as usize,
-                        pe.len as usize,
-                        &format!("production probability is negative ({w})"),
-                        "negative probability",
-                    ));
+                    return Err(self.negative_probability(q, w));
                 }
                 total += w;
                 cands.push((k2 as usize, w));
@@ -75,7 +168,8 @@ impl LSystem {
         Ok(None)
     }
 
-    /// Tests one production; `Some(uses_buf)` when it applies.
+    /// Tests one production; `Some(uses_buf)` when it applies (its post-condition
+    /// statements have then run).
     #[inline]
     fn try_match(
         &self,
@@ -84,6 +178,20 @@ impl LSystem {
         site: Site,
         ev: &mut Evaluator,
         buf: &mut Vec<f64>,
+    ) -> Result<Option<bool>, Box<LsystemError>> {
+        self.try_match_with(p, params, site, ev, buf, true)
+    }
+
+    /// [`LSystem::try_match`], running the post-condition statements only with `post`.
+    #[inline]
+    fn try_match_with(
+        &self,
+        p: &Production,
+        params: &[f64],
+        site: Site,
+        ev: &mut Evaluator,
+        buf: &mut Vec<f64>,
+        post: bool,
     ) -> Result<Option<bool>, Box<LsystemError>> {
         if p.arity != params.len() {
             return Ok(None);
@@ -124,8 +232,8 @@ impl LSystem {
         if !self.condition_holds(p, buf, params, ev)? {
             return Ok(None);
         }
-        if let Some(post) = &p.post {
-            ev.exec(post, buf)
+        if let Some(block) = p.post.as_ref().filter(|_| post) {
+            ev.exec(block, buf)
                 .map_err(|e| self.eval_error(e, "running the statements", Some((p, params))))?;
         }
         Ok(Some(true))

@@ -93,6 +93,18 @@ impl LSystem {
         let whole = self.decomposition.lookahead > 0
             || self.subsystems.iter().any(|s| s.lsystem.decomposition.lookahead > 0);
         let mut raw_owner: Vec<u16> = Vec::new();
+        // cpfg's generator in a stochastic L-system (one with a `seed:` line): every
+        // module of cpfg's string (one per character of a sylva module's name: `@o` is
+        // `@` and `o` in cpfg) draws once from the choice stream, whether or not a
+        // production applies; the draws of `@`, `~` and `?` before the module's letter come
+        // first.
+        let cpfg_chars: Vec<u8> = if ev.rng.is_cpfg() {
+            (0..self.symbols.len())
+                .map(|s| self.symbols.name(s as u16).chars().count().clamp(1, 255) as u8)
+                .collect()
+        } else {
+            Vec::new()
+        };
         while next < cur.len() {
             let i = next;
             next += 1;
@@ -106,7 +118,17 @@ impl LSystem {
                 _ => self,
             };
             let decompose = !whole && !sys.decomposition.productions.is_empty();
+            let cpfg_draws =
+                if sys.cpfg_seed.is_some() { cpfg_chars.get(sym as usize).copied() } else { None };
+            if let Some(n) = cpfg_draws {
+                for _ in 1..n {
+                    ev.uniform();
+                }
+            }
             if Some(sym) == cut && sys.by_symbol[sym as usize].is_empty() {
+                if cpfg_draws.is_some() {
+                    ev.uniform();
+                }
                 // cpfg's cut: `%` and the rest of its branch are erased (the closing
                 // `]` stays), one step after the `%` appeared.
                 let mut depth = 0usize;
@@ -128,16 +150,21 @@ impl LSystem {
             let chosen = if prods.is_empty() {
                 None
             } else {
-                sys.select(&sys.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
+                sys.select_rewrite(&sys.productions, prods, params, Some((cur, i, &brackets)), ev, &mut buf)?
             };
             let base = sys.prefix_base.get(sym as usize).copied().unwrap_or(NO_BASE);
-            if chosen.is_none() && base != NO_BASE {
+            let based = chosen.is_none() && base != NO_BASE;
+            if cpfg_draws.is_some() && prods.is_empty() && !based {
+                // cpfg draws for a module without productions too.
+                ev.uniform();
+            }
+            if based {
                 // cpfg keeps `@`/`~` as symbols of their own: X's productions rewrite the X
                 // of `@X(…)`, and the prefix stays before the successor (issue 46 item 4).
                 let bprods = &sys.by_symbol[base as usize];
                 let site = Some((cur, i, &brackets[..]));
                 if let Some((k, uses_buf)) =
-                    sys.select(&sys.productions, bprods, params, site, ev, &mut buf)?
+                    sys.select_rewrite(&sys.productions, bprods, params, site, ev, &mut buf)?
                 {
                     let p = &sys.productions[k];
                     if p.rest.is_empty() {

@@ -23,9 +23,11 @@ use std::sync::Arc;
 
 mod compile;
 mod parse;
+pub mod random;
 mod vm;
 
 pub use self::compile::{compile, compile_block, declared_names, ArrayDecl};
+pub use self::random::RandomGenerator;
 pub use self::vm::Evaluator;
 
 /// A global variable or array of the L-system (`Define:` arrays, variables assigned in

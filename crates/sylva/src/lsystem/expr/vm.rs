@@ -1,12 +1,11 @@
 //! The stack machine that runs compiled expressions and statement blocks: the
 //! [`Evaluator`] with its operand stack, seeded generator (`ran`, `nran`, `bran`,
-//! `biran`; MarsagliaTsang2000 for the gamma draws), globals, loop and work budgets, and
+//! `biran`: sylva's or cpfg's, [`super::random`]), globals, loop and work budgets, and
 //! the built-in functions of the cpfg language (Mech2004, McLoughlin2021 §2.4).
 
+use super::random::{CpfgRandom, Draws, RandomGenerator};
 use super::{EvalError, Expr, Func, ModelFunctions, Op, LOOP_LIMIT};
 use crate::lsystem::source::ErrorKind;
-use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64;
 
 /// Access to the local slots during evaluation: read-only for plain expressions,
 /// writable for statement blocks.
@@ -41,7 +40,7 @@ impl Slots for &mut [f64] {
 pub struct Evaluator {
     stack: Vec<f64>,
     /// The generator behind `ran`, `nran` and stochastic productions.
-    pub rng: Pcg64,
+    pub rng: Draws,
     /// Current values of the global variables.
     pub globals: Vec<f64>,
     /// Functions for `func(id, x)` and curves for `curveX(id, t)`, ids 1-based.
@@ -73,11 +72,25 @@ impl std::fmt::Debug for Evaluator {
 }
 
 impl Evaluator {
-    /// An evaluator whose random draws come from `seed`.
+    /// An evaluator whose random draws come from sylva's generator seeded with `seed`.
     pub fn new(seed: u64) -> Self {
+        Self::with_draws(Draws::sylva(seed))
+    }
+
+    /// An evaluator drawing from `generator`: sylva's seeded with `seed`, or cpfg's with
+    /// the main L-system's `seed:` value `file_seed` ([`CpfgRandom::new`]).
+    pub fn with_generator(generator: RandomGenerator, seed: u64, file_seed: Option<i64>) -> Self {
+        Self::with_draws(match generator {
+            RandomGenerator::Sylva => Draws::sylva(seed),
+            RandomGenerator::Cpfg { seed } => Draws::Cpfg(CpfgRandom::new(file_seed, seed)),
+        })
+    }
+
+    /// An evaluator drawing from `rng`.
+    pub fn with_draws(rng: Draws) -> Self {
         Evaluator {
             stack: Vec::with_capacity(64),
-            rng: Pcg64::seed_from_u64(seed),
+            rng,
             globals: Vec::new(),
             functions: ModelFunctions::default(),
             stopped: false,
@@ -95,9 +108,9 @@ impl Evaluator {
         self.run(e, locals).map(|_| ())
     }
 
-    /// A uniform number in [0, 1).
+    /// A uniform number in [0, 1) for choosing a stochastic production.
     pub fn uniform(&mut self) -> f64 {
-        self.rng.random::<f64>()
+        self.rng.choice()
     }
 
     /// Evaluates `e` with the given local parameters. The result is always finite.
@@ -298,37 +311,8 @@ fn pow(a: f64, b: f64) -> f64 {
     }
 }
 
-/// A standard normal draw (Box–Muller; 1 − u keeps the logarithm's argument in (0, 1]).
-fn normal(rng: &mut Pcg64) -> f64 {
-    let u1 = 1.0 - rng.random::<f64>();
-    let u2 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
-
-/// A Gamma(k, 1) draw (Marsaglia–Tsang), k > 0.
-fn gamma(k: f64, rng: &mut Pcg64) -> f64 {
-    if k < 1.0 {
-        let u = 1.0 - rng.random::<f64>();
-        return gamma(k + 1.0, rng) * u.powf(1.0 / k);
-    }
-    let d = k - 1.0 / 3.0;
-    let c = 1.0 / (9.0 * d).sqrt();
-    for _ in 0..1000 {
-        let x = normal(rng);
-        let v = (1.0 + c * x).powi(3);
-        if v <= 0.0 {
-            continue;
-        }
-        let u = 1.0 - rng.random::<f64>();
-        if u.ln() < 0.5 * x * x + d - d * v + d * v.ln() {
-            return d * v;
-        }
-    }
-    d
-}
-
 /// Calls a built-in; `None` when `func` names a function the model does not have.
-pub(super) fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunctions) -> Option<f64> {
+pub(super) fn call(f: Func, st: &mut Vec<f64>, rng: &mut Draws, ext: &ModelFunctions) -> Option<f64> {
     use Func::*;
     let mut pop = || st.pop().unwrap_or(0.0);
     let d = std::f64::consts::PI / 180.0;
@@ -375,30 +359,25 @@ pub(super) fn call(f: Func, st: &mut Vec<f64>, rng: &mut Pcg64, ext: &ModelFunct
             let b = pop();
             pop().max(b)
         }
-        Ran => pop() * rng.random::<f64>(),
+        Ran => pop() * rng.uniform(),
         Nran => {
             let sd = pop();
             let mean = pop();
-            mean + sd * normal(rng)
+            rng.normal(mean, sd)
         }
         Bran => {
             let b = pop();
             let a = pop();
-            if !(a > 0.0 && b > 0.0) {
-                return Some(f64::NAN);
-            }
-            let x = gamma(a, rng);
-            let y = gamma(b, rng);
-            x / (x + y)
+            rng.beta(a, b)
         }
         Biran => {
             let p = pop();
             let n = pop().clamp(0.0, 1e6) as u64;
-            (0..n).filter(|_| rng.random::<f64>() < p).count() as f64
+            rng.binomial(n, p)
         }
         Srand => {
             let s = pop();
-            *rng = Pcg64::seed_from_u64(s as i64 as u64);
+            rng.srand(s);
             0.0
         }
         UserFunc => {

@@ -26,7 +26,7 @@
 //! local to that application. McLoughlin2021 §2 gives the grammars this must read; ABOP ch. 1
 //! and the cpfg manual give the syntax.
 
-use super::expr::{compile, compile_block, declared_names, Evaluator, Expr, Globals, Scope};
+use super::expr::{compile, compile_block, declared_names, Evaluator, Expr, Globals, RandomGenerator, Scope};
 use super::preprocess::IncludeResolver;
 use super::source::{ErrorKind, LsystemError, Source};
 use std::collections::HashMap;
@@ -201,8 +201,15 @@ pub struct LSystem {
     pub writes_files: bool,
     /// Derivation length from the file (`derivation length:`), 0 when absent.
     pub derivation_length: u32,
-    /// Seed from the file (`seed:`), if given.
+    /// Seed from the file (`seed:`), if given (its absolute value, for sylva's generator).
     pub seed: Option<u64>,
+    /// The `seed:` value as cpfg reads it (a C `int`, truncated), if given: with cpfg's
+    /// generator it seeds the choice of stochastic productions, and an L-system with a
+    /// `seed:` line is a stochastic one ([`super::expr::random`]).
+    pub cpfg_seed: Option<i64>,
+    /// The generator the derivation draws from ([`RandomGenerator::Sylva`] unless the
+    /// caller chooses; the pipeline sets it from `generator.random`).
+    pub random: RandomGenerator,
     /// `define:` block (array declarations and assignments), run first.
     pub define_block: Option<Expr>,
     /// `Start:` block, run before the derivation.
@@ -263,6 +270,7 @@ struct Block {
     homomorphism: RuleSet,
     derivation_length: u32,
     seed: Option<u64>,
+    cpfg_seed: Option<i64>,
     ring: bool,
     ignore: Option<(Vec<String>, bool, usize)>,
 }
@@ -307,6 +315,8 @@ impl LSystem {
             writes_files: false,
             derivation_length: 0,
             seed: None,
+            cpfg_seed: None,
+            random: RandomGenerator::Sylva,
             define_block: None,
             start: None,
             start_each: None,
@@ -392,6 +402,7 @@ impl LSystem {
             homomorphism: std::mem::replace(&mut self.homomorphism, blank()),
             derivation_length: std::mem::take(&mut self.derivation_length),
             seed: self.seed.take(),
+            cpfg_seed: self.cpfg_seed.take(),
             ring: std::mem::take(&mut self.ring),
             ignore,
         }
@@ -406,6 +417,7 @@ impl LSystem {
         self.homomorphism = b.homomorphism;
         self.derivation_length = b.derivation_length;
         self.seed = b.seed;
+        self.cpfg_seed = b.cpfg_seed;
         self.ring = b.ring;
         let n = self.symbols.len();
         let index = |prods: &[Production]| {
@@ -672,6 +684,8 @@ impl LSystem {
                         Kw::Seed => {
                             let n = self.constant(value, end, "seed")?;
                             self.seed = Some(n.abs() as u64);
+                            // cpfg: `(int) Eval(...)`.
+                            self.cpfg_seed = Some(n.clamp(i32::MIN as f64, i32::MAX as f64) as i64);
                         }
                         Kw::Axiom => {
                             self.axiom = self.module_string(value, end, &[])?;

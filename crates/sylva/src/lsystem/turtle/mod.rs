@@ -16,6 +16,7 @@ use crate::skeleton::Skeleton;
 use glam::DVec3;
 
 mod commands;
+pub mod movements;
 mod queries;
 mod run;
 mod sweep;
@@ -50,8 +51,12 @@ pub struct TurtleOptions {
     pub width_factor: f64,
     /// Additive width change of a bare `!` / `#` (cpfg `line width increment`), if set.
     pub width_increment: Option<f64>,
-    /// Tropisms, at most [`MAX_TROPISMS`].
+    /// Tropisms, at most [`MAX_TROPISMS`], bent by ABOP §2.2's rule after each `F`;
+    /// ignored when [`TurtleOptions::cpfg_tropisms`] is set.
     pub tropisms: Vec<Tropism>,
+    /// A cpfg view file's tropisms, bent as cpfg bends ([`movements`], issue 46): the
+    /// pipeline sets these for a model folder's view file.
+    pub cpfg_tropisms: Option<movements::CpfgTropisms>,
     /// Elasticity change of a bare `_`.
     pub elasticity_increment: f64,
     /// Most skeleton nodes the turtle may draw (issue 27): checked before the skeleton
@@ -120,6 +125,7 @@ impl Default for TurtleOptions {
             width_factor: 0.7,
             width_increment: None,
             tropisms: Vec::new(),
+            cpfg_tropisms: None,
             elasticity_increment: 0.0,
             max_nodes: crate::skeleton::DEFAULT_MAX_NODES,
             left: [0.0, 0.0, 1.0],

@@ -4,6 +4,7 @@
 //! McLoughlin2021 §4).
 
 use super::commands::{command, sym_is_recording, Cmd};
+use super::movements::{after_move, before_move, Frame, Movement};
 use super::sweep::{sweep_organ, Sweep, SweepPoint, MAX_RINGS};
 use super::{QueryState, TurtleOptions, MAX_NESTING, MAX_TROPISMS};
 use crate::lsystem::parse::Symbols;
@@ -23,6 +24,12 @@ struct State {
     order: u16,
     material: u32,
     elasticity: [f64; MAX_TROPISMS],
+    /// The elasticity of cpfg's old tropism (`_` changes it).
+    old_elasticity: f64,
+    /// The heading and up vector when the last `F`/`G` ended (cpfg's tropisms keep the
+    /// up vector from there).
+    prev_h: DVec3,
+    prev_u: DVec3,
     /// Last node of the open generalized cylinder (`@Gs` … `@Ge`), if any.
     gc: u32,
     /// Length scale of the open sub-L-systems (`?(n, scale)`), 1 outside them.
@@ -169,6 +176,9 @@ pub(super) fn run(
         order: 0,
         material: 0,
         elasticity: [0.0; MAX_TROPISMS],
+        old_elasticity: 0.0,
+        prev_h: DVec3::Y,
+        prev_u: DVec3::Y.cross(left),
         gc: NO_PARENT,
         scale: 1.0,
         contour: 0,
@@ -196,10 +206,30 @@ pub(super) fn run(
     for (k, t) in opts.tropisms.iter().enumerate() {
         st.elasticity[k] = t.elasticity;
     }
+    // cpfg's tropisms replace ABOP's rule when a view file gives them (issue 46).
+    let cpfg = opts.cpfg_tropisms.as_ref();
+    let cpfg_moves: &[Movement] =
+        cpfg.map(|c| &c.movements[..c.movements.len().min(MAX_TROPISMS)]).unwrap_or(&[]);
+    let cpfg_old =
+        cpfg.and_then(|c| c.old).map(|o| (DVec3::from_array(o.direction).normalize_or_zero(), o.increment));
+    if let Some(c) = cpfg {
+        for (k, m) in cpfg_moves.iter().enumerate() {
+            st.elasticity[k] = m.elasticity;
+        }
+        st.old_elasticity = c.old.map_or(0.0, |o| o.elasticity);
+    }
+    let frame_of = |st: &State| Frame { h: st.h, l: st.l, u: st.u, prev_h: st.prev_h, prev_u: st.prev_u };
+    let set_frame = |st: &mut State, f: Frame| {
+        st.h = f.h;
+        st.l = f.l;
+        st.u = f.u;
+        st.prev_h = f.prev_h;
+        st.prev_u = f.prev_u;
+    };
     // Root nodes by exact position (see `Cmd::Draw`).
     let mut roots: std::collections::HashMap<[u64; 3], u32> = std::collections::HashMap::new();
-    let tropisms: Vec<(DVec3, Option<f64>)> = opts
-        .tropisms
+    let abop_tropisms: &[super::Tropism] = if cpfg.is_some() { &[] } else { &opts.tropisms };
+    let tropisms: Vec<(DVec3, Option<f64>)> = abop_tropisms
         .iter()
         .map(|t| (DVec3::from_array(t.direction).normalize_or_zero(), t.angle.map(f64::to_radians)))
         .collect();
@@ -213,28 +243,36 @@ pub(super) fn run(
     while i < n {
         let (sym, p) = string.module(i);
         let arg = p.first().copied();
+        let moves = cpfg.is_some() && matches!(cmds[sym as usize], Cmd::Draw | Cmd::Move);
+        if moves {
+            // cpfg's `tropism:`/`torque:` lines act before each move.
+            let mut f = frame_of(&st);
+            before_move(&mut f, cpfg_moves, &st.elasticity[..cpfg_moves.len()]);
+            set_frame(&mut st, f);
+        }
         match cmds[sym as usize] {
             Cmd::None => {}
-            Cmd::Draw | Cmd::Move
-                if !polygons.is_empty()
-                    && (sym_is_recording(symbols.name(sym)) || cmds[sym as usize] == Cmd::Move) =>
-            {
-                // Inside a polygon, `F` and `f` trace its outline instead of branches
-                // (`g` moves without a vertex); `G` still draws, as in cpfg (below).
+            Cmd::Move if !polygons.is_empty() => {
+                // Inside a polygon, `f` adds a vertex of its outline (`g` moves without one).
                 st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 if sym_is_recording(symbols.name(sym)) {
                     polygons.last_mut().expect("non-empty").push(st.pos);
                 }
             }
             // A zero-length internode draws nothing, as in cpfg (issue 46 item 11): no
-            // node, no segment, and no tropism (the heading has not moved).
-            Cmd::Draw if arg.unwrap_or(opts.step) * st.scale == 0.0 => {}
+            // node, no segment, and no ABOP tropism (cpfg's tropisms still act, above);
+            // inside a polygon an `F(0)` still adds its vertex.
+            Cmd::Draw if arg.unwrap_or(opts.step) * st.scale == 0.0 => {
+                if !polygons.is_empty() && sym_is_recording(symbols.name(sym)) {
+                    polygons.last_mut().expect("non-empty").push(st.pos);
+                }
+            }
             Cmd::Draw => {
                 if !polygons.is_empty()
                     && st.node != NO_PARENT
                     && sk.position[st.node as usize].as_dvec3().distance(st.pos) > 0.0
                 {
-                    // `G` inside a polygon starts where the outline has moved the turtle.
+                    // An internode inside a polygon starts where the outline has moved the turtle.
                     st.node = NO_PARENT;
                 }
                 if st.node == NO_PARENT {
@@ -261,6 +299,12 @@ pub(super) fn run(
                 let start = st.pos;
                 st.pos += st.h * arg.unwrap_or(opts.step) * st.scale;
                 on_draw(start, st.pos);
+                if !polygons.is_empty() && sym_is_recording(symbols.name(sym)) {
+                    // Inside a polygon cpfg's `F` both draws its internode and adds a
+                    // vertex of the outline (issue 46: `WeepingBirch`'s leaves); `G`
+                    // only draws.
+                    polygons.last_mut().expect("non-empty").push(st.pos);
+                }
                 st.node =
                     sk.push(st.pos.as_vec3(), (st.width * 0.5) as f32, st.node, st.u.as_vec3(), st.order);
                 *sk.material.last_mut().expect("just pushed") = st.material;
@@ -372,6 +416,10 @@ pub(super) fn run(
                     None => st.material.saturating_add_signed(step),
                 };
             }
+            Cmd::Elasticity if cpfg.is_some() => {
+                // cpfg's `_` changes the old tropism's elasticity only.
+                st.old_elasticity = arg.unwrap_or(st.old_elasticity + cpfg_old.map_or(0.0, |o| o.1));
+            }
             Cmd::Elasticity => {
                 for k in 0..tropisms.len() {
                     st.elasticity[k] = arg.unwrap_or(st.elasticity[k] + opts.elasticity_increment);
@@ -384,7 +432,7 @@ pub(super) fn run(
                     [e] => (0, *e),
                     [] => (0, 0.0),
                 };
-                if k >= 0 && (k as usize) < tropisms.len() {
+                if k >= 0 && (k as usize) < tropisms.len().max(cpfg_moves.len()) {
                     st.elasticity[k as usize] = e;
                 }
             }
@@ -579,6 +627,18 @@ pub(super) fn run(
                     material: st.material,
                 });
             }
+        }
+        if moves {
+            // cpfg's old tropism acts after each move; an `F`/`G` ends a segment.
+            let mut f = frame_of(&st);
+            if let Some((t, _)) = cpfg_old {
+                after_move(&mut f, t, st.old_elasticity);
+            }
+            if cmds[sym as usize] == Cmd::Draw {
+                f.prev_h = f.h;
+                f.prev_u = f.u;
+            }
+            set_frame(&mut st, f);
         }
         i += 1;
     }
