@@ -3,6 +3,9 @@
 //! tests/cpfg_reference.rs; docs/cpfg-compatibility.md ("Matching real cpfg") lists the
 //! rules.
 
+#[path = "common/cpfg_corpus.rs"]
+mod cpfg_corpus;
+
 use glam::DVec3;
 use sylva::lsystem::{DeriveOptions, LSystem, DEFAULT_MODULE_BUDGET};
 
@@ -430,4 +433,21 @@ fn item9_tropisms_bend_as_cpfg() {
     let twice = once - (0.3 * l).asin().to_degrees();
     assert_eq!(s.len(), 2);
     assert!((tilt(&s[1]) - twice).abs() < 1e-9, "{} vs {twice}", tilt(&s[1]));
+}
+
+/// Item 11 (the short-internode rule): cpfg's corpus references lack internodes shorter
+/// than about 0.003 (`TexturedSurfaces`, `05-monopodial`, `09-monopodial-maple`,
+/// `10-sympodial`). cpfg's turtle draws them — its `F` has no such test — but the
+/// references were written through cpfg's rayshade output, whose `r_end_cylinder` leaves
+/// out a cylinder or cone of squared length ≤ 0.00001 ("degenerated cone"). So sylva's
+/// turtle keeps them, as cpfg's does, and the comparison filters both sides the same way.
+#[test]
+fn item11_short_internodes_are_drawn_and_cpfgs_rayshade_output_drops_them() {
+    let s = segments("F(1)F(0.003)F(0.0032)F(1)");
+    assert_eq!(s.len(), 4, "the turtle draws every internode of non-zero length: {s:?}");
+    let written: Vec<_> = s.iter().filter(|[a, b]| cpfg_corpus::rayshade_writes(*a, *b)).collect();
+    // 0.003² = 9e-6 ≤ 1e-5 is left out; 0.0032² = 1.024e-5 is written.
+    assert_eq!(written.len(), 3, "{written:?}");
+    assert!(near(written[1][0], [0.0, 1.003, 0.0]), "the next cylinder starts where the short one ended");
+    assert_eq!(cpfg_corpus::RAYSHADE_MIN_SQUARED_LENGTH, 0.00001);
 }

@@ -14,3 +14,16 @@ pub fn corpus() -> Option<PathBuf> {
         None
     }
 }
+
+/// Squared length at or below which cpfg's rayshade output leaves a cylinder or cone out
+/// (`r_end_cylinder`'s "degenerated cone" test in vlab's `cpfg/rayshade.c`): the corpus
+/// references' `geometry.segments.csv` were written through it, so internodes shorter
+/// than √0.00001 ≈ 0.00316 are missing there although cpfg's turtle draws them (issue 46).
+#[allow(dead_code)]
+pub const RAYSHADE_MIN_SQUARED_LENGTH: f64 = 0.00001;
+
+/// Whether cpfg's rayshade output writes the segment `a`→`b` (model units).
+#[allow(dead_code)]
+pub fn rayshade_writes(a: glam::DVec3, b: glam::DVec3) -> bool {
+    (b - a).length_squared() > RAYSHADE_MIN_SQUARED_LENGTH
+}
