@@ -191,7 +191,7 @@ pub fn model_bark(model: &Model) -> Option<&Image> {
         .find(|p| p.name == "bark")
         .and_then(|p| p.material.maps.base_color)
         .and_then(|i| model.images.get(i as usize));
-    by_part.or_else(|| model.images.iter().find(|i| i.name == "bark_albedo")).map(|i| &i.image)
+    by_part.or_else(|| model.images.iter().find(|i| i.name == "bark_albedo")).map(|i| &*i.image)
 }
 
 /// What the render pass the renderer draws into looks like.

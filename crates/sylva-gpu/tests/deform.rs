@@ -359,7 +359,7 @@ fn for_model_draws_the_models_curves_with_its_bark() {
     let mut model = Model { curves: honda_curves(), ..Default::default() };
     assert!(model_bark(&model).is_none(), "no texture stage, no bark");
     let bark = Image { width: 4, height: 2, channels: 3, data: (0..24).collect() };
-    model.images.push(ModelImage { name: "bark_albedo".into(), image: bark.clone(), repeat: true });
+    model.images.push(ModelImage { name: "bark_albedo".into(), image: bark.clone().into(), repeat: true });
     assert_eq!(model_bark(&model), Some(&bark));
     let Some(gpu) = Gpu::or_skip("for_model") else { return };
     let renderer = BranchRenderer::for_model(&gpu, &model, TargetFormat::default()).expect("fits");

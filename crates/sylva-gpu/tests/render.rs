@@ -81,7 +81,7 @@ fn card_model() -> Model {
         }
     }
     let mut model = Model::from_parts(vec![Part::new("leaves", m, material)]);
-    model.images = vec![ModelImage { name: "leaf_atlas".into(), image, repeat: false }];
+    model.images = vec![ModelImage { name: "leaf_atlas".into(), image: image.into(), repeat: false }];
     model
 }
 
@@ -478,7 +478,7 @@ fn a_replacing_renderer_reuses_what_did_not_change_and_draws_the_same() {
     for p in &mut moved.parts[1].mesh.positions {
         p.y += 0.5;
     }
-    for px in moved.images[0].image.data.chunks_exact_mut(4) {
+    for px in std::sync::Arc::make_mut(&mut moved.images[0].image).data.chunks_exact_mut(4) {
         px[0] = 200;
     }
     let third = Renderer::with_device_reusing(a, d, q, &moved, Some(&second)).unwrap();

@@ -1,5 +1,5 @@
 """Speed that the API promises, as ratios measured inside one run: a Session re-grows a
-leaf change ≥ 4× faster than a fresh grow (issue 42's target is 5×; see the test), and
+leaf change ≥ 5× faster than a fresh grow (issue 42), and
 Python threads grow trees in parallel (the GIL is released while a tree grows)."""
 
 import hashlib
@@ -43,11 +43,10 @@ def test_session_update_after_a_leaf_change_is_5x_faster_than_a_fresh_grow():
     assert "generate" not in session.last_run and "bark" not in session.last_run
     assert session.tree is not None and session.tree.triangles == first.triangles
     print(f"fresh grow {fresh * 1e3:.1f} ms, session update {update * 1e3:.1f} ms")
-    # Issue 42 asks for 5x. Measured at stop 51 on the 2-core machine: 5.0-5.4x (a fresh
-    # aspen grow 116-121 ms, the update 21.6-24 ms: assemble..clip rerun for a
-    # material-only change, plus the tree's copy into Python), so 5x is at the edge of
-    # the noise; asserted here at 4x until the update is made cheaper (issue 42, open).
-    assert update * 4 <= fresh, f"update {update:.3f} s vs fresh grow {fresh:.3f} s"
+    # Issue 42 asks for 5x. Measured on the 2-core machine (stop 52): a fresh aspen grow
+    # about 120 ms, the update about 11 ms (assemble..clip rerun for a material-only
+    # change, sharing the kept stages' images instead of copying them).
+    assert update * 5 <= fresh, f"update {update:.3f} s vs fresh grow {fresh:.3f} s"
     # The updated tree is the one a fresh grow of the same recipe makes.
     assert session.tree.to_glb() == session.recipe.grow().to_glb()
 

@@ -54,8 +54,9 @@ impl MaterialMaps {
 pub struct ModelImage {
     /// Name (`bark_albedo`, `leaf_atlas`, …): letters, digits and `_` only.
     pub name: String,
-    /// The pixels.
-    pub image: crate::image::Image,
+    /// The pixels, shared: a model's copy (a session keeps one per stage) shares its
+    /// images instead of copying megabytes of pixels.
+    pub image: std::sync::Arc<crate::image::Image>,
     /// Repeat (bark tiles) rather than clamp (the leaf atlas) outside \[0, 1\].
     pub repeat: bool,
 }

@@ -124,8 +124,8 @@ pub fn build(parts: &[Part], images: &[ModelImage], n: u32, size: u32, image_bas
     let part = billboards(centre, radius, n, frame, size, image_base);
     Ok(Impostor {
         images: vec![
-            ModelImage { name: "impostor_albedo".into(), image: albedo, repeat: false },
-            ModelImage { name: "impostor_normal".into(), image: normal, repeat: false },
+            ModelImage { name: "impostor_albedo".into(), image: albedo.into(), repeat: false },
+            ModelImage { name: "impostor_normal".into(), image: normal.into(), repeat: false },
         ],
         part,
     })

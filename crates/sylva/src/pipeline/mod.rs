@@ -303,7 +303,7 @@ fn texture_model(recipe: &Recipe, model: &mut Model, cache: &mut crate::texture:
     }
     if let (Some(i), Some(atlas)) = (cards, atlas) {
         let index = model.images.len() as u32;
-        model.images.push(ModelImage { name: "leaf_atlas".into(), image: atlas.image, repeat: false });
+        model.images.push(ModelImage { name: "leaf_atlas".into(), image: atlas, repeat: false });
         model.parts[i].material.maps.base_color = Some(index);
     }
 }

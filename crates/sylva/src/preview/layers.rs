@@ -102,7 +102,7 @@ pub fn render_layers(
         .enumerate()
         .map(|(i, im)| {
             let image = if used.contains(&(i as u32)) { reduce(&im.image, most) } else { Default::default() };
-            crate::model::ModelImage { image, name: String::new(), repeat: im.repeat }
+            crate::model::ModelImage { image: image.into(), name: String::new(), repeat: im.repeat }
         })
         .collect();
     let samples = (size * supersample) as usize;

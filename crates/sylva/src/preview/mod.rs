@@ -379,7 +379,7 @@ mod tests {
                 ..Material::bark()
             };
             let mut model = model_of(quad.clone(), material);
-            model.images.push(ModelImage { name: "t".into(), image: image.clone(), repeat: false });
+            model.images.push(ModelImage { name: "t".into(), image: image.clone().into(), repeat: false });
             render(&model, &opts).unwrap()
         };
         let (full, cut) = (draw(None), draw(Some(0.5)));

@@ -4,7 +4,9 @@
 //! redraws nothing (the aspen's maps are about 80 % of a default grow's CPU).
 
 use super::bark::{bark_maps, BarkMaps, BarkStyle};
-use super::leaf::{leaf_atlas, LeafAtlas};
+use super::leaf::leaf_atlas;
+use crate::image::Image;
+use std::sync::Arc;
 
 /// What the bark maps depend on: style, edge in pixels, seed.
 pub type BarkKey = (BarkStyle, u32, u64);
@@ -12,13 +14,33 @@ pub type BarkKey = (BarkStyle, u32, u64);
 /// What the leaf atlas depends on: edge in pixels, linear RGB colour, seed.
 pub type AtlasKey = (u32, [f32; 3], u64);
 
+/// The bark maps as the cache keeps and hands them out: shared, so the models that use
+/// them (a session keeps a copy per stage) copy no pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarkImages {
+    /// The style they show.
+    pub style: BarkStyle,
+    /// Base colour, sRGB, RGB.
+    pub albedo: Arc<Image>,
+    /// Tangent-space normal, RGB (linear).
+    pub normal: Arc<Image>,
+    /// Occlusion (R), roughness (G), metallic (B), linear.
+    pub orm: Arc<Image>,
+}
+
+impl From<BarkMaps> for BarkImages {
+    fn from(m: BarkMaps) -> BarkImages {
+        BarkImages { style: m.style, albedo: m.albedo.into(), normal: m.normal.into(), orm: m.orm.into() }
+    }
+}
+
 /// Drawn textures by what they depend on. At most [`TextureCache::CAPACITY`] of each
 /// kind are kept (the oldest goes first), so a long editing session does not grow
 /// without bound.
 #[derive(Debug, Default)]
 pub struct TextureCache {
-    bark: Vec<(BarkKey, BarkMaps)>,
-    atlas: Vec<(AtlasKey, LeafAtlas)>,
+    bark: Vec<(BarkKey, BarkImages)>,
+    atlas: Vec<(AtlasKey, Arc<Image>)>,
     drawn: usize,
 }
 
@@ -26,15 +48,15 @@ impl TextureCache {
     /// Textures kept per kind.
     pub const CAPACITY: usize = 4;
 
-    /// The bark maps and the leaf atlas for the keys given (`None`: not wanted), drawn in
-    /// parallel where missing. With this thread's cancellation token set
+    /// The bark maps and the leaf atlas's image for the keys given (`None`: not wanted),
+    /// drawn in parallel where missing, shared with the cache. With this thread's cancellation token set
     /// ([`crate::cancel`]) a drawing stops early and is neither kept nor returned
     /// (`None`); the caller checks the token.
     pub fn get(
         &mut self,
         bark: Option<BarkKey>,
         atlas: Option<AtlasKey>,
-    ) -> (Option<BarkMaps>, Option<LeafAtlas>) {
+    ) -> (Option<BarkImages>, Option<Arc<Image>>) {
         let have_bark =
             bark.and_then(|k| self.bark.iter().find(|(key, _)| *key == k).map(|(_, m)| m.clone()));
         let have_atlas = atlas
@@ -46,12 +68,12 @@ impl TextureCache {
         let (new_bark, new_atlas) = rayon::join(
             || {
                 crate::cancel::scope_opt(token.as_ref(), || {
-                    draw_bark.map(|(st, size, seed)| bark_maps(st, size, seed))
+                    draw_bark.map(|(st, size, seed)| BarkImages::from(bark_maps(st, size, seed)))
                 })
             },
             || {
                 crate::cancel::scope_opt(token.as_ref(), || {
-                    draw_atlas.map(|(size, colour, seed)| leaf_atlas(size, colour, seed))
+                    draw_atlas.map(|(size, colour, seed)| Arc::new(leaf_atlas(size, colour, seed).image))
                 })
             },
         );
