@@ -4,6 +4,7 @@
 //! rules.
 
 #[path = "common/cpfg_corpus.rs"]
+#[allow(dead_code)]
 mod cpfg_corpus;
 
 use glam::DVec3;
@@ -450,4 +451,74 @@ fn item11_short_internodes_are_drawn_and_cpfgs_rayshade_output_drops_them() {
     assert_eq!(written.len(), 3, "{written:?}");
     assert!(near(written[1][0], [0.0, 1.003, 0.0]), "the next cylinder starts where the short one ended");
     assert_eq!(cpfg_corpus::RAYSHADE_MIN_SQUARED_LENGTH, 0.00001);
+}
+
+/// Item 10 (named functions): when a view file's functions come from a function set
+/// (`function set: f.fset`, its last function line), cpfg runs its preprocessor with
+/// `-DNAME=id` for every function of the set (the `name:` without a `.suffix`), so
+/// `func(NAME, x)` — also inside a `#define` — is `func(id, x)`; a `#define` of the same
+/// name in the file replaces it. A `function:` line after the set turns this off.
+#[test]
+fn item10_function_set_names_are_defined() {
+    let dir = std::env::temp_dir().join(format!("sylva-cpfg-item10-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let set = "funcgalleryver 1 1\nitems: 2\nfver 1 1\nname: LOW\nsamples: 0\nflip: off\npoints: 4\n0 0.25\n\
+               0.3 0.25\n0.6 0.25\n1 0.25\nfver 1 1\nname: HIGH.func\nsamples: 0\nflip: off\npoints: 4\n0 0.75\n\
+               0.3 0.75\n0.6 0.75\n1 0.75\n";
+    std::fs::write(dir.join("f.fset"), set).unwrap();
+    let text = "#define lift(x) func(HIGH, x)\nLsystem: 1\nderivation length: 1\nAxiom: A\n\
+                A --> B(func(LOW, 0.5), lift(0.5), LOW, HIGH)\nendlsystem\n";
+    std::fs::write(dir.join("plant.l"), text).unwrap();
+    std::fs::write(dir.join("plant.v"), "function set: f.fset\n").unwrap();
+    let grow = || {
+        let loaded = sylva::recipe::load(dir.join("plant.l").to_str().unwrap(), &[]).unwrap();
+        let sylva::recipe::Generator::Lsystem(g) = &loaded.recipe.generator else { panic!("an L-system") };
+        sylva::pipeline::derive_lsystem(&loaded, g).map(|d| d.lsystem.format(&d.string))
+    };
+    assert_eq!(grow().unwrap(), "B(0.25,0.75,1,2)");
+    // The file's own #define wins, as a #define after -D does.
+    std::fs::write(dir.join("plant.l"), format!("#define LOW 2\n{text}")).unwrap();
+    assert_eq!(grow().unwrap(), "B(0.75,0.75,2,2)");
+    // Functions listed one by one: no names (cpfg defines them only for a set).
+    std::fs::write(dir.join("one.func"), "fver 1 1\nname: LOW\nsamples: 0\nflip: off\npoints: 2\n0 1\n1 1\n")
+        .unwrap();
+    std::fs::write(dir.join("plant.l"), text).unwrap();
+    std::fs::write(dir.join("plant.v"), "function set: f.fset\nfunction: one.func\n").unwrap();
+    let e = grow().unwrap_err().to_string();
+    assert!(e.contains("LOW") && e.contains("plant.l"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Item 8's kin, `curveX/Y/Z` and `curveGAL` (the corpus models `Ridley` and
+/// `06-phyllotaxis-ridley`, whose strings now match): cpfg samples the B-spline at
+/// `samples` (100 unless the `curve:` line says) evenly spaced parameters over
+/// [3, n − 3.000001], takes the chords as the arc length (`curveGAL`), and for a
+/// normalised arc length t interpolates the *parameter* between the two samples around t
+/// and evaluates the B-spline there. The values below were computed from that
+/// description independently (corpus `profile.con`).
+#[test]
+fn item8_curves_are_sampled_as_cpfg() {
+    let text = "version: 1.4\ntype: bspline\npoints: 4\n0.269398 -0.447751 0 3\n0.274471 -0.109864 0 1\n\
+                0.165305 0.175183 0 1\n-0.001478 0.202475 0 3\n";
+    let c = sylva::lsystem::files::curve::parse("profile.con", text).unwrap();
+    assert!((c.length() - 0.7794291192330335).abs() < 1e-12, "{}", c.length());
+    let p = c.at(0.37);
+    assert!((p.x - 0.26130713180847226).abs() < 1e-12 && (p.y + 0.1597252631155039).abs() < 1e-12, "{p}");
+    let p = c.at(0.001);
+    assert!((p.y + 0.44699206219964555).abs() < 1e-12, "{p}");
+}
+
+/// Item 2's kin, cpfg's arithmetic: its `trunc(x)` is floor(x + 0.5) (it rounds), and
+/// `%` is C's remainder of the operands truncated to `int` (vlab `cpfg/generate.c`'s
+/// `Eval`), so `5.5 % 2` is 1 and `-7 % 3` is −1.
+#[test]
+fn item2_trunc_and_remainder_are_cpfgs() {
+    let text =
+        "Lsystem: 1\nAxiom: A\nA --> B(trunc(2.5), trunc(2.4), trunc(-2.5), 5.5 % 2, -7 % 3, 7 % 2.9)\n\
+                endlsystem\n";
+    assert_eq!(derive(text, 1), "B(3,2,-2,1,-1,1)");
+    let e = parse("Lsystem: 1\nAxiom: A\nA --> B(5 % 0.5)\nendlsystem\n")
+        .derive(&DeriveOptions { steps: 1, budget: 100, seed: 1 })
+        .unwrap_err();
+    assert_eq!(e.kind, sylva::lsystem::ErrorKind::DivisionByZero, "{}", e.message);
 }

@@ -34,16 +34,12 @@ const POINT_TOLERANCE: f64 = 1e-4;
 
 /// What differs from cpfg, per model: (folder, string differs, geometry differs, why).
 /// A model not listed must match both; a listed one must still differ where listed.
-const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[
-    ("10-manuals__11-CPFG__Ridley", true, false, "curveX/curveY/curveGAL: cpfg samples the contour curve its own way (`f(-0.445751)` where cpfg has `f(-0.445786)`)"),
-    ("11-CPFG__03-inverse-modeling__06-phyllotaxis-ridley", true, false, "curveX/curveY/curveGAL: cpfg samples the contour curve its own way"),
-    (
-        "10-manuals__11-CPFG__BackgroundScene",
-        false,
-        true,
-        "cpfg also draws the view file's background scene (a cylinder and a cone); sylva draws the plant only",
-    ),
-];
+const EXCEPTIONS: &[(&str, bool, bool, &str)] = &[(
+    "10-manuals__11-CPFG__BackgroundScene",
+    false,
+    true,
+    "cpfg also draws the view file's background scene (a cylinder and a cone); sylva draws the plant only",
+)];
 
 /// Stochastic models: (folder, why their string depends on the seed). They are
 /// compared under cpfg's generator (`generator.random = "auto"` gives it to a model

@@ -64,6 +64,19 @@ impl Source {
         overrides: &[(String, String)],
         resolve: IncludeResolver,
     ) -> Result<Source, Box<LsystemError>> {
+        Self::with_predefined(name, original, overrides, &[], resolve)
+    }
+
+    /// Like [`Source::with_includes`], with `predefined` macros defined before the file
+    /// as a command line's `-DNAME=value` does: the file's own `#define` of a name
+    /// replaces it (cpfg passes a function set's names this way, issue 46).
+    pub fn with_predefined(
+        name: &str,
+        original: &str,
+        overrides: &[(String, String)],
+        predefined: &[(String, String)],
+        resolve: IncludeResolver,
+    ) -> Result<Source, Box<LsystemError>> {
         let original: Arc<str> = Arc::from(original);
         let mut src = Source {
             name: name.to_string(),
@@ -74,6 +87,10 @@ impl Source {
             defines: HashMap::new(),
             macros: HashMap::new(),
         };
+        for (k, v) in predefined {
+            src.defines.insert(k.clone(), v.clone());
+            src.macros.insert(k.clone(), Macro { params: None, body: v.clone() });
+        }
         let mut walk =
             Walk { overrides: overrides.iter().cloned().collect(), resolve, conds: Vec::new(), depth: 0 };
         src.process_file(0, &mut walk)?;

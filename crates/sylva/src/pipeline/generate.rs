@@ -65,9 +65,6 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         let text = side.read_text(&path, &what).map_err(|e| e.to_string())?;
         Ok((path.display().to_string(), text))
     };
-    let mut ls = LSystem::parse_with(&name, &text, &defines, &resolve)?;
-    // cpfg's generator for L-system files, sylva's for presets (issue 46 item 9).
-    ls.random = g.random.generator(matches!(loaded.origin, Origin::Preset(_)), loaded.recipe.seed);
     // The model folder's files are optional: a broken one is a warning, not an error;
     // a refused one (outside the folder, not a regular file, too large) is an error.
     let mut warnings = Vec::new();
@@ -85,6 +82,12 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         },
         _ => None,
     };
+    // cpfg defines a function set's names for `func(NAME, x)` (issue 46), so the folder
+    // is read before the L-system is parsed.
+    let predefined = folder.as_ref().map(ModelFolder::gallery_names).unwrap_or_default();
+    let mut ls = LSystem::parse_predefined(&name, &text, &defines, &predefined, &resolve)?;
+    // cpfg's generator for L-system files, sylva's for presets (issue 46 item 9).
+    ls.random = g.random.generator(matches!(loaded.origin, Origin::Preset(_)), loaded.recipe.seed);
     let functions: Vec<lsystem::expr::Function> = folder
         .iter()
         .flat_map(|f| f.functions.iter())
@@ -94,7 +97,8 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
         })
         .collect();
     let steps = g.iterations.unwrap_or(ls.derivation_length);
-    // The file's `seed:` and the recipe's seed both matter (documented in docs/recipe.md).
+    // With sylva's generator the file's `seed:` and the recipe's seed both matter; cpfg's is
+    // seeded as `ls.random` says (docs/recipe.md).
     let seed = loaded.recipe.seed ^ ls.seed.unwrap_or(0).rotate_left(32);
     let curves =
         folder.iter().flat_map(|f| f.curves.iter()).map(|(_, c)| std::sync::Arc::new(c.clone())).collect();

@@ -153,7 +153,7 @@ pub enum Func {
     Floor,
     /// Round up.
     Ceil,
-    /// Round toward zero.
+    /// cpfg's `trunc`: rounds half up, floor(x + 0.5) (despite its name).
     Trunc,
     /// Absolute value.
     Abs,

@@ -177,13 +177,23 @@ impl Evaluator {
                 Op::Add => bin!(|a, b| a + b),
                 Op::Sub => bin!(|a, b| a - b),
                 Op::Mul => bin!(|a, b| a * b),
-                Op::Div(at) | Op::Mod(at) => {
+                Op::Div(at) => {
                     let b = st.pop().unwrap_or(0.0);
                     if b == 0.0 {
                         return Err(EvalError { kind: ErrorKind::DivisionByZero, at });
                     }
                     let a = st.last_mut().expect("balanced stack");
-                    *a = if matches!(ops[pc], Op::Div(_)) { *a / b } else { *a % b };
+                    *a /= b;
+                }
+                Op::Mod(at) => {
+                    // cpfg's `%` is C's on ints: both operands truncated to `int` first
+                    // (issue 46), so `5.5 % 2` is 1.
+                    let b = st.pop().unwrap_or(0.0) as i32;
+                    if b == 0 {
+                        return Err(EvalError { kind: ErrorKind::DivisionByZero, at });
+                    }
+                    let a = st.last_mut().expect("balanced stack");
+                    *a = (*a as i32).wrapping_rem(b) as f64;
                 }
                 Op::Pow => bin!(pow),
                 Op::Lt => bin!(|a, b| b2f(a < b)),
@@ -339,7 +349,8 @@ pub(super) fn call(f: Func, st: &mut Vec<f64>, rng: &mut Draws, ext: &ModelFunct
         }
         Floor => pop().floor(),
         Ceil => pop().ceil(),
-        Trunc => pop().trunc(),
+        // cpfg's `trunc` rounds: floor(x + 0.5) (vlab `cpfg/generate.c`, issue 46).
+        Trunc => (pop() + 0.5).floor(),
         Abs => pop().abs(),
         Sign => {
             let a = pop();

@@ -22,53 +22,96 @@
 //!
 //! Each control point is repeated `multiplicity` times and the result is a uniform cubic
 //! B-spline (a multiplicity of 3 at the ends makes it pass through its end points).
-//! Conventions chosen where cpfg's manual is terse: `t ∈ [0, 1]` is the **normalised arc
-//! length** (clamped), evaluated on a table of 64 samples per spline segment with linear
-//! interpolation between them; `curveGAL(id)` is the arc length of that table ("get arc
-//! length"); `size`, `contact`, `heading` and `up` (used when cpfg draws the contour as a
-//! generalized cylinder section) do not change these values.
+//! Evaluated as cpfg 6.6 does (vlab `cpfg/curveXYZ.cpp`, issue 46): the curve's parameter
+//! u ∈ [0, 1] maps to the knot range [3, n − 3.000001] (n control points after
+//! multiplicities); the view file's `curve: file [samples]` (default 100) samples it at
+//! u = i/(samples − 1); the chords between the samples give the arc length table,
+//! normalised to [0, 1], and `curveGAL(id)` is its total. `curveX/Y/Z(id, t)` clamp t to
+//! [0, 1], find t's interval in the table by bisection, interpolate u linearly inside it
+//! and evaluate the B-spline exactly at that u. `size`, `contact`, `heading` and `up`
+//! (used when cpfg draws the contour as a generalized cylinder section) do not change
+//! these values.
 
 use super::TextFile;
 use crate::input::excerpt;
 use crate::lsystem::source::{ErrorKind, LsystemError};
 use glam::DVec3;
 
-/// Samples per cubic segment of the arc-length table.
-const SAMPLES: usize = 64;
+/// Samples of the arc-length table when the view file's `curve:` line gives none (cpfg).
+pub const DEFAULT_SAMPLES: usize = 100;
 /// Largest number of control points (after multiplicities) a curve may have.
 const MAX_POINTS: usize = 100_000;
+/// Largest number of samples a `curve:` line may ask for.
+pub const MAX_SAMPLES: usize = 1_000_000;
 
-/// A curve read from a `.con` file, tabulated by arc length.
+/// A curve read from a `.con` file, with cpfg's arc-length table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Curve {
-    /// Points along the curve.
+    /// The control points, each repeated by its multiplicity (at least 4).
+    pub control: Vec<DVec3>,
+    /// The samples at u = i/(samples − 1).
     pub points: Vec<DVec3>,
-    /// Arc length from the start to each point; the last entry is the curve's length.
+    /// Arc length (sum of chords) from the start to each sample; the last entry is the
+    /// curve's length.
     pub arc: Vec<f64>,
 }
 
 impl Curve {
-    /// Total arc length (`curveGAL`).
+    /// Total arc length (`curveGAL`): the chords of the samples.
     pub fn length(&self) -> f64 {
         self.arc.last().copied().unwrap_or(0.0)
     }
 
-    /// The point at normalised arc length `t` (clamped to [0, 1]); NaN `t` gives the start.
+    /// The B-spline at parameter u ∈ [0, 1] (cpfg's `calcPValue`).
+    pub fn at_parameter(&self, u: f64) -> DVec3 {
+        let n = self.control.len();
+        let span = n as f64 - 3.000001;
+        let x = 3.0 + u * span;
+        let i = (3 + (u * span) as usize).min(n - 1);
+        let t = x - i as f64;
+        let (t2, t3) = (t * t, t * t * t);
+        let b0 = (1.0 - t).powi(3) / 6.0;
+        let b1 = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+        let b2 = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+        let b3 = t3 / 6.0;
+        let c = &self.control;
+        c[i - 3] * b0 + c[i - 2] * b1 + c[i - 1] * b2 + c[i] * b3
+    }
+
+    /// The point at normalised arc length `t` (clamped to [0, 1]; NaN gives the start),
+    /// as cpfg's `curveX/Y/Z` find it.
     pub fn at(&self, t: f64) -> DVec3 {
         let n = self.points.len();
-        if n == 1 || self.length() <= 0.0 {
+        let total = self.length();
+        if n < 2 || total <= 0.0 {
             return self.points[0];
         }
-        let s = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) * self.length() };
-        let k = self.arc.partition_point(|&a| a < s).clamp(1, n - 1);
-        let (a0, a1) = (self.arc[k - 1], self.arc[k]);
-        let f = if a1 > a0 { (s - a0) / (a1 - a0) } else { 0.0 };
-        self.points[k - 1].lerp(self.points[k], f)
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let l = |k: usize| self.arc[k] / total;
+        let (mut lo, mut hi) = (0, n - 1);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if l(mid) > t {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let gap = l(hi) - l(lo);
+        let f = if gap > 0.0 { (t - l(lo)) / gap } else { 0.0 };
+        self.at_parameter((lo as f64 + f) / (n - 1) as f64)
     }
 }
 
-/// Parses the text of a `.con` file named `name` (for error messages).
+/// Parses the text of a `.con` file named `name` (for error messages), tabulated with
+/// [`DEFAULT_SAMPLES`].
 pub fn parse(name: &str, text: &str) -> Result<Curve, Box<LsystemError>> {
+    parse_with_samples(name, text, DEFAULT_SAMPLES)
+}
+
+/// [`parse`] with the arc-length table of `samples` samples (the view file's
+/// `curve: file samples`; clamped to 2..=[`MAX_SAMPLES`]).
+pub fn parse_with_samples(name: &str, text: &str, samples: usize) -> Result<Curve, Box<LsystemError>> {
     let src = TextFile::new(name, text);
     let mut declared: Option<usize> = None;
     let mut control: Vec<DVec3> = Vec::new();
@@ -125,40 +168,30 @@ pub fn parse(name: &str, text: &str) -> Result<Curve, Box<LsystemError>> {
         return Err(src.error(0, 0, "the curve has no control points", "here"));
     }
     let _ = declared; // cpfg's count; the points actually listed win
-    Ok(tabulate(&control))
+    Ok(tabulate(&control, samples.clamp(2, MAX_SAMPLES)))
 }
 
-/// Tabulates the uniform cubic B-spline of `control` by arc length.
-fn tabulate(control: &[DVec3]) -> Curve {
+/// Tabulates the uniform cubic B-spline of `control` by arc length with `samples`
+/// samples, as cpfg's `createAPoints`.
+fn tabulate(control: &[DVec3], samples: usize) -> Curve {
     // Pad short lists by repeating the ends so there is at least one segment.
     let mut c = control.to_vec();
     while c.len() < 4 {
         let last = *c.last().unwrap_or(&DVec3::ZERO);
         c.push(last);
     }
-    let mut points = Vec::with_capacity((c.len() - 3) * SAMPLES + 1);
-    for seg in 0..c.len() - 3 {
-        let [p0, p1, p2, p3] = [c[seg], c[seg + 1], c[seg + 2], c[seg + 3]];
-        let last = seg + 4 == c.len();
-        for k in 0..SAMPLES + usize::from(last) {
-            let t = k as f64 / SAMPLES as f64;
-            let (t2, t3) = (t * t, t * t * t);
-            let b0 = (1.0 - t).powi(3) / 6.0;
-            let b1 = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
-            let b2 = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
-            let b3 = t3 / 6.0;
-            points.push(p0 * b0 + p1 * b1 + p2 * b2 + p3 * b3);
-        }
-    }
-    let mut arc = Vec::with_capacity(points.len());
+    let mut curve =
+        Curve { control: c, points: Vec::with_capacity(samples), arc: Vec::with_capacity(samples) };
     let mut total = 0.0;
-    for (i, p) in points.iter().enumerate() {
-        if i > 0 {
-            total += p.distance(points[i - 1]);
+    for i in 0..samples {
+        let p = curve.at_parameter(i as f64 / (samples - 1) as f64);
+        if let Some(q) = curve.points.last() {
+            total += p.distance(*q);
         }
-        arc.push(total);
+        curve.points.push(p);
+        curve.arc.push(total);
     }
-    Curve { points, arc }
+    curve
 }
 
 #[cfg(test)]
@@ -168,10 +201,14 @@ mod tests {
     #[test]
     fn a_clamped_line_has_its_length_and_arc_length_parameter() {
         let c = parse("line.con", "points: 2\ntype: bspline\n0 0 0 3\n2 0 0 3\n").unwrap();
-        assert!((c.length() - 2.0).abs() < 1e-9, "{}", c.length());
+        // cpfg's parameter ends at 3.000001 short of the last knot: the end is 1e-6 away.
+        assert!((c.length() - 2.0).abs() < 1e-5, "{}", c.length());
         for t in [0.0, 0.25, 0.5, 1.0] {
-            assert!((c.at(t) - DVec3::new(2.0 * t, 0.0, 0.0)).length() < 1e-9, "t {t}: {}", c.at(t));
+            // Interpolating the parameter between 100 samples: within 1e-4 of the line.
+            assert!((c.at(t) - DVec3::new(2.0 * t, 0.0, 0.0)).length() < 1e-4, "t {t}: {}", c.at(t));
         }
+        // On a sample the point is the B-spline's there, exactly.
+        assert_eq!(c.at(c.arc[10] / c.length()), c.points[10]);
         assert_eq!(c.at(-1.0), c.at(0.0));
         assert_eq!(c.at(f64::NAN), c.at(0.0));
     }

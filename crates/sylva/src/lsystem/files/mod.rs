@@ -126,6 +126,31 @@ pub struct ModelFolder {
     pub ignored: Vec<String>,
 }
 
+impl ModelFolder {
+    /// The names cpfg defines for `func(NAME, x)` when the view file's functions come
+    /// from a function set (its last function line is `function set:`): each function's
+    /// name, without a `.suffix`, as its 1-based id, as cpfg's preprocessor command line
+    /// does (`-DNAME=id`, vlab `cpfg/generate.c`). Names that are not identifiers are left
+    /// out. Empty otherwise.
+    pub fn gallery_names(&self) -> Vec<(String, String)> {
+        let gallery = self.view.as_ref().and_then(|v| v.functions.last()).is_some_and(|r| r.is_set);
+        if !gallery {
+            return Vec::new();
+        }
+        let ident = |n: &str| {
+            n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        };
+        self.functions
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _))| (name.split('.').next().unwrap_or_default().to_string(), k))
+            .filter(|(n, _)| ident(n))
+            .map(|(n, k)| (n, (k + 1).to_string()))
+            .collect()
+    }
+}
+
 /// Finds and reads the view, function, surface and colour files of the cpfg model
 /// folder that holds `lsystem_path` (see the [module documentation](self) for how),
 /// confined to that folder with the default input limit: [`load_folder_in`] with
@@ -305,7 +330,8 @@ pub fn load_folder_in(lsystem_path: &Path, side: &SideFiles) -> Result<ModelFold
         let path = side.resolve(&r.file, &at)?;
         if path.exists() {
             let text = side.read_text(&path, &at)?;
-            let c = curve::parse(&display_name(&path), &text)?;
+            let samples = r.samples.map_or(curve::DEFAULT_SAMPLES, |n| n as usize);
+            let c = curve::parse_with_samples(&display_name(&path), &text, samples)?;
             folder.curves.push((file_stem(&r.file), c));
         } else {
             folder.ignored.push(format!(

@@ -297,7 +297,20 @@ impl LSystem {
         defines: &[(String, String)],
         resolve: IncludeResolver,
     ) -> PResult<LSystem> {
-        let source = Source::with_includes(name, text, defines, resolve)?;
+        Self::parse_predefined(name, text, defines, &[], resolve)
+    }
+
+    /// Like [`LSystem::parse_with`], with `predefined` macros that the file's own
+    /// `#define`s may replace (a cpfg command line's `-D`; the pipeline passes a function
+    /// set's names, [`crate::lsystem::files::ModelFolder::gallery_names`]).
+    pub fn parse_predefined(
+        name: &str,
+        text: &str,
+        defines: &[(String, String)],
+        predefined: &[(String, String)],
+        resolve: IncludeResolver,
+    ) -> PResult<LSystem> {
+        let source = Source::with_predefined(name, text, defines, predefined, resolve)?;
         let mut ls = LSystem {
             source,
             symbols: Symbols::default(),
