@@ -11,7 +11,8 @@
 //! 1. mesh the skeleton with the given mesher and refine it `levels` times with the
 //!    mesher's scheme (Loop or Catmull–Clark);
 //! 2. search the refined mesh for crossing triangles (the checker's BVH search,
-//!    [`check_mesh`](crate::mesh::check::check_mesh)'s test);
+//!    [`check_mesh`](crate::mesh::check::check_mesh)'s test) — in full in the first
+//!    round, and in later rounds only where the mesh changed (below);
 //! 3. give each crossing face to the internode whose surface is nearest its centre
 //!    (`| distance to the axis − radius there |`, over the internodes whose capsule,
 //!    grown by 1.5 radii, contains the centre) — and, in *wide* rounds (after the narrow
@@ -37,14 +38,30 @@
 //! raised to the floor and thinned with the node they start at, as `decollide` does
 //! (issue 26), so a thinned junction's cones thin too.
 //!
-//! Cost per round: one meshing, one refinement and one BVH search over the refined
-//! triangles; refined meshes over [`ClearOptions::max_faces`] faces are not searched
-//! (reported, not an error).
+//! Cost per round: one meshing, one refinement and one search of the refined triangles;
+//! refined meshes over [`ClearOptions::max_faces`] faces are not searched (reported, not
+//! an error).
+//!
+//! **Local, incremental rounds** (issue 44). A round changes only the radii of the
+//! nodes it thins, so most of the next surface comes back bit for bit the same. The
+//! search after the first matches every refined triangle to the previous round's by its
+//! corner positions and tests only the pairs with a triangle that changed, carrying the
+//! other crossings over (`mesh::check`'s incremental search: the pairs are exactly those
+//! a full search finds, so outputs stay byte-identical; [`ClearReport::searched`] lists
+//! the triangles searched per round). And the pass opens a memo of the meshers' own
+//! junction searches (the sweep mesher's refined-junction check and the quad repair
+//! search each junction's refined faces among themselves on every meshing): a junction
+//! whose refined triangles are bit for bit those of a junction searched before in the
+//! pass takes the remembered result ([`ClearReport::groups_reused`]). How much either
+//! saves depends on the mesher: the quad mesher carries its frames down the tree, so
+//! thinning a first-order branch moves the cage of its whole subtree (on
+//! `wp-quaking-aspen`, thinning 49 nodes moved the faces of 2,960), while the search
+//! still skips what did not move.
 
 use crate::error::{Error, Result};
 use crate::fit::decollide::{apply_caps, floor_of, raise_to_floor};
 use crate::geometry::Mesh;
-use crate::mesh::check::{build_bvh, fan_triangles, query, self_intersections, Aabb};
+use crate::mesh::check::{build_bvh, fan_triangles, query, Aabb, IncrementalSearch};
 use crate::refine::{subdivide, RefineOptions, Scheme, SubdivideOptions};
 use crate::skeleton::{Skeleton, NO_PARENT};
 use glam::DVec3;
@@ -143,6 +160,13 @@ pub struct ClearReport {
     pub unresolved: Vec<u32>,
     /// Work spent ([`ClearOptions::max_work`]'s units: refined faces searched).
     pub work: u64,
+    /// Per search of the refined mesh, in order: `[triangles, triangles searched]`. The
+    /// first search covers every triangle; later ones only the triangles that changed
+    /// since the search before (issue 44; see the module docs).
+    pub searched: Vec<[usize; 2]>,
+    /// Junction groups of the meshers' repair searches answered from the pass's memo,
+    /// and those searched (see the module docs).
+    pub groups_reused: [u64; 2],
     /// Wall time, meshing included.
     pub elapsed: Duration,
 }
@@ -221,20 +245,28 @@ pub struct Cleared {
 }
 
 /// [`clear_crossings`], also handing on the refined mesh it searched last.
-pub fn clear_crossings_refined<F>(
-    skeleton: &mut Skeleton,
-    opts: &ClearOptions,
-    mut mesher: F,
-) -> Result<Cleared>
+pub fn clear_crossings_refined<F>(skeleton: &mut Skeleton, opts: &ClearOptions, mesher: F) -> Result<Cleared>
+where
+    F: FnMut(&Skeleton) -> Result<(Mesh, Scheme)>,
+{
+    let t0 = Instant::now();
+    opts.check()?;
+    skeleton.validate()?;
+    let (cleared, counts) = crate::mesh::check::memo::scope(|| clear_rounds(skeleton, opts, mesher));
+    let mut cleared = cleared?;
+    cleared.report.groups_reused = counts.map_or([0, 0], |(hits, misses)| [hits, misses]);
+    cleared.report.elapsed = t0.elapsed();
+    Ok(cleared)
+}
+
+/// The rounds of [`clear_crossings_refined`], inside its memo scope.
+fn clear_rounds<F>(skeleton: &mut Skeleton, opts: &ClearOptions, mut mesher: F) -> Result<Cleared>
 where
     F: FnMut(&Skeleton) -> Result<(Mesh, Scheme)>,
 {
     /// The round with the fewest crossings: (count, radii, start radii, cage, refined
     /// cage, crossing face centres).
     type Best = (usize, Vec<f32>, Vec<Option<f32>>, Mesh, Mesh, Vec<DVec3>);
-    let t0 = Instant::now();
-    opts.check()?;
-    skeleton.validate()?;
     raise_to_floor(skeleton, opts.min_radius);
     let floor = floor_of(skeleton, opts.min_radius);
     let initial_radius = skeleton.radius.clone();
@@ -246,7 +278,9 @@ where
     // has stalled for `patience` rounds, wide thinning (runner-ups and whole junctions)
     // with the full patience again.
     let mut wide = false;
-    while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts, &mut report.work)? {
+    let mut search = IncrementalSearch::default();
+    while let Some((faces, fine)) = crossing_faces(&mesh, scheme, opts, &mut report.work, &mut search)? {
+        report.searched.push([search.stats.triangles, search.stats.searched]);
         // Each round remeshes the whole tree: a cancelled front end stops between rounds.
         crate::cancel::check()?;
         let count = faces.len() / 2;
@@ -307,7 +341,6 @@ where
         }
     }
     report.thinned = skeleton.radius.iter().zip(&initial_radius).filter(|(a, b)| a != b).count();
-    report.elapsed = t0.elapsed();
     Ok(Cleared { control: mesh, refined, report })
 }
 
@@ -321,6 +354,7 @@ fn crossing_faces(
     scheme: Scheme,
     opts: &ClearOptions,
     work: &mut u64,
+    search: &mut IncrementalSearch,
 ) -> Result<Option<(Vec<DVec3>, Mesh)>> {
     let estimate = mesh.face_count() * 4usize.pow(opts.levels);
     if estimate > opts.max_faces {
@@ -362,7 +396,7 @@ fn crossing_faces(
             why: "the refined mesh has a non-finite position".into(),
         });
     }
-    let pairs = self_intersections(&fine.positions, &fan_triangles(&fine, |_| true), opts.max_pairs);
+    let pairs = search.crossings(&fine.positions, &fan_triangles(&fine, |_| true), opts.max_pairs);
     let centre = |f: usize| {
         let face = fine.face(f);
         face.iter().map(|&v| fine.positions[v as usize].as_dvec3()).sum::<DVec3>() / face.len() as f64
@@ -510,6 +544,81 @@ mod tests {
             assert!(now as f64 >= o.min_factor * was as f64 * (1.0 - 1e-6), "{now} vs {was}");
         }
         assert_eq!(mesh, sweep(&s).unwrap().0, "the mesh returned is the kept skeleton's");
+    }
+
+    /// Plants with a stem of four internodes and a side branch each, at random spots of
+    /// a small plot (so some graze each other).
+    fn random_plants(seed: u64) -> Skeleton {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let mut s = Skeleton::new();
+        for _ in 0..6 {
+            let base = Vec3::new(rng.random::<f32>() * 1.2, 0.0, rng.random::<f32>() * 1.2);
+            let r = 0.06 + 0.06 * rng.random::<f32>();
+            let mut at = s.push(base, r, NO_PARENT, Vec3::Z, 0);
+            for k in 1..5 {
+                let p =
+                    base + Vec3::new(0.1 * rng.random::<f32>(), 0.5 * k as f32, 0.1 * rng.random::<f32>());
+                at = s.push(p, r * (1.0 - 0.15 * k as f32), at, Vec3::Z, 0);
+                if k == 2 {
+                    let side =
+                        p + Vec3::new(0.4 * rng.random::<f32>() - 0.2, 0.3, 0.4 * rng.random::<f32>() - 0.2);
+                    s.push(side, 0.5 * r, at, Vec3::Z, 1);
+                }
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn every_round_finds_what_a_full_search_finds() {
+        use crate::mesh::check::self_intersections;
+        use crate::mesh::quad::{quad_mesh, QuadOptions};
+        let quad = |s: &Skeleton| -> Result<(Mesh, Scheme)> {
+            Ok((quad_mesh(s, &QuadOptions::default())?.mesh, Scheme::CatmullClark))
+        };
+        let mut incremental_rounds = 0;
+        for seed in 0..6 {
+            for (name, mesher) in
+                [("sweep", &sweep as &dyn Fn(&Skeleton) -> Result<(Mesh, Scheme)>), ("quad", &quad)]
+            {
+                let opts = ClearOptions { levels: 1, ..Default::default() };
+                let mut meshes = Vec::new();
+                let (_, r) = clear_crossings(&mut random_plants(seed), &opts, |s| {
+                    let m = mesher(s)?;
+                    meshes.push(m.clone());
+                    Ok(m)
+                })
+                .unwrap();
+                // The same meshes again: every search equals a full one.
+                let mut search = IncrementalSearch::default();
+                let mut work = 0;
+                for (round, (m, scheme)) in meshes.iter().enumerate().take(r.searched.len()) {
+                    let before = search.stats;
+                    let (faces, fine) =
+                        crossing_faces(m, *scheme, &opts, &mut work, &mut search).unwrap().unwrap();
+                    let full =
+                        self_intersections(&fine.positions, &fan_triangles(&fine, |_| true), opts.max_pairs);
+                    let centre = |f: usize| {
+                        let face = fine.face(f);
+                        face.iter().map(|&v| fine.positions[v as usize].as_dvec3()).sum::<DVec3>()
+                            / face.len() as f64
+                    };
+                    let want: Vec<DVec3> = full.iter().flat_map(|&[a, b]| [centre(a), centre(b)]).collect();
+                    assert_eq!(faces, want, "seed {seed} {name} round {round}");
+                    assert_eq!([search.stats.triangles, search.stats.searched], r.searched[round]);
+                    if round > 0 && !search.stats.full {
+                        incremental_rounds += 1;
+                        assert!(
+                            search.stats.searched < search.stats.triangles,
+                            "{before:?} {:?}",
+                            search.stats
+                        );
+                    }
+                }
+            }
+        }
+        assert!(incremental_rounds > 3, "the plants should need rounds: {incremental_rounds}");
     }
 
     #[test]

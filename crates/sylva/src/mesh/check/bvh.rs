@@ -82,7 +82,25 @@ pub(crate) fn build_bvh(boxes: &[Aabb], order: &mut [u32]) -> Vec<Node> {
 /// Leaf items of the BVH whose node boxes overlap `b` (candidates; callers re-test).
 pub(crate) fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
     let mut out = Vec::new();
-    let mut stack = vec![0u32];
+    query_each(nodes, order, b, &mut Vec::new(), |o| out.push(o as usize));
+    out
+}
+
+/// [`query`] without allocating: calls `f` with each candidate, in the order [`query`]
+/// returns them, using `stack` as scratch (cleared first). Returns how many there were.
+pub(crate) fn query_each(
+    nodes: &[Node],
+    order: &[u32],
+    b: &Aabb,
+    stack: &mut Vec<u32>,
+    mut f: impl FnMut(u32),
+) -> usize {
+    let mut count = 0;
+    stack.clear();
+    if nodes.is_empty() {
+        return 0;
+    }
+    stack.push(0);
     while let Some(n) = stack.pop() {
         let node = &nodes[n as usize];
         if !node.bounds.overlaps(b) {
@@ -92,10 +110,10 @@ pub(crate) fn query(nodes: &[Node], order: &[u32], b: &Aabb) -> Vec<usize> {
             stack.push(node.first);
             stack.push(node.first + 1);
         } else {
-            out.extend(
-                order[node.first as usize..(node.first + node.count) as usize].iter().map(|&o| o as usize),
-            );
+            let items = &order[node.first as usize..(node.first + node.count) as usize];
+            count += items.len();
+            items.iter().for_each(|&o| f(o));
         }
     }
-    out
+    count
 }

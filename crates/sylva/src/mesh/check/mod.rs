@@ -25,7 +25,10 @@
 //!   crosses the other). Pairs that share a vertex are not tested: they are neighbours
 //!   on the surface, where a test would only measure rounding. Coplanar overlaps are not
 //!   reported. Cost: O(n log n) to build, about O(n log n) to query on a mesh without
-//!   large overlaps; parallel over triangles with rayon.
+//!   large overlaps; parallel over triangles with rayon. For a sequence of meshes that
+//!   differ in places (the mesh clearing's rounds) an incremental search tests only the
+//!   pairs with a changed triangle, and a memo spares the meshers' per-junction
+//!   searches the junctions that did not change (issue 44; `incremental.rs`, `memo.rs`).
 //!
 //! Plus the components and the Euler characteristic, so a caller can check genus
 //! ([`MeshReport::total_genus`] sums the components' genera).
@@ -36,15 +39,18 @@ use std::collections::HashMap;
 
 mod bvh;
 mod capsules;
+mod incremental;
 mod intersect;
+pub(crate) mod memo;
 mod report;
 
 pub(crate) use self::bvh::{build_bvh, query, Aabb, Node};
 pub use self::capsules::skeleton_collisions;
 pub(crate) use self::capsules::{meeting, meeting_gap, node_depths, segment_closest, Meeting};
-pub(crate) use self::intersect::{
-    group_crossings, group_crossings_within, self_intersections, self_intersections_within,
-};
+pub(crate) use self::incremental::IncrementalSearch;
+#[cfg(test)]
+pub(crate) use self::intersect::self_intersections;
+pub(crate) use self::intersect::{group_crossings, group_crossings_within, self_intersections_within};
 pub use self::report::MeshReport;
 
 /// What [`check_mesh`] looks at.
