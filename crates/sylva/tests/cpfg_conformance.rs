@@ -304,6 +304,10 @@ fn item9_without_a_seed_line_probabilities_are_ignored() {
     assert!(notes.len() == 1 && notes[0].contains("no `seed:` line"), "{notes:?}");
     let sylva = derive(text, 1);
     assert!(sylva.contains('A') && sylva.contains('B'), "{sylva}");
+    // A `seed:` in the homomorphism section is cpfg's homomorphism seed: the L-system
+    // stays deterministic.
+    let homo = text.replace("endlsystem", "homomorphism\nseed: 5\nA --> F\nendlsystem");
+    assert_eq!(derive_cpfg(&homo, 1, None), "AAAAAA");
 }
 
 /// Item 9: `ran`, `nran`, `bran` and `biran` draw from cpfg's expression stream

@@ -697,8 +697,14 @@ impl LSystem {
                         Kw::Seed => {
                             let n = self.constant(value, end, "seed")?;
                             self.seed = Some(n.abs() as u64);
-                            // cpfg: `(int) Eval(...)`.
-                            self.cpfg_seed = Some(n.clamp(i32::MIN as f64, i32::MAX as f64) as i64);
+                            // cpfg: `(int) Eval(...)`. A `seed:` in the homomorphism section
+                            // is cpfg's homomorphism seed, not the L-system's: it does not
+                            // make the L-system stochastic (its separate stream of
+                            // homomorphism draws is not modelled; they come from the
+                            // expression stream).
+                            if section != Section::Homomorphism {
+                                self.cpfg_seed = Some(n.clamp(i32::MIN as f64, i32::MAX as f64) as i64);
+                            }
                         }
                         Kw::Axiom => {
                             self.axiom = self.module_string(value, end, &[])?;
