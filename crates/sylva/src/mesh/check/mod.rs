@@ -244,9 +244,63 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
     let used_count = (nv - r.unused_vertices) as i64;
     r.euler = used_count - r.edges as i64 + (nf - r.bad_face_count) as i64;
 
+    let faults = search_faults(mesh, &good, r.non_finite_count == 0, opts);
+    for (count, list, found) in [
+        (&mut r.degenerate_face_count, &mut r.degenerate_faces, &faults.degenerate),
+        (&mut r.duplicate_face_count, &mut r.duplicate_faces, &faults.duplicates),
+    ] {
+        *count = found.len();
+        list.extend(found.iter().take(max));
+    }
+    r.triangles = (0..nf).filter(|&f| good[f]).map(|f| mesh.face(f).len().saturating_sub(2)).sum();
+    r.max_pairs = opts.max_pairs;
+    if let Some(found) = faults.intersections {
+        r.intersections_truncated = found.pairs.len() >= opts.max_intersections;
+        r.intersection_count = Some(found.pairs.len());
+        r.intersections = found.pairs.into_iter().take(max).collect();
+        r.pairs_searched = found.work;
+        r.search_stopped = found.stopped;
+    }
+    r
+}
+
+/// What [`check_mesh`] finds without its topology part: the degenerate faces, the
+/// duplicate faces and the self-intersection search over the rest.
+pub(crate) struct Faults {
+    /// Degenerate faces, ascending (all of them).
+    pub(crate) degenerate: Vec<usize>,
+    /// Duplicate faces, ascending (all of them; looked for only with the search).
+    pub(crate) duplicates: Vec<usize>,
+    /// The self-intersection search (`None` when not asked for, or with a non-finite
+    /// position).
+    pub(crate) intersections: Option<intersect::Search>,
+}
+
+/// The degenerate faces and self-intersections of `mesh` exactly as [`check_mesh`]
+/// reports them (every one, whatever `opts.max_listed`), without the edge, fan and
+/// component bookkeeping — for a caller that needs only these (the sweep mesher's repair
+/// rounds: issue 44).
+pub(crate) fn surface_faults(mesh: &Mesh, opts: &CheckOptions) -> Faults {
+    let nv = mesh.vertex_count();
+    let good: Vec<bool> = (0..mesh.face_count())
+        .map(|f| {
+            let face = mesh.face(f);
+            face.len() >= 3 && face.iter().all(|&v| (v as usize) < nv)
+        })
+        .collect();
+    let finite = mesh.positions.iter().all(|p| p.is_finite());
+    search_faults(mesh, &good, finite, opts)
+}
+
+/// The fault search shared by [`check_mesh`] and [`surface_faults`] over the `good`
+/// faces (at least 3 corners, references in range); the self-intersection search runs
+/// only with `finite` positions.
+fn search_faults(mesh: &Mesh, good: &[bool], finite: bool, opts: &CheckOptions) -> Faults {
+    let nf = mesh.face_count();
     // Degenerate faces: repeated vertex or tiny area (Newell's normal). They and the
     // duplicates below are reported here and left out of the self-intersection search.
-    let mut searched = good.clone();
+    let mut searched = good.to_vec();
+    let mut degenerate = Vec::new();
     let diag = crate::tolerance::Tolerance::of_points(&mesh.positions).scale;
     for f in (0..nf).filter(|&f| good[f]) {
         let face = mesh.face(f);
@@ -263,36 +317,22 @@ pub fn check_mesh(mesh: &Mesh, opts: &CheckOptions) -> MeshReport {
         let tiny = longest.is_nan() || longest <= opts.tiny_edge * diag;
         if repeated || sliver || tiny {
             searched[f] = false;
-            r.degenerate_face_count += 1;
-            if r.degenerate_faces.len() < max {
-                r.degenerate_faces.push(f);
-            }
+            degenerate.push(f);
         }
     }
     // Duplicates are coincident geometry, like intersections: looked for only with the
     // self-intersection search, which they would otherwise make quadratic.
     let duplicates = if opts.self_intersections { duplicate_faces(mesh, &searched) } else { Vec::new() };
-    for f in duplicates {
+    for &f in &duplicates {
         searched[f] = false;
-        r.duplicate_face_count += 1;
-        if r.duplicate_faces.len() < max {
-            r.duplicate_faces.push(f);
-        }
     }
 
     // Self-intersections, only on meshes whose positions and references are sound.
-    r.triangles = (0..nf).filter(|&f| good[f]).map(|f| mesh.face(f).len().saturating_sub(2)).sum();
-    r.max_pairs = opts.max_pairs;
-    if opts.self_intersections && r.non_finite_count == 0 {
+    let intersections = (opts.self_intersections && finite).then(|| {
         let tris = fan_triangles(mesh, |f| searched[f]);
-        let found = self_intersections_within(&mesh.positions, &tris, opts.max_intersections, opts.max_pairs);
-        r.intersections_truncated = found.pairs.len() >= opts.max_intersections;
-        r.intersection_count = Some(found.pairs.len());
-        r.intersections = found.pairs.into_iter().take(max).collect();
-        r.pairs_searched = found.work;
-        r.search_stopped = found.stopped;
-    }
-    r
+        self_intersections_within(&mesh.positions, &tris, opts.max_intersections, opts.max_pairs)
+    });
+    Faults { degenerate, duplicates, intersections }
 }
 
 /// The faces among `keep` that repeat an earlier kept face: the same corner positions

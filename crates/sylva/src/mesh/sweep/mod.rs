@@ -11,7 +11,7 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
-use crate::mesh::check::{check_mesh, group_crossings, CheckOptions};
+use crate::mesh::check::{group_crossings, surface_faults, CheckOptions};
 use crate::skeleton::Skeleton;
 use glam::DVec3;
 use std::collections::HashSet;
@@ -437,10 +437,10 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         }
         round += 1;
         crate::cancel::check()?;
-        let rep = check_mesh(
-            &mesh,
-            &CheckOptions { max_listed: usize::MAX, max_intersections: 1_000_000, ..Default::default() },
-        );
+        // Only the crossings and degenerate faces are needed, not the topology.
+        let faults =
+            surface_faults(&mesh, &CheckOptions { max_intersections: 1_000_000, ..Default::default() });
+        let intersections = faults.intersections.map(|found| found.pairs).unwrap_or_default();
         let mut bad: HashSet<u32> = HashSet::new();
         let mark = |f: usize, bad: &mut HashSet<u32>| {
             for &o in &owner[f] {
@@ -453,7 +453,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
         // to neighbouring nodes; others are branches passing through each other in the
         // skeleton, which no fallback can separate.
         let near = |a: u32, b: u32| a == b || plan.par[a as usize] == b || plan.par[b as usize] == a;
-        for &[f, g] in &rep.intersections {
+        for &[f, g] in &intersections {
             let local =
                 owner[f].iter().any(|&a| a != NONE && owner[g].iter().any(|&b| b != NONE && near(a, b)));
             if local {
@@ -461,7 +461,7 @@ pub fn sweep_mesh(skeleton: &Skeleton, opts: &SweepOptions) -> Result<SweepMesh>
                 mark(g, &mut bad);
             }
         }
-        for &f in &rep.degenerate_faces {
+        for &f in &faults.degenerate {
             mark(f, &mut bad);
         }
         // A clean control mesh: check the templates once more after refinement.
