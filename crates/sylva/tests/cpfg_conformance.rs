@@ -526,3 +526,99 @@ fn item2_trunc_and_remainder_are_cpfgs() {
         .unwrap_err();
     assert_eq!(e.kind, sylva::lsystem::ErrorKind::DivisionByZero, "{}", e.message);
 }
+
+/// Item 10 (file functions): cpfg's statements read data files with
+/// `fopen`/`fscanf`/`fclose` (vlab `cpfg/generate.c`): handles are cpfg's slot indices
+/// (24 first), `fscanf` takes the addresses of variables (`&x`, `&a[i]`, a production's
+/// parameter) and returns how many it assigned, −1 at the end of the input. sylva reads
+/// such files beforehand from inside the model folder only: a name outside is an error
+/// naming the statement and `generator.allow_paths`; a file the folder lacks opens as
+/// −1 (with a warning) and reading it is an error. Output files are never written.
+#[test]
+fn item10_statements_read_files_with_fscanf() {
+    let dir = std::env::temp_dir().join(format!("sylva-cpfg-item10-files-{}", std::process::id()));
+    let model = dir.join("model");
+    std::fs::create_dir_all(&model).unwrap();
+    std::fs::write(model.join("data.txt"), "1.5 2.25\n-3e-1 width=4\n8\n").unwrap();
+    std::fs::write(dir.join("secret.txt"), "7\n").unwrap();
+    let text = |file: &str, format: &str| {
+        format!(
+            "Lsystem: 1\nDefine: {{ array v[3]; }}\n\
+             Start: {{ f = fopen(\"{file}\", \"r\"); o = fopen(\"out.txt\", \"w\"); n = 0; k = 0;\n\
+             while (k < 3) {{ n = n + fscanf(f, \"{format}\", &v[k]); k = k + 1; }}\n\
+             r = fscanf(f, \" width=%lf\", &w); fprintf(o, \"%f\\n\", w); fclose(o); }}\n\
+             derivation length: 2\nAxiom: A(0)\n\
+             A(x) : {{ e = fscanf(f, \"%lf\", &x); }} 1 --> B(f, o, n, v[0], v[1], v[2], r, w, x, e)\n\
+             endlsystem\n"
+        )
+    };
+    let grow = |text: &str| {
+        std::fs::write(model.join("plant.l"), text).unwrap();
+        let loaded = sylva::recipe::load(model.join("plant.l").to_str().unwrap(), &[]).unwrap();
+        let sylva::recipe::Generator::Lsystem(g) = &loaded.recipe.generator else { panic!("an L-system") };
+        sylva::pipeline::derive_lsystem(&loaded, g).map(|d| (d.lsystem.format(&d.string), d.warnings))
+    };
+    let (s, warnings) = grow(&text("data.txt", "%lf")).unwrap_or_else(|e| panic!("{e}"));
+    // Step 1 reads 8 into the parameter x (e = 1); the step-2 production is not matched.
+    assert_eq!(s, "B(24,23,3,1.5,2.25,-0.3,1,4,8,1)");
+    assert!(warnings.iter().any(|w| w.contains("writes files")), "{warnings:?}");
+    assert!(!model.join("out.txt").exists(), "sylva writes no files");
+    // The end of the input: fscanf gives -1 and leaves the variable.
+    std::fs::write(model.join("data.txt"), "1.5 2.25\n-3e-1 width=4\n").unwrap();
+    assert_eq!(grow(&text("data.txt", "%lf")).unwrap().0, "B(24,23,3,1.5,2.25,-0.3,1,4,0,-1)");
+    // Outside the model folder: an error naming the statement and the key.
+    let e = grow(&text("../secret.txt", "%lf")).unwrap_err().to_string();
+    assert!(
+        e.contains("fopen(\"../secret.txt\"")
+            && e.contains("plant.l:3")
+            && e.contains("generator.allow_paths"),
+        "{e}"
+    );
+    // A file the folder does not hold: fopen gives -1 (a warning); reading it is an error.
+    let e = grow(&text("none.txt", "%lf")).unwrap_err().to_string();
+    assert!(e.contains("fscanf") && e.contains("not open"), "{e}");
+    // `%d` would write a C int into cpfg's double: refused when compiled.
+    let e = grow(&text("data.txt", "%d")).unwrap_err().to_string();
+    assert!(e.contains("unsupported: fscanf's format") && e.contains("%d"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Item 10 (contours without a `cver` line): cpfg reads its oldest contour layout
+/// (`_ReadContour0000` in vlab's cpfg): a first line `num dim open|closed`, then `num`
+/// points of `dim` coordinates, each of multiplicity 1. The strap below, written in
+/// that layout (3-D, and 2-D on one line), sweeps exactly the surface its `cver 1 3`
+/// twin sweeps.
+#[test]
+fn item10_contours_without_a_cver_line() {
+    let dir = std::env::temp_dir().join(format!("sylva-cpfg-item10-contour-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("plant.l"),
+        "Lsystem: 1\nderivation length: 3\nAxiom: @#(1) !(0.2) @Gs A f(1) !(0.1) @Ge(1)\n\
+         A --> f(1) @Gc(2) A\nendlsystem\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("plant.v"), "line style: cylinder\ncontour sides: 4\ncontour: 1 flat.con\n")
+        .unwrap();
+    let rings = |contour: &str| {
+        std::fs::write(dir.join("flat.con"), contour).unwrap();
+        let loaded = sylva::recipe::load(dir.join("plant.l").to_str().unwrap(), &[]).unwrap();
+        let g = sylva::pipeline::grow(&loaded).unwrap_or_else(|e| panic!("{e}"));
+        let swept: Vec<_> = g
+            .skeleton
+            .organs
+            .iter()
+            .filter_map(|o| match &o.kind {
+                sylva::skeleton::OrganKind::Swept(s) => Some(s.rings.clone()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(swept.len(), 1);
+        swept[0].clone()
+    };
+    let cver = rings("cver 1 3\nname: flat\npoints: 2 6\ntype: or\nsamples: 8\n-1 0 0 3\n1 0 0 3\n");
+    assert_eq!(cver.len(), 8);
+    assert_eq!(rings("6 3 open\n-1 0 0\n-1 0 0\n-1 0 0\n1 0 0\n1 0 0\n1 0 0\n"), cver);
+    assert_eq!(rings("6 2 open\n-1 0 -1 0 -1 0 1 0 1 0 1 0\n"), cver);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -117,14 +117,71 @@ pub fn derive_lsystem(loaded: &Loaded, g: &LsystemGenerator) -> Result<Derived> 
                 .into(),
         );
     }
+    let data = data_files(loaded, &ls, include_files.as_ref(), &dir, &mut warnings)?;
     let (string, evaluator) = ls.derive_full(
         &DeriveOptions { steps, budget: g.max_modules, seed },
-        lsystem::expr::ModelFunctions { functions, curves },
+        lsystem::expr::ModelFunctions { functions, curves, data },
         Some(&turtle_options(g, folder.as_ref())),
         env.as_ref(),
     )?;
     let steps = evaluator.steps_done;
     Ok(Derived { lsystem: ls, string, steps, seed, evaluator, folder, warnings })
+}
+
+/// The files the model's statements read (`fopen("name", "r")`, issue 46 item 10),
+/// read before the derivation: from inside the model folder (or an allowed folder)
+/// only, within `input.max_bytes`; a name outside is an error naming the statement and
+/// `generator.allow_paths`. A file the folder does not hold is left out (its `fopen`
+/// gives −1, as in cpfg) with a warning.
+fn data_files(
+    loaded: &Loaded,
+    ls: &LSystem,
+    side: Option<&SideFiles>,
+    dir: &std::path::Path,
+    warnings: &mut Vec<String>,
+) -> Result<lsystem::expr::files::DataFiles> {
+    let mut data = lsystem::expr::files::DataFiles::new();
+    for u in ls.file_uses.iter().filter(|u| u.reads()) {
+        if data.contains_key(&u.name) {
+            continue;
+        }
+        let what = format!(
+            "{}:{}: `fopen(\"{}\", \"{}\")`",
+            ls.source.name,
+            ls.source.line_of(u.at),
+            crate::input::excerpt(&u.name),
+            crate::input::excerpt(&u.mode)
+        );
+        let bytes = match side {
+            Some(side) => {
+                let path = side.resolve(&u.name, &what)?;
+                if path.is_file() {
+                    Some(side.read(&path, &what)?)
+                } else {
+                    None
+                }
+            }
+            None => loaded.read(&dir.join(&u.name).to_string_lossy()).ok().map(|(_, t)| t.into_bytes()),
+        };
+        match bytes {
+            Some(b) => {
+                data.insert(u.name.clone(), b.into());
+            }
+            None => warnings.push(format!(
+                "{what}: the model folder holds no such file, so fopen gives -1 as in cpfg (an fscanf of it \
+                 is an error)"
+            )),
+        }
+    }
+    for at in lsystem::expr::files::float_stores(&ls.source.text) {
+        warnings.push(format!(
+            "{}:{}: fscanf's `%f` stores a 4-byte float into an 8-byte variable, as cpfg does (the value is \
+             meaningless); `%lf` reads the number",
+            ls.source.name,
+            ls.source.line_of(at)
+        ));
+    }
+    Ok(data)
 }
 
 /// The environmental program for the model's `?E` modules: the recipe's

@@ -15,6 +15,10 @@ fn error_words(kind: ErrorKind) -> &'static str {
         ErrorKind::OutOfRange => "an array index or loop count out of range",
         ErrorKind::UndefinedName => "a function that the model does not define",
         ErrorKind::Budget => "the derivation's work budget is used up",
+        ErrorKind::Unsupported => {
+            "fscanf of a file that is not open for reading (its fopen gave -1: the model folder does not \
+             hold the file, or it was closed)"
+        }
         _ => "the result is not a finite number",
     }
 }

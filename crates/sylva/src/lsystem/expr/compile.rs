@@ -16,7 +16,7 @@ pub fn compile(src: &Source, start: usize, end: usize, scope: &Scope) -> Result<
     }
     p.ternary()?;
     p.expect_end()?;
-    let mut e = Expr { ops: p.ops, at: start as u32, len: (end - start) as u32 };
+    let mut e = Expr { ops: p.ops, at: start as u32, len: (end - start) as u32, strings: p.strings };
     fold_constants(&mut e);
     Ok(e)
 }
@@ -34,10 +34,11 @@ pub fn compile_block(
     let mut p = Parser::new(src, start, end, scope);
     p.statement()?;
     p.expect_end()?;
-    Ok(Expr { ops: p.ops, at: start as u32, len: (end - start) as u32 })
+    Ok(Expr { ops: p.ops, at: start as u32, len: (end - start) as u32, strings: p.strings })
 }
 
-/// Assignment targets and array declarations in a statement block's text, in order:
+/// Assignment targets (`x = …`, `x += …`, `fscanf`'s `&x`) and array declarations in a
+/// statement block's text, in order:
 /// (name, `Some(dims, values)` for arrays). Used by the parser to declare globals
 /// before compiling. `params` are excluded (assigning to them stays local).
 pub fn declared_names(text: &str, params: &[String]) -> Vec<(String, Option<ArrayDecl>)> {
@@ -120,7 +121,9 @@ pub fn declared_names(text: &str, params: &[String]) -> Vec<(String, Option<Arra
         let assign = j < b.len()
             && ((b[j] == '=' && b.get(j + 1) != Some(&'='))
                 || (matches!(b[j], '+' | '-' | '*' | '/') && b.get(j + 1) == Some(&'=')));
-        if assign && !params.contains(&name) && !out.iter().any(|(n, _)| *n == name) {
+        // `&x` in `fscanf(f, "%lf", &x)` assigns x too (not `&&x`).
+        let address = st > 0 && b[st - 1] == '&' && (st < 2 || b[st - 2] != '&');
+        if (assign || address) && !params.contains(&name) && !out.iter().any(|(n, _)| *n == name) {
             out.push((name, None));
         }
     }
@@ -133,6 +136,10 @@ fn fold_constants(e: &mut Expr) {
         !matches!(
             op,
             Op::Load(_)
+                | Op::Fopen { .. }
+                | Op::Fclose
+                | Op::Fflush
+                | Op::Fscanf { .. }
                 | Op::LoadGlobal(_)
                 | Op::LoadGlobalAt { .. }
                 | Op::Call(

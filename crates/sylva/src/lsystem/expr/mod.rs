@@ -8,8 +8,9 @@
 //! `nran(mean, sd)` (normal), `bran(a, b)` (beta), `biran(n, p)` (binomial), `srand(s)`,
 //! drawn from the derivation's seeded generator, `func(id, x)` (cpfg function files),
 //! `stop(x)` (ends the derivation after the current step when x ≠ 0), and `printf(...)`
-//! (accepted, prints nothing); file output (`fopen`, `fprintf`, `fflush`, `fclose`) is
-//! accepted and discarded the same way.
+//! (accepted, prints nothing); cpfg's file functions (`fopen`, `fscanf`, `fprintf`,
+//! `fflush`, `fclose`) as [`files`] describes: reading only files of the model folder
+//! read beforehand, output discarded.
 //!
 //! Statements (cpfg's `{ ... }` blocks) compile to the same bytecode: assignments to
 //! parameters or global variables (`x = e;`, `a[i][j] = e;`, `+= -= *= /=`),
@@ -22,6 +23,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 mod compile;
+pub mod files;
 mod parse;
 pub mod random;
 mod vm;
@@ -114,11 +116,14 @@ pub struct ModelFunctions {
     pub functions: Vec<Function>,
     /// `curveX(id, t)` is `curves[id - 1].at(t).x`.
     pub curves: Vec<Arc<crate::lsystem::files::curve::Curve>>,
+    /// The files `fopen(name, "r")` reads, by name, read from the model folder
+    /// beforehand ([`files`]).
+    pub data: files::DataFiles,
 }
 
 impl From<Vec<Function>> for ModelFunctions {
     fn from(functions: Vec<Function>) -> Self {
-        ModelFunctions { functions, curves: Vec::new() }
+        ModelFunctions { functions, curves: Vec::new(), data: files::DataFiles::new() }
     }
 }
 
@@ -305,6 +310,36 @@ pub enum Op {
     Dup,
     /// Swap the two top values.
     Swap,
+    /// `fopen(name, mode)`: push a handle; payloads index [`Expr::strings`].
+    Fopen {
+        /// The file name.
+        name: u32,
+        /// The mode.
+        mode: u32,
+    },
+    /// `fclose(h)`: pop a handle, push 0.
+    Fclose,
+    /// `fflush(h)`: pop a handle, push cpfg's value.
+    Fflush,
+    /// `fscanf(h, format, &x, …)`: pop `targets` variable addresses (a global slot g
+    /// as g, a local slot k as −k − 1) and the handle, assign, push the count.
+    Fscanf {
+        /// The format, an index into [`Expr::strings`].
+        format: u32,
+        /// How many addresses were given.
+        targets: u32,
+        /// Source offset of the call, for errors.
+        at: u32,
+    },
+    /// `&a[i]`: pop an index i; push the address of global slot base + i.
+    AddressAt {
+        /// First slot of the array.
+        base: u32,
+        /// Number of elements.
+        len: u32,
+        /// Source offset, for the error.
+        at: u32,
+    },
 }
 
 /// Most iterations one statement block's loops may run.
@@ -329,6 +364,8 @@ pub struct Expr {
     pub at: u32,
     /// Length of the expression text.
     pub len: u32,
+    /// The string literals the file functions use (names, modes, formats).
+    pub strings: Vec<Arc<str>>,
 }
 
 /// An evaluation failure, before it is given a place and a message.

@@ -21,6 +21,8 @@ pub(super) struct Parser<'a> {
     end: usize,
     scope: &'a Scope<'a>,
     pub(super) ops: Vec<Op>,
+    /// String literals of the file functions ([`super::Expr::strings`]).
+    pub(super) strings: Vec<std::sync::Arc<str>>,
     /// Current nesting level ([`MAX_NESTING`]).
     depth: u32,
 }
@@ -29,7 +31,16 @@ type PResult = Result<(), Box<LsystemError>>;
 
 impl<'a> Parser<'a> {
     pub(super) fn new(src: &'a Source, start: usize, end: usize, scope: &'a Scope<'a>) -> Self {
-        Parser { src, s: src.text.as_bytes(), pos: start, end, scope, ops: Vec::new(), depth: 0 }
+        Parser {
+            src,
+            s: src.text.as_bytes(),
+            pos: start,
+            end,
+            scope,
+            ops: Vec::new(),
+            strings: Vec::new(),
+            depth: 0,
+        }
     }
 
     /// Enters one level of nesting at `at`; an error past [`MAX_NESTING`]. Every
@@ -604,6 +615,94 @@ impl<'a> Parser<'a> {
         Ok(n)
     }
 
+    /// A string literal argument of `what` (after white space): its index in
+    /// [`Parser::strings`], escapes replaced.
+    fn string_literal(&mut self, what: &str) -> Result<u32, Box<LsystemError>> {
+        self.skip_ws();
+        let start = self.pos;
+        if self.peek() != Some(b'"') {
+            return Err(self.err(
+                start.min(self.end.saturating_sub(1)),
+                &format!("`{what}` needs a string literal here (cpfg's grammar takes only \"...\")"),
+                "expected a string",
+            ));
+        }
+        self.pos += 1;
+        while self.pos < self.end && self.s[self.pos] != b'"' {
+            self.pos += 1;
+        }
+        if self.pos >= self.end {
+            return Err(self.err(start, "unclosed string literal", "opened here"));
+        }
+        let text = std::str::from_utf8(&self.s[start + 1..self.pos]).unwrap_or("");
+        self.pos += 1;
+        self.strings.push(super::files::unescape(text).into());
+        Ok(self.strings.len() as u32 - 1)
+    }
+
+    /// `fscanf(file, "format", &x, &a[i], …)`: the file expression, the format (checked:
+    /// the conversions cpfg's double variables allow) and the variables' addresses.
+    fn fscanf(&mut self, start: usize) -> PResult {
+        self.pos += 1; // (
+        self.ternary()?;
+        self.expect(",", "after fscanf's file")?;
+        self.skip_ws();
+        let fmt_at = self.pos;
+        let format = self.string_literal("fscanf")?;
+        let wanted = super::files::check_format(&self.strings[format as usize]).map_err(|why| {
+            self.src.error(
+                ErrorKind::Unsupported,
+                fmt_at,
+                self.pos - fmt_at,
+                &format!("unsupported: fscanf's format: {why}"),
+                "this format",
+            )
+        })?;
+        let mut targets = 0u32;
+        while self.eat(",") {
+            self.skip_ws();
+            let at = self.pos;
+            if !self.eat("&") {
+                return Err(self.err(
+                    at.min(self.end.saturating_sub(1)),
+                    "fscanf needs the address of a variable here (`&x` or `&a[i]`), as in cpfg",
+                    "expected `&`",
+                ));
+            }
+            let Some((vat, var)) = self.ident() else {
+                return Err(self.err(at, "expected a variable name after `&`", "here"));
+            };
+            let var = var.to_string();
+            match self.lvalue(&var, vat)? {
+                Some(Target::Local(k)) => self.ops.push(Op::Const(-(k as f64) - 1.0)),
+                Some(Target::Global(g)) => self.ops.push(Op::Const(g as f64)),
+                Some(Target::GlobalAt { base, len, at }) => self.ops.push(Op::AddressAt { base, len, at }),
+                None => {
+                    return Err(self.src.error(
+                        ErrorKind::UndefinedName,
+                        vat,
+                        var.len(),
+                        &format!("`&{var}`: not a variable or parameter fscanf can assign"),
+                        "not a variable",
+                    ))
+                }
+            }
+            targets += 1;
+        }
+        self.expect(")", "closing fscanf")?;
+        if (targets as usize) < wanted {
+            return Err(self.src.error(
+                ErrorKind::Arity,
+                start,
+                6,
+                &format!("fscanf's format assigns {wanted} variable(s) but {targets} address(es) are given"),
+                "too few variables",
+            ));
+        }
+        self.ops.push(Op::Fscanf { format, targets, at: start as u32 });
+        Ok(())
+    }
+
     fn call(&mut self, name: &str, start: usize) -> PResult {
         if name == "printf" || name == "fprintf" {
             // Accepted for compatibility; prints nothing, evaluates to 0.
@@ -614,19 +713,35 @@ impl<'a> Parser<'a> {
             self.ops.push(Op::Const(0.0));
             return Ok(());
         }
-        if matches!(name, "fopen" | "fclose" | "fflush") {
-            // File output is discarded like printf's (the pipeline warns that the model
-            // writes files): `fopen` returns a non-zero handle, the others 0.
-            let n = self.arguments(name)?;
-            for _ in 0..n {
-                self.ops.push(Op::Pop);
-            }
-            self.ops.push(Op::Const(if name == "fopen" { 1.0 } else { 0.0 }));
+        if name == "fopen" {
+            // fopen("name", "mode"): both string literals, as cpfg's grammar needs.
+            self.pos += 1; // (
+            let file = self.string_literal(name)?;
+            self.expect(",", "between fopen's file name and mode")?;
+            let mode = self.string_literal(name)?;
+            self.expect(")", "closing fopen")?;
+            self.ops.push(Op::Fopen { name: file, mode });
             return Ok(());
         }
+        if name == "fclose" || name == "fflush" {
+            let n = self.arguments(name)?;
+            if n != 1 {
+                return Err(self.src.error(
+                    ErrorKind::Arity,
+                    start,
+                    name.len(),
+                    &format!("function `{name}` takes 1 argument (a file), got {n}"),
+                    "wrong number of arguments",
+                ));
+            }
+            self.ops.push(if name == "fclose" { Op::Fclose } else { Op::Fflush });
+            return Ok(());
+        }
+        if name == "fscanf" {
+            return self.fscanf(start);
+        }
         const CPFG_ONLY: &[&str] = &[
-            "curve", "tfunc", "inblob", "fscanf", "vvXmin", "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax",
-            "vvScale",
+            "curve", "tfunc", "inblob", "vvXmin", "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale",
         ];
         if CPFG_ONLY.contains(&name) {
             return Err(self.src.error(

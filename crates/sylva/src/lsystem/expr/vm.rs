@@ -3,6 +3,7 @@
 //! `biran`: sylva's or cpfg's, [`super::random`]), globals, loop and work budgets, and
 //! the built-in functions of the cpfg language (Mech2004, McLoughlin2021 §2.4).
 
+use super::files::OpenFiles;
 use super::random::{CpfgRandom, Draws, RandomGenerator};
 use super::{EvalError, Expr, Func, ModelFunctions, Op, LOOP_LIMIT};
 use crate::lsystem::source::ErrorKind;
@@ -47,6 +48,8 @@ pub struct Evaluator {
     pub functions: ModelFunctions,
     /// Set by `stop(x)` with x ≠ 0: the derivation ends after the current step.
     pub stopped: bool,
+    /// The files the model's statements opened (cpfg's 25 slots).
+    pub files: OpenFiles,
     /// Derivation steps applied so far.
     pub steps_done: u32,
     loops: u64,
@@ -94,6 +97,7 @@ impl Evaluator {
             globals: Vec::new(),
             functions: ModelFunctions::default(),
             stopped: false,
+            files: OpenFiles::default(),
             steps_done: 0,
             loops: 0,
             work: 0,
@@ -291,6 +295,52 @@ impl Evaluator {
                     if n >= 2 {
                         st.swap(n - 1, n - 2);
                     }
+                }
+                Op::Fopen { name, mode } => {
+                    let (name, mode) = (&e.strings[name as usize], &e.strings[mode as usize]);
+                    let data = self.functions.data.get(&**name).cloned();
+                    st.push(self.files.open(data, mode));
+                }
+                Op::Fclose => {
+                    let h = st.pop().unwrap_or(-1.0);
+                    st.push(self.files.close(h));
+                }
+                Op::Fflush => {
+                    let h = st.pop().unwrap_or(-1.0);
+                    st.push(self.files.flush(h));
+                }
+                Op::AddressAt { base, len, at } => {
+                    let i = st.pop().unwrap_or(0.0).floor();
+                    if !(0.0..len as f64).contains(&i) {
+                        return Err(EvalError { kind: ErrorKind::OutOfRange, at });
+                    }
+                    st.push(base as f64 + i);
+                }
+                Op::Fscanf { format, targets, at } => {
+                    let n = targets as usize;
+                    let addrs = st.split_off(st.len().saturating_sub(n));
+                    let h = st.pop().unwrap_or(-1.0);
+                    let get = |a: f64, locals: &S, globals: &[f64]| {
+                        if a < 0.0 {
+                            locals.get((-a - 1.0) as usize)
+                        } else {
+                            globals.get(a as usize).copied().unwrap_or(0.0)
+                        }
+                    };
+                    let old: Vec<f64> = addrs.iter().map(|&a| get(a, &locals, globals)).collect();
+                    let (v, new) = self
+                        .files
+                        .scan(h, &e.strings[format as usize], &old)
+                        .map_err(|_| EvalError { kind: ErrorKind::Unsupported, at })?;
+                    self.work = self.work.saturating_add(new.len() as u64);
+                    for (&a, &x) in addrs.iter().zip(&new) {
+                        if a < 0.0 {
+                            locals.set((-a - 1.0) as usize, x);
+                        } else if let Some(g) = globals.get_mut(a as usize) {
+                            *g = x;
+                        }
+                    }
+                    st.push(v);
                 }
                 Op::LoopGuard(at) => {
                     self.loops += 1;

@@ -31,8 +31,11 @@
 //! - An open curve has `m − 3` cubic segments (so `m ≥ 4`), a closed one `m` (its
 //!   control points wrap around; `m ≥ 3`). The z coordinate is read and must be finite
 //!   but is not used: the contour lies in its x–y plane.
-//! - cpfg's headerless format (`num dim open|closed` first line) and the `background:` /
-//!   `markers:` lines some editors write are `unsupported:` errors.
+//! - cpfg's oldest layout, without a `cver` line (issue 46 item 10), is read as cpfg's
+//!   `_ReadContour0000` reads it: a first line `num dim type` (`closed`, or any other
+//!   word for open), then `num` points of `dim` (2 or 3) coordinates separated by any
+//!   white space, each of multiplicity 1; text after them is ignored.
+//! - The `background:` / `markers:` lines some editors write are `unsupported:` errors.
 //!
 //! Errors name the file, the line and why (a bad number, a missing header key, a count
 //! that does not match, a contour of zero length).
@@ -178,13 +181,7 @@ pub fn parse(name: &str, text: &str) -> Result<Contour, Box<LsystemError>> {
                 &format!("contour format `{}` (cver 1 1 to 1 3)", excerpt(first)),
             ))
         }
-        _ => {
-            return Err(unsupported(
-                at0,
-                first.len(),
-                "a contour file without a `cver 1 N` first line (cpfg's oldest format)",
-            ))
-        }
+        _ => return headerless(&src, &lines),
     };
     // Header keys, in any order, up to the first line that starts with a number.
     let (mut cname, mut counts, mut closed, mut end_point, mut samples) = (None, None, None, false, None);
@@ -346,6 +343,78 @@ pub fn parse(name: &str, text: &str) -> Result<Contour, Box<LsystemError>> {
     Ok(c)
 }
 
+/// cpfg's oldest contour layout, without a `cver` line (its `_ReadContour0000`): a
+/// first line `num dim type` (`type` is `closed` for a closed curve, any other word
+/// open), then `num` control points of `dim` coordinates (2: `x y`, 3: `x y z`),
+/// separated by any white space, each of multiplicity 1. What follows them is ignored,
+/// as cpfg ignores it.
+fn headerless(src: &TextFile, lines: &[(usize, &str)]) -> Result<Contour, Box<LsystemError>> {
+    let err = |at: usize, len: usize, what: &str| src.error(at, len, what, "here");
+    let (at0, first) = lines[0];
+    let words: Vec<&str> = first.split_whitespace().collect();
+    let (num, dim, kind) = match words.as_slice() {
+        [n, d, t, ..] => match (n.parse::<usize>(), d.parse::<usize>()) {
+            (Ok(n), Ok(d)) => (n, d, *t),
+            _ => (0, 0, ""),
+        },
+        _ => (0, 0, ""),
+    };
+    if kind.is_empty() {
+        return Err(err(
+            at0,
+            first.len(),
+            &format!(
+                "`{}`: a contour file starts with `cver 1 N` or, in cpfg's oldest layout, with `num dim                  open|closed` (whole numbers: control points, coordinates per point)",
+                excerpt(first)
+            ),
+        ));
+    }
+    if !(2..=3).contains(&dim) {
+        return Err(err(at0, first.len(), &format!("a contour's points have 2 or 3 coordinates, not {dim}")));
+    }
+    let closed = kind == "closed";
+    let need = if closed { 3 } else { 4 };
+    if num > MAX_POINTS || num < need {
+        return Err(err(
+            at0,
+            first.len(),
+            &format!(
+                "a{} contour needs {need} to {MAX_POINTS} control points (it says {num})",
+                if closed { " closed" } else { "n open" }
+            ),
+        ));
+    }
+    // The numbers after the first line, with their places.
+    let mut numbers = lines[1..].iter().flat_map(|&(at, body)| {
+        body.split_whitespace().map(move |w| (at + (w.as_ptr() as usize - body.as_ptr() as usize), w))
+    });
+    let mut control = Vec::with_capacity(num);
+    let mut last = (at0, first.len());
+    for i in 0..num {
+        let mut p = [0.0; 3];
+        for c in p.iter_mut().take(dim) {
+            let Some((at, w)) = numbers.next() else {
+                return Err(err(
+                    last.0,
+                    last.1,
+                    &format!("the file ends in control point {} of the {num} its first line promises", i + 1),
+                ));
+            };
+            last = (at, w.len());
+            *c = super::number(w).ok_or_else(|| {
+                err(at, w.len(), &format!("`{}` in control point {}: not a finite number", excerpt(w), i + 1))
+            })?;
+        }
+        control.push(DVec3::from(p));
+    }
+    let c = Contour { name: None, closed, end_point: false, samples: None, distinct: num, control };
+    let length = c.length();
+    if length.is_nan() || length <= 1e-12 {
+        return Err(err(at0, first.len(), "the contour has zero length (all its control points coincide)"));
+    }
+    Ok(c)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -377,11 +446,29 @@ mod tests {
         assert!(s.iter().all(|p| (p.length() - 0.6).abs() < 0.1), "{s:?}");
     }
 
+    /// cpfg's oldest layout: `num dim type`, then the points, one multiplicity each.
+    #[test]
+    fn the_headerless_layout_is_read_as_cpfg_reads_it() {
+        let c = parse("old.con", "4 2 closed\n1 0\n0 1 -1 0\n\n0 -1\n# ignored after the points\n").unwrap();
+        assert!(c.closed && c.distinct == 4 && c.segments() == 4 && c.name.is_none());
+        assert_eq!(c.control[1], DVec3::new(0.0, 1.0, 0.0));
+        let same = "cver 1 2\nname: sq\npoints: 4 4\ntype: cr\n1 0 0 1\n0 1 0 1\n-1 0 0 1\n0 -1 0 1\n";
+        assert_eq!(c.sample(8), parse("sq.con", same).unwrap().sample(8));
+        let o = parse("old.con", "6 3 open\n0 0 0\n0 0 0\n0 0 0\n2 0 5\n2 0 5\n2 0 5\n").unwrap();
+        assert!(!o.closed && o.segments() == 3);
+        assert_eq!(o.sample(4), parse("line.con", LINE).unwrap().sample(4));
+    }
+
     #[test]
     fn bad_files_are_located_errors() {
         for (text, what, line) in [
             ("", "empty", 1),
-            ("3 2 open\n", "unsupported: a contour file without", 1),
+            ("cver\n", "unsupported: contour format", 1),
+            ("points: 3\n", "starts with `cver 1 N`", 1),
+            ("5 2 open\n0 0 1 1\n", "ends in control point 3", 2),
+            ("4 4 open\n", "2 or 3 coordinates", 1),
+            ("2 2 open\n0 0 1 1\n", "needs 4 to", 1),
+            ("4 2 open\n0 0 1 x 0 0 0 0\n", "`x` in control point 2", 2),
             ("cver 2 0\n", "unsupported: contour format", 1),
             ("cver 1 3\npoints: 2\n", "two whole numbers", 2),
             ("cver 1 3\npoints: 2 6\ntype: xr\n", "contour type", 3),

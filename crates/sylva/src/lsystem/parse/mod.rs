@@ -196,9 +196,12 @@ pub struct LSystem {
     /// Byte offset (in the preprocessed source) of the first communication module `?E`,
     /// when the L-system uses them: the derivation then needs an environmental program.
     pub environment_at: Option<usize>,
-    /// True when the model opens files (`fopen`): sylva discards file output like
-    /// `printf` output, and the pipeline says so.
+    /// True when the model opens files for writing (`fopen(…, "w")`): sylva discards
+    /// file output like `printf` output, and the pipeline says so.
     pub writes_files: bool,
+    /// The model's `fopen` calls (name, mode, place): the pipeline reads the files
+    /// opened for reading from the model folder beforehand ([`crate::lsystem::expr::files`]).
+    pub file_uses: Vec<crate::lsystem::expr::files::FileUse>,
     /// Derivation length from the file (`derivation length:`), 0 when absent.
     pub derivation_length: u32,
     /// Seed from the file (`seed:`), if given (its absolute value, for sylva's generator).
@@ -326,6 +329,7 @@ impl LSystem {
             has_queries: false,
             environment_at: None,
             writes_files: false,
+            file_uses: Vec::new(),
             derivation_length: 0,
             seed: None,
             cpfg_seed: None,
@@ -360,7 +364,8 @@ impl LSystem {
         }
         ls.subsystems = subsystems;
         ls.has_queries = ["?P", "?H", "?U", "?L"].iter().any(|q| ls.symbols.get(q).is_some());
-        ls.writes_files = ls.source.text.contains("fopen");
+        ls.file_uses = crate::lsystem::expr::files::file_reads(&ls.source.text);
+        ls.writes_files = ls.file_uses.iter().any(|u| !u.reads());
         Ok(ls)
     }
 
