@@ -577,6 +577,10 @@ fn item10_statements_read_files_with_fscanf() {
     // A file the folder does not hold: fopen gives -1 (a warning); reading it is an error.
     let e = grow(&text("none.txt", "%lf")).unwrap_err().to_string();
     assert!(e.contains("fscanf") && e.contains("not open"), "{e}");
+    // `%f` stores a 4-byte float into half of cpfg's 8-byte variable (as cpfg does): it
+    // grows, with a warning naming the line.
+    let (_, warnings) = grow(&text("data.txt", "%f")).unwrap();
+    assert!(warnings.iter().any(|w| w.contains("plant.l:4") && w.contains("`%f`")), "{warnings:?}");
     // `%d` would write a C int into cpfg's double: refused when compiled.
     let e = grow(&text("data.txt", "%d")).unwrap_err().to_string();
     assert!(e.contains("unsupported: fscanf's format") && e.contains("%d"), "{e}");
