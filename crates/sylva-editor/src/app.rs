@@ -30,8 +30,8 @@ pub struct EditOptions {
     pub watch: bool,
     /// Write the frame log (JSON lines) here when the editor closes.
     pub frame_log: Option<PathBuf>,
-    /// Close once the first tree is shown and this many frames have passed after it
-    /// (after the `script`, when there is one).
+    /// Close once a tree is shown and this many frames have passed after the newest
+    /// one (after the `script`, when there is one).
     pub close_after_tree: Option<u64>,
     /// Changes applied one at a time once a tree is shown, each after the previous
     /// one's tree (latency measurements: the frame log times each).
@@ -226,7 +226,8 @@ impl EditorApp {
                 if job == self.worker.latest() {
                     self.message = None;
                 }
-                self.frames_since_tree.get_or_insert(0);
+                // `--close-after-tree` counts the frames after the newest tree.
+                self.frames_since_tree = Some(0);
             }
             Outcome::Failed { message, .. } => {
                 self.shown_job = job;
@@ -239,6 +240,7 @@ impl EditorApp {
     /// One frame of the whole window.
     pub fn frame(&mut self, ui: &mut egui::Ui) {
         let started = Instant::now();
+        self.log.frame_began();
         while let Some(o) = self.worker.poll() {
             self.take(o);
         }
@@ -285,6 +287,11 @@ impl EditorApp {
             *n += 1;
         }
         self.log.frame_with_cpu(started.elapsed(), self.previous_cpu.take());
+        if self.log.awaiting_present() {
+            // The next frame begins once this one is painted and presented: the log's
+            // "presented" time of the tree it shows.
+            ui.ctx().request_repaint();
+        }
         self.close_when_done(ui);
     }
 
@@ -316,7 +323,9 @@ impl EditorApp {
         if by_tree {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
-        if self.opts.close_after_tree.is_some() {
+        // Frames to count, but no repaint loop while the worker runs (it would take the
+        // cores of the run being timed): the worker wakes the window with its tree.
+        if self.opts.close_after_tree.is_some() && self.settled() {
             ui.ctx().request_repaint();
         }
     }

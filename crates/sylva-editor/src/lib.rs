@@ -9,6 +9,7 @@
 //! - [`grammar`]: an L-system's text, its errors in place and its `#define` sliders;
 //! - [`thumbnails`]: the preset picker's pictures;
 //! - [`viewport`]: the 3D view on egui's wgpu device;
+//! - [`composite`]: draws the view's texture into the window inside egui's pass;
 //! - [`app`]: the window, menu and status bar ([`EditorApp`]);
 //! - [`frame_log`]: frame times and change-to-tree latencies;
 //! - [`watch`]: `--watch`, reloading a recipe changed on disk.
@@ -19,6 +20,7 @@
 //! ```
 
 pub mod app;
+pub mod composite;
 pub mod document;
 pub mod frame_log;
 pub mod grammar;

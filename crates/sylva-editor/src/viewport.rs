@@ -9,10 +9,13 @@
 //! UI thread), and picks the level of detail: automatic by distance, or a fixed level.
 //! Overlays show the tree at rest: pause the wind to compare them with the bark.
 //!
-//! The texture is `Rgba8Unorm` (what egui-wgpu samples for a native texture) viewed as
-//! `Rgba8UnormSrgb` by the renderer, so the colours are encoded once. Without a wgpu
-//! device (no adapter) the view says so and the rest of the editor works.
+//! The texture is `Rgba8Unorm` viewed as `Rgba8UnormSrgb` by the renderer, so the
+//! colours are encoded once; it is drawn into the window by a pipeline of its own inside
+//! egui's pass ([`Composite`]: one unblended triangle, a texel per pixel), not as an egui
+//! image, and only when what it shows changed. Without a wgpu device (no adapter) the
+//! view says so and the rest of the editor works.
 
+use crate::composite::Composite;
 use crate::worker::{CageOutcome, CageWorker};
 use egui_wgpu::wgpu;
 use glam::Mat4;
@@ -30,11 +33,11 @@ pub const MAX_SIDE: u32 = 4096;
 /// The format the renderer draws the view in (the texture's sRGB view).
 pub const VIEW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
-/// The offscreen target and its egui texture id.
+/// The offscreen target and the composite's bind group for it.
 struct Target {
     size: (u32, u32),
     texture: wgpu::Texture,
-    id: egui::TextureId,
+    bind_group: wgpu::BindGroup,
 }
 
 /// What the view shows besides the tree (the "View" row).
@@ -86,6 +89,11 @@ struct Cage {
 /// The view of the tree.
 pub struct Viewport {
     gpu: Option<egui_wgpu::RenderState>,
+    /// Draws the view's texture into the window (made with the device).
+    composite: Option<Composite>,
+    /// The adapter is a software renderer (Mesa's lavapipe, llvmpipe): the view starts
+    /// at the smallest scale and the wind holds while a regeneration runs.
+    software: bool,
     renderer: Option<Arc<Renderer>>,
     target: Option<Target>,
     control: OrbitControl,
@@ -127,7 +135,9 @@ pub struct Viewport {
 /// [`STEP_UP_PAUSE`] of a drop, so it does not flip between two steps every frame). On a
 /// GPU the scale stays 1 (a frame waits for the display's refresh, ~17 ms); on a
 /// software renderer (lavapipe draws the aspen's 92,744 triangles at 1000×760 in
-/// ~250 ms) it drops to keep the editor responsive.
+/// ~250 ms) it drops to keep the editor responsive. A frame drawn smaller is drawn
+/// without MSAA; on a software renderer the scale starts at [`MIN_SCALE`], so the first
+/// tree's first frame is a small one too.
 #[derive(Debug, Clone)]
 struct Pace {
     /// The draw being measured: when it was issued, its pixels and the scale it was
@@ -201,13 +211,24 @@ impl std::fmt::Debug for Viewport {
     }
 }
 
-/// egui-wgpu's texture format for native textures, with the sRGB view the renderer draws.
+/// The view texture's format (the composite reads its bytes as they are), with the sRGB
+/// view the renderer draws through.
 const TEXTURE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 impl Viewport {
     /// A view on `gpu` (egui's wgpu state; `None` without an adapter).
     pub fn new(gpu: Option<egui_wgpu::RenderState>) -> Viewport {
+        let software =
+            gpu.as_ref().is_some_and(|g| g.adapter.get_info().device_type == wgpu::DeviceType::Cpu);
+        let mut pace = Pace::new();
+        if software {
+            // The first frames of a software renderer (the first tree's among them) are
+            // drawn small at once, not measured first at full size.
+            pace.scale = MIN_SCALE;
+        }
         Viewport {
+            composite: gpu.as_ref().map(Composite::new),
+            software,
             gpu,
             renderer: None,
             target: None,
@@ -223,7 +244,7 @@ impl Viewport {
             view: ViewSettings::default(),
             busy: false,
             full_resolution: false,
-            pace: Pace::new(),
+            pace,
             skeleton: None,
             cage: Cage::default(),
         }
@@ -432,8 +453,9 @@ impl Viewport {
             }
         }
         let painter = ui.painter_at(rect);
-        painter.rect_filled(rect, 0.0, egui::Color32::from_rgb(225, 222, 214));
+        let background = egui::Color32::from_rgb(225, 222, 214);
         if self.gpu.is_none() {
+            painter.rect_filled(rect, 0.0, background);
             painter.text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
@@ -448,13 +470,24 @@ impl Viewport {
         let h = ((rect.height() * ppp).round() as u32).clamp(1, MAX_SIDE);
         self.update_cage(ui.ctx());
         self.pace.measure();
+        // The tree's texture covers the view: no background under it (on a software
+        // renderer each layer egui paints over the view costs a frame milliseconds).
         match self.draw(w, h, response.dragged()) {
-            Ok(Some(id)) => {
-                let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
-                painter.image(id, rect, uv, egui::Color32::WHITE);
+            Ok(Some((bind_group, one_to_one))) => match &self.composite {
+                Some(c) => {
+                    painter.add(c.paint(rect, bind_group, one_to_one));
+                }
+                None => {
+                    painter.rect_filled(rect, 0.0, background);
+                }
+            },
+            Ok(None) => {
+                painter.rect_filled(rect, 0.0, background);
             }
-            Ok(None) => {}
-            Err(e) => self.error = Some(e),
+            Err(e) => {
+                painter.rect_filled(rect, 0.0, background);
+                self.error = Some(e);
+            }
         }
         if let Some(e) = &self.error {
             painter.text(
@@ -465,7 +498,13 @@ impl Viewport {
                 egui::Color32::DARK_RED,
             );
         }
-        if self.animating() || self.pace.measuring.is_some() {
+        if self.busy && self.software {
+            // The wind holds while a software renderer's tree regrows: each frame would
+            // take the cores the worker needs (the next tree comes sooner), and the
+            // worker wakes the window when it is done. A frame's cost is measured only
+            // when another follows at once.
+            self.pace.measuring = None;
+        } else if self.animating() || self.pace.measuring.is_some() {
             ui.ctx().request_repaint();
         } else if self.drawn.is_some_and(|d| d.size != (w, h)) {
             // Drawn small while it changed: the full-resolution frame once it is still.
@@ -480,8 +519,10 @@ impl Viewport {
     }
 
     /// Draws the tree for a `w × h` view (fewer pixels while it changes: [`Pace`]);
-    /// the egui texture to show, stretched over the view.
-    fn draw(&mut self, w: u32, h: u32, orbiting: bool) -> Result<Option<egui::TextureId>, String> {
+    /// the composite's bind group of the texture to show, stretched over the view, and
+    /// whether it has the view's size (drawn a texel per pixel).
+    fn draw(&mut self, w: u32, h: u32, orbiting: bool) -> Result<Option<(wgpu::BindGroup, bool)>, String> {
+        let full = (w, h);
         let time = self.time();
         let o = self.control.orbit;
         let content: Content = (
@@ -498,7 +539,10 @@ impl Viewport {
             || !orbiting && !self.busy && !self.animating() && self.pace.changed_at.elapsed() >= REFINE_AFTER;
         let scale = if still { 1.0 } else { self.pace.scale };
         let (w, h) = (((w as f32 * scale).round() as u32).max(1), ((h as f32 * scale).round() as u32).max(1));
-        let (Some(gpu), Some(renderer)) = (&self.gpu, &self.renderer) else { return Ok(None) };
+        let (Some(gpu), Some(renderer), Some(composite)) = (&self.gpu, &self.renderer, &self.composite)
+        else {
+            return Ok(None);
+        };
         if self.target.as_ref().is_none_or(|t| t.size != (w, h)) {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("sylva-edit view"),
@@ -512,23 +556,11 @@ impl Viewport {
                     | wgpu::TextureUsages::COPY_SRC,
                 view_formats: &[VIEW_FORMAT],
             });
-            let view = texture.create_view(&Default::default());
-            let mut egui_renderer = gpu.renderer.write();
-            let id = match &self.target {
-                Some(t) => {
-                    egui_renderer.update_egui_texture_from_wgpu_texture(
-                        &gpu.device,
-                        &view,
-                        wgpu::FilterMode::Linear,
-                        t.id,
-                    );
-                    t.id
-                }
-                None => egui_renderer.register_native_texture(&gpu.device, &view, wgpu::FilterMode::Linear),
-            };
-            self.target = Some(Target { size: (w, h), texture, id });
+            let bind_group = composite.bind(&gpu.device, &texture, VIEW_FORMAT);
+            self.target = Some(Target { size: (w, h), texture, bind_group });
         }
         let target = self.target.as_ref().expect("the target was just made");
+        let shown = Some((target.bind_group.clone(), (w, h) == full));
         // Nothing moved since the last frame drawn: the texture already shows it (on a
         // software renderer a frame of a big tree costs hundreds of milliseconds).
         let key = DrawKey {
@@ -539,9 +571,16 @@ impl Viewport {
             cage: self.cage.generation,
         };
         if self.drawn == Some(key) {
-            return Ok(Some(target.id));
+            return Ok(shown);
         }
-        let opts = self.render_options(w, h);
+        let mut opts = self.render_options(w, h);
+        // A frame drawn smaller while the view changes is drawn without MSAA: on a
+        // software renderer 4× samples cost a small frame about three times its price
+        // (lavapipe: the aspen at 256×192, ~155 ms against ~50 ms), and the frame is
+        // stretched over the view anyway. The still frame at full size has them.
+        if (w, h) != full {
+            opts.msaa = false;
+        }
         let instances = [Mat4::IDENTITY];
         let mut camera = renderer.camera(&opts, &instances);
         self.control.apply(&mut camera);
@@ -555,7 +594,7 @@ impl Viewport {
         self.drawn = Some(key);
         self.frames += 1;
         self.pace.measuring = Some((issued, w * h, scale));
-        Ok(Some(target.id))
+        Ok(shown)
     }
 
     /// The renderer's options for a `w × h` frame from the view's angles, with what the
