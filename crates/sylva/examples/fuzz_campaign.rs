@@ -899,6 +899,8 @@ fn kill_lane(a: &Args, cli: &Path) -> Tally {
     let full_ms = (t0.elapsed().as_millis() as u64).max(50);
     eprintln!("  kill lane: `sylva grow {}` takes {full_ms} ms ({full:?})", a.kill_what);
     let _ = std::fs::remove_dir_all(&probe);
+    // The files a finished run leaves, by (extension, preview): made when first needed.
+    let mut complete: std::collections::HashMap<(&str, bool), Vec<String>> = Default::default();
     for k in 0..a.kill_runs {
         let mut rng = Rng::new(a.seed.wrapping_mul(1_000_003).wrapping_add(k) ^ 0x4B11_4B11);
         let dir = base.join(format!("kill-{k}"));
@@ -949,8 +951,31 @@ fn kill_lane(a: &Args, cli: &Path) -> Tally {
         }
         if term {
             // A SIGTERM leaves nothing: the outputs when it finished first, else no file.
+            // A signal that arrives while the outputs are renamed into place is held until
+            // the whole set is there (then the process dies of it): the complete set of a
+            // finished run, and no temporary, is a run that committed before the signal.
+            let mut files = listing(&dir);
+            files.sort();
+            let committed = !finished
+                && !files.is_empty()
+                && files
+                    == *complete.entry((ext, preview)).or_insert_with(|| {
+                        let probe = base.join(format!("complete-{ext}-{preview}"));
+                        let _ = std::fs::create_dir_all(&probe);
+                        let _ = command(&probe, ext, preview)
+                            .spawn()
+                            .ok()
+                            .and_then(|mut c| wait_for(&mut c, Duration::from_secs(60)));
+                        let mut names = listing(&probe);
+                        names.sort();
+                        let _ = std::fs::remove_dir_all(&probe);
+                        names
+                    });
+            if committed {
+                tally.note("kill SIGTERM: the whole output set committed before the signal", RUNS);
+            }
             let left: Vec<String> =
-                listing(&dir).into_iter().filter(|n| !finished || n.contains(".tmp-")).collect();
+                files.into_iter().filter(|n| !(finished || committed) || n.contains(".tmp-")).collect();
             if !left.is_empty() {
                 tally.note(key, LEFT);
                 tally.findings.push(format!("kill run {k} ({what}): left {left:?} ({status:?})"));
