@@ -4,7 +4,7 @@
 //! root node, quad + Catmull–Clark in a cap that subdivision shrinks above it, tube and
 //! sweep in a flat fan. To give every mesher the same base, the pipeline
 //!
-//! 1. **sinks** each upright root ([`sink_roots`]): the root node moves down by
+//! 1. **sinks** each upright root standing on the ground ([`sink_roots`]): the root node moves down by
 //!    [`SINK_RADII`] × its radius, so whatever the mesher and refinement do to the end,
 //!    the trunk's wall reaches below the root's original height (the ground plane);
 //! 2. **cuts** the refined bark at that plane ([`cut_base`]): faces near the root are
@@ -40,10 +40,18 @@ pub struct SunkRoot {
     pub radius: f32,
 }
 
-/// Moves every upright root of `skeleton` down by [`SINK_RADII`] × its radius and
-/// returns where each was. A root is upright when every child rises at least half its
-/// internode length (a trunk); roots with a level or descending stem, a zero radius or
-/// no children are left alone.
+/// How far above the lowest upright root another upright root may stand and still be on
+/// the ground, in radii of the thickest upright root.
+pub const GROUND_BAND_RADII: f32 = 2.0;
+
+/// Moves every upright root of `skeleton` that stands on the ground down by
+/// [`SINK_RADII`] × its radius and returns where each was. A root is upright when every
+/// child rises at least half its internode length (a trunk); roots with a level or
+/// descending stem, a zero radius or no children are left alone. It stands on the ground
+/// when it is at most [`GROUND_BAND_RADII`] radii of the thickest upright root above the
+/// lowest upright root: a forest on flat ground sinks every trunk, while the separate
+/// pieces a model draws in the air (a cpfg leaf's outline drawn with `F`, a floating
+/// cylinder of an LST file) keep their ends and get no flat base.
 pub fn sink_roots(skeleton: &mut Skeleton) -> Vec<SunkRoot> {
     let mut root_children: HashMap<u32, Vec<u32>> = HashMap::new();
     for (i, &p) in skeleton.parent.iter().enumerate() {
@@ -67,6 +75,9 @@ pub fn sink_roots(skeleton: &mut Skeleton) -> Vec<SunkRoot> {
         }
         sunk.push(SunkRoot { node: i as u32, at, radius });
     }
+    let ground = sunk.iter().map(|s| s.at.y).fold(f32::INFINITY, f32::min);
+    let thickest = sunk.iter().map(|s| s.radius).fold(0.0, f32::max);
+    sunk.retain(|s| s.at.y - ground <= GROUND_BAND_RADII * thickest);
     for s in &sunk {
         skeleton.position[s.node as usize].y -= SINK_RADII * s.radius;
     }
@@ -874,5 +885,22 @@ mod tests {
         assert_eq!(sunk, vec![SunkRoot { node: 0, at: Vec3::ZERO, radius: 0.2 }]);
         assert!((sk.position[0].y + SINK_RADII * 0.2).abs() < 1e-6);
         assert_eq!(sk.position[2], Vec3::new(5.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn only_roots_on_the_ground_sink() {
+        let mut sk = Skeleton::new();
+        // A trunk at y = 0, a second one slightly higher (within two trunk radii), and an
+        // upright piece floating in the crown (a leaf outline drawn with `F`).
+        let trunk = sk.push(Vec3::ZERO, 0.5, NO_PARENT, Vec3::X, 0);
+        sk.push(Vec3::new(0.0, 3.0, 0.0), 0.3, trunk, Vec3::X, 0);
+        let near = sk.push(Vec3::new(4.0, 0.6, 0.0), 0.2, NO_PARENT, Vec3::X, 0);
+        sk.push(Vec3::new(4.0, 2.0, 0.0), 0.1, near, Vec3::X, 0);
+        let high = sk.push(Vec3::new(0.5, 2.5, 0.0), 0.05, NO_PARENT, Vec3::X, 0);
+        sk.push(Vec3::new(0.5, 2.7, 0.0), 0.05, high, Vec3::X, 0);
+        let sunk = sink_roots(&mut sk);
+        let nodes: Vec<u32> = sunk.iter().map(|s| s.node).collect();
+        assert_eq!(nodes, vec![trunk, near]);
+        assert_eq!(sk.position[high as usize], Vec3::new(0.5, 2.5, 0.0), "the floating piece stays");
     }
 }
