@@ -532,9 +532,9 @@ fn textured() -> Model {
     let atlas = leaf::leaf_atlas(48, [0.1, 0.3, 0.1], 1);
     let mut model = model();
     model.images = vec![
-        ModelImage { name: "bark_albedo".into(), image: maps.albedo.into(), repeat: true },
-        ModelImage { name: "bark_normal".into(), image: maps.normal.into(), repeat: true },
-        ModelImage { name: "bark_orm".into(), image: maps.orm.into(), repeat: true },
+        ModelImage { name: "bark_albedo".into(), image: maps.albedo, repeat: true },
+        ModelImage { name: "bark_normal".into(), image: maps.normal, repeat: true },
+        ModelImage { name: "bark_orm".into(), image: maps.orm, repeat: true },
         ModelImage { name: "leaf_atlas".into(), image: atlas.image.into(), repeat: false },
     ];
     model.parts[0].material.maps =

@@ -64,17 +64,18 @@ impl BarkStyle {
     }
 }
 
-/// The three bark maps of one style and seed.
+/// The three bark maps of one style and seed, shared: the texture cache and the models
+/// that use them (a session keeps a copy per stage) copy no pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BarkMaps {
     /// The style they show.
     pub style: BarkStyle,
     /// Base colour, sRGB, RGB.
-    pub albedo: Image,
+    pub albedo: std::sync::Arc<Image>,
     /// Tangent-space normal, RGB (linear).
-    pub normal: Image,
+    pub normal: std::sync::Arc<Image>,
     /// Occlusion (R), roughness (G), metallic (B), linear.
-    pub orm: Image,
+    pub orm: std::sync::Arc<Image>,
 }
 
 /// Linear colours of a style's ramp: (cavity, mid, top).
@@ -216,7 +217,7 @@ pub fn bark_maps(style: BarkStyle, size: u32, seed: u64) -> BarkMaps {
                 o[3 * x + 2] = 0;
             }
         });
-    BarkMaps { style, albedo, normal, orm }
+    BarkMaps { style, albedo: albedo.into(), normal: normal.into(), orm: orm.into() }
 }
 
 #[cfg(test)]

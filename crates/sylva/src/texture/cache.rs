@@ -14,32 +14,12 @@ pub type BarkKey = (BarkStyle, u32, u64);
 /// What the leaf atlas depends on: edge in pixels, linear RGB colour, seed.
 pub type AtlasKey = (u32, [f32; 3], u64);
 
-/// The bark maps as the cache keeps and hands them out: shared, so the models that use
-/// them (a session keeps a copy per stage) copy no pixels.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BarkImages {
-    /// The style they show.
-    pub style: BarkStyle,
-    /// Base colour, sRGB, RGB.
-    pub albedo: Arc<Image>,
-    /// Tangent-space normal, RGB (linear).
-    pub normal: Arc<Image>,
-    /// Occlusion (R), roughness (G), metallic (B), linear.
-    pub orm: Arc<Image>,
-}
-
-impl From<BarkMaps> for BarkImages {
-    fn from(m: BarkMaps) -> BarkImages {
-        BarkImages { style: m.style, albedo: m.albedo.into(), normal: m.normal.into(), orm: m.orm.into() }
-    }
-}
-
 /// Drawn textures by what they depend on. At most [`TextureCache::CAPACITY`] of each
 /// kind are kept (the oldest goes first), so a long editing session does not grow
 /// without bound.
 #[derive(Debug, Default)]
 pub struct TextureCache {
-    bark: Vec<(BarkKey, BarkImages)>,
+    bark: Vec<(BarkKey, BarkMaps)>,
     atlas: Vec<(AtlasKey, Arc<Image>)>,
     drawn: usize,
 }
@@ -56,7 +36,7 @@ impl TextureCache {
         &mut self,
         bark: Option<BarkKey>,
         atlas: Option<AtlasKey>,
-    ) -> (Option<BarkImages>, Option<Arc<Image>>) {
+    ) -> (Option<BarkMaps>, Option<Arc<Image>>) {
         let have_bark =
             bark.and_then(|k| self.bark.iter().find(|(key, _)| *key == k).map(|(_, m)| m.clone()));
         let have_atlas = atlas
@@ -68,7 +48,7 @@ impl TextureCache {
         let (new_bark, new_atlas) = rayon::join(
             || {
                 crate::cancel::scope_opt(token.as_ref(), || {
-                    draw_bark.map(|(st, size, seed)| BarkImages::from(bark_maps(st, size, seed)))
+                    draw_bark.map(|(st, size, seed)| bark_maps(st, size, seed))
                 })
             },
             || {

@@ -17,7 +17,7 @@ pub mod cache;
 pub mod leaf;
 
 pub use crate::image::Image;
-pub use cache::{BarkImages, TextureCache};
+pub use cache::TextureCache;
 
 use crate::error::{Error, Result};
 
