@@ -416,10 +416,7 @@ impl Session {
     /// finished and drops the rest; the session's recipe is then the new one.
     pub fn update_with(&mut self, recipe: Recipe, cancel: &Cancel) -> Result<&Tree> {
         recipe.check()?;
-        let first = Stage::ALL
-            .into_iter()
-            .find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, &recipe)))
-            .unwrap_or(Stage::Clip);
+        let first = self.first_stale(&recipe, Stage::ALL).unwrap_or(Stage::Clip);
         let unchanged = first == Stage::Clip && self.loaded.recipe == recipe && self.tree.is_some();
         self.loaded.recipe = recipe;
         self.last_run.clear();
@@ -452,10 +449,7 @@ impl Session {
     pub fn skeleton_with(&mut self, cancel: &Cancel) -> Result<(Skeleton, Report)> {
         let recipe = self.loaded.recipe.clone();
         recipe.check()?;
-        let first = [Stage::Generate, Stage::Fit]
-            .into_iter()
-            .find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, &recipe)))
-            .unwrap_or(Stage::Bark);
+        let first = self.first_stale(&recipe, [Stage::Generate, Stage::Fit]).unwrap_or(Stage::Bark);
         self.last_run.clear();
         if first <= Stage::Fit {
             self.cache.drop_from(first);
@@ -471,6 +465,12 @@ impl Session {
             report.warnings = pipeline::clip_warnings(std::mem::take(&mut report.warnings));
             Ok((skeleton, report))
         })
+    }
+
+    /// The first of `stages` whose kept result was not made from `recipe`'s settings
+    /// (or that has none).
+    fn first_stale(&self, recipe: &Recipe, stages: impl IntoIterator<Item = Stage>) -> Option<Stage> {
+        stages.into_iter().find(|&s| !self.cache.recipe(s).is_some_and(|kept| s.same_inputs(kept, recipe)))
     }
 
     /// The generator's and the fit's results, run or kept as `run` says.
