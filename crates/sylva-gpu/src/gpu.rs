@@ -433,8 +433,9 @@ pub fn uniform_entry(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry 
 }
 
 /// A filterable 2D float texture at `binding` and its filtering sampler at `binding + 1`,
-/// seen by the `visibility` stages (a colour map and how it is sampled).
-pub(crate) fn texture_sampler_entries(
+/// seen by the `visibility` stages (a colour map and how it is sampled). Public for
+/// front ends that draw with pipelines of their own on sylva-gpu's device (the editor).
+pub fn texture_sampler_entries(
     binding: u32,
     visibility: wgpu::ShaderStages,
 ) -> [wgpu::BindGroupLayoutEntry; 2] {
