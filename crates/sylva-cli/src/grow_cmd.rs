@@ -17,7 +17,9 @@ pub struct GrowArgs {
     /// .skel.json for the skeleton). Recipe key `output.file`.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Write a preview PNG here. Default: next to the output, with a .png extension.
+    /// Write a preview PNG here. Default: next to the output, with a .png extension (a
+    /// skeleton output, .lst or .json, gets none unless named: it is written without
+    /// meshing).
     #[arg(long)]
     pub preview: Option<PathBuf>,
     /// Do not write a preview.
